@@ -1,0 +1,33 @@
+// faultmesh._core: the pybind11 module. Each algorithm has its own binding
+// file (bind_<algorithm>.cpp) that registers its functions here.
+#include <faultmesh/errors.hpp>
+
+#include "common.hpp"
+
+namespace faultmesh::bindings {
+void bind_predicates(py::module_& m);
+void bind_delaunay(py::module_& m);
+void bind_aabb_tree(py::module_& m);
+void bind_overlap(py::module_& m);
+void bind_boundary(py::module_& m);
+void bind_ear_clipping(py::module_& m);
+void bind_loft(py::module_& m);
+void bind_stitch(py::module_& m);
+}  // namespace faultmesh::bindings
+
+PYBIND11_MODULE(_core, m) {
+    namespace fb = faultmesh::bindings;
+    m.doc() = "faultmesh C++ kernels (exact predicates, Delaunay, AABB overlap, "
+              "boundary loops, ear clipping, lofting, stitching)";
+    m.attr("__version__") = FAULTMESH_VERSION;
+    // GeometryError is a ValueError so callers that catch ValueError see it too.
+    pybind11::register_exception<faultmesh::GeometryError>(m, "GeometryError", PyExc_ValueError);
+    fb::bind_predicates(m);
+    fb::bind_delaunay(m);
+    fb::bind_aabb_tree(m);
+    fb::bind_overlap(m);
+    fb::bind_boundary(m);
+    fb::bind_ear_clipping(m);
+    fb::bind_loft(m);
+    fb::bind_stitch(m);
+}

@@ -1,0 +1,271 @@
+// Slow paths of the adaptive predicates (see faultmesh/predicates.hpp).
+//
+// The expansion arithmetic follows Shewchuk (1997): a number is represented
+// exactly as a sum of doubles of increasing magnitude whose bits do not
+// overlap; sums and products of such expansions are exact. The stages:
+//   orient2d: A (filter, inline) -> B (exact products of rounded differences)
+//             -> C (first-order tail correction) -> exact.
+//   incircle: A (filter, inline) -> B (exact products of rounded differences)
+//             -> exact on the raw coordinates when a difference was inexact.
+#include <faultmesh/predicates.hpp>
+
+namespace faultmesh {
+namespace detail {
+namespace {
+
+constexpr double kSplitter = 134217729.0;  // 2^27 + 1
+constexpr double kResultErrBound = (3.0 + 8.0 * kEpsilon) * kEpsilon;
+constexpr double kCcwErrBoundB = (2.0 + 12.0 * kEpsilon) * kEpsilon;
+constexpr double kCcwErrBoundC = (9.0 + 64.0 * kEpsilon) * kEpsilon * kEpsilon;
+constexpr double kIccErrBoundB = (4.0 + 48.0 * kEpsilon) * kEpsilon;
+
+// x + y == a + b exactly, given |a| >= |b| (or a == 0).
+inline void fast_two_sum(double a, double b, double& x, double& y) {
+    x = a + b;
+    const double bvirt = x - a;
+    y = b - bvirt;
+}
+inline void two_sum(double a, double b, double& x, double& y) {
+    x = a + b;
+    const double bvirt = x - a;
+    const double avirt = x - bvirt;
+    const double bround = b - bvirt;
+    const double around = a - avirt;
+    y = around + bround;
+}
+inline void two_diff_tail(double a, double b, double x, double& y) {
+    const double bvirt = a - x;
+    const double avirt = x + bvirt;
+    const double bround = bvirt - b;
+    const double around = a - avirt;
+    y = around + bround;
+}
+inline void two_diff(double a, double b, double& x, double& y) {
+    x = a - b;
+    two_diff_tail(a, b, x, y);
+}
+inline void split(double a, double& hi, double& lo) {
+    const double c = kSplitter * a;
+    const double abig = c - a;
+    hi = c - abig;
+    lo = a - hi;
+}
+inline void two_product_presplit(double a, double b, double bhi, double blo, double& x, double& y) {
+    x = a * b;
+    double ahi, alo;
+    split(a, ahi, alo);
+    const double err1 = x - (ahi * bhi);
+    const double err2 = err1 - (alo * bhi);
+    const double err3 = err2 - (ahi * blo);
+    y = (alo * blo) - err3;
+}
+inline void two_product(double a, double b, double& x, double& y) {
+    double bhi, blo;
+    split(b, bhi, blo);
+    two_product_presplit(a, b, bhi, blo, x, y);
+}
+// (a1 + a0) - b == x2 + x1 + x0
+inline void two_one_diff(double a1, double a0, double b, double& x2, double& x1, double& x0) {
+    double i;
+    two_diff(a0, b, i, x0);
+    two_sum(a1, i, x2, x1);
+}
+// (a1 + a0) - (b1 + b0) == x[3] + x[2] + x[1] + x[0]
+inline void two_two_diff(double a1, double a0, double b1, double b0, double* x) {
+    double j, z;
+    two_one_diff(a1, a0, b0, j, z, x[0]);
+    two_one_diff(j, z, b1, x[3], x[2], x[1]);
+}
+// a*d - b*c as a 4-component expansion, exactly.
+inline void cross_expansion(double a, double d, double b, double c, double* x) {
+    double p1, p0, q1, q0;
+    two_product(a, d, p1, p0);
+    two_product(b, c, q1, q0);
+    two_two_diff(p1, p0, q1, q0, x);
+}
+
+// h = e + f, zero components removed; returns the length of h.
+int expansion_sum(int elen, const double* e, int flen, const double* f, double* h) {
+    double enow = e[0], fnow = f[0];
+    int ei = 0, fi = 0, hi = 0;
+    double q, qnew, hh;
+    auto next_e = [&]() { ++ei; enow = ei < elen ? e[ei] : 0.0; };
+    auto next_f = [&]() { ++fi; fnow = fi < flen ? f[fi] : 0.0; };
+    if ((fnow > enow) == (fnow > -enow)) { q = enow; next_e(); }
+    else { q = fnow; next_f(); }
+    if (ei < elen && fi < flen) {
+        if ((fnow > enow) == (fnow > -enow)) { fast_two_sum(enow, q, qnew, hh); next_e(); }
+        else { fast_two_sum(fnow, q, qnew, hh); next_f(); }
+        q = qnew;
+        if (hh != 0.0) h[hi++] = hh;
+        while (ei < elen && fi < flen) {
+            if ((fnow > enow) == (fnow > -enow)) { two_sum(q, enow, qnew, hh); next_e(); }
+            else { two_sum(q, fnow, qnew, hh); next_f(); }
+            q = qnew;
+            if (hh != 0.0) h[hi++] = hh;
+        }
+    }
+    while (ei < elen) {
+        two_sum(q, enow, qnew, hh);
+        next_e();
+        q = qnew;
+        if (hh != 0.0) h[hi++] = hh;
+    }
+    while (fi < flen) {
+        two_sum(q, fnow, qnew, hh);
+        next_f();
+        q = qnew;
+        if (hh != 0.0) h[hi++] = hh;
+    }
+    if (q != 0.0 || hi == 0) h[hi++] = q;
+    return hi;
+}
+
+// h = b * e, zero components removed; returns the length of h.
+int scale_expansion(int elen, const double* e, double b, double* h) {
+    double bhi, blo;
+    split(b, bhi, blo);
+    double q, hh, p1, p0, sum;
+    two_product_presplit(e[0], b, bhi, blo, q, hh);
+    int hi = 0;
+    if (hh != 0.0) h[hi++] = hh;
+    for (int i = 1; i < elen; ++i) {
+        two_product_presplit(e[i], b, bhi, blo, p1, p0);
+        two_sum(q, p0, sum, hh);
+        if (hh != 0.0) h[hi++] = hh;
+        fast_two_sum(p1, sum, q, hh);
+        if (hh != 0.0) h[hi++] = hh;
+    }
+    if (q != 0.0 || hi == 0) h[hi++] = q;
+    return hi;
+}
+
+double estimate(int elen, const double* e) {
+    double q = e[0];
+    for (int i = 1; i < elen; ++i) q += e[i];
+    return q;
+}
+
+// det = lift-weighted 2x2 minor: (x^2 + y^2) * m, m an expansion.
+int lifted_term(int mlen, const double* m, double x, double y, double* out) {
+    double t24x[24], t48x[48], t24y[24], t48y[48];
+    const int xl = scale_expansion(mlen, m, x, t24x);
+    const int xxl = scale_expansion(xl, t24x, x, t48x);
+    const int yl = scale_expansion(mlen, m, y, t24y);
+    const int yyl = scale_expansion(yl, t24y, y, t48y);
+    return expansion_sum(xxl, t48x, yyl, t48y, out);
+}
+
+// Exact in-circle determinant on the raw coordinates (no rounded differences).
+double incircle_exact(const double* pa, const double* pb, const double* pc, const double* pd) {
+    double ab[4], bc[4], cd[4], da[4], ac[4], bd[4];
+    cross_expansion(pa[0], pb[1], pb[0], pa[1], ab);
+    cross_expansion(pb[0], pc[1], pc[0], pb[1], bc);
+    cross_expansion(pc[0], pd[1], pd[0], pc[1], cd);
+    cross_expansion(pd[0], pa[1], pa[0], pd[1], da);
+    cross_expansion(pa[0], pc[1], pc[0], pa[1], ac);
+    cross_expansion(pb[0], pd[1], pd[0], pb[1], bd);
+
+    double temp8[8], cda[12], dab[12], abc[12], bcd[12];
+    int tl = expansion_sum(4, cd, 4, da, temp8);
+    const int cdal = expansion_sum(tl, temp8, 4, ac, cda);
+    tl = expansion_sum(4, da, 4, ab, temp8);
+    const int dabl = expansion_sum(tl, temp8, 4, bd, dab);
+    for (int i = 0; i < 4; ++i) {
+        bd[i] = -bd[i];
+        ac[i] = -ac[i];
+    }
+    tl = expansion_sum(4, ab, 4, bc, temp8);
+    const int abcl = expansion_sum(tl, temp8, 4, ac, abc);
+    tl = expansion_sum(4, bc, 4, cd, temp8);
+    const int bcdl = expansion_sum(tl, temp8, 4, bd, bcd);
+
+    double adet[96], bdet[96], cdet[96], ddet[96];
+    const int al = lifted_term(bcdl, bcd, pa[0], pa[1], adet);
+    int bl = lifted_term(cdal, cda, pb[0], pb[1], bdet);
+    for (int i = 0; i < bl; ++i) bdet[i] = -bdet[i];
+    const int cl = lifted_term(dabl, dab, pc[0], pc[1], cdet);
+    int dl = lifted_term(abcl, abc, pd[0], pd[1], ddet);
+    for (int i = 0; i < dl; ++i) ddet[i] = -ddet[i];
+
+    double abdet[192], cddet[192], deter[384];
+    const int abl = expansion_sum(al, adet, bl, bdet, abdet);
+    const int cdl = expansion_sum(cl, cdet, dl, ddet, cddet);
+    const int n = expansion_sum(abl, abdet, cdl, cddet, deter);
+    return deter[n - 1];
+}
+
+}  // namespace
+
+double orient2d_adapt(const double* pa, const double* pb, const double* pc, double detsum) {
+    const double acx = pa[0] - pc[0], bcx = pb[0] - pc[0];
+    const double acy = pa[1] - pc[1], bcy = pb[1] - pc[1];
+
+    double b[4];
+    cross_expansion(acx, bcy, acy, bcx, b);
+    double det = estimate(4, b);
+    double errbound = kCcwErrBoundB * detsum;
+    if (det >= errbound || -det >= errbound) return det;
+
+    double acxtail, bcxtail, acytail, bcytail;
+    two_diff_tail(pa[0], pc[0], acx, acxtail);
+    two_diff_tail(pb[0], pc[0], bcx, bcxtail);
+    two_diff_tail(pa[1], pc[1], acy, acytail);
+    two_diff_tail(pb[1], pc[1], bcy, bcytail);
+    if (acxtail == 0.0 && acytail == 0.0 && bcxtail == 0.0 && bcytail == 0.0) return det;
+
+    errbound = kCcwErrBoundC * detsum + kResultErrBound * std::fabs(det);
+    det += (acx * bcytail + bcy * acxtail) - (acy * bcxtail + bcx * acytail);
+    if (det >= errbound || -det >= errbound) return det;
+
+    double u[4], c1[8], c2[12], d[16];
+    cross_expansion(acxtail, bcy, acytail, bcx, u);
+    const int c1l = expansion_sum(4, b, 4, u, c1);
+    cross_expansion(acx, bcytail, acy, bcxtail, u);
+    const int c2l = expansion_sum(c1l, c1, 4, u, c2);
+    cross_expansion(acxtail, bcytail, acytail, bcxtail, u);
+    const int dl = expansion_sum(c2l, c2, 4, u, d);
+    return d[dl - 1];
+}
+
+double incircle_adapt(const double* pa, const double* pb, const double* pc, const double* pd,
+                      double permanent) {
+    const double adx = pa[0] - pd[0], bdx = pb[0] - pd[0], cdx = pc[0] - pd[0];
+    const double ady = pa[1] - pd[1], bdy = pb[1] - pd[1], cdy = pc[1] - pd[1];
+
+    double bc[4], ca[4], ab[4];
+    cross_expansion(bdx, cdy, cdx, bdy, bc);
+    cross_expansion(cdx, ady, adx, cdy, ca);
+    cross_expansion(adx, bdy, bdx, ady, ab);
+
+    double adet[32], bdet[32], cdet[32];
+    const int al = lifted_term(4, bc, adx, ady, adet);
+    const int bl = lifted_term(4, ca, bdx, bdy, bdet);
+    const int cl = lifted_term(4, ab, cdx, cdy, cdet);
+    double abdet[64], fin[96];
+    const int abl = expansion_sum(al, adet, bl, bdet, abdet);
+    const int fl = expansion_sum(abl, abdet, cl, cdet, fin);
+
+    const double det = estimate(fl, fin);
+    const double errbound = kIccErrBoundB * permanent;
+    if (det >= errbound || -det >= errbound) return det;
+
+    double t;
+    bool exact_differences = true;
+    const double* pts[3] = {pa, pb, pc};
+    const double dx[3] = {adx, bdx, cdx};
+    const double dy[3] = {ady, bdy, cdy};
+    for (int i = 0; i < 3; ++i) {
+        two_diff_tail(pts[i][0], pd[0], dx[i], t);
+        exact_differences = exact_differences && t == 0.0;
+        two_diff_tail(pts[i][1], pd[1], dy[i], t);
+        exact_differences = exact_differences && t == 0.0;
+    }
+    // With exact differences `fin` is the exact determinant; its most
+    // significant component carries the sign.
+    if (exact_differences) return fin[fl - 1];
+    return incircle_exact(pa, pb, pc, pd);
+}
+
+}  // namespace detail
+}  // namespace faultmesh

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# The whole test suite on a fresh machine: installs what it needs (Debian
+# packages when run as root, the package itself with its test extras), then
+# runs the C++ tests (ctest) and the Python tests (pytest). Exits non-zero on
+# any failure or if either runner executed no test.
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+cd "$here"
+
+need=(cmake g++ ninja-build libcgal-dev libgtest-dev)
+missing=()
+for p in "${need[@]}"; do dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
+if [ ${#missing[@]} -gt 0 ]; then
+  if [ "$(id -u)" = 0 ]; then
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >/dev/null
+  else
+    sudo apt-get update -qq
+    sudo DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >/dev/null
+  fi
+fi
+
+python3 -m pip install --quiet ".[test]"
+
+echo "== C++ tests (ctest)"
+cmake -S . -B build/ctest -G Ninja -DCMAKE_BUILD_TYPE=Release \
+  -DFAULTMESH_BUILD_TESTS=ON -DFAULTMESH_BUILD_PYTHON=OFF >/dev/null
+cmake --build build/ctest -j2
+ctest --test-dir build/ctest --output-on-failure -j2 --no-tests=error
+
+echo "== Python tests (pytest)"
+# Run from tests/ against the installed package (not the source tree).
+python3 -m pytest -p no:cacheprovider -q "$here/tests" "$@"

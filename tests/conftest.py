@@ -1,0 +1,38 @@
+"""Shared test fixtures: paths to test data and the CGAL reference programs."""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "tests" / "data"
+
+
+@pytest.fixture(scope="session")
+def data_dir() -> Path:
+    return DATA
+
+
+@pytest.fixture(scope="session")
+def cgal_bin():
+    """Build bench/cgal once per session (Release) and return a lookup function.
+
+    CGAL is a hard requirement of the test suite (scripts/test.sh installs
+    libcgal-dev): a missing CGAL fails here rather than skipping the checks.
+    """
+    build = Path(os.environ.get("FAULTMESH_CGAL_BUILD", ROOT / "build" / "cgal"))
+    gen = ["-G", "Ninja"] if shutil.which("ninja") else []
+    subprocess.run(["cmake", "-S", str(ROOT / "bench" / "cgal"), "-B", str(build),
+                    "-DCMAKE_BUILD_TYPE=Release", *gen], check=True, capture_output=True)
+    subprocess.run(["cmake", "--build", str(build), "-j2"], check=True, capture_output=True)
+
+    def lookup(name: str) -> Path:
+        exe = build / name
+        assert exe.is_file(), f"CGAL reference program {name} was not built in {build}"
+        return exe
+
+    return lookup
