@@ -35,3 +35,7 @@ def cmake_dir() -> str:
 def include_dir() -> str:
     """Directory of the public C++ headers (``<faultmesh/...>``)."""
     return str(_Path(__file__).resolve().parent / "include")
+
+
+from .dataset import Dataset, DatasetError, load_dataset  # noqa: E402
+from . import datasets  # noqa: E402
