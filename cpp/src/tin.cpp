@@ -1,0 +1,189 @@
+// Tin: the Delaunay engine of delaunay_core.hpp kept alive between
+// insertions, with a z per vertex, point location and linear interpolation.
+#include <faultmesh/errors.hpp>
+#include <faultmesh/tin.hpp>
+
+#include <cmath>
+#include <limits>
+
+#include "delaunay_core.hpp"
+#include "spatial_sort.hpp"
+
+namespace faultmesh {
+namespace detail {
+
+struct TinImpl {
+    DelaunayCore core;
+    std::vector<double> xyz;                   // 3 per Tin vertex
+    std::vector<std::int64_t> tin_of_id;       // engine id -> Tin vertex (duplicates too)
+    std::vector<std::int64_t> vertex_of_input; // constructor rows -> Tin vertex
+    std::size_t n_dups = 0;
+    std::vector<std::int32_t> compact;         // engine slot -> triangle index or -1
+    std::size_t m = 0;
+
+    // Assigns Tin vertices to the engine ids [first, first + n) just inserted
+    // from the n rows `rows` (input_of_id[id - first] = row, dup_of[id - first]
+    // as build_core/insert_batch give them), in row order: a new vertex for
+    // the first row of each new point, the existing vertex for a duplicate.
+    // Returns the vertex of each row.
+    std::vector<std::int64_t> assign(const double* rows, std::size_t n, std::size_t first,
+                                     const std::vector<std::uint32_t>& input_of_id,
+                                     const std::vector<std::int32_t>& dup_of) {
+        const std::size_t end = first + n;
+        tin_of_id.resize(end, -1);
+        // Smallest row of each new point (indexed by engine id - first).
+        std::vector<std::uint32_t> min_row(n, std::numeric_limits<std::uint32_t>::max());
+        std::vector<std::uint32_t> id_of_row(n);
+        for (std::size_t id = first; id < end; ++id) {
+            const std::uint32_t row = input_of_id[id - first];
+            id_of_row[row] = static_cast<std::uint32_t>(id);
+            const std::int32_t d = dup_of[id - first];
+            const std::size_t root = d >= 0 ? static_cast<std::size_t>(d) : id;
+            if (d >= 0) ++n_dups;
+            if (root >= first && row < min_row[root - first]) min_row[root - first] = row;
+        }
+        std::vector<std::int64_t> out(n);
+        for (std::size_t row = 0; row < n; ++row) {
+            const std::size_t id = id_of_row[row];
+            const std::int32_t d = dup_of[id - first];
+            const std::size_t root = d >= 0 ? static_cast<std::size_t>(d) : id;
+            if (root >= first && min_row[root - first] == row) {
+                // First appearance of a new point: it becomes a vertex with this row's z.
+                tin_of_id[root] = static_cast<std::int64_t>(xyz.size() / 3);
+                xyz.insert(xyz.end(), rows + 3 * row, rows + 3 * row + 3);
+            }
+            out[row] = tin_of_id[root];
+        }
+        for (std::size_t id = first; id < end; ++id)
+            if (dup_of[id - first] >= 0)
+                tin_of_id[id] = tin_of_id[static_cast<std::size_t>(dup_of[id - first])];
+        m = compact_slots(core, compact);
+        return out;
+    }
+
+    // Engine slot of a finite triangle containing (x, y), or -1 (outside the
+    // hull or non-finite query). `start` is a finite slot to walk from; it is
+    // updated to a finite slot near the query.
+    std::int32_t locate_slot(double x, double y, std::int32_t& start) const {
+        if (!(std::isfinite(x) && std::isfinite(y))) return -1;
+        const double p[2] = {x, y};
+        const std::int32_t t = core.locate(p, start);
+        if (core.is_ghost(t)) {
+            // Keep walking from the finite triangle behind the hull edge.
+            const std::int32_t* v = &core.tv[3 * static_cast<std::size_t>(t)];
+            const int i = v[0] == kInf ? 1 : (v[1] == kInf ? 2 : 0);  // the hull edge of the ghost
+            start = core.th[3 * static_cast<std::size_t>(t) + i] / 3;
+            return -1;
+        }
+        start = t;
+        return t;
+    }
+
+    // Slots for n queries, walked in Hilbert order.
+    std::vector<std::int32_t> locate_slots(const double* xy, std::size_t n) const {
+        std::vector<std::int32_t> slot(n, -1);
+        std::int32_t start = core.hint;
+        if (n == 1) {
+            slot[0] = locate_slot(xy[0], xy[1], start);
+            return slot;
+        }
+        const std::vector<std::uint32_t> ord = hilbert_order(xy, 2, n);
+        for (std::size_t k = 0; k < n; ++k) {
+            const std::size_t i = ord[k];
+            slot[i] = locate_slot(xy[2 * i], xy[2 * i + 1], start);
+        }
+        return slot;
+    }
+};
+
+}  // namespace detail
+
+Tin::Tin(const double* xyz, std::size_t n) : impl_(std::make_unique<detail::TinImpl>()) {
+    detail::TinImpl& T = *impl_;
+    std::vector<std::uint32_t> input_of_id;
+    std::vector<std::int32_t> dup_of;
+    detail::build_core(T.core, xyz, 3, n, "Tin", input_of_id, dup_of);
+    T.vertex_of_input = T.assign(xyz, n, 0, input_of_id, dup_of);
+}
+
+Tin::~Tin() = default;
+Tin::Tin(Tin&&) noexcept = default;
+Tin& Tin::operator=(Tin&&) noexcept = default;
+Tin::Tin(const Tin& o) : impl_(std::make_unique<detail::TinImpl>(*o.impl_)) {}
+Tin& Tin::operator=(const Tin& o) {
+    if (this != &o) impl_ = std::make_unique<detail::TinImpl>(*o.impl_);
+    return *this;
+}
+
+std::vector<std::int64_t> Tin::insert(const double* xyz, std::size_t n) {
+    detail::TinImpl& T = *impl_;
+    detail::check_finite_xy(xyz, 3, n, "Tin.insert");
+    if (n == 0) return {};
+    const std::size_t first = T.core.xy.size() / 2;
+    std::vector<std::uint32_t> input_of_id;
+    std::vector<std::int32_t> dup_of;
+    detail::insert_batch(T.core, xyz, 3, n, input_of_id, dup_of);
+    return T.assign(xyz, n, first, input_of_id, dup_of);
+}
+
+std::size_t Tin::n_vertices() const { return impl_->xyz.size() / 3; }
+std::size_t Tin::n_triangles() const { return impl_->m; }
+const std::vector<std::int64_t>& Tin::vertex_of_input() const { return impl_->vertex_of_input; }
+std::size_t Tin::n_duplicates() const { return impl_->n_dups; }
+std::vector<double> Tin::vertices() const { return impl_->xyz; }
+
+std::vector<std::int64_t> Tin::triangles() const {
+    std::vector<std::int64_t> t;
+    detail::export_mesh(impl_->core, impl_->compact, impl_->m, impl_->tin_of_id.data(), &t, nullptr);
+    return t;
+}
+
+std::vector<std::int64_t> Tin::halfedges() const {
+    std::vector<std::int64_t> h;
+    detail::export_mesh(impl_->core, impl_->compact, impl_->m, impl_->tin_of_id.data(), nullptr, &h);
+    return h;
+}
+
+std::int64_t Tin::locate(double x, double y) const {
+    std::int32_t start = impl_->core.hint;
+    const std::int32_t s = impl_->locate_slot(x, y, start);
+    return s < 0 ? -1 : impl_->compact[s];
+}
+
+std::vector<std::int64_t> Tin::locate(const double* xy, std::size_t n) const {
+    const std::vector<std::int32_t> slot = impl_->locate_slots(xy, n);
+    std::vector<std::int64_t> out(n);
+    for (std::size_t i = 0; i < n; ++i) out[i] = slot[i] < 0 ? -1 : impl_->compact[slot[i]];
+    return out;
+}
+
+std::vector<double> Tin::interpolate(const double* xy, std::size_t n) const {
+    const detail::TinImpl& T = *impl_;
+    const std::vector<std::int32_t> slot = T.locate_slots(xy, n);
+    std::vector<double> out(n, std::numeric_limits<double>::quiet_NaN());
+    for (std::size_t i = 0; i < n; ++i) {
+        if (slot[i] < 0) continue;
+        const std::int32_t* v = &T.core.tv[3 * static_cast<std::size_t>(slot[i])];
+        const double* a = T.core.pt(v[0]);
+        const double* b = T.core.pt(v[1]);
+        const double* c = T.core.pt(v[2]);
+        const double za = T.xyz[3 * T.tin_of_id[v[0]] + 2];
+        const double zb = T.xyz[3 * T.tin_of_id[v[1]] + 2];
+        const double zc = T.xyz[3 * T.tin_of_id[v[2]] + 2];
+        const double qx = xy[2 * i] - a[0], qy = xy[2 * i + 1] - a[1];
+        const double bx = b[0] - a[0], by = b[1] - a[1];
+        const double cx = c[0] - a[0], cy = c[1] - a[1];
+        // Barycentric weights relative to a (coordinates near 1e6 lose
+        // nothing to cancellation this way). At a vertex the weights are
+        // exactly (1, 0, 0) in some order -- the numerators repeat the
+        // denominator's own products -- so a vertex gets its z exactly.
+        const double d = bx * cy - by * cx;
+        const double wb = (qx * cy - qy * cx) / d;
+        const double wc = (bx * qy - by * qx) / d;
+        const double wa = 1.0 - wb - wc;
+        out[i] = wa * za + wb * zb + wc * zc;
+    }
+    return out;
+}
+
+}  // namespace faultmesh
