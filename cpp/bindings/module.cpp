@@ -13,6 +13,7 @@ void bind_boundary(py::module_& m);
 void bind_ear_clipping(py::module_& m);
 void bind_loft(py::module_& m);
 void bind_stitch(py::module_& m);
+void bind_cutting(py::module_& m);
 }  // namespace faultmesh::bindings
 
 PYBIND11_MODULE(_core, m) {
@@ -30,4 +31,5 @@ PYBIND11_MODULE(_core, m) {
     fb::bind_ear_clipping(m);
     fb::bind_loft(m);
     fb::bind_stitch(m);
+    fb::bind_cutting(m);
 }
