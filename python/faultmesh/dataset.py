@@ -892,6 +892,10 @@ def save_dataset(ds: Dataset, path, *, section_coords: bool = False) -> Path:
     doc["faults"] = fl
     files[jname] = _json_dump(doc)
 
+    # mkstemp creates files readable by the owner only; give the final files
+    # the permissions an ordinary open() would (0666 minus the umask).
+    umask = os.umask(0)
+    os.umask(umask)
     tmps: Dict[str, str] = {}
     try:
         for fname, text in files.items():
@@ -899,6 +903,7 @@ def save_dataset(ds: Dataset, path, *, section_coords: bool = False) -> Path:
             tmps[fname] = tmp
             with os.fdopen(fd_, "w", encoding="utf-8", newline="\n") as fh:
                 fh.write(text)
+            os.chmod(tmp, 0o666 & ~umask)
         # JSON last: a reader never sees a JSON whose CSVs are not in place yet.
         for fname in sorted(tmps, key=lambda n: n == jname):
             os.replace(tmps[fname], folder / fname)

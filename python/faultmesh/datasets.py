@@ -1,5 +1,671 @@
-"""Built-in and generated datasets (paper-like and synthetic), with ground truth.
+"""Built-in and generated datasets, each sampled from a known ground truth.
 
-Being written: ``paper_like`` and ``synthetic`` follow in the next commits.
+* :func:`paper_like` — the study area of Gao et al. (2025), section 3.1,
+  re-created from a ground-truth geology: about 4,180 m x 4,170 m, 112
+  boreholes, four layers (topsoil, third impervious bed, coal 8, coal 10),
+  nine exploration lines and the paper's four faults (2F4 reverse interior,
+  F22 normal reaching the boundary, 2F1 reverse and 4F2 normal in a
+  T-crossing). The same dataset is shipped on disk in format v1 under
+  ``faultmesh/data/paper_like/`` (:func:`paper_like_path`).
+* :func:`synthetic` — random but valid datasets with other strikes, dips,
+  throws, layer counts and study areas, for workflow tests.
+
+Every generated :class:`~faultmesh.Dataset` carries ``truth(layer, x, y)`` and
+``geology`` (a :class:`faultmesh.geology.Geology`; see there what the truth
+returns in reverse-fault overlap bands and normal-fault gaps, and
+``geology.in_fault_band`` for where a layer is multi-valued or absent).
+
+Fault traces are derived from the truth along every section line that crosses
+a fault where its throw is at least ``MIN_TRACE_THROW``: the fault-plane trace
+top down, and per displaced layer the footwall polyline from a far end (60 to
+100 m away) to the footwall cutoff and the hanging-wall polyline from the
+hanging-wall cutoff to a far end. Cutoffs are found by bracketing and the
+Illinois (regula falsi) method to 1e-9 m, so a cutoff point lies on the fault
+surface to that precision.
+
+Regenerate the shipped files with ``python -m faultmesh.datasets``.
 """
 from __future__ import annotations
+
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from .dataset import Boreholes, Dataset, Fault, Section, Trace, points_in_polygon
+from .geology import FaultModel, Geology, smooth_field
+
+__all__ = ["paper_like", "paper_like_path", "synthetic", "MIN_TRACE_THROW"]
+
+#: Sections crossing a fault where every layer's throw is smaller than this
+#: (metres) get no trace: such a small offset would not be interpreted on a
+#: section drawing, and the fault is then closed by its tip instead.
+MIN_TRACE_THROW = 3.0
+
+
+# ---------------------------------------------------------------------------
+# Root finding along a line
+# ---------------------------------------------------------------------------
+def _illinois(f, a: float, b: float, fa: float, fb: float, tol: float = 1e-9) -> float:
+    """Root of ``f`` in [a, b] with f(a), f(b) of opposite signs (Illinois
+    variant of regula falsi: superlinear on smooth functions, never leaves the
+    bracket)."""
+    side = 0
+    for _ in range(100):
+        c = (a * fb - b * fa) / (fb - fa)
+        fc = float(f(np.array([c]))[0])
+        if not np.isfinite(fc):  # pragma: no cover - brackets are finite on both ends
+            c = 0.5 * (a + b)
+            fc = float(f(np.array([c]))[0])
+        if abs(fc) < tol or abs(b - a) < tol:
+            return c
+        if (fc > 0) == (fb > 0):
+            b, fb = c, fc
+            if side == -1:
+                fa *= 0.5
+            side = -1
+        else:
+            a, fa = c, fc
+            if side == 1:
+                fb *= 0.5
+            side = 1
+    return c  # pragma: no cover
+
+
+def _crossings(s: np.ndarray, v: np.ndarray) -> List[int]:
+    """Indices i where v changes sign between s[i] and s[i+1] (both finite)."""
+    ok = np.isfinite(v[:-1]) & np.isfinite(v[1:])
+    return list(np.flatnonzero(ok & ((v[:-1] > 0) != (v[1:] > 0))))
+
+
+def _root_near(f, s0: float, lo: float, hi: float, step: float = 2.0) -> Optional[float]:
+    """The root of ``f`` along [lo, hi] closest to s0, or None."""
+    s = np.arange(lo, hi + 0.5 * step, step)
+    v = f(s)
+    idx = _crossings(s, v)
+    if not idx:
+        return None
+    i = min(idx, key=lambda i: abs(0.5 * (s[i] + s[i + 1]) - s0))
+    return _illinois(f, s[i], s[i + 1], v[i], v[i + 1])
+
+
+def _line_extent(origin: np.ndarray, direction: np.ndarray, ring: np.ndarray) -> Tuple[float, float]:
+    """Smallest and largest parameter s where origin + s*direction meets the ring."""
+    a = ring
+    b = np.roll(ring, -1, axis=0)
+    e = b - a
+    den = direction[0] * e[:, 1] - direction[1] * e[:, 0]
+    ok = np.abs(den) > 1e-12
+    r = a - origin
+    s = (r[:, 0] * e[:, 1] - r[:, 1] * e[:, 0])
+    t = (r[:, 0] * direction[1] - r[:, 1] * direction[0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = s / den
+        t = t / den
+    hit = ok & (t >= 0) & (t <= 1)
+    if not hit.any():
+        raise ValueError("section line misses the study area")
+    return float(s[hit].min()), float(s[hit].max())
+
+
+# ---------------------------------------------------------------------------
+# Traces derived from a ground truth
+# ---------------------------------------------------------------------------
+def _fault_traces(geo: Geology, fm: FaultModel, sections: Sequence[Section], ring: np.ndarray,
+                  rng: np.random.Generator, zero_throw_ok: bool = False,
+                  far: Tuple[float, float] = (60.0, 100.0)) -> List[Trace]:
+    """Traces of fault ``fm`` on every section that crosses it with throw."""
+    out = []  # (u, Trace)
+    gx, gy = geo.origin
+    displaced = [lay for lay in geo.layers if fm.layers.get(lay, 0.0) > 0.0]
+    for sec in sections:
+        s_in, s_out = _line_extent(sec.origin, sec.direction, ring)
+
+        def dfun(s):
+            xy = sec.to_xy(s)
+            return fm.d(xy[:, 0] - gx, xy[:, 1] - gy)
+
+        s_c = _root_near(dfun, 0.5 * (s_in + s_out), s_in, s_out, step=5.0)
+        if s_c is None:
+            continue
+        xc = sec.to_xy([s_c])[0]
+        u_c = float(fm.uw(xc[0] - gx, xc[1] - gy)[0])
+        # 1e-6 m of slack: a zero-throw end section crosses at u_range[0 or 1]
+        # up to rounding.
+        if not (fm.u_range[0] - 1e-6 <= u_c <= fm.u_range[1] + 1e-6):
+            continue
+        tmax = fm.throw * max(fm.layers[lay] for lay in displaced) * float(fm.taper(u_c))
+        zero = tmax < 1e-6
+        if tmax < MIN_TRACE_THROW and not (zero and zero_throw_ok):
+            continue
+        # Along s, the footwall lies where d decreases.
+        sgn_fw = -1.0 if float(np.dot(sec.direction, fm.ndir)) > 0 else 1.0
+
+        def plane_s(s):
+            xy = sec.to_xy(s)
+            return geo.plane_z(fm.name, xy[:, 0], xy[:, 1])
+
+        layers: Dict[str, Dict[str, np.ndarray]] = {}
+        cut_z = []
+        lo, hi = max(s_in, s_c - 500.0), min(s_out, s_c + 500.0)
+        for lay in displaced:
+            def gf(s, lay=lay):
+                xy = sec.to_xy(s)
+                return geo.side_value(lay, fm.name, "foot", xy[:, 0], xy[:, 1]) - plane_s(s)
+
+            def gh(s, lay=lay):
+                xy = sec.to_xy(s)
+                return geo.side_value(lay, fm.name, "hanging", xy[:, 0], xy[:, 1]) - plane_s(s)
+
+            s_f = _root_near(gf, s_c, lo, hi)
+            s_h = _root_near(gh, s_c, lo, hi)
+            if s_f is None or s_h is None:
+                continue
+            if zero:
+                s_h = s_f = 0.5 * (s_f + s_h)  # zero throw: the cutoffs coincide exactly
+            sides = {}
+            for side, s_cut, sgn in (("foot", s_f, sgn_fw), ("hanging", s_h, -sgn_fw)):
+                dist = float(rng.uniform(*far))
+                npts = int(rng.integers(4, 6))
+                for _ in range(8):  # shorten until every point is valid and inside
+                    far_s = s_cut + sgn * dist
+                    ss = np.linspace(far_s, s_cut, npts) if side == "foot" else np.linspace(s_cut, far_s, npts)
+                    xy = sec.to_xy(ss)
+                    z = geo.side_value(lay, fm.name, side, xy[:, 0], xy[:, 1])
+                    # The cutoff point itself lies on the fault surface.
+                    icut = len(ss) - 1 if side == "foot" else 0
+                    z[icut] = geo.plane_z(fm.name, xy[icut, 0], xy[icut, 1])
+                    if np.all(np.isfinite(z)) and np.all(points_in_polygon(xy, ring)):
+                        break
+                    dist *= 0.7
+                else:
+                    sides = {}
+                    break
+                sides[side] = np.column_stack([xy, z])
+            if len(sides) == 2:
+                if zero:
+                    sides["hanging"][0] = sides["foot"][-1]
+                layers[lay] = sides
+                cut_z += [sides["foot"][-1, 2], sides["hanging"][0, 2]]
+        if not layers:
+            continue
+        # Plane trace: from above the highest to below the lowest cutoff, but
+        # stopping short of layers this fault does not displace.
+        xyc = sec.to_xy([s_c])
+        m_top = m_bot = 50.0
+        top_cut, bot_cut = max(cut_z), min(cut_z)
+        for lay in geo.layers:
+            if lay in displaced:
+                continue
+            zl = float(geo.truth(lay, xyc[:, 0], xyc[:, 1])[0])
+            if zl > top_cut:
+                m_top = min(m_top, 0.5 * (zl - top_cut))
+            elif zl < bot_cut:
+                m_bot = min(m_bot, 0.5 * (bot_cut - zl))
+        zs = np.linspace(top_cut + m_top, bot_cut - m_bot, 6)
+        zs = zs[np.min(np.abs(zs[:, None] - np.array(cut_z)[None, :]), axis=1) > 1.0]
+        zs = np.unique(np.concatenate([zs, cut_z]))[::-1]
+        # Solve plane(s) = z for all targets at once (bisection; plane is monotone in s).
+        a = np.full(zs.shape, s_c - 1500.0)
+        b = np.full(zs.shape, s_c + 1500.0)
+        fa = plane_s(a) - zs
+        for _ in range(80):
+            m = 0.5 * (a + b)
+            fm_ = plane_s(m) - zs
+            left = (fm_ > 0) == (fa > 0)
+            a = np.where(left, m, a)
+            fa = np.where(left, fm_, fa)
+            b = np.where(left, b, m)
+        sp = 0.5 * (a + b)
+        plane = np.column_stack([sec.to_xy(sp), zs])
+        # Cutoff points are exactly on the plane trace.
+        for lay, sides in layers.items():
+            for q in (sides["foot"][-1], sides["hanging"][0]):
+                j = int(np.argmin(np.abs(plane[:, 2] - q[2])))
+                if abs(plane[j, 2] - q[2]) < 1e-6:
+                    plane[j] = q
+        keep = points_in_polygon(plane[:, :2], ring)
+        plane = plane[keep]
+        if len(plane) < 2:
+            continue
+        out.append((u_c, Trace(sec.name, plane, layers)))
+    out.sort(key=lambda t: t[0])
+    return [t for _, t in out]
+
+
+def _tip_xy(geo: Geology, fm: FaultModel, u: float, layer: str) -> np.ndarray:
+    """Global XY where the cutoff line of ``layer`` reaches along-strike
+    position ``u`` (at a tip the throw is zero, so both cutoffs meet there)."""
+    gx, gy = geo.origin
+
+    def f(w):
+        p = fm.xy(np.full(w.shape, u), w)
+        return geo.unfaulted(layer, p[:, 0] + gx, p[:, 1] + gy) - fm.plane_z(p[:, 0], p[:, 1])
+
+    w0 = float(fm.bend_offset(u))
+    w = _root_near(f, w0, w0 - 800.0, w0 + 800.0)
+    if w is None:
+        raise ValueError(f"fault {fm.name!r}: no cutoff of {layer!r} at its tip")
+    p = fm.xy([u], [w])[0]
+    return p + geo.origin
+
+
+def _fault_from_model(geo: Geology, fm: FaultModel, sections, ring, rng, tip_layer,
+                      zero_throw_ok=False) -> Fault:
+    traces = _fault_traces(geo, fm, sections, ring, rng, zero_throw_ok=zero_throw_ok)
+    tips = []
+    for end in fm.tips:
+        u = fm.u_range[0] if end == "start" else fm.u_range[1]
+        tips.append(_tip_xy(geo, fm, u, tip_layer))
+    return Fault(fm.name, fm.kind, fm.group, np.array(tips).reshape(-1, 2), traces)
+
+
+def _boreholes(geo: Geology, holes: List[Tuple[str, float, float, str]]) -> Boreholes:
+    """Rows for holes (id, x, y, deepest layer reached): every sheet of every
+    layer down to the deepest one, top down (two rows for a layer repeated by a
+    reverse fault, none where a normal fault cut it out)."""
+    ids, xs, ys, ls, zs = [], [], [], [], []
+    x = np.array([h[1] for h in holes])
+    y = np.array([h[2] for h in holes])
+    depth = [geo.layers.index(h[3]) for h in holes]
+    sheets = {lay: geo.sheets(lay, x, y) for lay in geo.layers}
+    for i, (hid, hx, hy, _) in enumerate(holes):
+        rows = []
+        for li, lay in enumerate(geo.layers[:depth[i] + 1]):
+            for z in sheets[lay][i]:
+                if np.isfinite(z):
+                    rows.append((z, lay))
+        rows.sort(key=lambda r: -r[0])
+        for z, lay in rows:
+            ids.append(hid)
+            xs.append(hx)
+            ys.append(hy)
+            ls.append(lay)
+            zs.append(z)
+    return Boreholes(np.array(ids), np.column_stack([xs, ys]), np.array(ls), np.array(zs))
+
+
+def _band_point(geo: Geology, fm: FaultModel, u: float, layer: str) -> Optional[np.ndarray]:
+    """Global XY in the middle of the band (overlap or gap) of ``layer`` at
+    along-strike position ``u``."""
+    gx, gy = geo.origin
+    w0 = float(fm.bend_offset(u))
+
+    def side(name):
+        def f(w):
+            p = fm.xy(np.full(w.shape, u), w) + geo.origin
+            return geo.side_value(layer, fm.name, name, p[:, 0], p[:, 1]) - \
+                geo.plane_z(fm.name, p[:, 0], p[:, 1])
+        return f
+
+    wf = _root_near(side("foot"), w0, w0 - 600, w0 + 600)
+    wh = _root_near(side("hanging"), w0, w0 - 600, w0 + 600)
+    if wf is None or wh is None:
+        return None
+    return fm.xy([u], [0.5 * (wf + wh)])[0] + geo.origin
+
+
+def _spread_points(rng, ring, n, min_dist, existing, inset, tries=20000):
+    """Up to ``n`` random points inside ``ring`` (at least ``inset`` from its
+    vertices' bounding box edges and inside), at least ``min_dist`` apart from
+    each other and from ``existing``."""
+    lo = ring.min(axis=0) + inset
+    hi = ring.max(axis=0) - inset
+    pts = [np.asarray(p) for p in existing]
+    out = []
+    for _ in range(tries):
+        if len(out) >= n:
+            break
+        p = rng.uniform(lo, hi)
+        if not points_in_polygon(p[None, :], ring)[0]:
+            continue
+        # Keep ``inset`` from the boundary: test the 4 offset points as well.
+        offs = np.array([[inset, 0], [-inset, 0], [0, inset], [0, -inset]])
+        if not points_in_polygon(p[None, :] + offs, ring).all():
+            continue
+        if pts and np.min(np.hypot(*(np.array(pts) - p).T)) < min_dist:
+            continue
+        pts.append(p)
+        out.append(p)
+    return out
+
+
+# ---------------------------------------------------------------------------
+# The paper-like study area
+# ---------------------------------------------------------------------------
+_PAPER_ORIGIN = np.array([512400.0, 3926800.0])
+_PAPER_BOUNDARY = np.array([[0, 150], [1200, 0], [2900, 60], [4180, 0], [4150, 1900],
+                            [4180, 4170], [2100, 4100], [0, 4170], [60, 2100]], dtype=np.float64)
+_PAPER_LINES = ["I", "II", "III", "IV", "V", "VI", "VII", "VIII", "supp6"]
+_P1 = (3150.0, 3350.0)   # third impervious bed pinches onto coal 8 here
+_P2 = (3450.0, 480.0)    # coal 8 - coal 10 interval thins to a few metres here
+
+
+def _paper_geology(seed: int) -> Geology:
+    rng = np.random.default_rng([seed, 0x6E0])
+    ph = rng.uniform(0.0, 2.0 * np.pi, size=12)
+    k = lambda wl, az: (2 * np.pi / wl * np.sin(np.deg2rad(az)), 2 * np.pi / wl * np.cos(np.deg2rad(az)))
+    # Coal 8: a monocline dipping gently to the south-east, with open folds and
+    # two basins (where the thin intervals are).
+    coal8 = smooth_field(
+        base=-330.0, gradient=(-0.035, -0.018),
+        waves=[(14.0, *k(2600, 35), ph[0]), (8.0, *k(1700, 120), ph[1]), (3.0, *k(900, 70), ph[2])],
+        bumps=[(-60.0, *_P1, 350.0), (-70.0, *_P2, 350.0), (12.0, 1800.0, 2000.0, 700.0)])
+    # Third impervious bed: 125-180 m above coal 8, pinching to 3 m at P1.
+    bed3_th = smooth_field(base=150.0, waves=[(25.0, *k(3200, 10), ph[3])])
+    # Coal 8 - coal 10 interval: 37-47 m, thinning to 4 m at P2.
+    c10_th = smooth_field(base=42.0, waves=[(5.0, *k(2500, 150), ph[4])])
+
+    def pinch(X, Y, c, sigma):
+        return 1.0 - np.exp(-((X - c[0]) ** 2 + (Y - c[1]) ** 2) / (2 * sigma * sigma))
+
+    topo = smooth_field(base=40.0, gradient=(0.0008, -0.0006),
+                        waves=[(3.0, *k(3000, 60), ph[5]), (1.5, *k(1300, 150), ph[6])])
+
+    def topsoil(X, Y):
+        # A river valley meandering west-east.
+        yv = 2600.0 + 300.0 * np.sin(2 * np.pi * X / 3000.0 + ph[7])
+        return topo(X, Y) - 5.0 * np.exp(-((Y - yv) ** 2) / (2 * 80.0 ** 2))
+
+    def bed3(X, Y):
+        return coal8(X, Y) + 3.0 + bed3_th(X, Y) * pinch(X, Y, _P1, 450.0)
+
+    def coal10(X, Y):
+        return coal8(X, Y) - (4.0 + c10_th(X, Y) * pinch(X, Y, _P2, 650.0))
+
+    surfaces = {"topsoil": topsoil, "third impervious bed": bed3, "coal 8": coal8, "coal 10": coal10}
+    layers = list(surfaces)
+
+    def zref(x, y):
+        return float(coal8(np.array(x), np.array(y)))
+
+    c8, c10, b3 = "coal 8", "coal 10", "third impervious bed"
+    a21 = np.array([2000.0, 800.0])
+    s85 = np.array([np.sin(np.deg2rad(85.0)), np.cos(np.deg2rad(85.0))])
+    j = a21 + 200.0 * s85  # where 4F2 meets 2F1
+    faults = [
+        FaultModel("2F4", "reverse", anchor=(1200.0, 3300.0), strike=100.0, dip=40.0, throw=35.0,
+                   u_range=(-650.0, 650.0), z_ref=zref(1200.0, 3300.0), layers={c8: 1.0, c10: 1.0},
+                   bend=35.0, flat=150.0, decay=450.0),
+        FaultModel("F22", "normal", anchor=(3500.0, 2000.0), strike=80.0, dip=65.0, throw=30.0,
+                   u_range=(-900.0, 1500.0), z_ref=zref(3500.0, 2000.0),
+                   layers={b3: 0.6, c8: 1.0, c10: 1.0}, bend=-50.0, flat=150.0, decay=450.0,
+                   tips=("start",)),
+        FaultModel("2F1", "reverse", anchor=tuple(a21), strike=85.0, dip=45.0, throw=30.0,
+                   u_range=(-800.0, 800.0), z_ref=zref(*a21), layers={c8: 1.0, c10: 1.0},
+                   bend=40.0, flat=150.0, decay=450.0, group="2F1-4F2"),
+        # 4F2 abuts 2F1 from its footwall (north) side; coal 10 is not displaced
+        # by it (paper, section 3.2).
+        FaultModel("4F2", "normal", anchor=tuple(j), strike=150.0, dip=60.0, throw=20.0,
+                   u_range=(-1800.0, 500.0), z_ref=zref(*j), layers={c8: 1.0}, bend=-30.0,
+                   flat=150.0, decay=400.0, abuts=("2F1", "foot"), group="2F1-4F2",
+                   tips=("start",)),
+    ]
+    return Geology(layers, surfaces, faults, origin=_PAPER_ORIGIN)
+
+
+def paper_like(seed: int = 0) -> Dataset:
+    """The paper's study area (Gao et al. 2025, section 3.1) from a ground truth.
+
+    Deterministic for a given ``seed``: the seed varies the folds of the
+    layers, the positions of the boreholes and the far ends of the traces; the
+    faults and the exploration lines stay where they are. See the module
+    docstring for what is generated and :func:`faultmesh.geology.Geology.truth`
+    for the truth.
+    """
+    geo = _paper_geology(seed)
+    rng = np.random.default_rng([seed, 0xB0E])
+    ring = _PAPER_BOUNDARY + _PAPER_ORIGIN
+    gx, gy = _PAPER_ORIGIN
+    lay = geo.layers
+    top, b3, c8, c10 = lay
+
+    # Nine parallel exploration lines, azimuth 15 degrees, 475 m apart.
+    az = 15.0
+    e = np.array([np.cos(np.deg2rad(az)), -np.sin(np.deg2rad(az))])
+    dvec = np.array([np.sin(np.deg2rad(az)), np.cos(np.deg2rad(az))])
+    sections: Dict[str, Section] = {}
+    for name, off in zip(_PAPER_LINES, np.arange(-400.0, 3401.0, 475.0)):
+        origin = np.round(_PAPER_ORIGIN + off * e - 300.0 * dvec, 2)
+        sections[name] = Section(name, origin, az)
+
+    # Boreholes: along the exploration lines, ...
+    holes: List[Tuple[str, float, float, str]] = []
+    for sec in sections.values():
+        s_in, s_out = _line_extent(sec.origin, sec.direction, ring)
+        n = max(2, int(round((s_out - s_in - 160.0) / 430.0)) + 1)
+        ss = np.linspace(s_in + 80.0, s_out - 80.0, n)
+        for i, s in enumerate(ss):
+            s = s + rng.uniform(-50.0, 50.0)
+            p = sec.to_xy([s])[0] + rng.uniform(-20.0, 20.0) * np.array([dvec[1], -dvec[0]])
+            if points_in_polygon(p[None, :], ring)[0]:
+                holes.append((f"{sec.name}-{i + 1}", p[0], p[1], c10))
+    # ... a few placed in the overlap bands of the reverse faults (a vertical
+    # hole there meets the layer twice), ...
+    special = []
+    for fname, u, layer in (("2F4", -150.0, c8), ("2F4", 250.0, c8), ("2F4", 50.0, c10),
+                            ("2F1", -350.0, c8), ("2F1", 550.0, c8), ("2F1", -50.0, c10)):
+        p = _band_point(geo, geo.fault(fname), u, layer)
+        if p is not None:
+            special.append((f"R{len(special) + 1}", p[0], p[1], c10))
+    # ... hydrogeological holes that stop in the third impervious bed and holes
+    # that stop at coal 8, among them one each in the two thin-interval areas
+    # (where the borehole TINs of neighbouring layers then cross), ...
+    special.append(("S1", gx + _P1[0] + 15.0, gy + _P1[1] - 10.0, b3))
+    special.append(("S2", gx + _P2[0] - 10.0, gy + _P2[1] + 20.0, c8))
+    holes += special
+    n_rest = 112 - len(holes)
+    pts = _spread_points(rng, ring, n_rest, 190.0, [(h[1], h[2]) for h in holes], inset=60.0)
+    stop = [b3] * 4 + [c8] * 6
+    for i, p in enumerate(pts):
+        holes.append((f"ZK{i + 1}", p[0], p[1], stop[i] if i < len(stop) else c10))
+    if len(holes) != 112:  # pragma: no cover - the area has room for many more
+        raise RuntimeError(f"paper_like: placed {len(holes)} boreholes, expected 112")
+    # Surveyed collar coordinates to the centimetre.
+    holes = [(h, round(x, 2), round(y, 2), d) for h, x, y, d in holes]
+    boreholes = _boreholes(geo, holes)
+
+    # Topographic survey points for the topsoil: a jittered 200 m grid plus the
+    # boundary vertices.
+    g = np.arange(100.0, 4180.0, 200.0)
+    X, Y = np.meshgrid(g, np.arange(100.0, 4170.0, 200.0))
+    P = np.column_stack([X.ravel(), Y.ravel()]) + rng.uniform(-60.0, 60.0, size=(X.size, 2)) + _PAPER_ORIGIN
+    P = np.vstack([ring, P[points_in_polygon(P, ring)]])
+    P = np.round(P, 2)
+    topo = np.column_stack([P, geo.truth(top, P[:, 0], P[:, 1])])
+
+    geo.check_disjoint(*np.meshgrid(np.arange(-200.0, 4400.0, 50.0) + gx,
+                                    np.arange(-200.0, 4400.0, 50.0) + gy))
+    secs = list(sections.values())
+    faults = [_fault_from_model(geo, geo.fault(n), secs, ring, rng, c8)
+              for n in ("2F4", "F22", "2F1", "4F2")]
+    ds = Dataset(name="paper_like", layers=list(lay), boundary=ring, boreholes=boreholes,
+                 points={top: topo}, sections=sections, faults=faults,
+                 crs="local projected grid in metres (synthetic, Gauss-Kruger-like magnitudes)",
+                 truth=geo.truth, geology=geo)
+    return ds
+
+
+def paper_like_path() -> Path:
+    """Path of the shipped format-v1 copy of ``paper_like(0)``."""
+    return Path(__file__).resolve().parent / "data" / "paper_like" / "dataset.json"
+
+
+# ---------------------------------------------------------------------------
+# Synthetic datasets
+# ---------------------------------------------------------------------------
+def synthetic(seed: int = 0, *, n_layers: int = 3, strike: float = 60.0, dip: float = 60.0,
+              throw: float = 20.0, kind: str = "normal",
+              area: Union[float, Tuple[float, float]] = (3000.0, 2500.0),
+              end_traces: str = "tips", n_faults: int = 1, n_sections: int = 5,
+              n_boreholes: int = 60, origin: Optional[Sequence[float]] = None) -> Dataset:
+    """A random but valid dataset from a ground truth faultmesh has never seen.
+
+    ``n_layers`` layers (1 to 8) with smooth, non-planar tops 20-60 m apart;
+    ``n_faults`` parallel faults (spread across the area) of ``kind``
+    ("normal", "reverse" or "mixed": alternating) with ``strike`` (degrees
+    clockwise from north), ``dip`` (degrees, 20-85) and maximum ``throw`` (m),
+    displacing every layer; ``area`` is the size (width, height) of the study
+    area (or one number for a square), placed at ``origin`` (random large
+    coordinates by default). ``n_sections`` parallel sections run in the dip
+    direction, spread along strike. ``end_traces``: "tips" -> each fault ends
+    between sections at tip points (dataset ``tips``), "zero_throw" -> each
+    fault ends exactly on the first and last section, whose traces have zero
+    throw (the two cutoffs coincide) and there are no tips.
+    """
+    if not 1 <= n_layers <= 8:
+        raise ValueError(f"synthetic: n_layers must be 1..8, got {n_layers}")
+    if not 20.0 <= dip <= 85.0:
+        raise ValueError(f"synthetic: dip must be in [20, 85] degrees, got {dip}")
+    if kind not in ("normal", "reverse", "mixed"):
+        raise ValueError(f"synthetic: kind must be 'normal', 'reverse' or 'mixed', got {kind!r}")
+    if end_traces not in ("tips", "zero_throw"):
+        raise ValueError(f"synthetic: end_traces must be 'tips' or 'zero_throw', got {end_traces!r}")
+    if n_faults < 0 or n_sections < 3:
+        raise ValueError("synthetic: need n_faults >= 0 and n_sections >= 3")
+    if not 1.0 <= throw <= 200.0:
+        raise ValueError(f"synthetic: throw must be in [1, 200] m, got {throw}")
+    W, H = (float(area), float(area)) if np.isscalar(area) else map(float, area)
+    if min(W, H) < 500.0:
+        raise ValueError(f"synthetic: area must be at least 500 m across, got {area}")
+    rng = np.random.default_rng([seed, 0x5E7])
+    org = np.asarray(origin, dtype=np.float64) if origin is not None else \
+        np.round(rng.uniform([1e5, 1e6], [9e5, 6e6]), 0)
+
+    # Layers: a reference top with folds, then positive intervals.
+    ph = rng.uniform(0.0, 2 * np.pi, size=(n_layers + 1, 3))
+    wl = rng.uniform(0.6, 1.5, size=3) * max(W, H)
+    az = rng.uniform(0.0, 180.0, size=3)
+    base = rng.uniform(-600.0, 0.0)
+    grad = rng.uniform(-0.01, 0.01, size=2)
+
+    def wave(amp, i, j):
+        a = np.deg2rad(az[j])
+        return (amp, 2 * np.pi / wl[j] * np.sin(a), 2 * np.pi / wl[j] * np.cos(a), ph[i, j])
+
+    top = smooth_field(base=base, gradient=grad, waves=[wave(8.0, 0, 0), wave(3.0, 0, 1)])
+    th_base = rng.uniform(25.0, 50.0, size=n_layers - 1)
+    thick = [smooth_field(base=float(b), waves=[wave(5.0, i + 1, 2)]) for i, b in enumerate(th_base)]
+    names = [f"L{i + 1}" for i in range(n_layers)]
+
+    def make(i):
+        def f(X, Y):
+            z = top(X, Y)
+            for t in thick[:i]:
+                z = z - t(X, Y)
+            return z
+        return f
+
+    surfaces = {names[i]: make(i) for i in range(n_layers)}
+
+    # Boundary: the rectangle with each side's midpoint pushed in a little
+    # (star-shaped around the centre, hence simple).
+    ctr = np.array([W / 2, H / 2])
+    corners = np.array([[0, 0], [W, 0], [W, H], [0, H]], dtype=np.float64)
+    ring_l = []
+    for i in range(4):
+        a, b = corners[i], corners[(i + 1) % 4]
+        mid = 0.5 * (a + b)
+        ring_l += [a, mid + (ctr - mid) * rng.uniform(0.0, 0.08)]
+    ring_local = np.array(ring_l)
+    ring = ring_local + org
+
+    # Faults: parallel, spread along the dip direction through the centre,
+    # inside a ring shrunk by 10 % so traces and tips stay inside the area.
+    sd = np.array([np.sin(np.deg2rad(strike)), np.cos(np.deg2rad(strike))])
+    nd = np.array([np.cos(np.deg2rad(strike)), -np.sin(np.deg2rad(strike))])
+    inset = ctr + 0.9 * (ring_local - ctr)
+    tan_d = float(np.tan(np.deg2rad(dip)))
+    heave = throw / tan_d
+    wa, wb = _line_extent(ctr, nd, inset)
+    spacing = (wb - wa) / (n_faults + 1)
+    w0s = [wa + spacing * (i + 1) for i in range(n_faults)] or [0.0]
+    # Cutoffs of the layers lie up to about half the layer stack (plus folds)
+    # divided by tan(dip) from a fault's reference trace; the tips are there.
+    depth_span = float(np.sum(th_base + 5.0)) + 30.0
+    off = 0.5 * depth_span / tan_d + heave + 30.0
+    A, B = -np.inf, np.inf
+    for w0 in w0s:
+        for o in (-off, 0.0, off):
+            try:
+                a_, b_ = _line_extent(ctr + (w0 + o) * nd, sd, inset)
+            except ValueError:
+                a_, b_ = 0.0, 0.0
+            A, B = max(A, a_), min(B, b_)
+    if B - A < 300.0:
+        raise ValueError(f"synthetic: faults with dip {dip} and {n_layers} layers do not fit in an "
+                         f"area of {W:g} x {H:g} m along strike {strike}; use a larger area, a steeper "
+                         "dip or fewer layers")
+    sec_az = (strike + 90.0) % 360.0
+    if end_traces == "zero_throw":
+        u_sec = np.linspace(A, B, n_sections)
+        u_range = (float(u_sec[0]), float(u_sec[-1]))
+    else:
+        step = (B - A) / (n_sections + 1)
+        u_sec = A + step * np.arange(1, n_sections + 1)
+        u_range = (float(A + 0.5 * step), float(B - 0.5 * step))
+    sections: Dict[str, Section] = {}
+    for i, u in enumerate(u_sec):
+        o = org + ctr + u * sd + (wa - 0.2 * (wb - wa)) * nd
+        sections[f"S{i + 1}"] = Section(f"S{i + 1}", o, sec_az)
+    faults_m = []
+    for i, w0 in enumerate(w0s[:n_faults]):
+        anchor = ctr + w0 * nd
+        k = kind if kind != "mixed" else ("normal" if i % 2 == 0 else "reverse")
+        zr = float(np.mean([surfaces[n](anchor[0:1], anchor[1:2])[0] for n in names]))
+        bend = float(rng.uniform(-1.0, 1.0) * min(30.0, 0.03 * (B - A)))
+        # Where the layers meet this fault: their distance d from its trace.
+        uu = np.linspace(u_range[0], u_range[1], 50)
+        pts = anchor[None, :] + uu[:, None] * sd[None, :]
+        dl = np.concatenate([(zr - surfaces[n](pts[:, 0], pts[:, 1])) / tan_d for n in names])
+        flat = float(dl.max()) + heave + 20.0
+        decay = min(600.0, spacing - (flat - float(dl.min())) - 2.0 * heave - 40.0)
+        if decay < max(50.0, 3.0 * heave):
+            raise ValueError(f"synthetic: {n_faults} fault(s) with dip {dip} and throw {throw} m do "
+                             f"not fit in an area of {W:g} x {H:g} m; use fewer faults, a larger "
+                             "area, a steeper dip or a smaller throw")
+        faults_m.append(FaultModel(
+            f"F{i + 1}", k, anchor=anchor, strike=strike, dip=dip, throw=throw,
+            u_range=u_range, z_ref=zr, layers={n: 1.0 for n in names}, bend=bend,
+            flat=flat, decay=decay, tips=("start", "end") if end_traces == "tips" else ()))
+    geo = Geology(names, surfaces, faults_m, origin=org)
+    if n_faults:
+        gxs = np.linspace(ring[:, 0].min(), ring[:, 0].max(), 80)
+        gys = np.linspace(ring[:, 1].min(), ring[:, 1].max(), 80)
+        geo.check_disjoint(*np.meshgrid(gxs, gys))
+
+    # Boreholes: a jittered grid, every hole down to the lowest layer, plus one
+    # hole in the overlap band of each reverse fault.
+    n_side = max(2, int(round(np.sqrt(n_boreholes * W / H))))
+    m_side = max(2, int(round(n_boreholes / n_side)))
+    gx_ = (np.arange(n_side) + 0.5) / n_side * W
+    gy_ = (np.arange(m_side) + 0.5) / m_side * H
+    GX, GY = np.meshgrid(gx_, gy_)
+    jit = 0.3 * min(W / n_side, H / m_side)
+    P = np.column_stack([GX.ravel(), GY.ravel()]) + rng.uniform(-jit, jit, size=(GX.size, 2)) + org
+    P = P[points_in_polygon(P, ring)]
+    holes = [(f"B{i + 1}", x, y, names[-1]) for i, (x, y) in enumerate(P)]
+    for fm in faults_m:
+        if fm.kind == "reverse":
+            p = _band_point(geo, fm, 0.0, names[len(names) // 2])
+            if p is not None and points_in_polygon(p[None, :], ring)[0]:
+                holes.append((f"R{fm.name}", p[0], p[1], names[-1]))
+    boreholes = _boreholes(geo, holes)
+
+    rng_t = np.random.default_rng([seed, 0x7A])
+    secs = list(sections.values())
+    faults = [_fault_from_model(geo, fm, secs, ring, rng_t, names[0],
+                                zero_throw_ok=end_traces == "zero_throw") for fm in faults_m]
+    name = f"synthetic-{seed}"
+    return Dataset(name=name, layers=names, boundary=ring, boreholes=boreholes, points={},
+                   sections=sections, faults=faults, crs="synthetic local grid, metres",
+                   truth=geo.truth, geology=geo)
+
+
+def _write_shipped() -> Path:  # pragma: no cover - maintenance entry point
+    p = paper_like_path()
+    return paper_like(0).save(p.parent, section_coords=True)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    print(_write_shipped())
