@@ -1,6 +1,143 @@
-// Bindings for ear_clipping: written by the issue that implements the algorithm.
+// Bindings for ear_clipping (triangulate_polygon, join_holes, check_polygon)
+// and the constrained-Delaunay flips of polygon_cdt.
+#include <faultmesh/ear_clipping.hpp>
+#include <faultmesh/polygon_cdt.hpp>
+
 #include "common.hpp"
 
 namespace faultmesh::bindings {
-void bind_ear_clipping(py::module_& m) { (void)m; }
+
+namespace {
+
+// rings: a sequence of (k, 2) arrays (outer first), or one (n, 2) array for a
+// polygon without holes. Concatenates the points; offsets has n_rings + 1 entries.
+void gather_rings(const py::handle& rings, const char* fn, std::vector<double>& xy,
+                  std::vector<std::int64_t>& offsets) {
+    offsets.assign(1, 0);
+    auto add = [&](const py::handle& obj, const std::string& what) {
+        DoubleArray a = as_points(obj, fn, what.c_str(), 2, 2);
+        const double* d = a.data();
+        xy.insert(xy.end(), d, d + 2 * a.shape(0));
+        offsets.push_back(offsets.back() + a.shape(0));
+    };
+    if (py::isinstance<py::array>(rings) && py::reinterpret_borrow<py::array>(rings).ndim() == 2) {
+        add(rings, "rings");
+        return;
+    }
+    if (!py::isinstance<py::sequence>(rings) || py::isinstance<py::str>(rings))
+        throw std::invalid_argument(std::string(fn) +
+                                    ": rings must be a list of (k, 2) arrays (outer ring first, then holes)");
+    py::sequence seq = py::reinterpret_borrow<py::sequence>(rings);
+    for (py::ssize_t i = 0; i < static_cast<py::ssize_t>(seq.size()); ++i)
+        add(seq[i], "rings[" + std::to_string(i) + "]");
+}
+
+BridgeMethod parse_bridge(const std::string& s, const char* fn) {
+    if (s == "extreme" || s == "extreme_point") return BridgeMethod::extreme_point;
+    if (s == "eberly") return BridgeMethod::eberly;
+    throw std::invalid_argument(std::string(fn) + ": bridge must be 'extreme' or 'eberly', got '" + s + "'");
+}
+
+EarOrder parse_order(const std::string& s, const char* fn) {
+    if (s == "quality") return EarOrder::quality;
+    if (s == "plain") return EarOrder::plain;
+    throw std::invalid_argument(std::string(fn) + ": order must be 'quality' or 'plain', got '" + s + "'");
+}
+
+}  // namespace
+
+void bind_ear_clipping(py::module_& m) {
+    m.def(
+        "triangulate_polygon",
+        [](const py::handle& rings, bool refine, const std::string& order, const std::string& bridge,
+           bool strict) {
+            const char* fn = "triangulate_polygon";
+            std::vector<double> xy;
+            std::vector<std::int64_t> offsets;
+            gather_rings(rings, fn, xy, offsets);
+            EarClipOptions opt;
+            opt.refine = refine;
+            opt.order = parse_order(order, fn);
+            opt.bridge = parse_bridge(bridge, fn);
+            opt.strict = strict;
+            std::vector<std::int64_t> tris;
+            {
+                py::gil_scoped_release release;
+                tris = triangulate_polygon(xy.data(), offsets.data(), offsets.size() - 1, opt);
+            }
+            return to_numpy(std::move(tris), 3);
+        },
+        py::arg("rings"), py::arg("refine") = true, py::arg("order") = "quality",
+        py::arg("bridge") = "extreme", py::arg("strict") = false,
+        "Triangulate a polygon with holes by ear clipping.\n\n"
+        "rings: list of (k, 2) arrays, the outer ring first, then the holes (any orientation;\n"
+        "a closing point equal to the first and consecutive duplicates are ignored).\n"
+        "Returns (m, 3) int64 triangles, counter-clockwise, indexing the rings' points\n"
+        "concatenated. A valid polygon with n vertices and h holes gives n + 2h - 2 triangles.\n"
+        "refine: Lawson flips to the constrained Delaunay triangulation (ring edges kept).\n"
+        "order: 'quality' (clip the ear with the largest minimum angle first) or 'plain'\n"
+        "(Eberly's order). bridge: 'extreme' (paper's extreme-point preference, Eberly as\n"
+        "fallback) or 'eberly'. strict: raise GeometryError naming the ring and vertex of an\n"
+        "invalid polygon instead of a best-effort triangulation.");
+    m.def(
+        "join_holes",
+        [](const py::handle& rings, const std::string& bridge) {
+            const char* fn = "join_holes";
+            std::vector<double> xy;
+            std::vector<std::int64_t> offsets;
+            gather_rings(rings, fn, xy, offsets);
+            const BridgeMethod method = parse_bridge(bridge, fn);
+            JoinedPolygon j;
+            {
+                py::gil_scoped_release release;
+                j = faultmesh::join_holes(xy.data(), xy.size() / 2, nullptr, offsets.data(),
+                                          offsets.size() - 1, method);
+            }
+            return py::make_tuple(to_numpy(std::move(j.loop)), to_numpy(std::move(j.bridges), 2),
+                                  to_numpy(std::move(j.skipped_rings)));
+        },
+        py::arg("rings"), py::arg("bridge") = "extreme",
+        "Join the holes to the outer ring by bridges between mutually visible vertices.\n"
+        "Returns (loop, bridges, skipped): loop (k,) int64 vertex indices of one closed,\n"
+        "counter-clockwise, weakly simple polygon (bridge endpoints appear twice); bridges\n"
+        "(b, 2) int64 (outer-side vertex, hole vertex); skipped: rings left out.");
+    m.def(
+        "check_polygon",
+        [](const py::handle& rings) {
+            const char* fn = "check_polygon";
+            std::vector<double> xy;
+            std::vector<std::int64_t> offsets;
+            gather_rings(rings, fn, xy, offsets);
+            PolygonCheck c;
+            {
+                py::gil_scoped_release release;
+                c = faultmesh::check_polygon(xy.data(), xy.size() / 2, nullptr, offsets.data(),
+                                             offsets.size() - 1);
+            }
+            return py::make_tuple(c.valid, c.message, c.ring, c.vertex);
+        },
+        py::arg("rings"),
+        "Validity of a polygon with holes: (valid, message, ring, vertex). Valid: every ring\n"
+        "has >= 3 vertices and non-zero area, edges meet only at shared vertices, holes\n"
+        "inside the outer ring and outside each other.");
+    m.def(
+        "flip_to_constrained_delaunay",
+        [](const py::handle& xy_obj, const py::handle& tri_obj, const py::handle& cons_obj) {
+            const char* fn = "flip_to_constrained_delaunay";
+            DoubleArray xy = as_points(xy_obj, fn, "xy", 2, 2);
+            IndexArray t = as_indices(tri_obj, fn, "triangles", 3);
+            IndexArray c = as_indices(cons_obj, fn, "constrained_edges", 2);
+            std::vector<std::int64_t> tris(t.data(), t.data() + t.size());
+            {
+                py::gil_scoped_release release;
+                faultmesh::flip_to_constrained_delaunay(xy.data(), static_cast<std::size_t>(xy.shape(0)), tris,
+                                                        c.data(), static_cast<std::size_t>(c.shape(0)));
+            }
+            return to_numpy(std::move(tris), 3);
+        },
+        py::arg("xy"), py::arg("triangles"), py::arg("constrained_edges"),
+        "Lawson flips (exact incircle, CGAL's symbolic perturbation for ties) until every\n"
+        "non-constrained interior edge is locally Delaunay. Returns the new (m, 3) triangles.");
+}
+
 }  // namespace faultmesh::bindings

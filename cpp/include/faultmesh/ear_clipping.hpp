@@ -91,7 +91,8 @@ std::vector<std::int64_t> triangulate_polygon_indexed(const double* xy, std::siz
 // vertex indices (into xy; the first vertex is not repeated at the end),
 // counter-clockwise, in which every bridge endpoint appears twice, plus the
 // bridges themselves as (outer-side vertex, hole vertex) pairs in the order
-// they were made. Rings that cannot be bridged (e.g. a hole outside the
+// they were made. A hole that touches the outer list at a point is joined
+// there without a bridge; that pair has both ends at the same position. Rings that cannot be bridged (e.g. a hole outside the
 // outer ring) are left out and listed in `skipped_rings`.
 struct JoinedPolygon {
     std::vector<std::int64_t> loop;
@@ -105,10 +106,11 @@ JoinedPolygon join_holes(const double* xy, std::size_t n_points, const std::int6
 // Validity of a polygon with holes, as used by `strict` and by the tests to
 // decide which polygons must give exactly n + 2h - 2 triangles. Valid means:
 // every ring has at least 3 vertices (after dropping consecutive duplicates)
-// and non-zero area; no two edges (of any rings) cross or overlap, and an
-// edge touches another only at a shared vertex (coincident vertices of
-// different rings are allowed -- touching rings); every hole lies inside the
-// outer ring and outside every other hole. ring_vertices may be null
+// and non-zero area; the rings are strictly simple and disjoint: two edges
+// meet only if they are consecutive edges of one ring, at their common
+// vertex (so touching rings, pinched rings and vertices on edges are invalid:
+// they are triangulated, but their triangle count is not n + 2h - 2); every
+// hole lies inside the outer ring and outside every other hole. ring_vertices may be null
 // (rings are then the concatenated points, as in triangulate_polygon).
 struct PolygonCheck {
     bool valid = true;

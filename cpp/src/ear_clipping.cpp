@@ -1,0 +1,1277 @@
+// Ear clipping of polygons with holes (see ear_clipping.hpp for the contract).
+//
+// Structure of this file:
+//   input       -- validate arguments, drop consecutive duplicates, orient rings
+//   SegGrid     -- uniform grid over ring and bridge segments (bridge visibility)
+//   Joiner      -- doubly linked node list, hole bridges (extreme points, Eberly)
+//   Clipper     -- ear clipping with a uniform grid over reflex vertices
+//   check       -- polygon validity (strict mode and tests)
+#include <faultmesh/ear_clipping.hpp>
+
+#include <faultmesh/errors.hpp>
+#include <faultmesh/polygon_cdt.hpp>
+#include <faultmesh/predicates.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <queue>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace faultmesh {
+namespace detail {
+namespace {
+
+using I64 = std::int64_t;
+
+inline int sgn(double v) { return (v > 0.0) - (v < 0.0); }
+
+// ----------------------------------------------------------------- input
+
+struct Rings {
+    // Cleaned rings: vertex indices into xy, consecutive duplicates removed.
+    std::vector<std::vector<I64>> v;
+};
+
+Rings read_rings(const char* fn, const double* xy, std::size_t n_points, const I64* ring_vertices,
+                 const I64* ring_offsets, std::size_t n_rings) {
+    if (n_rings > 0 && ring_offsets == nullptr)
+        throw std::invalid_argument(std::string(fn) + ": ring_offsets is null");
+    if (n_rings > 0 && xy == nullptr)
+        throw std::invalid_argument(std::string(fn) + ": xy is null");
+    if (n_points >= (std::size_t(1) << 31))
+        throw std::invalid_argument(std::string(fn) + ": more than 2^31 points are not supported");
+    Rings out;
+    out.v.resize(n_rings);
+    if (n_rings == 0) return out;
+    if (ring_offsets[0] != 0)
+        throw std::invalid_argument(std::string(fn) + ": ring_offsets[0] must be 0, got " +
+                                    std::to_string(ring_offsets[0]));
+    for (std::size_t r = 0; r < n_rings; ++r) {
+        const I64 b = ring_offsets[r], e = ring_offsets[r + 1];
+        if (e < b)
+            throw std::invalid_argument(std::string(fn) + ": ring_offsets must be non-decreasing (ring " +
+                                        std::to_string(r) + ": " + std::to_string(b) + " > " +
+                                        std::to_string(e) + ")");
+        if (ring_vertices == nullptr && static_cast<std::size_t>(e) > n_points)
+            throw std::invalid_argument(std::string(fn) + ": ring " + std::to_string(r) + " ends at " +
+                                        std::to_string(e) + ", past the " + std::to_string(n_points) +
+                                        " points");
+        auto& ring = out.v[r];
+        ring.reserve(static_cast<std::size_t>(e - b));
+        for (I64 k = b; k < e; ++k) {
+            const I64 i = ring_vertices ? ring_vertices[k] : k;
+            if (i < 0 || static_cast<std::size_t>(i) >= n_points)
+                throw std::invalid_argument(std::string(fn) + ": ring " + std::to_string(r) +
+                                            " position " + std::to_string(k - b) + " has vertex index " +
+                                            std::to_string(i) + " out of range [0, " +
+                                            std::to_string(n_points) + ")");
+            const double x = xy[2 * i], y = xy[2 * i + 1];
+            if (!std::isfinite(x) || !std::isfinite(y))
+                throw std::invalid_argument(std::string(fn) + ": ring " + std::to_string(r) + " vertex " +
+                                            std::to_string(i) + " has a non-finite coordinate");
+            if (!ring.empty()) {
+                const I64 j = ring.back();
+                if (xy[2 * j] == x && xy[2 * j + 1] == y) continue;  // consecutive duplicate
+            }
+            ring.push_back(i);
+        }
+        // A closing point equal to the first (GeoJSON style) is a duplicate too.
+        while (ring.size() > 1) {
+            const I64 f = ring.front(), l = ring.back();
+            if (xy[2 * f] == xy[2 * l] && xy[2 * f + 1] == xy[2 * l + 1])
+                ring.pop_back();
+            else
+                break;
+        }
+    }
+    return out;
+}
+
+// +1 counter-clockwise, -1 clockwise, 0 degenerate (fewer than 3 vertices or
+// zero area). The shoelace sum decides when it is far above its rounding
+// error (for a self-crossing ring it gives the net orientation, as earcut
+// uses). Otherwise the exact orient2d at the lexicographically smallest
+// vertex decides: a simple ring is strictly convex there.
+int ring_orientation(const double* xy, const std::vector<I64>& r) {
+    const std::size_t n = r.size();
+    if (n < 3) return 0;
+    long double s = 0, mag = 0;
+    const double x0 = xy[2 * r[0]], y0 = xy[2 * r[0] + 1];
+    std::size_t m = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+        const double* p = xy + 2 * r[k];
+        const double* q = xy + 2 * r[(k + 1) % n];
+        const long double t = static_cast<long double>(p[0] - x0) * (q[1] - y0) -
+                              static_cast<long double>(q[0] - x0) * (p[1] - y0);
+        s += t;
+        mag += t < 0 ? -t : t;
+        const double* b = xy + 2 * r[m];
+        if (p[0] < b[0] || (p[0] == b[0] && p[1] < b[1])) m = k;
+    }
+    // Each term carries a relative error of a few 1e-16 (the differences
+    // to the first point are rounded); 1e-9 of the magnitude is far above
+    // the accumulated error for any ring below a million vertices.
+    if (s > 1e-9L * mag) return 1;
+    if (s < -1e-9L * mag) return -1;
+    const double* a = xy + 2 * r[(m + n - 1) % n];
+    const double* b = xy + 2 * r[m];
+    const double* c = xy + 2 * r[(m + 1) % n];
+    const int o = orient2d_sign(a, b, c);
+    if (o != 0) return o;
+    return (s > 0) - (s < 0);
+}
+
+// ----------------------------------------------------------------- segment grid
+
+// Uniform grid over segments (pairs of vertex indices). Used for the
+// visibility of bridge candidates and for the validity check. The traversal
+// walks the cells along a segment in its major direction; the minor-direction
+// range of each column is widened by a margin that covers the rounding of the
+// interpolation, so every cell the exact segment meets is visited.
+struct SegGrid {
+    const double* xy = nullptr;
+    double x0 = 0, y0 = 0, cw = 1, ch = 1, margin_x = 0, margin_y = 0;
+    int nx = 1, ny = 1;
+    std::vector<I64> seg;                 // 2 vertex indices per segment
+    std::vector<std::vector<int>> cells;  // segment ids per cell
+    std::vector<unsigned> mark;
+    unsigned epoch = 0;
+
+    void init(const double* pts, double xmin, double ymin, double xmax, double ymax, std::size_t n_seg) {
+        xy = pts;
+        x0 = xmin;
+        y0 = ymin;
+        const double w = std::max(xmax - xmin, 0.0), h = std::max(ymax - ymin, 0.0);
+        // About one cell per segment, shaped like the bounding box.
+        const double target = std::max<double>(1.0, static_cast<double>(n_seg));
+        if (w > 0 && h > 0) {
+            nx = static_cast<int>(std::clamp(std::sqrt(target * w / h), 1.0, 4096.0));
+            ny = static_cast<int>(std::clamp(std::sqrt(target * h / w), 1.0, 4096.0));
+        } else {
+            nx = w > 0 ? static_cast<int>(std::clamp(target, 1.0, 4096.0)) : 1;
+            ny = h > 0 ? static_cast<int>(std::clamp(target, 1.0, 4096.0)) : 1;
+        }
+        cw = w > 0 ? w / nx : 1.0;
+        ch = h > 0 ? h / ny : 1.0;
+        // Rounding of the interpolated coordinate is a few ulps of the
+        // coordinates' magnitude; 1e-6 of a cell plus 64 ulps of the largest
+        // magnitude is far above it.
+        const double mag = std::max({std::fabs(xmin), std::fabs(xmax), std::fabs(ymin), std::fabs(ymax)});
+        margin_x = 1e-6 * cw + 64 * kEpsilon * mag;
+        margin_y = 1e-6 * ch + 64 * kEpsilon * mag;
+        cells.assign(static_cast<std::size_t>(nx) * ny, {});
+    }
+    int col(double x) const {
+        const double c = std::floor((x - x0) / cw);
+        return c < 0 ? 0 : (c >= nx ? nx - 1 : static_cast<int>(c));
+    }
+    int row(double y) const {
+        const double r = std::floor((y - y0) / ch);
+        return r < 0 ? 0 : (r >= ny ? ny - 1 : static_cast<int>(r));
+    }
+    template <class F>
+    void for_cells(const double* p, const double* q, F&& f) const {
+        double ax = p[0], ay = p[1], bx = q[0], by = q[1];
+        if (std::fabs(bx - ax) >= std::fabs(by - ay)) {
+            if (ax > bx) { std::swap(ax, bx); std::swap(ay, by); }
+            const int c0 = col(ax - margin_x), c1 = col(bx + margin_x);
+            for (int c = c0; c <= c1; ++c) {
+                double xl = std::max(ax, x0 + c * cw), xr = std::min(bx, x0 + (c + 1) * cw);
+                if (xl > xr) xl = xr = (c == c0 ? ax : bx);
+                double yl = ay, yr = by;
+                if (bx > ax) {
+                    const double s = (by - ay) / (bx - ax);
+                    yl = ay + (xl - ax) * s;
+                    yr = ay + (xr - ax) * s;
+                }
+                const int r0 = row(std::min(yl, yr) - margin_y), r1 = row(std::max(yl, yr) + margin_y);
+                for (int r = r0; r <= r1; ++r) f(static_cast<std::size_t>(c) * ny + r);
+            }
+        } else {
+            if (ay > by) { std::swap(ax, bx); std::swap(ay, by); }
+            const int r0 = row(ay - margin_y), r1 = row(by + margin_y);
+            for (int r = r0; r <= r1; ++r) {
+                double yl = std::max(ay, y0 + r * ch), yr = std::min(by, y0 + (r + 1) * ch);
+                if (yl > yr) yl = yr = (r == r0 ? ay : by);
+                const double s = (bx - ax) / (by - ay);
+                const double xl = ax + (yl - ay) * s, xr = ax + (yr - ay) * s;
+                const int c0 = col(std::min(xl, xr) - margin_x), c1 = col(std::max(xl, xr) + margin_x);
+                for (int c = c0; c <= c1; ++c) f(static_cast<std::size_t>(c) * ny + r);
+            }
+        }
+    }
+    void insert(I64 a, I64 b) {
+        const int id = static_cast<int>(seg.size() / 2);
+        seg.push_back(a);
+        seg.push_back(b);
+        mark.push_back(0);
+        for_cells(xy + 2 * a, xy + 2 * b, [&](std::size_t cell) {
+            auto& v = cells[cell];
+            if (v.empty() || v.back() != id) v.push_back(id);
+        });
+    }
+    // Calls f(segment id) once for each segment in a cell met by p-q; stops
+    // early when f returns true (and then returns true).
+    template <class F>
+    bool any(const double* p, const double* q, F&& f) {
+        if (++epoch == 0) {
+            std::fill(mark.begin(), mark.end(), 0u);
+            epoch = 1;
+        }
+        bool hit = false;
+        for_cells(p, q, [&](std::size_t cell) {
+            if (hit) return;
+            for (int id : cells[cell]) {
+                if (mark[id] == epoch) continue;
+                mark[id] = epoch;
+                if (f(id)) { hit = true; return; }
+            }
+        });
+        return hit;
+    }
+};
+
+inline bool same_point(const double* p, const double* q) { return p[0] == q[0] && p[1] == q[1]; }
+
+// q collinear with segment a-b (caller checked): is q strictly between a and b?
+inline bool strictly_between(const double* a, const double* b, const double* q) {
+    if (a[0] != b[0]) return (q[0] > std::min(a[0], b[0])) && (q[0] < std::max(a[0], b[0]));
+    return (q[1] > std::min(a[1], b[1])) && (q[1] < std::max(a[1], b[1]));
+}
+// Collinear p, q1, q2 (checked by the caller): do q1 and q2 lie on the same side of p?
+inline bool same_direction(const double* p, const double* q1, const double* q2) {
+    if (q1[0] != p[0] || q2[0] != p[0]) return (q1[0] > p[0]) == (q2[0] > p[0]) && q1[0] != p[0] && q2[0] != p[0];
+    return (q1[1] > p[1]) == (q2[1] > p[1]);
+}
+
+// Does segment (p0, p1) meet segment (q0, q1) anywhere other than at an
+// endpoint they share? (Shared endpoint with collinear overlap counts as meeting.)
+bool segments_conflict(const double* p0, const double* p1, const double* q0, const double* q1) {
+    const bool s00 = same_point(p0, q0), s01 = same_point(p0, q1);
+    const bool s10 = same_point(p1, q0), s11 = same_point(p1, q1);
+    if ((s00 || s01) && (s10 || s11)) return true;  // the same segment twice
+    if (s00 || s01 || s10 || s11) {
+        const double* x = (s00 || s01) ? p0 : p1;              // shared point
+        const double* po = (x == p0) ? p1 : p0;                // other end of p
+        const double* qo = (s00 || s10) ? q1 : q0;             // other end of q
+        return orient2d(x, po, qo) == 0.0 && same_direction(x, po, qo);
+    }
+    const double o1 = orient2d(p0, p1, q0), o2 = orient2d(p0, p1, q1);
+    const double o3 = orient2d(q0, q1, p0), o4 = orient2d(q0, q1, p1);
+    if (sgn(o1) * sgn(o2) < 0 && sgn(o3) * sgn(o4) < 0) return true;
+    if (o1 == 0.0 && strictly_between(p0, p1, q0)) return true;
+    if (o2 == 0.0 && strictly_between(p0, p1, q1)) return true;
+    if (o3 == 0.0 && strictly_between(q0, q1, p0)) return true;
+    if (o4 == 0.0 && strictly_between(q0, q1, p1)) return true;
+    return false;
+}
+
+// ----------------------------------------------------------------- linked list
+
+struct Node {
+    double x, y;  // first: &x is a (x, y) point for the predicates
+    I64 v;        // vertex index into the caller's points
+    int prev, next;
+    int twin;     // next node with identical coordinates (circular; self if none)
+    int ring;     // input ring
+    int stamp;    // version for the ear priority queue
+    bool removed, reflex;
+};
+
+inline const double* P(const Node& n) { return &n.x; }
+
+struct Polygon {
+    const double* xy = nullptr;
+    std::size_t n_points = 0;
+    std::vector<Node> nodes;
+    int start = -1;                    // a node of the outer list (after joining)
+    std::vector<I64> bridges;          // 2 per bridge
+    std::vector<I64> skipped;          // rings not joined
+    std::vector<std::vector<I64>> rings;  // cleaned, oriented rings (outer CCW, holes CW)
+
+    int add_node(I64 v, int ring) {
+        Node n;
+        n.x = xy[2 * v];
+        n.y = xy[2 * v + 1];
+        n.v = v;
+        n.prev = n.next = n.twin = static_cast<int>(nodes.size());
+        n.ring = ring;
+        n.stamp = 0;
+        n.removed = false;
+        n.reflex = false;
+        nodes.push_back(n);
+        return static_cast<int>(nodes.size()) - 1;
+    }
+    int copy_node(int i) {
+        Node n = nodes[i];
+        const int k = static_cast<int>(nodes.size());
+        n.twin = nodes[i].twin;
+        nodes.push_back(n);
+        nodes[i].twin = k;
+        return k;
+    }
+};
+
+// Link coincident nodes into twin rings with an open-addressing hash on the
+// coordinates' bit patterns (exact equality; -0.0 and 0.0 are merged).
+void link_twins(Polygon& poly) {
+    const std::size_t n = poly.nodes.size();
+    std::size_t cap = 16;
+    while (cap < 2 * n) cap <<= 1;
+    std::vector<int> table(cap, -1);
+    auto bits = [](double d) {
+        if (d == 0.0) d = 0.0;
+        std::uint64_t u;
+        std::memcpy(&u, &d, sizeof u);
+        return u;
+    };
+    for (std::size_t i = 0; i < n; ++i) {
+        Node& nd = poly.nodes[i];
+        std::uint64_t h = bits(nd.x) * 0x9E3779B97F4A7C15ull ^ (bits(nd.y) + 0x632BE59BD9B4E019ull) * 0xC2B2AE3D27D4EB4Full;
+        h ^= h >> 29;
+        std::size_t s = h & (cap - 1);
+        while (true) {
+            const int j = table[s];
+            if (j < 0) { table[s] = static_cast<int>(i); break; }
+            Node& o = poly.nodes[j];
+            if (o.x == nd.x && o.y == nd.y) {
+                nd.twin = o.twin;
+                o.twin = static_cast<int>(i);
+                break;
+            }
+            s = (s + 1) & (cap - 1);
+        }
+    }
+}
+
+// ----------------------------------------------------------------- hole joining
+
+class Joiner {
+public:
+    Joiner(Polygon& p, BridgeMethod m) : poly_(p), method_(m) {}
+
+    void run() {
+        auto& N = poly_.nodes;
+        const std::size_t n_rings = poly_.rings.size();
+        ring_first_.assign(n_rings, -1);
+        merged_.assign(n_rings, 0);
+        double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
+        std::size_t n_seg = 0;
+        for (std::size_t r = 0; r < n_rings; ++r) {
+            const auto& ring = poly_.rings[r];
+            if (ring.size() < 3) continue;
+            int first = -1, last = -1;
+            for (I64 v : ring) {
+                const int k = poly_.add_node(v, static_cast<int>(r));
+                if (first < 0) first = k;
+                else { N[last].next = k; N[k].prev = last; }
+                last = k;
+                xmin = std::min(xmin, N[k].x); xmax = std::max(xmax, N[k].x);
+                ymin = std::min(ymin, N[k].y); ymax = std::max(ymax, N[k].y);
+            }
+            N[last].next = first;
+            N[first].prev = last;
+            ring_first_[r] = first;
+            n_seg += ring.size();
+        }
+        if (ring_first_.empty() || ring_first_[0] < 0) return;  // no usable outer ring
+        poly_.start = ring_first_[0];
+        merged_[0] = 1;
+        link_twins(poly_);
+
+        std::vector<int> holes;
+        for (std::size_t r = 1; r < n_rings; ++r)
+            if (ring_first_[r] >= 0) holes.push_back(static_cast<int>(r));
+            else if (!poly_.rings[r].empty()) poly_.skipped.push_back(static_cast<I64>(r));
+        if (holes.empty()) return;
+
+        grid_.init(poly_.xy, xmin, ymin, xmax, ymax, n_seg);
+        for (std::size_t r = 0; r < n_rings; ++r) {
+            const auto& ring = poly_.rings[r];
+            if (ring.size() < 3) continue;
+            for (std::size_t k = 0; k < ring.size(); ++k) grid_.insert(ring[k], ring[(k + 1) % ring.size()]);
+        }
+        // Extremes of the outer list: (max x, min x, max y, min y), lexicographic.
+        ext_ = extremes(ring_first_[0]);
+        // Eberly: holes in order of decreasing maximum x.
+        std::vector<std::pair<int, int>> order;  // (max-x node, ring)
+        for (int r : holes) order.push_back({extremes(ring_first_[r])[0], r});
+        std::sort(order.begin(), order.end(), [&](const auto& a, const auto& b) {
+            const Node &p = N[a.first], &q = N[b.first];
+            if (p.x != q.x) return p.x > q.x;
+            if (p.y != q.y) return p.y > q.y;
+            return a.second < b.second;
+        });
+        for (const auto& [m, r] : order) join_one(r, m);
+    }
+
+private:
+    Polygon& poly_;
+    BridgeMethod method_;
+    SegGrid grid_;
+    std::vector<int> ring_first_;
+    std::vector<char> merged_;
+    std::array<int, 4> ext_{};
+
+    static bool lex_gt(const Node& a, const Node& b, bool y_first) {
+        if (y_first) return a.y > b.y || (a.y == b.y && a.x > b.x);
+        return a.x > b.x || (a.x == b.x && a.y > b.y);
+    }
+    std::array<int, 4> extremes(int first) const {
+        const auto& N = poly_.nodes;
+        std::array<int, 4> e{first, first, first, first};
+        int p = first;
+        do {
+            if (lex_gt(N[p], N[e[0]], false)) e[0] = p;
+            if (lex_gt(N[e[1]], N[p], false)) e[1] = p;
+            if (lex_gt(N[p], N[e[2]], true)) e[2] = p;
+            if (lex_gt(N[e[3]], N[p], true)) e[3] = p;
+            p = N[p].next;
+        } while (p != first);
+        return e;
+    }
+
+    // Among all nodes at the position of node `at` (its twins), the edges
+    // leaving that point are sorted clockwise starting from the direction to
+    // `target`. The first one reached bounds the sector the direction lies
+    // in: if it is an outgoing edge (node -> node.next) the sector is inside
+    // the region (the region is on the left of every directed edge) and that
+    // node is where a bridge toward `target` must be spliced. Returns -1 if
+    // the direction is outside the region or runs along an edge.
+    int sector_node(int at, const double* target, int skip = -1) const {
+        const auto& N = poly_.nodes;
+        const double* p = P(N[at]);
+        int best = -1;
+        bool best_out = false;
+        const double* best_q = nullptr;
+        int best_half = 2;
+        int t = at;
+        do {
+            const Node& nd = N[t];
+            if (!nd.removed && t != skip) {
+                for (int k = 0; k < 2; ++k) {
+                    const double* q = P(N[k == 0 ? nd.next : nd.prev]);
+                    const double o = orient2d(p, target, q);
+                    int half;
+                    if (o < 0) half = 0;
+                    else if (o > 0) half = 1;
+                    else if (same_direction(p, target, q)) return -1;  // along an edge
+                    else half = 1;  // opposite direction: angle pi, first of half 1
+                    bool better = best < 0 || half < best_half;
+                    // Same half: q comes first clockwise iff best_q is clockwise of q.
+                    if (best >= 0 && half == best_half) better = orient2d(p, q, best_q) < 0.0;
+                    if (better) {
+                        best = t;
+                        best_out = (k == 0);
+                        best_q = q;
+                        best_half = half;
+                    }
+                }
+            }
+            t = nd.twin;
+        } while (t != at);
+        return best_out ? best : -1;
+    }
+
+    // Does the open segment a-b avoid every ring and bridge segment?
+    bool segment_clear(const double* a, const double* b) {
+        const double* xy = poly_.xy;
+        return !grid_.any(a, b, [&](int id) {
+            const double* q0 = xy + 2 * grid_.seg[2 * id];
+            const double* q1 = xy + 2 * grid_.seg[2 * id + 1];
+            return segments_conflict(a, b, q0, q1);
+        });
+    }
+
+    // Validate and make the bridge between outer-list node at `o` and hole
+    // node at `h` (any twins at those positions). Returns true if made.
+    bool try_bridge(int o, int h, int hole) {
+        auto& N = poly_.nodes;
+        if (same_point(P(N[o]), P(N[h]))) return false;
+        const int a = sector_node(o, P(N[h]));
+        if (a < 0 || !merged_[N[a].ring]) return false;
+        const int b = sector_node(h, P(N[a]));
+        if (b < 0 || N[b].ring != hole) return false;
+        if (!segment_clear(P(N[a]), P(N[b]))) return false;
+        splice(a, b);
+        return true;
+    }
+
+    void splice(int a, int b) {
+        auto& N = poly_.nodes;
+        const int a2 = poly_.copy_node(a), b2 = poly_.copy_node(b);
+        const int an = N[a].next, bp = N[b].prev;
+        N[a].next = b; N[b].prev = a;
+        N[bp].next = b2; N[b2].prev = bp;
+        N[b2].next = a2; N[a2].prev = b2;
+        N[a2].next = an; N[an].prev = a2;
+        grid_.insert(N[a].v, N[b].v);
+        poly_.bridges.push_back(N[a].v);
+        poly_.bridges.push_back(N[b].v);
+    }
+
+    // Eberly's candidate (Appendix of the paper) for hole vertex m: the
+    // outer-list node nearest along the ray m + t(1, 0), or the reflex vertex
+    // inside triangle (m, I, P) of smallest angle with the ray. -1 if the ray
+    // meets nothing.
+    int eberly_candidate(int m) const {
+        const auto& N = poly_.nodes;
+        const Node& M = N[m];
+        double best_x = std::numeric_limits<double>::infinity();
+        int edge = -1, vert = -1;
+        int p = poly_.start;
+        do {
+            const Node &a = N[p], &b = N[a.next];
+            if (a.y == M.y && a.x >= M.x) {
+                if (a.x < best_x || (a.x == best_x && vert < 0)) { best_x = a.x; vert = p; edge = -1; }
+            } else if ((a.y < M.y && b.y > M.y) || (a.y > M.y && b.y < M.y)) {
+                // Exact: does the edge cross the ray's line right of (or at) M?
+                const int o = orient2d_sign(P(a), P(b), P(M)) * (b.y > a.y ? 1 : -1);
+                if (o >= 0) {
+                    double x = a.x + (M.y - a.y) * (b.x - a.x) / (b.y - a.y);
+                    x = std::max(x, M.x);  // rounding must not put it left of M
+                    if (x < best_x) { best_x = x; edge = p; vert = -1; }
+                }
+            }
+            p = a.next;
+        } while (p != poly_.start);
+        if (vert >= 0) return vert;
+        if (edge < 0) return -1;
+        const Node &ea = N[edge], &eb = N[ea.next];
+        const int pc = (eb.x > ea.x || (eb.x == ea.x && eb.y > ea.y)) ? ea.next : edge;  // max-x endpoint
+        const Node& Pn = N[pc];
+        const bool up = Pn.y > M.y;
+        const int side_m = orient2d_sign(P(ea), P(eb), P(M));
+        int best = -1;
+        p = poly_.start;
+        do {
+            const Node& r = N[p];
+            const int nx = r.next;
+            if (!same_point(P(r), P(Pn)) && !same_point(P(r), P(M)) && (up ? r.y > M.y : r.y < M.y)) {
+                const int se = orient2d_sign(P(ea), P(eb), P(r));
+                const int sm = orient2d_sign(P(M), P(Pn), P(r));
+                if (se * side_m >= 0 && (up ? sm <= 0 : sm >= 0)) {
+                    // Inside (or on the boundary of) triangle M, I, P.
+                    if (best < 0) best = p;
+                    else {
+                        const Node& q = N[best];
+                        const int s = orient2d_sign(P(M), P(q), P(r));
+                        // Smaller angle with the ray: counter-clockwise order above, clockwise below.
+                        const bool smaller = up ? s < 0 : s > 0;
+                        bool closer = false;
+                        if (s == 0)
+                            closer = (r.x != q.x) ? (std::fabs(r.x - M.x) < std::fabs(q.x - M.x))
+                                                  : (std::fabs(r.y - M.y) < std::fabs(q.y - M.y));
+                        if (smaller || closer) best = p;
+                    }
+                }
+            }
+            p = nx;
+        } while (p != poly_.start);
+        return best >= 0 ? best : pc;
+    }
+
+    bool extreme_point_bridge(int hole) {
+        // The paper: pair the hole's and the outer polygon's min/max X/Y
+        // vertices; if a pair is not mutually visible slide one or two
+        // vertices along either ring (both directions) around it.
+        const auto& N = poly_.nodes;
+        const std::array<int, 4> he = extremes(ring_first_[hole]);
+        static const int offsets[] = {0, 1, -1, 2, -2};
+        auto walk = [&](int n, int k) {
+            for (; k > 0; --k) n = N[n].next;
+            for (; k < 0; ++k) n = N[n].prev;
+            return n;
+        };
+        for (int e = 0; e < 4; ++e) {
+            for (int sum = 0; sum <= 4; ++sum)
+                for (int i : offsets)
+                    for (int j : offsets) {
+                        if (std::abs(i) + std::abs(j) != sum) continue;
+                        if (try_bridge(walk(ext_[e], i), walk(he[e], j), hole)) return true;
+                    }
+        }
+        return false;
+    }
+
+    // Angle measured counter-clockwise from direction r, all from point x:
+    // does direction u come strictly before direction v? Directions along r
+    // (angle 0) are reported as "not before" by the caller's checks.
+    static bool ccw_before(const double* x, const double* r, const double* u, const double* v) {
+        auto half = [&](const double* q) {
+            const double o = orient2d(x, r, q);
+            if (o > 0) return 0;
+            if (o < 0) return 1;
+            return same_direction(x, r, q) ? -1 : 1;
+        };
+        const int hu = half(u), hv = half(v);
+        if (hu != hv) return hu < hv;
+        return orient2d(x, u, v) > 0.0;
+    }
+
+    // A hole that shares a point with the outer list is joined there, with
+    // no bridge: outer node A and hole node B at the same position become
+    // A.prev -> A -> B.next ... B.prev -> B -> A.next. This keeps the polygon
+    // weakly simple (the sectors of the two nodes stay disjoint), which a
+    // bridge elsewhere would not. Valid only if the hole's wedge at B lies in
+    // the region sector of A, with no other edge in between.
+    bool touch_join(int any_at, int b) {
+        auto& N = poly_.nodes;
+        const int bn = N[b].next, bp = N[b].prev;
+        const int a1 = sector_node(any_at, P(N[bn]), b);
+        if (a1 < 0 || !merged_[N[a1].ring]) return false;
+        const int a2 = sector_node(any_at, P(N[bp]), b);
+        if (a2 != a1) return false;
+        const double* x = P(N[b]);
+        const double* r = P(N[N[a1].next]);
+        if (!ccw_before(x, r, P(N[bp]), P(N[bn]))) return false;
+        const int an = N[a1].next;
+        N[a1].next = bn; N[bn].prev = a1;
+        N[b].next = an; N[an].prev = b;
+        poly_.bridges.push_back(N[a1].v);
+        poly_.bridges.push_back(N[b].v);
+        return true;
+    }
+    bool try_touch(int hole) {
+        auto& N = poly_.nodes;
+        const int first = ring_first_[hole];
+        int h = first;
+        do {
+            for (int t = N[h].twin; t != h; t = N[t].twin)
+                if (merged_[N[t].ring] && touch_join(t, h)) return true;
+            h = N[h].next;
+        } while (h != first);
+        return false;
+    }
+
+    void join_one(int hole, int m) {
+        auto& N = poly_.nodes;
+        bool done = try_touch(hole);
+        if (!done && method_ == BridgeMethod::extreme_point) done = extreme_point_bridge(hole);
+        if (!done) {
+            const int c = eberly_candidate(m);
+            if (c >= 0) done = try_bridge(c, m, hole);
+        }
+        if (!done) {
+            // Exact Eberly needs a simple polygon; for touching or invalid
+            // rings try every outer-list vertex by distance, then every hole
+            // vertex, with the exact visibility test.
+            std::vector<std::pair<double, int>> cand;
+            int p = poly_.start;
+            do {
+                const double dx = N[p].x - N[m].x, dy = N[p].y - N[m].y;
+                cand.push_back({dx * dx + dy * dy, p});
+                p = N[p].next;
+            } while (p != poly_.start);
+            std::sort(cand.begin(), cand.end());
+            for (const auto& c : cand)
+                if (try_bridge(c.second, m, hole)) { done = true; break; }
+            if (!done) {
+                int h = N[m].next;
+                while (!done && h != m) {
+                    int best = -1;
+                    double bd = std::numeric_limits<double>::infinity();
+                    for (const auto& c : cand) {
+                        const double dx = N[c.second].x - N[h].x, dy = N[c.second].y - N[h].y;
+                        if (dx * dx + dy * dy < bd && try_bridge(c.second, h, hole)) { done = true; best = c.second; break; }
+                    }
+                    (void)best;
+                    h = N[h].next;
+                }
+            }
+        }
+        if (!done) {
+            poly_.skipped.push_back(hole);
+            return;
+        }
+        merged_[hole] = 1;
+        // Update the outer list's extremes with the hole's.
+        const std::array<int, 4> he = extremes(ring_first_[hole]);
+        if (lex_gt(N[he[0]], N[ext_[0]], false)) ext_[0] = he[0];
+        if (lex_gt(N[ext_[1]], N[he[1]], false)) ext_[1] = he[1];
+        if (lex_gt(N[he[2]], N[ext_[2]], true)) ext_[2] = he[2];
+        if (lex_gt(N[ext_[3]], N[he[3]], true)) ext_[3] = he[3];
+    }
+};
+
+// ----------------------------------------------------------------- ear clipping
+
+class Clipper {
+public:
+    Clipper(Polygon& p, std::vector<I64>& out) : poly_(p), N_(p.nodes), out_(out) {}
+
+    void run(EarOrder order) {
+        if (poly_.start < 0) return;
+        // Collect the live list.
+        std::vector<int> live;
+        int p = poly_.start;
+        do {
+            live.push_back(p);
+            p = N_[p].next;
+        } while (p != poly_.start);
+        remaining_ = live.size();
+        if (remaining_ < 3) return;
+        out_.reserve(out_.size() + 3 * (remaining_ - 2));
+        double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
+        std::vector<int> reflex;
+        for (int i : live) {
+            Node& n = N_[i];
+            n.reflex = orient2d(P(N_[n.prev]), P(n), P(N_[n.next])) <= 0.0;
+            if (n.reflex) reflex.push_back(i);
+            xmin = std::min(xmin, n.x); xmax = std::max(xmax, n.x);
+            ymin = std::min(ymin, n.y); ymax = std::max(ymax, n.y);
+        }
+        build_grid(reflex, xmin, ymin, xmax, ymax);
+        if (order == EarOrder::quality) clip_quality(live);
+        else clip_plain();
+        // Last triangle.
+        if (remaining_ == 3) {
+            const Node& b = N_[cur_];
+            const Node &a = N_[b.prev], &c = N_[b.next];
+            if (orient2d(P(a), P(b), P(c)) > 0.0) emit(a, b, c);
+        }
+    }
+
+private:
+    Polygon& poly_;
+    std::vector<Node>& N_;
+    std::vector<I64>& out_;
+    std::size_t remaining_ = 0;
+    int cur_ = -1;
+    // Reflex grid (CSR).
+    double gx0_ = 0, gy0_ = 0, gcw_ = 1, gch_ = 1;
+    int gnx_ = 1, gny_ = 1;
+    std::vector<int> gstart_, gitems_;
+
+    void build_grid(const std::vector<int>& reflex, double xmin, double ymin, double xmax, double ymax) {
+        const double w = xmax - xmin, h = ymax - ymin;
+        const double target = std::max<double>(1.0, 0.5 * static_cast<double>(reflex.size()));
+        if (w > 0 && h > 0) {
+            gnx_ = static_cast<int>(std::clamp(std::sqrt(target * w / h), 1.0, 2048.0));
+            gny_ = static_cast<int>(std::clamp(std::sqrt(target * h / w), 1.0, 2048.0));
+        } else {
+            gnx_ = gny_ = 1;
+        }
+        gx0_ = xmin;
+        gy0_ = ymin;
+        gcw_ = w > 0 ? w / gnx_ : 1.0;
+        gch_ = h > 0 ? h / gny_ : 1.0;
+        gstart_.assign(static_cast<std::size_t>(gnx_) * gny_ + 1, 0);
+        std::vector<int> cell(reflex.size());
+        for (std::size_t k = 0; k < reflex.size(); ++k) {
+            const Node& n = N_[reflex[k]];
+            cell[k] = gcol(n.x) * gny_ + grow(n.y);
+            ++gstart_[cell[k] + 1];
+        }
+        for (std::size_t c = 1; c < gstart_.size(); ++c) gstart_[c] += gstart_[c - 1];
+        gitems_.resize(reflex.size());
+        std::vector<int> fill(gstart_.begin(), gstart_.end() - 1);
+        for (std::size_t k = 0; k < reflex.size(); ++k) gitems_[fill[cell[k]]++] = reflex[k];
+    }
+    int gcol(double x) const {
+        const double c = std::floor((x - gx0_) / gcw_);
+        return c < 0 ? 0 : (c >= gnx_ ? gnx_ - 1 : static_cast<int>(c));
+    }
+    int grow(double y) const {
+        const double r = std::floor((y - gy0_) / gch_);
+        return r < 0 ? 0 : (r >= gny_ ? gny_ - 1 : static_cast<int>(r));
+    }
+
+    void emit(const Node& a, const Node& b, const Node& c) {
+        out_.push_back(a.v);
+        out_.push_back(b.v);
+        out_.push_back(c.v);
+    }
+
+    // Corner X of triangle (X, Y, Z) (counter-clockwise): is the direction to
+    // q strictly inside the triangle's angle at X?
+    static bool in_corner(const double* x, const double* y, const double* z, const double* q) {
+        return orient2d(x, y, q) > 0.0 && orient2d(z, x, q) > 0.0;
+    }
+
+    // A node coincident with a triangle corner blocks the ear if one of its
+    // edges enters the triangle there (region sectors of coincident nodes of
+    // a weakly simple polygon are disjoint, so edges are all that matter).
+    //
+    // At the tip b, a coincident node whose edges are exactly the reverses of
+    // the ear's two edges (c -> b' -> a) closes a zero-area remnant around
+    // the triangle: the region lies on both sides, i.e. nowhere, so the ear
+    // is not part of the polygon (the last step of an hourglass ring).
+    bool twins_block(int corner, const double* y, const double* z, bool tip) const {
+        const Node& c = N_[corner];
+        for (int t = c.twin; t != corner; t = N_[t].twin) {
+            const Node& n = N_[t];
+            if (n.removed) continue;
+            const double* np = P(N_[n.prev]);
+            const double* nn = P(N_[n.next]);
+            if (in_corner(P(c), y, z, np) || in_corner(P(c), y, z, nn)) return true;
+            if (tip && same_point(np, y) && same_point(nn, z)) return true;
+        }
+        return false;
+    }
+
+    // Is node ib an ear tip? Strictly convex, and no other vertex in the
+    // closed triangle (only non-convex vertices need testing: if a vertex is
+    // inside, a reflex one is).
+    bool is_ear(int ib) const {
+        const Node& b = N_[ib];
+        const int ia = b.prev, ic = b.next;
+        const Node &a = N_[ia], &c = N_[ic];
+        if (orient2d(P(a), P(b), P(c)) <= 0.0) return false;
+        if (a.twin != ia && twins_block(ia, P(b), P(c), false)) return false;
+        if (b.twin != ib && twins_block(ib, P(c), P(a), true)) return false;
+        if (c.twin != ic && twins_block(ic, P(a), P(b), false)) return false;
+        const double minx = std::min({a.x, b.x, c.x}), maxx = std::max({a.x, b.x, c.x});
+        const double miny = std::min({a.y, b.y, c.y}), maxy = std::max({a.y, b.y, c.y});
+        const int c0 = gcol(minx), c1 = gcol(maxx), r0 = grow(miny), r1 = grow(maxy);
+        for (int cx = c0; cx <= c1; ++cx) {
+            const int base = cx * gny_;
+            for (int k = gstart_[base + r0], e = gstart_[base + r1 + 1]; k < e; ++k) {
+                const int ir = gitems_[k];
+                const Node& r = N_[ir];
+                if (r.removed || !r.reflex || ir == ia || ir == ib || ir == ic) continue;
+                if (r.x < minx || r.x > maxx || r.y < miny || r.y > maxy) continue;
+                if (same_point(P(r), P(a)) || same_point(P(r), P(b)) || same_point(P(r), P(c))) continue;
+                if (orient2d(P(a), P(b), P(r)) >= 0.0 && orient2d(P(b), P(c), P(r)) >= 0.0 &&
+                    orient2d(P(c), P(a), P(r)) >= 0.0)
+                    return false;
+            }
+        }
+        return true;
+    }
+
+    // Minimum-angle proxy of triangle (prev, b, next): sin^2 of the smallest
+    // angle = (2 area)^2 / (product of the two longer squared sides). It is
+    // monotone in the smallest angle (which is at most 60 degrees).
+    double ear_key(int ib) const {
+        const Node& b = N_[ib];
+        const Node &a = N_[b.prev], &c = N_[b.next];
+        const double abx = b.x - a.x, aby = b.y - a.y, bcx = c.x - b.x, bcy = c.y - b.y;
+        const double cax = a.x - c.x, cay = a.y - c.y;
+        double s1 = abx * abx + aby * aby, s2 = bcx * bcx + bcy * bcy, s3 = cax * cax + cay * cay;
+        const double area2 = abx * bcy - aby * bcx;
+        const double mn = std::min({s1, s2, s3});
+        const double prod = s1 * s2 * s3 / mn;
+        return prod > 0 ? area2 * area2 / prod : 0.0;
+    }
+
+    void update_reflex(int i) {
+        Node& n = N_[i];
+        if (n.reflex) n.reflex = orient2d(P(N_[n.prev]), P(n), P(N_[n.next])) <= 0.0;
+    }
+
+    void remove(int ib, bool emit_triangle) {
+        Node& b = N_[ib];
+        Node &a = N_[b.prev], &c = N_[b.next];
+        if (emit_triangle) emit(a, b, c);
+        a.next = b.next;
+        c.prev = b.prev;
+        b.removed = true;
+        --remaining_;
+        update_reflex(b.prev);
+        update_reflex(b.next);
+        cur_ = b.next;
+    }
+
+    // No ear left (invalid or degenerate input): remove one vertex anyway so
+    // that the loop terminates. Prefer a strictly convex vertex whose triangle
+    // has no vertex strictly inside, then any strictly convex vertex, then a
+    // collinear one (no area lost), then any vertex.
+    int forced_vertex(int from) const {
+        int convex = -1, flat = -1;
+        int p = from;
+        do {
+            const Node& b = N_[p];
+            const double o = orient2d(P(N_[b.prev]), P(b), P(N_[b.next]));
+            if (o > 0.0) {
+                if (!strictly_occupied(p)) return p;
+                if (convex < 0) convex = p;
+            } else if (o == 0.0 && flat < 0) {
+                flat = p;
+            }
+            p = b.next;
+        } while (p != from);
+        if (convex >= 0) return convex;
+        if (flat >= 0) return flat;
+        return from;
+    }
+    bool strictly_occupied(int ib) const {
+        const Node& b = N_[ib];
+        const Node &a = N_[b.prev], &c = N_[b.next];
+        for (int p = c.next; p != b.prev; p = N_[p].next) {
+            const Node& r = N_[p];
+            if (orient2d(P(a), P(b), P(r)) > 0.0 && orient2d(P(b), P(c), P(r)) > 0.0 &&
+                orient2d(P(c), P(a), P(r)) > 0.0)
+                return true;
+        }
+        return false;
+    }
+    // A self-crossing ring (invalid input) can twist locally: edges a-p and
+    // q-b of four consecutive nodes a, p, q, b cross. The twist is cut off
+    // by triangle (a, p, b) (if counter-clockwise) and p, q are removed, as
+    // mapbox/earcut does; this keeps far more of the area than clipping a
+    // vertex whose triangle overlaps others.
+    bool cure_local_crossing(int from) {
+        int p = from;
+        do {
+            const Node& np = N_[p];
+            const int ia = np.prev, iq = np.next, ib = N_[iq].next;
+            if (ib != ia && N_[ib].next != ia) {
+                const Node &a = N_[ia], &q = N_[iq], &b = N_[ib];
+                const int o1 = orient2d_sign(P(a), P(np), P(q)), o2 = orient2d_sign(P(a), P(np), P(b));
+                const int o3 = orient2d_sign(P(q), P(b), P(a)), o4 = orient2d_sign(P(q), P(b), P(np));
+                if (o1 * o2 < 0 && o3 * o4 < 0) {
+                    if (orient2d(P(a), P(np), P(b)) > 0.0) emit(a, np, b);
+                    remove(p, false);
+                    remove(iq, false);
+                    return true;
+                }
+            }
+            p = np.next;
+        } while (p != from);
+        return false;
+    }
+
+    // Signed area of what is left, relative to its size: a remnant whose
+    // area is zero up to rounding holds no region (all its edges doubled, as
+    // after the real ears of a pinched ring are gone) and is dropped whole.
+    bool remnant_is_empty(int from) const {
+        long double s = 0, scale = 0;
+        const double x0 = N_[from].x, y0 = N_[from].y;
+        int p = from;
+        do {
+            const Node &a = N_[p], &b = N_[a.next];
+            const long double t = static_cast<long double>(a.x - x0) * (b.y - y0) -
+                                  static_cast<long double>(b.x - x0) * (a.y - y0);
+            s += t;
+            scale += std::fabs(static_cast<double>(t));
+            p = a.next;
+        } while (p != from);
+        // Each term is exact to ~1e-16 relative; 1e-12 of their absolute sum
+        // separates rounding from any real area left.
+        return std::fabs(static_cast<double>(s)) <= 1e-12 * static_cast<double>(scale);
+    }
+    void force_one(int from) {
+        if (remnant_is_empty(from)) {
+            // Drop every remaining vertex without triangles.
+            int p = from;
+            while (remaining_ > 0) {
+                const int nx = N_[p].next;
+                N_[p].removed = true;
+                --remaining_;
+                p = nx;
+            }
+            return;
+        }
+        if (cure_local_crossing(from)) return;
+        const int v = forced_vertex(from);
+        const Node& b = N_[v];
+        const bool positive = orient2d(P(N_[b.prev]), P(b), P(N_[b.next])) > 0.0;
+        remove(v, positive);
+    }
+
+    // Eberly's order: walk the ring and clip each ear as it is found.
+    void clip_plain() {
+        int p = poly_.start;
+        int stop = p;
+        cur_ = p;
+        while (remaining_ > 3) {
+            if (is_ear(p)) {
+                remove(p, true);
+                p = cur_;
+                stop = p;
+                continue;
+            }
+            p = N_[p].next;
+            if (p == stop) {
+                force_one(p);
+                p = cur_;
+                stop = p;
+            }
+        }
+        cur_ = p;
+    }
+
+    struct Entry {
+        double key;
+        int node, stamp;
+        bool operator<(const Entry& o) const { return key < o.key || (key == o.key && node > o.node); }
+    };
+
+    // Quality order: always clip the ear with the largest minimum angle.
+    void clip_quality(const std::vector<int>& live) {
+        std::priority_queue<Entry> heap;
+        auto consider = [&](int i) {
+            Node& n = N_[i];
+            ++n.stamp;
+            if (!n.removed && is_ear(i)) heap.push({ear_key(i), i, n.stamp});
+        };
+        for (int i : live) consider(i);
+        cur_ = poly_.start;
+        while (remaining_ > 3) {
+            if (heap.empty()) {
+                // Ear status of non-adjacent vertices does not change for a
+                // simple polygon; for weakly simple ones it may, so rescan
+                // once before forcing a vertex out.
+                int p = cur_;
+                do {
+                    consider(p);
+                    p = N_[p].next;
+                } while (p != cur_);
+                if (heap.empty()) {
+                    force_one(cur_);
+                    consider(N_[cur_].prev);
+                    consider(cur_);
+                    continue;
+                }
+            }
+            const Entry e = heap.top();
+            heap.pop();
+            const Node& n = N_[e.node];
+            if (n.removed || n.stamp != e.stamp) continue;
+            const int a = n.prev, c = n.next;
+            remove(e.node, true);
+            consider(a);
+            consider(c);
+        }
+    }
+};
+
+void ring_edges(const Polygon& poly, std::vector<I64>& edges) {
+    for (std::size_t r = 0; r < poly.rings.size(); ++r) {
+        const auto& ring = poly.rings[r];
+        if (ring.size() < 3) continue;
+        for (std::size_t k = 0; k < ring.size(); ++k) {
+            edges.push_back(ring[k]);
+            edges.push_back(ring[(k + 1) % ring.size()]);
+        }
+    }
+}
+
+// Build the oriented rings: outer counter-clockwise, holes clockwise;
+// degenerate rings (fewer than 3 vertices, zero area) emptied.
+void orient_rings(Polygon& poly, Rings&& rings) {
+    poly.rings = std::move(rings.v);
+    for (std::size_t r = 0; r < poly.rings.size(); ++r) {
+        auto& ring = poly.rings[r];
+        const int o = ring_orientation(poly.xy, ring);
+        if (o == 0) {
+            if (!ring.empty()) ring.clear(), poly.skipped.push_back(static_cast<I64>(r));
+            continue;
+        }
+        if ((r == 0 && o < 0) || (r > 0 && o > 0)) std::reverse(ring.begin(), ring.end());
+    }
+    if (!poly.rings.empty() && poly.rings[0].empty()) {
+        // Without an outer ring there is nothing to triangulate.
+        for (auto& ring : poly.rings) ring.clear();
+    }
+}
+
+std::string ring_label(I64 r) { return r == 0 ? std::string("outer ring 0") : "ring " + std::to_string(r); }
+
+// ----------------------------------------------------------------- validity
+
+PolygonCheck check_rings(const double* xy, const std::vector<std::vector<I64>>& rings) {
+    PolygonCheck res;
+    auto fail = [&](I64 ring, I64 vertex, std::string msg) {
+        res.valid = false;
+        res.ring = ring;
+        res.vertex = vertex;
+        res.message = std::move(msg);
+        return res;
+    };
+    if (rings.empty()) return fail(-1, -1, "no rings");
+    double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
+    std::size_t n_seg = 0;
+    for (std::size_t r = 0; r < rings.size(); ++r) {
+        const auto& ring = rings[r];
+        if (ring.size() < 3)
+            return fail(static_cast<I64>(r), ring.empty() ? -1 : ring[0],
+                        ring_label(r) + " has fewer than 3 distinct consecutive vertices");
+        if (ring_orientation(xy, ring) == 0)
+            return fail(static_cast<I64>(r), ring[0], ring_label(r) + " has zero area");
+        for (I64 v : ring) {
+            xmin = std::min(xmin, xy[2 * v]); xmax = std::max(xmax, xy[2 * v]);
+            ymin = std::min(ymin, xy[2 * v + 1]); ymax = std::max(ymax, xy[2 * v + 1]);
+        }
+        n_seg += ring.size();
+    }
+    SegGrid grid;
+    grid.init(xy, xmin, ymin, xmax, ymax, n_seg);
+    std::vector<std::pair<I64, I64>> owner;  // (ring, position) per segment
+    for (std::size_t r = 0; r < rings.size(); ++r)
+        for (std::size_t k = 0; k < rings[r].size(); ++k) {
+            grid.insert(rings[r][k], rings[r][(k + 1) % rings[r].size()]);
+            owner.push_back({static_cast<I64>(r), static_cast<I64>(k)});
+        }
+    const std::size_t ns = owner.size();
+    for (std::size_t s = 0; s < ns; ++s) {
+        const double* p0 = xy + 2 * grid.seg[2 * s];
+        const double* p1 = xy + 2 * grid.seg[2 * s + 1];
+        int other = -1;
+        bool touch = false;
+        grid.any(p0, p1, [&](int id) {
+            if (static_cast<std::size_t>(id) <= s) return false;
+            const double* q0 = xy + 2 * grid.seg[2 * id];
+            const double* q1 = xy + 2 * grid.seg[2 * id + 1];
+            if (segments_conflict(p0, p1, q0, q1)) { other = id; return true; }
+            // Valid means strictly simple: the only shared point allowed is
+            // the common vertex of two consecutive edges of one ring. Touching
+            // rings are triangulated, but their triangle count is not n + 2h - 2.
+            const bool shares = same_point(p0, q0) || same_point(p0, q1) || same_point(p1, q0) ||
+                                same_point(p1, q1);
+            if (shares) {
+                const auto [r1, k1] = owner[s];
+                const auto [r2, k2] = owner[id];
+                const I64 len = static_cast<I64>(rings[r1].size());
+                const bool consecutive = r1 == r2 && ((k1 + 1) % len == k2 || (k2 + 1) % len == k1);
+                if (!consecutive) { other = id; touch = true; return true; }
+            }
+            return false;
+        });
+        if (other >= 0) {
+            const auto [r1, k1] = owner[s];
+            const auto [r2, k2] = owner[other];
+            return fail(r1, grid.seg[2 * s],
+                        ring_label(r1) + " edge " + std::to_string(grid.seg[2 * s]) + "-" +
+                            std::to_string(grid.seg[2 * s + 1]) + " (position " + std::to_string(k1) +
+                            ") meets " + ring_label(r2) + " edge " + std::to_string(grid.seg[2 * other]) +
+                            "-" + std::to_string(grid.seg[2 * other + 1]) + " (position " +
+                            std::to_string(k2) + (touch ? ") at a vertex (touching rings)"
+                                                              : ") other than at a shared vertex"));
+        }
+    }
+    // Nesting. With no edges meeting, a ring is inside another iff any of its
+    // vertices not on the other's boundary is.
+    auto side = [&](const double* q, const std::vector<I64>& ring) {  // +1 in, -1 out, 0 on
+        int wn = 0;
+        const std::size_t n = ring.size();
+        for (std::size_t k = 0; k < n; ++k) {
+            const double* a = xy + 2 * ring[k];
+            const double* b = xy + 2 * ring[(k + 1) % n];
+            if (same_point(a, q)) return 0;
+            const double o = orient2d(a, b, q);
+            if (o == 0.0 && strictly_between(a, b, q)) return 0;
+            if (a[1] <= q[1]) {
+                if (b[1] > q[1] && o > 0.0) ++wn;
+            } else if (b[1] <= q[1] && o < 0.0) {
+                --wn;
+            }
+        }
+        return wn != 0 ? 1 : -1;
+    };
+    auto classify = [&](const std::vector<I64>& inner, const std::vector<I64>& outer) {
+        for (I64 v : inner) {
+            const int s = side(xy + 2 * v, outer);
+            if (s != 0) return s;
+        }
+        return 0;  // every vertex on the other's boundary
+    };
+    std::vector<std::array<double, 4>> box(rings.size());
+    for (std::size_t r = 0; r < rings.size(); ++r) {
+        box[r] = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                  -std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+        for (I64 v : rings[r]) {
+            box[r][0] = std::min(box[r][0], xy[2 * v]); box[r][1] = std::min(box[r][1], xy[2 * v + 1]);
+            box[r][2] = std::max(box[r][2], xy[2 * v]); box[r][3] = std::max(box[r][3], xy[2 * v + 1]);
+        }
+    }
+    for (std::size_t h = 1; h < rings.size(); ++h) {
+        const int s = classify(rings[h], rings[0]);
+        if (s < 0) return fail(static_cast<I64>(h), rings[h][0], ring_label(h) + " lies outside the outer ring");
+        if (s == 0)
+            return fail(static_cast<I64>(h), rings[h][0],
+                        ring_label(h) + " has every vertex on the outer ring's boundary");
+    }
+    for (std::size_t h = 1; h < rings.size(); ++h)
+        for (std::size_t g = 1; g < rings.size(); ++g) {
+            if (g == h) continue;
+            const auto &bh = box[h], &bg = box[g];
+            if (bh[0] < bg[0] || bh[2] > bg[2] || bh[1] < bg[1] || bh[3] > bg[3]) continue;
+            const int s = classify(rings[h], rings[g]);
+            if (s > 0)
+                return fail(static_cast<I64>(h), rings[h][0],
+                            ring_label(h) + " lies inside " + ring_label(g) + " (a hole in a hole)");
+            if (s == 0)
+                return fail(static_cast<I64>(h), rings[h][0],
+                            ring_label(h) + " has every vertex on the boundary of " + ring_label(g));
+        }
+    return res;
+}
+
+std::vector<I64> triangulate(const char* fn, const double* xy, std::size_t n_points, const I64* ring_vertices,
+                             const I64* ring_offsets, std::size_t n_rings, const EarClipOptions& opt) {
+    Rings rings = read_rings(fn, xy, n_points, ring_vertices, ring_offsets, n_rings);
+    if (opt.strict) {
+        const PolygonCheck chk = check_rings(xy, rings.v);
+        if (!chk.valid) throw GeometryError(std::string(fn) + ": invalid polygon: " + chk.message);
+    }
+    Polygon poly;
+    poly.xy = xy;
+    poly.n_points = n_points;
+    orient_rings(poly, std::move(rings));
+    std::size_t total = 0;
+    for (const auto& r : poly.rings) total += r.size();
+    poly.nodes.reserve(total + 2 * poly.rings.size() + 4);
+    Joiner(poly, opt.bridge).run();
+    std::vector<I64> tris;
+    Clipper(poly, tris).run(opt.order);
+    if (opt.refine && !tris.empty()) {
+        std::vector<I64> edges;
+        ring_edges(poly, edges);
+        flip_to_constrained_delaunay(xy, n_points, tris, edges.data(), edges.size() / 2);
+    }
+    return tris;
+}
+
+}  // namespace
+}  // namespace detail
+
+std::vector<std::int64_t> triangulate_polygon(const double* xy, const std::int64_t* ring_offsets,
+                                              std::size_t n_rings, const EarClipOptions& options) {
+    const std::size_t n_points = n_rings > 0 && ring_offsets ? static_cast<std::size_t>(std::max<std::int64_t>(0, ring_offsets[n_rings])) : 0;
+    return detail::triangulate("triangulate_polygon", xy, n_points, nullptr, ring_offsets, n_rings, options);
+}
+
+std::vector<std::int64_t> triangulate_polygon_indexed(const double* xy, std::size_t n_points,
+                                                      const std::int64_t* ring_vertices,
+                                                      const std::int64_t* ring_offsets,
+                                                      std::size_t n_rings, const EarClipOptions& options) {
+    return detail::triangulate("triangulate_polygon_indexed", xy, n_points, ring_vertices, ring_offsets,
+                               n_rings, options);
+}
+
+JoinedPolygon join_holes(const double* xy, std::size_t n_points, const std::int64_t* ring_vertices,
+                         const std::int64_t* ring_offsets, std::size_t n_rings, BridgeMethod method) {
+    detail::Rings rings = detail::read_rings("join_holes", xy, n_points, ring_vertices, ring_offsets, n_rings);
+    detail::Polygon poly;
+    poly.xy = xy;
+    poly.n_points = n_points;
+    detail::orient_rings(poly, std::move(rings));
+    detail::Joiner(poly, method).run();
+    JoinedPolygon out;
+    if (poly.start >= 0) {
+        int p = poly.start;
+        do {
+            out.loop.push_back(poly.nodes[p].v);
+            p = poly.nodes[p].next;
+        } while (p != poly.start);
+    }
+    out.bridges = std::move(poly.bridges);
+    out.skipped_rings = std::move(poly.skipped);
+    std::sort(out.skipped_rings.begin(), out.skipped_rings.end());
+    return out;
+}
+
+PolygonCheck check_polygon(const double* xy, std::size_t n_points, const std::int64_t* ring_vertices,
+                           const std::int64_t* ring_offsets, std::size_t n_rings) {
+    detail::Rings rings = detail::read_rings("check_polygon", xy, n_points, ring_vertices, ring_offsets, n_rings);
+    return detail::check_rings(xy, rings.v);
+}
+
+}  // namespace faultmesh
