@@ -1,6 +1,227 @@
-// Bindings for stitch: written by the issue that implements the algorithm.
+// Bindings for stitch: the LayerStitcher class (many faults into one layer),
+// the one-shot stitch() and triangles_touching_region().
+#include <faultmesh/stitch.hpp>
+
 #include "common.hpp"
 
 namespace faultmesh::bindings {
-void bind_stitch(py::module_& m) { (void)m; }
+
+namespace {
+
+void gather_rings_st(const py::handle& rings, const char* fn, std::vector<double>& xy,
+                     std::vector<std::int64_t>& offsets) {
+    offsets.assign(1, 0);
+    auto add = [&](const py::handle& obj, const std::string& what) {
+        DoubleArray a = as_points(obj, fn, what.c_str(), 2, 2);
+        xy.insert(xy.end(), a.data(), a.data() + 2 * a.shape(0));
+        offsets.push_back(offsets.back() + a.shape(0));
+    };
+    if (py::isinstance<py::array>(rings) && py::reinterpret_borrow<py::array>(rings).ndim() == 2) {
+        add(rings, "rings");
+        return;
+    }
+    if (!py::isinstance<py::sequence>(rings) || py::isinstance<py::str>(rings))
+        throw std::invalid_argument(std::string(fn) + ": rings must be a list of (k, 2) arrays");
+    py::sequence seq = py::reinterpret_borrow<py::sequence>(rings);
+    for (py::ssize_t i = 0; i < static_cast<py::ssize_t>(seq.size()); ++i)
+        add(seq[i], "rings[" + std::to_string(i) + "]");
+}
+
+StitchOptions make_options(bool refine, const std::string& order, const std::string& bridge,
+                           double tol, const char* fn) {
+    StitchOptions o;
+    o.ear_clip.refine = refine;
+    if (order == "quality") o.ear_clip.order = EarOrder::quality;
+    else if (order == "plain") o.ear_clip.order = EarOrder::plain;
+    else throw std::invalid_argument(std::string(fn) + ": order must be 'quality' or 'plain', got '" + order + "'");
+    if (bridge == "extreme" || bridge == "extreme_point") o.ear_clip.bridge = BridgeMethod::extreme_point;
+    else if (bridge == "eberly") o.ear_clip.bridge = BridgeMethod::eberly;
+    else throw std::invalid_argument(std::string(fn) + ": bridge must be 'extreme' or 'eberly', got '" + bridge + "'");
+    o.boundary_tolerance = tol;
+    return o;
+}
+
+py::array_t<std::int64_t> idx(const std::vector<std::int64_t>& v) {
+    return to_numpy(std::vector<std::int64_t>(v));
+}
+
+py::dict report_dict(StitchReport&& r) {
+    py::dict d;
+    d["patch_id"] = r.patch_id;
+    d["patch_vertex_offset"] = r.patch_vertex_offset;
+    d["patch_triangle_offset"] = r.patch_triangle_offset;
+    d["patch_flipped"] = r.patch_flipped;
+    py::list gaps;
+    for (auto& g : r.gaps) {
+        py::dict gd;
+        gd["id"] = g.id;
+        gd["rows"] = idx(g.triangles);
+        gd["n_vertices"] = g.n_vertices;
+        gd["n_holes"] = g.n_holes;
+        gd["patches"] = idx(g.patches);
+        gd["merged_gaps"] = idx(g.merged_gaps);
+        gaps.append(gd);
+    }
+    d["gaps"] = gaps;
+    d["removed"] = to_numpy(std::move(r.removed));
+    d["merged_gaps"] = to_numpy(std::move(r.merged_gaps));
+    d["n_candidates"] = r.n_candidates;
+    d["grow_rounds"] = r.grow_rounds;
+    return d;
+}
+
+py::dict mesh_dict(StitchedMesh&& m) {
+    py::dict d;
+    d["vertices"] = to_numpy(std::move(m.vertices), 3);
+    d["triangles"] = to_numpy(std::move(m.triangles), 3);
+    d["kinds"] = to_numpy(std::move(m.kinds));
+    d["owners"] = to_numpy(std::move(m.owners));
+    d["vertex_map"] = to_numpy(std::move(m.vertex_map));
+    d["triangle_map"] = to_numpy(std::move(m.triangle_map));
+    return d;
+}
+
+}  // namespace
+
+void bind_stitch(py::module_& m) {
+    py::class_<LayerStitcher>(m, "Stitcher", R"doc(
+Stitches fault patches into one layer surface, one after another (paper 2.4-2.6).
+
+Stitcher(vertices (n, 3), triangles (m, 3) CCW TIN, boundary=None (k, 2) study area,
+         halfedges=None (3m,) opposite half-edges (Tin.halfedges) to skip the adjacency
+         build, name="layer", refine=True, order="quality", bridge="extreme",
+         boundary_tolerance=-1 (auto))
+
+Each stitch() is local to the patch's neighbourhood: AABB candidates, exact
+closed-region overlap, growth of the removed set to a disk strictly containing the
+patch outline (earlier gaps are merged, earlier patches become holes), gap polygons
+(with the study-area boundary for a fault that reaches it), ear clipping in XY,
+local merge with shared vertices. mesh() returns the compacted surface.
+)doc")
+        .def(py::init([](const py::handle& vertices, const py::handle& triangles, const py::handle& boundary,
+                         const py::handle& halfedges, const std::string& name, bool refine,
+                         const std::string& order, const std::string& bridge, double tol) {
+                 const char* fn = "Stitcher";
+                 auto V = as_points(vertices, fn, "vertices", 3, 3);
+                 auto T = as_indices(triangles, fn, "triangles", 3);
+                 std::vector<double> bxy;
+                 if (!boundary.is_none()) {
+                     auto B = as_points(boundary, fn, "boundary", 2, 2);
+                     bxy.assign(B.data(), B.data() + 2 * B.shape(0));
+                 }
+                 std::vector<std::int64_t> he;
+                 if (!halfedges.is_none()) {
+                     IndexArray H = IndexArray::ensure(halfedges);
+                     if (!H || H.ndim() != 1 || H.shape(0) != 3 * T.shape(0))
+                         throw std::invalid_argument("Stitcher: halfedges must have shape (3 m,) = (" +
+                                                     std::to_string(3 * T.shape(0)) + ",)");
+                     he.assign(H.data(), H.data() + H.shape(0));
+                 }
+                 StitchOptions opt = make_options(refine, order, bridge, tol, fn);
+                 py::gil_scoped_release release;
+                 return new LayerStitcher(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
+                                          static_cast<std::size_t>(T.shape(0)), bxy.empty() ? nullptr : bxy.data(),
+                                          bxy.size() / 2, he.empty() ? nullptr : he.data(), name, opt);
+             }),
+             py::arg("vertices"), py::arg("triangles"), py::arg("boundary") = py::none(),
+             py::arg("halfedges") = py::none(), py::arg("name") = "layer", py::arg("refine") = true,
+             py::arg("order") = "quality", py::arg("bridge") = "extreme", py::arg("boundary_tolerance") = -1.0)
+        .def(
+            "stitch",
+            [](LayerStitcher& st, const py::handle& pv, const py::handle& pt, const std::string& name) {
+                const char* fn = "Stitcher.stitch";
+                auto V = as_points(pv, fn, "patch_vertices", 3, 3);
+                auto T = as_indices(pt, fn, "patch_triangles", 3);
+                StitchReport r;
+                {
+                    py::gil_scoped_release release;
+                    r = st.stitch(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
+                                  static_cast<std::size_t>(T.shape(0)), name);
+                }
+                return report_dict(std::move(r));
+            },
+            py::arg("patch_vertices"), py::arg("patch_triangles"), py::arg("name") = "patch",
+            "Stitch one patch (vertices (n, 3), triangles (m, 3), consistently oriented; several\n"
+            "disjoint components allowed). Returns a dict: patch_id, patch_vertex_offset,\n"
+            "patch_triangle_offset, patch_flipped, gaps (list of dicts: id, rows (stitcher rows),\n"
+            "n_vertices, n_holes, patches, merged_gaps), removed, merged_gaps, n_candidates,\n"
+            "grow_rounds. Raises GeometryError (naming both) if the patch overlaps or touches an\n"
+            "earlier patch; nothing changes on error.")
+        .def(
+            "mesh",
+            [](const LayerStitcher& st) {
+                StitchedMesh mm;
+                {
+                    py::gil_scoped_release release;
+                    mm = st.mesh();
+                }
+                return mesh_dict(std::move(mm));
+            },
+            "The compacted surface: dict with vertices (n, 3), triangles (m, 3), kinds (m,) int8\n"
+            "(0 layer, 1 patch, 2 gap), owners (m,) (patch id / gap id / -1), vertex_map and\n"
+            "triangle_map (stitcher numbering -> compacted, -1 if gone).")
+        .def_property_readonly("n_vertices", &LayerStitcher::n_vertices)
+        .def_property_readonly("n_triangles", &LayerStitcher::n_triangles)
+        .def_property_readonly("n_live_triangles", &LayerStitcher::n_live_triangles)
+        .def_property_readonly("name", &LayerStitcher::name)
+        .def_property_readonly("patch_names", &LayerStitcher::patch_names);
+
+    m.def(
+        "stitch",
+        [](const py::handle& vertices, const py::handle& triangles, const py::handle& patch_vertices,
+           const py::handle& patch_triangles, const py::handle& boundary, bool refine, const std::string& order,
+           const std::string& bridge) {
+            const char* fn = "stitch";
+            auto V = as_points(vertices, fn, "vertices", 3, 3);
+            auto T = as_indices(triangles, fn, "triangles", 3);
+            auto PV = as_points(patch_vertices, fn, "patch_vertices", 3, 3);
+            auto PT = as_indices(patch_triangles, fn, "patch_triangles", 3);
+            std::vector<double> bxy;
+            if (!boundary.is_none()) {
+                auto B = as_points(boundary, fn, "boundary", 2, 2);
+                bxy.assign(B.data(), B.data() + 2 * B.shape(0));
+            }
+            StitchOptions opt = make_options(refine, order, bridge, -1.0, fn);
+            StitchResult r;
+            {
+                py::gil_scoped_release release;
+                r = stitch(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
+                           static_cast<std::size_t>(T.shape(0)), PV.data(), static_cast<std::size_t>(PV.shape(0)),
+                           PT.data(), static_cast<std::size_t>(PT.shape(0)), bxy.empty() ? nullptr : bxy.data(),
+                           bxy.size() / 2, opt);
+            }
+            return py::make_tuple(to_numpy(std::move(r.mesh.vertices), 3), to_numpy(std::move(r.mesh.triangles), 3),
+                                  to_numpy(std::move(r.gap_rows)));
+        },
+        py::arg("vertices"), py::arg("triangles"), py::arg("patch_vertices"), py::arg("patch_triangles"),
+        py::arg("boundary") = py::none(), py::arg("refine") = true, py::arg("order") = "quality",
+        py::arg("bridge") = "extreme",
+        "Stitch one fault patch into a layer TIN (one-shot Stitcher). Returns (vertices (n, 3),\n"
+        "triangles (m, 3), gap_rows (g,)): the merged surface with shared vertices and the rows\n"
+        "of its gap triangles. boundary: the study area (default: the mesh's outer boundary).");
+
+    m.def(
+        "triangles_touching_region",
+        [](const py::handle& vertices, const py::handle& triangles, const py::handle& rings) {
+            const char* fn = "triangles_touching_region";
+            auto V = as_points(vertices, fn, "vertices", 2, 3);
+            auto T = as_indices(triangles, fn, "triangles", 3);
+            std::vector<double> xy;
+            std::vector<std::int64_t> off;
+            gather_rings_st(rings, fn, xy, off);
+            std::vector<std::int64_t> out;
+            {
+                py::gil_scoped_release release;
+                out = triangles_touching_region(V.data(), static_cast<std::size_t>(V.shape(0)),
+                                                static_cast<std::size_t>(V.shape(1)), T.data(),
+                                                static_cast<std::size_t>(T.shape(0)), xy.data(), off.data(),
+                                                off.size() - 1);
+            }
+            return to_numpy(std::move(out));
+        },
+        py::arg("vertices"), py::arg("triangles"), py::arg("rings"),
+        "Rows (int64) of the triangles whose closed XY projection meets the closed region given\n"
+        "by rings (list of (k, 2) arrays, even-odd rule). Exact (orient2d).");
+}
+
 }  // namespace faultmesh::bindings

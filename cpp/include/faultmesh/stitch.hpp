@@ -1,0 +1,175 @@
+// faultmesh/stitch.hpp -- stitching fine fault models into a layer TIN
+// (paper sections 2.4-2.6; DESIGN.md steps 5-7).
+//
+// A LayerStitcher owns one layer surface and stitches fault patches into it
+// one after another. Each stitch is LOCAL: it touches only the triangles
+// around the patch, never the whole mesh, so stitching many faults into a
+// large TIN costs about one AABB-tree build plus work proportional to the
+// patches' neighbourhoods (the mesh is compacted once, by mesh()).
+//
+// One stitch of a patch P (a triangulated surface, possibly several disjoint
+// components, possibly folded in XY: the fault strip of a reverse fault runs
+// backwards) into the layer L:
+//  1. Outline. P's boundary loops (edge frequency + Algorithm 1, boundary.hpp)
+//     projected to XY form the region R. P is re-oriented if needed so that
+//     the sum of its signed XY areas is positive (outer loops CCW). Checks:
+//     every loop is simple in XY and no two loops meet, except along the
+//     study-area boundary (where the end trace of a fault that reaches the
+//     boundary may fold back on itself); every vertex of P lies in the study
+//     area.
+//  2. Overlap (two stages): the AABB tree gives the triangles whose XY box
+//     meets R's box; an exact test (orient2d only) keeps those whose closed
+//     XY projection meets the closed region R. Counting mere contact makes
+//     the removed set D contain R STRICTLY: no edge of D's boundary touches R
+//     except along the study-area boundary. A triangle of an earlier patch
+//     that meets R is an error (GeometryError naming both patches).
+//  3. Growth until every component of D is a disk, possibly with earlier
+//     patches as holes: a triangle of an earlier gap pulls in that whole gap
+//     (gaps are atomic: the earlier patch then becomes a hole of the new gap
+//     and the two gaps are merged into one record); a pinch vertex pulls in
+//     its whole star (except earlier-patch triangles); a hole of D (an inner
+//     boundary loop) is filled by a flood fill of the region it encloses.
+//  4. Gap polygons: the directed edges of D's boundary (D on the left) and
+//     of R's outline reversed; along the study-area boundary, the pieces that
+//     D covers and R does not (a fault reaching the boundary, paper F22: its
+//     gap is one or more polygons without a hole). The edges are chained into
+//     loops; CCW loops are outer rings, CW loops holes (R's components, and
+//     earlier patches enclosed by D). Every gap vertex is an existing vertex.
+//  5. Each gap polygon is ear-clipped in XY (ear_clipping.hpp: bridges
+//     between mutually visible vertices, quality ear order and constrained
+//     Delaunay refinement by default). A polygon with n vertices and h holes
+//     gives n + 2h - 2 triangles, checked.
+//  6. D's triangles are removed, P's vertices and triangles and the gap
+//     triangles added; the adjacency is updated locally. The vertices are
+//     shared: the gap triangles use the layer's and the patch's vertices.
+//
+// Triangle kinds: layer (the original TIN), patch (owner = patch id, the
+// order of stitch() calls from 0) and gap (owner = gap id).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <faultmesh/aabb_tree.hpp>
+#include <faultmesh/ear_clipping.hpp>
+
+namespace faultmesh {
+
+struct StitchOptions {
+    // Ear clipping of the gap polygons. Default: quality ear order with
+    // constrained-Delaunay refinement; {refine = false, order = plain} is the
+    // paper's plain Eberly order.
+    EarClipOptions ear_clip{};
+    // Distance within which a point counts as lying on the study-area
+    // boundary; < 0: 64 eps max|boundary coordinate| (see stitch.cpp).
+    double boundary_tolerance = -1.0;
+    // Safety bound on the growth rounds of one stitch.
+    int max_grow_rounds = 10000;
+};
+
+enum class TriangleKind : std::int8_t { layer = 0, patch = 1, gap = 2 };
+
+// One gap polygon created by a stitch.
+struct StitchGap {
+    std::int64_t id = -1;                   // gap id (owner of its triangles)
+    std::vector<std::int64_t> triangles;    // rows in the stitcher's (uncompacted) triangle list
+    std::int64_t n_vertices = 0;            // vertices of the polygon, counted per ring
+    std::int64_t n_holes = 0;               // holes of the polygon
+    std::vector<std::int64_t> patches;      // patch ids whose outline is part of this gap
+    std::vector<std::int64_t> merged_gaps;  // earlier gap ids swallowed by this gap
+};
+
+struct StitchReport {
+    std::int64_t patch_id = -1;
+    std::int64_t patch_vertex_offset = 0;  // patch vertex i is stitcher vertex offset + i
+    std::int64_t patch_triangle_offset = 0;
+    bool patch_flipped = false;            // the patch was re-oriented (its outline was CW)
+    std::vector<StitchGap> gaps;
+    std::vector<std::int64_t> removed;      // rows removed (sorted)
+    std::vector<std::int64_t> merged_gaps;  // earlier gap ids swallowed (no longer exist)
+    std::int64_t n_candidates = 0;          // stage-1 candidates (AABB hits)
+    std::int64_t grow_rounds = 0;
+};
+
+// The compacted surface.
+struct StitchedMesh {
+    std::vector<double> vertices;           // 3 per vertex
+    std::vector<std::int64_t> triangles;    // 3 per triangle
+    std::vector<std::int8_t> kinds;         // TriangleKind per triangle
+    std::vector<std::int64_t> owners;       // patch id / gap id / -1 per triangle
+    std::vector<std::int64_t> vertex_map;   // stitcher vertex -> compacted vertex or -1
+    std::vector<std::int64_t> triangle_map; // stitcher row -> compacted row or -1
+};
+
+namespace detail {
+struct StitcherState;
+}
+
+class LayerStitcher {
+public:
+    // vertices: n x (x, y, z); triangles: m x 3, counter-clockwise in XY with
+    // non-zero area, each edge in at most two triangles (a TIN).
+    // boundary: the study area, k points (x, y) of a simple polygon (any
+    // orientation, closing point optional); k == 0: the mesh's own outer
+    // boundary loop. halfedges (optional, may be null): 3 m opposite
+    // half-edges as in DelaunayResult (half-edge e runs triangles[e] ->
+    // triangles[next(e)]), saving the adjacency build.
+    // Throws std::invalid_argument for malformed input, GeometryError for a
+    // mesh that is not a manifold CCW triangulation.
+    LayerStitcher(const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
+                  std::size_t n_triangles, const double* boundary_xy, std::size_t n_boundary,
+                  const std::int64_t* halfedges = nullptr, std::string name = "layer",
+                  const StitchOptions& options = {});
+    ~LayerStitcher();
+    LayerStitcher(LayerStitcher&&) noexcept;
+    LayerStitcher& operator=(LayerStitcher&&) noexcept;
+
+    // Stitch one patch (vertices n x 3, triangles m x 3, consistently
+    // oriented; several components allowed). `patch_name` appears in error
+    // messages. On error nothing is changed.
+    StitchReport stitch(const double* patch_vertices, std::size_t n_patch_vertices,
+                        const std::int64_t* patch_triangles, std::size_t n_patch_triangles,
+                        const std::string& patch_name = "patch");
+
+    // The current surface, compacted (unused vertices and removed triangles
+    // dropped). O(mesh size).
+    StitchedMesh mesh() const;
+
+    std::size_t n_vertices() const;        // including unused ones (not compacted)
+    std::size_t n_triangles() const;       // rows including removed ones
+    std::size_t n_live_triangles() const;
+    const std::string& name() const;
+    const std::vector<std::string>& patch_names() const;
+
+private:
+    std::unique_ptr<detail::StitcherState> s_;
+};
+
+// One-shot convenience: stitch one patch into a mesh.
+struct StitchResult {
+    StitchedMesh mesh;
+    StitchReport report;
+    std::vector<std::int64_t> gap_rows;  // rows of the compacted mesh that are gap triangles
+};
+StitchResult stitch(const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
+                    std::size_t n_triangles, const double* patch_vertices,
+                    std::size_t n_patch_vertices, const std::int64_t* patch_triangles,
+                    std::size_t n_patch_triangles, const double* boundary_xy = nullptr,
+                    std::size_t n_boundary = 0, const StitchOptions& options = {});
+
+// Rows of the triangles (vertices with `stride` 2 or 3 doubles) whose CLOSED
+// XY projection meets the CLOSED region given by rings (even-odd rule;
+// interleaved x, y; ring r is points ring_offsets[r] .. ring_offsets[r+1]).
+// Exact (orient2d only). Used to clip one fault patch by another of the same
+// group (T- and X-crossings) and by the stitcher's overlap stage.
+std::vector<std::int64_t> triangles_touching_region(const double* vertices, std::size_t n_vertices,
+                                                    std::size_t stride,
+                                                    const std::int64_t* triangles,
+                                                    std::size_t n_triangles, const double* ring_xy,
+                                                    const std::int64_t* ring_offsets,
+                                                    std::size_t n_rings);
+
+}  // namespace faultmesh
