@@ -904,10 +904,35 @@ def save_dataset(ds: Dataset, path, *, section_coords: bool = False) -> Path:
             with os.fdopen(fd_, "w", encoding="utf-8", newline="\n") as fh:
                 fh.write(text)
             os.chmod(tmp, 0o666 & ~umask)
-        # JSON last: a reader never sees a JSON whose CSVs are not in place yet.
-        for fname in sorted(tmps, key=lambda n: n == jname):
-            os.replace(tmps[fname], folder / fname)
-            del tmps[fname]
+        # Swap the files in, JSON last (a reader never sees a JSON whose CSVs
+        # are not in place yet). Files being overwritten are first moved aside
+        # and put back if any rename fails, so the previous dataset survives.
+        backups: Dict[str, str] = {}
+        done: List[str] = []
+        try:
+            for fname in sorted(tmps, key=lambda n: n == jname):
+                dst = folder / fname
+                if dst.exists():
+                    bak = str(folder / f".{fname}.{os.getpid()}.bak")
+                    os.replace(dst, bak)
+                    backups[fname] = bak
+                os.replace(tmps[fname], dst)
+                del tmps[fname]
+                done.append(fname)
+        except BaseException:
+            for fname in done:
+                try:
+                    os.unlink(folder / fname)
+                except OSError:
+                    pass
+            for fname, bak in backups.items():
+                os.replace(bak, folder / fname)
+            raise
+        for bak in backups.values():
+            try:
+                os.unlink(bak)
+            except OSError:
+                pass
     finally:
         for tmp in tmps.values():
             try:
