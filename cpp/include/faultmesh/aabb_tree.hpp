@@ -79,6 +79,11 @@ public:
     template <class F>
     void visit(const Box2& q, F&& f) const;
 
+    // True as soon as pred(index) returns true for a primitive whose box meets
+    // q (early exit); false if it never does.
+    template <class F>
+    bool any_of(const Box2& q, F&& pred) const;
+
     // Appends the hits of one query to `out` (tree order, not sorted).
     void query(const Box2& q, std::vector<std::int64_t>& out) const;
 
@@ -136,6 +141,28 @@ void AabbTree::visit(const Box2& q, F&& f) const {
             stack[top++] = nd.first;
         }
     }
+}
+
+template <class F>
+bool AabbTree::any_of(const Box2& q, F&& pred) const {
+    if (nodes_.empty() || !(q.xmin <= q.xmax) || !(q.ymin <= q.ymax)) return false;
+    std::int32_t stack[128];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        const Node& nd = nodes_[static_cast<std::size_t>(stack[--top])];
+        if (!boxes_meet(nd.box, q)) continue;
+        if (nd.leaf) {
+            for (std::int32_t i = nd.first; i < nd.second; ++i)
+                if (boxes_meet(boxes_[static_cast<std::size_t>(i)], q) &&
+                    pred(index_[static_cast<std::size_t>(i)]))
+                    return true;
+        } else {
+            stack[top++] = nd.second;
+            stack[top++] = nd.first;
+        }
+    }
+    return false;
 }
 
 }  // namespace faultmesh

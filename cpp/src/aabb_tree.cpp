@@ -1,0 +1,349 @@
+// AABB tree: Morton order + quadtree-aligned splits, flat node array.
+#include <faultmesh/aabb_tree.hpp>
+#include <faultmesh/predicates.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace faultmesh {
+
+namespace detail {
+namespace {
+
+// Spread the 32 bits of x over the even bits of a 64-bit word.
+inline std::uint64_t part1by1(std::uint64_t x) {
+    x &= 0xffffffffULL;
+    x = (x | (x << 16)) & 0x0000ffff0000ffffULL;
+    x = (x | (x << 8)) & 0x00ff00ff00ff00ffULL;
+    x = (x | (x << 4)) & 0x0f0f0f0f0f0f0f0fULL;
+    x = (x | (x << 2)) & 0x3333333333333333ULL;
+    x = (x | (x << 1)) & 0x5555555555555555ULL;
+    return x;
+}
+
+// LSD radix sort of (key, value) pairs on 16-bit digits; digits on which all
+// keys agree are skipped (common for the top digits of clustered data).
+void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>& vals) {
+    const std::size_t n = keys.size();
+    std::vector<std::uint64_t> k2(n);
+    std::vector<std::uint32_t> v2(n);
+    std::vector<std::size_t> count(65536);
+    for (int pass = 0; pass < 4; ++pass) {
+        const int shift = 16 * pass;
+        std::fill(count.begin(), count.end(), 0);
+        for (std::size_t i = 0; i < n; ++i) ++count[(keys[i] >> shift) & 0xffff];
+        if (count[(keys[0] >> shift) & 0xffff] == n) continue;  // one digit value: order unchanged
+        std::size_t sum = 0;
+        for (auto& c : count) {
+            const std::size_t t = c;
+            c = sum;
+            sum += t;
+        }
+        for (std::size_t i = 0; i < n; ++i) {
+            const std::size_t d = (keys[i] >> shift) & 0xffff;
+            const std::size_t p = count[d]++;
+            k2[p] = keys[i];
+            v2[p] = vals[i];
+        }
+        keys.swap(k2);
+        vals.swap(v2);
+    }
+}
+
+inline Box2 join(const Box2& a, const Box2& b) {
+    return {std::min(a.xmin, b.xmin), std::min(a.ymin, b.ymin), std::max(a.xmax, b.xmax),
+            std::max(a.ymax, b.ymax)};
+}
+
+constexpr Box2 kEmptyBox = {std::numeric_limits<double>::infinity(),
+                            std::numeric_limits<double>::infinity(),
+                            -std::numeric_limits<double>::infinity(),
+                            -std::numeric_limits<double>::infinity()};
+
+}  // namespace
+}  // namespace detail
+
+AabbTree::AabbTree(const std::vector<Box2>& boxes) : AabbTree(boxes.data(), boxes.size()) {}
+
+AabbTree::AabbTree(const Box2* boxes, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) {
+        const Box2& b = boxes[i];
+        // The negated comparisons are also true for NaN.
+        if (!(b.xmin <= b.xmax) || !(b.ymin <= b.ymax))
+            throw std::invalid_argument("AabbTree: box " + std::to_string(i) +
+                                        " is empty or has a NaN coordinate (need xmin <= xmax, "
+                                        "ymin <= ymax)");
+    }
+    build(boxes, n);
+}
+
+namespace {
+AabbTree from_elements(const char* fn, const double* xy, std::size_t n_vertices, std::size_t stride,
+                       const std::int64_t* elems, std::size_t n_elems, int per) {
+    if (stride < 2) throw std::invalid_argument(std::string(fn) + ": stride must be >= 2");
+    std::vector<Box2> boxes(n_elems);
+    for (std::size_t t = 0; t < n_elems; ++t) {
+        Box2 b = detail::kEmptyBox;
+        for (int c = 0; c < per; ++c) {
+            const std::int64_t v = elems[per * t + static_cast<std::size_t>(c)];
+            if (v < 0 || static_cast<std::uint64_t>(v) >= n_vertices)
+                throw std::invalid_argument(std::string(fn) + ": row " + std::to_string(t) +
+                                            " has vertex index " + std::to_string(v) +
+                                            " out of range [0, " + std::to_string(n_vertices) + ")");
+            const double x = xy[stride * static_cast<std::size_t>(v)];
+            const double y = xy[stride * static_cast<std::size_t>(v) + 1];
+            if (!std::isfinite(x) || !std::isfinite(y))
+                throw std::invalid_argument(std::string(fn) + ": vertex " + std::to_string(v) +
+                                            " (row " + std::to_string(t) +
+                                            ") has a non-finite coordinate");
+            b.xmin = std::min(b.xmin, x);
+            b.xmax = std::max(b.xmax, x);
+            b.ymin = std::min(b.ymin, y);
+            b.ymax = std::max(b.ymax, y);
+        }
+        boxes[t] = b;
+    }
+    AabbTree tree;
+    // Boxes built from finite points are valid: no second validation pass.
+    tree = AabbTree(boxes.data(), boxes.size());
+    return tree;
+}
+}  // namespace
+
+AabbTree AabbTree::from_triangles(const double* xy, std::size_t n_vertices, std::size_t stride,
+                                  const std::int64_t* triangles, std::size_t n_triangles) {
+    return from_elements("AabbTree.from_triangles", xy, n_vertices, stride, triangles, n_triangles, 3);
+}
+
+AabbTree AabbTree::from_segments(const double* xy, std::size_t n_vertices, std::size_t stride,
+                                 const std::int64_t* segments, std::size_t n_segments) {
+    return from_elements("AabbTree.from_segments", xy, n_vertices, stride, segments, n_segments, 2);
+}
+
+void AabbTree::build(const Box2* boxes, std::size_t n) {
+    nodes_.clear();
+    boxes_.clear();
+    index_.clear();
+    rank_.clear();
+    if (n == 0) return;
+    if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+        throw std::invalid_argument("AabbTree: at most 2^31 - 1 boxes");
+
+    // Morton codes of the box centres, quantised to 32 bits per axis over the
+    // centres' bounding box. Centres are computed as xmin/2 + xmax/2 so that
+    // huge coordinates cannot overflow.
+    double cx0 = std::numeric_limits<double>::infinity(), cy0 = cx0, cx1 = -cx0, cy1 = -cx0;
+    std::vector<double> cx(n), cy(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        cx[i] = 0.5 * boxes[i].xmin + 0.5 * boxes[i].xmax;
+        cy[i] = 0.5 * boxes[i].ymin + 0.5 * boxes[i].ymax;
+        cx0 = std::min(cx0, cx[i]);
+        cx1 = std::max(cx1, cx[i]);
+        cy0 = std::min(cy0, cy[i]);
+        cy1 = std::max(cy1, cy[i]);
+    }
+    // 4294967295 = 2^32 - 1; the scale maps the range onto [0, 2^32 - 1].
+    const double sx = cx1 > cx0 ? 4294967295.0 / (cx1 - cx0) : 0.0;
+    const double sy = cy1 > cy0 ? 4294967295.0 / (cy1 - cy0) : 0.0;
+    std::vector<std::uint64_t> code(n);
+    std::vector<std::uint32_t> order(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        // Infinite extents (cx1 - cx0 overflowing) give sx == 0: all codes
+        // equal, the tree then splits ranges in the middle -- still correct.
+        double qx = (cx[i] - cx0) * sx, qy = (cy[i] - cy0) * sy;
+        qx = std::min(std::max(qx, 0.0), 4294967295.0);
+        qy = std::min(std::max(qy, 0.0), 4294967295.0);
+        if (!(qx == qx)) qx = 0.0;
+        if (!(qy == qy)) qy = 0.0;
+        code[i] = (detail::part1by1(static_cast<std::uint64_t>(qy)) << 1) |
+                  detail::part1by1(static_cast<std::uint64_t>(qx));
+        order[i] = static_cast<std::uint32_t>(i);
+    }
+    std::vector<double>().swap(cx);
+    std::vector<double>().swap(cy);
+    detail::radix_sort(code, order);
+
+    boxes_.resize(n);
+    index_.resize(n);
+    rank_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        boxes_[i] = boxes[order[i]];
+        index_[i] = order[i];
+        rank_[order[i]] = static_cast<std::int64_t>(i);
+    }
+    nodes_.reserve(2 * (n / kLeafSize + 1));
+
+    // Depth-first build with an explicit stack; a node's box is filled in
+    // when both children are done (post-order pass below).
+    struct Item {
+        std::int32_t lo, hi, node;
+    };
+    std::vector<Item> stack;
+    nodes_.push_back(Node{detail::kEmptyBox, 0, static_cast<std::int32_t>(n), 1, 0});
+    stack.push_back({0, static_cast<std::int32_t>(n), 0});
+    while (!stack.empty()) {
+        const Item it = stack.back();
+        stack.pop_back();
+        if (it.hi - it.lo <= kLeafSize) {
+            Node& nd = nodes_[static_cast<std::size_t>(it.node)];
+            nd.leaf = 1;
+            nd.first = it.lo;
+            nd.second = it.hi;
+            continue;
+        }
+        const std::uint64_t c0 = code[static_cast<std::size_t>(it.lo)];
+        const std::uint64_t c1 = code[static_cast<std::size_t>(it.hi - 1)];
+        std::int32_t split;
+        if (c0 == c1) {
+            split = it.lo + (it.hi - it.lo) / 2;
+        } else {
+            // First position whose code has the highest differing bit set.
+            const int bit = 63 - __builtin_clzll(c0 ^ c1);
+            const std::uint64_t prefix = (c0 >> bit) | 1;  // c1's prefix
+            std::int32_t lo = it.lo + 1, hi = it.hi - 1;
+            while (lo < hi) {
+                const std::int32_t mid = lo + (hi - lo) / 2;
+                if ((code[static_cast<std::size_t>(mid)] >> bit) >= prefix)
+                    hi = mid;
+                else
+                    lo = mid + 1;
+            }
+            split = lo;
+        }
+        const auto left = static_cast<std::int32_t>(nodes_.size());
+        nodes_.push_back(Node{detail::kEmptyBox, 0, 0, 1, 0});
+        const auto right = static_cast<std::int32_t>(nodes_.size());
+        nodes_.push_back(Node{detail::kEmptyBox, 0, 0, 1, 0});
+        Node& nd = nodes_[static_cast<std::size_t>(it.node)];
+        nd.leaf = 0;
+        nd.first = left;
+        nd.second = right;
+        stack.push_back({split, it.hi, right});
+        stack.push_back({it.lo, split, left});
+    }
+    // Children always have larger indices than their parent: one backward
+    // pass computes every box after its children's.
+    for (std::size_t i = nodes_.size(); i-- > 0;) {
+        Node& nd = nodes_[i];
+        if (nd.leaf) {
+            Box2 b = detail::kEmptyBox;
+            for (std::int32_t j = nd.first; j < nd.second; ++j)
+                b = detail::join(b, boxes_[static_cast<std::size_t>(j)]);
+            nd.box = b;
+        } else {
+            nd.box = detail::join(nodes_[static_cast<std::size_t>(nd.first)].box,
+                                  nodes_[static_cast<std::size_t>(nd.second)].box);
+        }
+    }
+    if (depth() > 120) throw std::logic_error("AabbTree: tree deeper than the query stack");
+}
+
+Box2 AabbTree::bounds() const { return nodes_.empty() ? detail::kEmptyBox : nodes_[0].box; }
+
+int AabbTree::depth() const {
+    if (nodes_.empty()) return 0;
+    int best = 0;
+    std::vector<std::pair<std::int32_t, int>> stack{{0, 1}};
+    while (!stack.empty()) {
+        auto [i, d] = stack.back();
+        stack.pop_back();
+        best = std::max(best, d);
+        const Node& nd = nodes_[static_cast<std::size_t>(i)];
+        if (!nd.leaf) {
+            stack.push_back({nd.first, d + 1});
+            stack.push_back({nd.second, d + 1});
+        }
+    }
+    return best;
+}
+
+void AabbTree::query(const Box2& q, std::vector<std::int64_t>& out) const {
+    visit(q, [&](std::int64_t i) { out.push_back(i); });
+}
+
+Csr AabbTree::query(const Box2* queries, std::size_t n_queries, bool sorted) const {
+    Csr r;
+    r.offsets.resize(n_queries + 1);
+    r.offsets[0] = 0;
+    for (std::size_t i = 0; i < n_queries; ++i) {
+        const std::size_t start = r.indices.size();
+        query(queries[i], r.indices);
+        if (sorted) std::sort(r.indices.begin() + static_cast<std::ptrdiff_t>(start), r.indices.end());
+        r.offsets[i + 1] = static_cast<std::int64_t>(r.indices.size());
+    }
+    return r;
+}
+
+void AabbTree::query_polygon(const double* ring_xy, const std::int64_t* ring_offsets,
+                             std::size_t n_rings, std::vector<std::int64_t>& out,
+                             bool sorted) const {
+    Box2 q = detail::kEmptyBox;
+    for (std::size_t r = 0; r < n_rings; ++r) {
+        if (ring_offsets[r] < 0 || ring_offsets[r + 1] < ring_offsets[r])
+            throw std::invalid_argument("AabbTree.query_polygon: ring offsets must be non-negative "
+                                        "and non-decreasing (ring " + std::to_string(r) + ")");
+        for (std::int64_t p = ring_offsets[r]; p < ring_offsets[r + 1]; ++p) {
+            const double x = ring_xy[2 * p], y = ring_xy[2 * p + 1];
+            if (!std::isfinite(x) || !std::isfinite(y))
+                throw std::invalid_argument("AabbTree.query_polygon: ring point " +
+                                            std::to_string(p) + " is not finite");
+            q.xmin = std::min(q.xmin, x);
+            q.xmax = std::max(q.xmax, x);
+            q.ymin = std::min(q.ymin, y);
+            q.ymax = std::max(q.ymax, y);
+        }
+    }
+    const std::size_t start = out.size();
+    query(q, out);
+    if (sorted) std::sort(out.begin() + static_cast<std::ptrdiff_t>(start), out.end());
+}
+
+bool triangle_meets_box(const double* a, const double* b, const double* c, const Box2& box) {
+    // Separating axes: the box's axes (bounding-box test) and the triangle's
+    // edge normals; closed sets are disjoint iff strictly separated on one.
+    const double txmin = std::min({a[0], b[0], c[0]}), txmax = std::max({a[0], b[0], c[0]});
+    const double tymin = std::min({a[1], b[1], c[1]}), tymax = std::max({a[1], b[1], c[1]});
+    if (!(txmin <= box.xmax && txmax >= box.xmin && tymin <= box.ymax && tymax >= box.ymin))
+        return false;
+    const double corners[4][2] = {
+        {box.xmin, box.ymin}, {box.xmax, box.ymin}, {box.xmax, box.ymax}, {box.xmin, box.ymax}};
+    const int s = orient2d_sign(a, b, c);
+    if (s == 0) {
+        // Degenerate triangle: a segment between its two extreme points (or a
+        // point, decided by the bounding boxes already). Separated iff all
+        // corners lie strictly on one side of the segment's line.
+        const double* pts[3] = {a, b, c};
+        const double* lo = a;
+        const double* hi = a;
+        for (const double* p : pts) {
+            if (p[0] < lo[0] || (p[0] == lo[0] && p[1] < lo[1])) lo = p;
+            if (p[0] > hi[0] || (p[0] == hi[0] && p[1] > hi[1])) hi = p;
+        }
+        if (lo[0] == hi[0] && lo[1] == hi[1]) return true;
+        int pos = 0, neg = 0;
+        for (const auto& q : corners) {
+            const int o = orient2d_sign(lo, hi, q);
+            pos += o > 0;
+            neg += o < 0;
+        }
+        return !(pos == 4 || neg == 4);
+    }
+    const double* tri[3] = {a, b, c};
+    for (int e = 0; e < 3; ++e) {
+        const double* u = tri[e];
+        const double* v = tri[(e + 1) % 3];
+        bool all_out = true;
+        for (const auto& q : corners)
+            if (s * orient2d_sign(u, v, q) >= 0) {
+                all_out = false;
+                break;
+            }
+        if (all_out) return false;
+    }
+    return true;
+}
+
+}  // namespace faultmesh

@@ -1,0 +1,428 @@
+// Boundary contours: edge frequency by counting sort, Algorithm 1 sorting.
+#include <faultmesh/boundary.hpp>
+#include <faultmesh/errors.hpp>
+
+#include <algorithm>
+#include <functional>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+
+namespace faultmesh {
+
+namespace detail {
+namespace {
+
+// ------------------------------------------------------------ validation
+std::size_t check_triangles(const char* fn, const std::int64_t* tri, std::size_t m,
+                            std::size_t n_vertices) {
+    std::int64_t mx = -1;
+    for (std::size_t t = 0; t < m; ++t) {
+        const std::int64_t a = tri[3 * t], b = tri[3 * t + 1], c = tri[3 * t + 2];
+        if (a < 0 || b < 0 || c < 0)
+            throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
+                                        " has a negative vertex index");
+        if (a == b || b == c || c == a)
+            throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
+                                        " repeats vertex " + std::to_string(a == b || a == c ? a : b));
+        mx = std::max(mx, std::max(a, std::max(b, c)));
+    }
+    if (n_vertices == 0) return static_cast<std::size_t>(mx + 1);
+    if (mx >= 0 && static_cast<std::size_t>(mx) >= n_vertices)
+        throw std::invalid_argument(std::string(fn) + ": vertex index " + std::to_string(mx) +
+                                    " out of range [0, " + std::to_string(n_vertices) + ")");
+    if (n_vertices > (std::size_t{1} << 31) - 1)
+        throw std::invalid_argument(std::string(fn) + ": at most 2^31 - 1 vertices");
+    return n_vertices;
+}
+
+// ------------------------------------------------------------ edge frequency
+struct EdgeCount {
+    std::vector<std::uint32_t> boundary_h;  // boundary half-edges, ascending (triangle order)
+    std::vector<std::int64_t> nonmanifold;  // (min, max) pairs
+    std::vector<std::int64_t> inconsistent;
+};
+
+inline std::int64_t half_from(const std::int64_t* tri, std::size_t h) { return tri[h]; }
+inline std::int64_t half_to(const std::int64_t* tri, std::size_t h) {
+    return tri[h % 3 == 2 ? h - 2 : h + 1];
+}
+
+// Half-edge h = 3 t + e is the edge tri[3t+e] -> tri[3t+(e+1)%3]. Half-edges
+// are bucketed by their smaller vertex with a counting sort; an entry packs
+// the other vertex (31 bits), whether the half-edge leaves the bucket's
+// vertex (1 bit) and h (32 bits), so that one 8-byte write places it.
+EdgeCount count_edges(const std::int64_t* tri, std::size_t m, std::size_t n) {
+    if (3 * m > std::numeric_limits<std::uint32_t>::max())
+        throw std::invalid_argument("boundary: at most 1431655765 triangles");
+    EdgeCount out;
+    const std::size_t nh = 3 * m;
+    std::vector<std::uint32_t> start(n + 1, 0);
+    for (std::size_t t = 0; t < m; ++t) {
+        const auto a = static_cast<std::uint32_t>(tri[3 * t]);
+        const auto b = static_cast<std::uint32_t>(tri[3 * t + 1]);
+        const auto c = static_cast<std::uint32_t>(tri[3 * t + 2]);
+        ++start[std::min(a, b) + 1];
+        ++start[std::min(b, c) + 1];
+        ++start[std::min(c, a) + 1];
+    }
+    for (std::size_t v = 0; v < n; ++v) start[v + 1] += start[v];
+    std::vector<std::uint64_t> entry(nh);
+    {
+        std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+        for (std::size_t t = 0; t < m; ++t) {
+            for (int e = 0; e < 3; ++e) {
+                const std::size_t h = 3 * t + static_cast<std::size_t>(e);
+                const auto u = static_cast<std::uint64_t>(tri[h]);
+                const auto v = static_cast<std::uint64_t>(tri[e == 2 ? h - 2 : h + 1]);
+                const std::uint64_t key = u < v ? u : v, other = u < v ? v : u;
+                const std::uint64_t leaves = u < v ? 1 : 0;
+                entry[fill[key]++] = (other << 33) | (leaves << 32) | h;
+            }
+        }
+    }
+    // Scan each bucket: entries with the same other vertex are one edge.
+    std::vector<std::uint64_t> tmp;
+    for (std::size_t v = 0; v < n; ++v) {
+        std::uint64_t* b = entry.data() + start[v];
+        const std::size_t d = start[v + 1] - start[v];
+        if (d == 0) continue;
+        if (d > 1) std::sort(b, b + d);  // by other vertex, then direction, then h
+        std::size_t i = 0;
+        while (i < d) {
+            const std::uint64_t other = b[i] >> 33;
+            std::size_t j = i + 1;
+            while (j < d && (b[j] >> 33) == other) ++j;
+            const std::size_t cnt = j - i;
+            if (cnt == 1) {
+                out.boundary_h.push_back(static_cast<std::uint32_t>(b[i] & 0xffffffffULL));
+            } else if (cnt == 2) {
+                // Opposite directions: a regular interior edge.
+                if (((b[i] >> 32) & 1) == ((b[i + 1] >> 32) & 1)) {
+                    out.inconsistent.push_back(static_cast<std::int64_t>(v));
+                    out.inconsistent.push_back(static_cast<std::int64_t>(other));
+                }
+            } else {
+                out.nonmanifold.push_back(static_cast<std::int64_t>(v));
+                out.nonmanifold.push_back(static_cast<std::int64_t>(other));
+            }
+            i = j;
+        }
+    }
+    std::sort(out.boundary_h.begin(), out.boundary_h.end());
+    return out;
+}
+
+// ------------------------------------------------------------ Algorithm 1
+// Pairing at a pinch vertex: given the boundary edges entering and leaving
+// v (ids into the segment list, input order), fill succ (same length as
+// in_edges) with the successor of each entering edge, or return false if the
+// pairing cannot be decided (the sequences are then cut at v).
+using PinchResolver = std::function<bool(std::int64_t v, const std::vector<std::int64_t>& in_edges,
+                                         const std::vector<std::int64_t>& out_edges,
+                                         std::vector<std::int64_t>& succ)>;
+
+// Directed segments seg[2e] -> seg[2e+1], vertices < n.
+BoundaryContours assemble(const std::vector<std::int64_t>& seg, std::size_t n,
+                          const PinchResolver& resolve) {
+    BoundaryContours res;
+    const std::size_t k = seg.size() / 2;
+    if (k == 0) return res;
+    std::vector<std::int32_t> outd(n, 0), ind(n, 0);
+    for (std::size_t e = 0; e < k; ++e) {
+        ++outd[static_cast<std::size_t>(seg[2 * e])];
+        ++ind[static_cast<std::size_t>(seg[2 * e + 1])];
+    }
+    // Irregular vertices: pinch (in == out >= 2) or break (in != out, one >= 2).
+    std::vector<std::int64_t> special;  // vertices with in >= 2 or out >= 2
+    for (std::size_t e = 0; e < k; ++e)
+        for (int s = 0; s < 2; ++s) {
+            const auto v = static_cast<std::size_t>(seg[2 * e + static_cast<std::size_t>(s)]);
+            if ((outd[v] >= 2 || ind[v] >= 2) && outd[v] >= 0) {
+                special.push_back(static_cast<std::int64_t>(v));
+                outd[v] = -outd[v] - 1;  // mark as listed (decoded below)
+            }
+        }
+    for (std::int64_t v : special) outd[static_cast<std::size_t>(v)] = -outd[static_cast<std::size_t>(v)] - 1;
+    std::sort(special.begin(), special.end());
+    res.pinch_vertices = special;
+
+    // Explicit successor for edges entering special vertices: -2 = not
+    // special, -1 = cut here, else the successor edge.
+    std::vector<std::int64_t> succ_special(k, -2), pred_special(k, -2);
+    if (!special.empty()) {
+        std::unordered_map<std::int64_t, std::size_t> slot;
+        slot.reserve(special.size() * 2);
+        for (std::size_t i = 0; i < special.size(); ++i) slot[special[i]] = i;
+        std::vector<std::vector<std::int64_t>> ins(special.size()), outs(special.size());
+        for (std::size_t e = 0; e < k; ++e) {
+            auto it = slot.find(seg[2 * e]);
+            if (it != slot.end()) outs[it->second].push_back(static_cast<std::int64_t>(e));
+            it = slot.find(seg[2 * e + 1]);
+            if (it != slot.end()) ins[it->second].push_back(static_cast<std::int64_t>(e));
+        }
+        std::vector<std::int64_t> succ;
+        for (std::size_t i = 0; i < special.size(); ++i) {
+            bool ok = ins[i].size() == outs[i].size();
+            if (ok) {
+                succ.assign(ins[i].size(), -1);
+                ok = resolve(special[i], ins[i], outs[i], succ);
+                // The pairing must be a bijection between entering and leaving edges.
+                if (ok) {
+                    std::vector<std::int64_t> s = succ;
+                    std::sort(s.begin(), s.end());
+                    std::vector<std::int64_t> o = outs[i];
+                    std::sort(o.begin(), o.end());
+                    ok = s == o;
+                }
+            }
+            if (!ok) {
+                res.chain_break_vertices.push_back(special[i]);
+                for (std::int64_t e : ins[i]) succ_special[static_cast<std::size_t>(e)] = -1;
+                for (std::int64_t e : outs[i]) pred_special[static_cast<std::size_t>(e)] = -1;
+            } else {
+                for (std::size_t j = 0; j < ins[i].size(); ++j) {
+                    succ_special[static_cast<std::size_t>(ins[i][j])] = succ[j];
+                    pred_special[static_cast<std::size_t>(succ[j])] = ins[i][j];
+                }
+            }
+        }
+    }
+
+    // Head and tail insertion, segments in input order. A regular vertex has
+    // at most one sequence ending there (tail slot) and one starting there
+    // (head slot); a new segment is linked after the sequence whose tail it
+    // continues and before the sequence whose head it precedes. Linking both
+    // ways joins two sequences, or closes a loop when they are the same one.
+    std::vector<std::int64_t> next(k, -1), prev(k, -1);
+    std::vector<char> placed(k, 0);
+    std::vector<std::int64_t> head_slot(n, -1), tail_slot(n, -1);
+    auto link = [&](std::int64_t p, std::int64_t e) {
+        next[static_cast<std::size_t>(p)] = e;
+        prev[static_cast<std::size_t>(e)] = p;
+    };
+    for (std::size_t e = 0; e < k; ++e) {
+        const auto a = static_cast<std::size_t>(seg[2 * e]), b = static_cast<std::size_t>(seg[2 * e + 1]);
+        const auto ei = static_cast<std::int64_t>(e);
+        placed[e] = 1;
+        // Where the segment starts.
+        if (pred_special[e] != -2) {
+            const std::int64_t p = pred_special[e];
+            if (p >= 0 && placed[static_cast<std::size_t>(p)]) link(p, ei);
+        } else if (tail_slot[a] >= 0) {
+            link(tail_slot[a], ei);  // tail insertion
+            tail_slot[a] = -1;
+        } else {
+            head_slot[a] = ei;
+        }
+        // Where it ends.
+        if (succ_special[e] != -2) {
+            const std::int64_t s = succ_special[e];
+            if (s >= 0 && placed[static_cast<std::size_t>(s)]) link(ei, s);
+        } else if (head_slot[b] >= 0) {
+            link(ei, head_slot[b]);  // head insertion
+            head_slot[b] = -1;
+        } else {
+            tail_slot[b] = ei;
+        }
+    }
+
+    // Read the sequences off the links: open chains from their heads, then
+    // the remaining edges are loops.
+    std::vector<char> seen(k, 0);
+    std::vector<std::vector<std::int64_t>> chains;
+    for (std::size_t e = 0; e < k; ++e) {
+        if (prev[e] != -1) continue;
+        std::vector<std::int64_t> c;
+        std::int64_t f = static_cast<std::int64_t>(e);
+        c.push_back(seg[2 * e]);
+        while (f != -1) {
+            seen[static_cast<std::size_t>(f)] = 1;
+            c.push_back(seg[2 * static_cast<std::size_t>(f) + 1]);
+            f = next[static_cast<std::size_t>(f)];
+        }
+        chains.push_back(std::move(c));
+    }
+    std::vector<std::vector<std::int64_t>> loops;
+    for (std::size_t e = 0; e < k; ++e) {
+        if (seen[e]) continue;
+        // Canonical start: the edge with the smallest (from, to).
+        std::size_t best = e;
+        std::size_t f = e;
+        do {
+            seen[f] = 1;
+            if (seg[2 * f] < seg[2 * best] || (seg[2 * f] == seg[2 * best] && seg[2 * f + 1] < seg[2 * best + 1]))
+                best = f;
+            f = static_cast<std::size_t>(next[f]);
+        } while (f != e);
+        std::vector<std::int64_t> loop;
+        f = best;
+        do {
+            loop.push_back(seg[2 * f]);
+            f = static_cast<std::size_t>(next[f]);
+        } while (f != best);
+        loops.push_back(std::move(loop));
+    }
+    auto lex = [](const std::vector<std::int64_t>& x, const std::vector<std::int64_t>& y) {
+        return x < y;
+    };
+    std::sort(loops.begin(), loops.end(), lex);
+    std::sort(chains.begin(), chains.end(), lex);
+    res.loops = std::move(loops);
+    res.open_chains = std::move(chains);
+    return res;
+}
+
+}  // namespace
+}  // namespace detail
+
+std::vector<std::int64_t> boundary_edges(const std::int64_t* triangles, std::size_t n_triangles,
+                                         std::size_t n_vertices) {
+    const std::size_t n = detail::check_triangles("boundary_edges", triangles, n_triangles, n_vertices);
+    const detail::EdgeCount ec = detail::count_edges(triangles, n_triangles, n);
+    std::vector<std::int64_t> out;
+    out.reserve(2 * ec.boundary_h.size());
+    for (std::uint32_t h : ec.boundary_h) {
+        out.push_back(detail::half_from(triangles, h));
+        out.push_back(detail::half_to(triangles, h));
+    }
+    return out;
+}
+
+BoundaryContours boundary_contours(const std::int64_t* triangles, std::size_t n_triangles,
+                                   std::size_t n_vertices) {
+    const std::size_t n =
+        detail::check_triangles("boundary_contours", triangles, n_triangles, n_vertices);
+    detail::EdgeCount ec = detail::count_edges(triangles, n_triangles, n);
+    const std::size_t k = ec.boundary_h.size();
+    std::vector<std::int64_t> seg(2 * k);
+    for (std::size_t e = 0; e < k; ++e) {
+        seg[2 * e] = detail::half_from(triangles, ec.boundary_h[e]);
+        seg[2 * e + 1] = detail::half_to(triangles, ec.boundary_h[e]);
+    }
+
+    // Star of every pinch vertex, gathered lazily in one pass over the
+    // triangles the first time a pinch needs resolving.
+    std::unordered_map<std::int64_t, std::vector<std::uint32_t>> star;  // v -> triangles
+    bool star_built = false;
+    auto resolve = [&](std::int64_t v, const std::vector<std::int64_t>& in_edges,
+                       const std::vector<std::int64_t>& out_edges,
+                       std::vector<std::int64_t>& succ) -> bool {
+        if (!star_built) {
+            // First pinch: gather the stars of all vertices that lie on more
+            // than one boundary edge (one pass over the triangles).
+            star_built = true;
+            std::unordered_map<std::int64_t, int> deg;
+            for (std::size_t e = 0; e < k; ++e) ++deg[seg[2 * e]];
+            for (const auto& kv : deg)
+                if (kv.second >= 2) star[kv.first];
+            for (std::size_t t = 0; t < n_triangles; ++t)
+                for (int c = 0; c < 3; ++c) {
+                    auto it = star.find(triangles[3 * t + static_cast<std::size_t>(c)]);
+                    if (it != star.end()) it->second.push_back(static_cast<std::uint32_t>(t));
+                }
+        }
+        auto sit = star.find(v);
+        if (sit == star.end()) return false;
+        // Around v, triangle t = (v, x, y) has the half-edge v -> x leaving v
+        // and y -> v entering it. Map "entering from y" -> triangle.
+        std::unordered_map<std::int64_t, std::pair<std::int64_t, std::int64_t>> enter;  // y -> (x, t)
+        for (std::uint32_t t : sit->second) {
+            const std::int64_t* T = triangles + 3 * static_cast<std::size_t>(t);
+            int r = T[0] == v ? 0 : T[1] == v ? 1 : 2;
+            const std::int64_t x = T[(r + 1) % 3], y = T[(r + 2) % 3];
+            if (!enter.emplace(y, std::make_pair(x, static_cast<std::int64_t>(t))).second)
+                return false;  // two triangles enter v from y: inconsistent or non-manifold
+        }
+        std::unordered_map<std::int64_t, std::int64_t> leave_edge;  // x -> boundary edge v -> x
+        for (std::int64_t e : out_edges) leave_edge[seg[2 * static_cast<std::size_t>(e) + 1]] = e;
+        for (std::size_t i = 0; i < in_edges.size(); ++i) {
+            // The entering boundary edge u -> v belongs to the triangle (v, x, u).
+            const std::int64_t u = seg[2 * static_cast<std::size_t>(in_edges[i])];
+            auto it = enter.find(u);
+            if (it == enter.end()) return false;
+            std::int64_t x = it->second.first;
+            std::size_t steps = 0;
+            for (;;) {
+                auto le = leave_edge.find(x);
+                if (le != leave_edge.end()) {
+                    succ[i] = le->second;
+                    break;
+                }
+                // v -> x is interior: continue in the triangle entering v from x.
+                auto nx = enter.find(x);
+                if (nx == enter.end() || ++steps > sit->second.size()) return false;
+                x = nx->second.first;
+            }
+        }
+        return true;
+    };
+    BoundaryContours res = detail::assemble(seg, n, resolve);
+    res.nonmanifold_edges = std::move(ec.nonmanifold);
+    res.inconsistent_edges = std::move(ec.inconsistent);
+    return res;
+}
+
+std::vector<std::vector<std::int64_t>> boundary_loops(const std::int64_t* triangles,
+                                                      std::size_t n_triangles,
+                                                      std::size_t n_vertices, bool strict) {
+    BoundaryContours c = boundary_contours(triangles, n_triangles, n_vertices);
+    if (strict) {
+        if (!c.nonmanifold_edges.empty())
+            throw GeometryError("boundary_loops: edge (" + std::to_string(c.nonmanifold_edges[0]) + ", " +
+                                std::to_string(c.nonmanifold_edges[1]) +
+                                ") is used by three or more triangles (non-manifold); vertex " +
+                                std::to_string(c.nonmanifold_edges[0]) +
+                                "; pass strict=False or call boundary_contours for the full report");
+        if (!c.inconsistent_edges.empty())
+            throw GeometryError("boundary_loops: edge (" + std::to_string(c.inconsistent_edges[0]) + ", " +
+                                std::to_string(c.inconsistent_edges[1]) +
+                                ") is used twice in the same direction (inconsistent triangle "
+                                "orientation); vertex " + std::to_string(c.inconsistent_edges[0]) +
+                                "; pass strict=False or call boundary_contours for the full report");
+        if (!c.pinch_vertices.empty())
+            throw GeometryError("boundary_loops: vertex " + std::to_string(c.pinch_vertices[0]) +
+                                " is a pinch vertex (it lies on the boundary more than once)" +
+                                (c.pinch_vertices.size() > 1
+                                     ? " (and " + std::to_string(c.pinch_vertices.size() - 1) + " more)"
+                                     : std::string()) +
+                                "; pass strict=False or call boundary_contours for the full report");
+        if (!c.open_chains.empty())
+            throw GeometryError("boundary_loops: the boundary has an open chain from vertex " +
+                                std::to_string(c.open_chains[0].front()) + " to vertex " +
+                                std::to_string(c.open_chains[0].back()) +
+                                " (non-manifold or inconsistently oriented triangles)"
+                                "; pass strict=False or call boundary_contours for the full report");
+    }
+    return std::move(c.loops);
+}
+
+BoundaryContours sort_segments(const std::int64_t* segments, std::size_t n_segments,
+                               std::size_t n_vertices) {
+    std::int64_t mx = -1;
+    for (std::size_t e = 0; e < 2 * n_segments; ++e) {
+        if (segments[e] < 0)
+            throw std::invalid_argument("sort_segments: segment row " + std::to_string(e / 2) +
+                                        " has a negative vertex index");
+        mx = std::max(mx, segments[e]);
+    }
+    std::size_t n = n_vertices;
+    if (n == 0) {
+        n = static_cast<std::size_t>(mx + 1);
+    } else if (mx >= 0 && static_cast<std::size_t>(mx) >= n) {
+        throw std::invalid_argument("sort_segments: vertex index " + std::to_string(mx) +
+                                    " out of range [0, " + std::to_string(n) + ")");
+    }
+    std::vector<std::int64_t> seg(segments, segments + 2 * n_segments);
+    // Without triangles a pinch is paired in input order: the i-th segment
+    // entering v is followed by the i-th segment leaving it.
+    auto resolve = [](std::int64_t, const std::vector<std::int64_t>& in_edges,
+                      const std::vector<std::int64_t>& out_edges, std::vector<std::int64_t>& succ) {
+        for (std::size_t i = 0; i < in_edges.size(); ++i) succ[i] = out_edges[i];
+        return true;
+    };
+    return detail::assemble(seg, n, resolve);
+}
+
+}  // namespace faultmesh
