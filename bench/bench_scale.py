@@ -1,0 +1,311 @@
+"""Scale benchmark: 200 fault patches stitched one after another into a layer
+TIN of 1M points (DESIGN.md step 7 at scale; issue 5, item 4).
+
+    python bench/bench_scale.py [--points 1000000] [--faults 200] [--repeat 5]
+                                [--locality] [--docs] [--out DIR]
+
+What is measured (all in this one process, medians over ``--repeat`` runs):
+
+* ``delaunay``: ``faultmesh.delaunay`` of the same points (the reference);
+* ``stitch total``: building the stitcher on the TIN (adjacency and AABB tree),
+  the 200 stitches one after another, and the final compacted mesh -- what a
+  user pays to get the faulted layer from the TIN;
+* per stitch: median and maximum over the 200 stitches;
+* peak memory: the process's peak resident set (VmHWM) during the stitching
+  phase (reset just before it through /proc/self/clear_refs) and the resident
+  set before it;
+* ratio: stitch total / delaunay (target <= 2).
+
+``--locality``: the same 50 faults (same places, same patches) stitched into
+TINs of the same point density but 1/4, 1/2 and the full area: if each stitch
+touches only the neighbourhood of its fault, the time per stitch does not grow
+with the mesh.
+
+The data are synthetic and generated here (fixed seed): points uniform in a
+square of side ``sqrt(points) * 10`` m (10 m mean spacing) with a smooth
+surface z(x, y); the study area is the square (its corners are data points).
+The faults sit in a grid of cells, one per cell, with random strike, dip 45 to
+70 degrees, throw 5 to 25 m, alternating normal and reverse. Each patch is
+lofted (``faultmesh.loft``, minimum area) between two traces 300 m apart
+along strike; a trace is the footwall polyline (100 m, to the footwall cutoff)
+followed by the hanging-wall polyline (from the hanging-wall cutoff, 100 m),
+points every 10 m. The fault strip of a reverse fault runs backwards in XY
+(the repetition band), as in real data.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Dict, List, Tuple
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+if os.environ.get("FAULTMESH_DEV_BUILD") and str(ROOT / "python") not in sys.path:
+    sys.path.insert(0, str(ROOT / "python"))
+
+import faultmesh  # noqa: E402
+
+SPACING = 10.0  # mean point spacing (m)
+
+
+# ----------------------------------------------------------------------------
+# Synthetic data
+# ----------------------------------------------------------------------------
+def surface_z(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """A smooth layer top: a gentle dip with folds of 1-3 km wavelength."""
+    return (-400.0 - 0.01 * x + 0.006 * y + 12.0 * np.sin(x / 900.0) * np.cos(y / 1300.0)
+            + 5.0 * np.sin((x + 2 * y) / 2100.0))
+
+
+def make_points(n: int, side: float, seed: int) -> np.ndarray:
+    """n points (n, 3): the square's 4 corners and n - 4 uniform points."""
+    rng = np.random.default_rng([seed, 0x5CA1E])
+    xy = np.vstack([[[0.0, 0.0], [side, 0.0], [side, side], [0.0, side]],
+                    rng.uniform(0.0, side, size=(n - 4, 2))])
+    return np.column_stack([xy, surface_z(xy[:, 0], xy[:, 1])])
+
+
+def fault_patch(center: np.ndarray, strike: float, dip: float, throw: float, kind: str,
+                length: float = 300.0, reach: float = 100.0, step: float = SPACING
+                ) -> Tuple[np.ndarray, np.ndarray]:
+    """One fine fault model: (vertices (k, 3), triangles (m, 3)), lofted
+    between two traces at -length/2 and +length/2 along strike."""
+    s = np.array([np.sin(np.deg2rad(strike)), np.cos(np.deg2rad(strike))])  # strike direction
+    d = np.array([s[1], -s[0]])  # dip direction (right of strike)
+    heave = throw / np.tan(np.deg2rad(dip))
+    nf = int(round(reach / step))
+    traces = []
+    for u in (-0.5 * length, 0.5 * length):
+        base = center + u * s
+        xf = np.linspace(-reach, 0.0, nf + 1)  # footwall: far end -> cutoff at 0
+        if kind == "normal":  # hanging wall beyond the cutoff, down by the throw
+            xh = np.linspace(heave, heave + reach, nf + 1)
+            zf, zh = +0.5 * throw, -0.5 * throw
+        else:  # reverse: hanging-wall cutoff back over the footwall, up by the throw
+            xh = np.linspace(-heave, -heave + reach + heave, nf + 1)
+            zf, zh = -0.5 * throw, +0.5 * throw
+        pts = []
+        for xs, dz in ((xf, zf), (xh, zh)):
+            p = base[None, :] + xs[:, None] * d[None, :]
+            pts.append(np.column_stack([p, surface_z(p[:, 0], p[:, 1]) + dz]))
+        traces.append(np.vstack(pts))
+    a, b = traces
+    tri = faultmesh.loft(a, b, method="min_area")
+    return np.vstack([a, b]), np.asarray(tri, dtype=np.int64)
+
+
+def make_faults(n_faults: int, side: float, seed: int, region: float = 1.0
+                ) -> List[Tuple[str, np.ndarray, np.ndarray]]:
+    """n_faults patches, one per cell of a grid over the lower-left
+    ``region`` x ``region`` part of the square (cells >= 450 m, so patches --
+    at most ~390 m across -- never overlap)."""
+    rng = np.random.default_rng([seed, 0xFA17])
+    extent = side * region
+    ny = max(1, int(np.floor(np.sqrt(n_faults * extent / extent))))
+    nx = int(np.ceil(n_faults / ny))
+    cw, ch = extent / nx, extent / ny
+    if min(cw, ch) < 450.0:
+        raise ValueError(f"make_faults: {n_faults} faults do not fit in {extent:.0f} m "
+                         f"(cells {cw:.0f} x {ch:.0f} m, need >= 450 m)")
+    out = []
+    for k in range(n_faults):
+        i, j = k % nx, k // nx
+        c = np.array([(i + 0.5) * cw, (j + 0.5) * ch])
+        c += rng.uniform(-0.5, 0.5, 2) * np.maximum(np.array([cw, ch]) - 420.0, 0.0)
+        kind = "normal" if k % 2 == 0 else "reverse"
+        v, t = fault_patch(c, strike=rng.uniform(0.0, 360.0), dip=rng.uniform(45.0, 70.0),
+                           throw=rng.uniform(5.0, 25.0), kind=kind)
+        out.append((f"F{k + 1:03d}-{kind}", v, t))
+    return out
+
+
+# ----------------------------------------------------------------------------
+# Measurement helpers
+# ----------------------------------------------------------------------------
+def _proc_status(key: str) -> float:
+    """A memory figure of /proc/self/status in MiB (nan where unavailable)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith(key + ":"):
+                return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return float("nan")
+
+
+def _reset_peak() -> bool:
+    """Reset VmHWM to the current RSS (Linux >= 4.0: write 5 to clear_refs)."""
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+        return True
+    except OSError:
+        return False
+
+
+def machine() -> str:
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return (f"{cpu}, {os.cpu_count()} logical CPUs, {platform.system()} {platform.release()}, "
+            f"Python {platform.python_version()}, faultmesh {faultmesh.__version__}")
+
+
+def time_delaunay(xy: np.ndarray, repeat: int) -> List[float]:
+    runs = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        faultmesh.delaunay(xy)
+        runs.append(time.perf_counter() - t0)
+    return runs
+
+
+def stitch_all(V: np.ndarray, T: np.ndarray, halfedges: np.ndarray, boundary: np.ndarray,
+               faults) -> Dict[str, object]:
+    """Build a stitcher, stitch every fault, compact: times of each phase."""
+    t0 = time.perf_counter()
+    st = faultmesh.LayerStitcher(V, T, boundary, halfedges=halfedges, name="layer")
+    t1 = time.perf_counter()
+    per, removed = [], []
+    for name, pv, pt in faults:
+        a = time.perf_counter()
+        rep = st.stitch(pv, pt, name=name)
+        per.append(time.perf_counter() - a)
+        removed.append(len(rep["removed"]) if isinstance(rep, dict) else len(rep.removed))
+    t2 = time.perf_counter()
+    mesh = st.mesh()
+    t3 = time.perf_counter()
+    nt = len(mesh["triangles"]) if isinstance(mesh, dict) else len(mesh.triangles)
+    return {"build": t1 - t0, "stitches": per, "mesh": t3 - t2, "total": t3 - t0,
+            "removed": removed, "triangles_out": nt}
+
+
+def run(n_points: int, n_faults: int, repeat: int, seed: int, region: float = 1.0,
+        delaunay_repeat: int = None) -> Dict[str, object]:
+    side = float(np.sqrt(n_points) * SPACING)
+    P = make_points(n_points, side, seed)
+    boundary = np.array([[0.0, 0.0], [side, 0.0], [side, side], [0.0, side]])
+    faults = make_faults(n_faults, side, seed, region=region)
+    d_runs = time_delaunay(P[:, :2], delaunay_repeat or repeat)
+    info = faultmesh.delaunay(P[:, :2], return_info=True)
+    T, H = np.asarray(info.triangles), np.asarray(info.halfedges)
+    rss_before = _proc_status("VmRSS")
+    peak_ok = _reset_peak()
+    runs = [stitch_all(P, T, H, boundary, faults) for _ in range(repeat)]
+    peak = _proc_status("VmHWM") if peak_ok else float("nan")
+    per_all = [statistics.median(r["stitches"]) for r in runs]
+    max_all = [max(r["stitches"]) for r in runs]
+    return {
+        "points": n_points, "side_m": side, "faults": n_faults, "layer_triangles": int(len(T)),
+        "patch_triangles": int(sum(len(f[2]) for f in faults)),
+        "removed_per_stitch_median": float(np.median(runs[0]["removed"])),
+        "triangles_out": runs[0]["triangles_out"],
+        "delaunay_s": statistics.median(d_runs), "delaunay_runs": d_runs,
+        "build_s": statistics.median(r["build"] for r in runs),
+        "stitch_sum_s": statistics.median(sum(r["stitches"]) for r in runs),
+        "mesh_s": statistics.median(r["mesh"] for r in runs),
+        "total_s": statistics.median(r["total"] for r in runs),
+        "total_runs": [r["total"] for r in runs],
+        "per_stitch_median_s": statistics.median(per_all),
+        "per_stitch_max_s": statistics.median(max_all),
+        "rss_before_mib": rss_before, "peak_rss_stitching_mib": peak,
+        "repeat": repeat,
+    }
+
+
+# ----------------------------------------------------------------------------
+# Report
+# ----------------------------------------------------------------------------
+def markdown(res: Dict[str, object], loc: List[Dict[str, object]], command: str) -> str:
+    r = res
+    ratio = r["total_s"] / r["delaunay_s"]
+    lines = [
+        "## Scale: 200 faults stitched into a 1M-point layer",
+        "",
+        f"- Machine: {machine()}",
+        f"- Command: `{command}`",
+        f"- Date: {_dt.date.today().isoformat()}",
+        f"- Data: {r['points']:,} random points on a {r['side_m'] / 1000:.1f} km square "
+        f"({r['layer_triangles']:,} Delaunay triangles), {r['faults']} fault patches "
+        f"({r['patch_triangles']:,} triangles), median {r['removed_per_stitch_median']:.0f} "
+        "layer triangles removed per stitch. Medians over "
+        f"{r['repeat']} runs in one process.",
+        "",
+        "| step | seconds |",
+        "|---|---:|",
+        f"| `faultmesh.delaunay` of the points (reference) | {r['delaunay_s']:.3f} |",
+        f"| stitcher set-up (adjacency, AABB tree) | {r['build_s']:.3f} |",
+        f"| {r['faults']} stitches | {r['stitch_sum_s']:.3f} |",
+        f"| compacted mesh | {r['mesh_s']:.3f} |",
+        f"| **stitching total** | **{r['total_s']:.3f}** |",
+        f"| time per stitch, median / max | {1e3 * r['per_stitch_median_s']:.2f} ms / "
+        f"{1e3 * r['per_stitch_max_s']:.2f} ms |",
+        f"| **ratio total / Delaunay** (target <= 2) | **{ratio:.2f}** |",
+        "",
+        f"Peak resident memory while stitching: {r['peak_rss_stitching_mib']:.0f} MiB "
+        f"(resident before: {r['rss_before_mib']:.0f} MiB, holding the points and the TIN).",
+        "",
+    ]
+    if loc:
+        lines += ["Locality: the same 50 faults in TINs of equal density and growing area. "
+                  "A stitch that touched the whole mesh would grow with the mesh; a local one "
+                  "stays flat.", "",
+                  "| points | triangles | set-up s | per stitch median ms | per stitch max ms |",
+                  "|---:|---:|---:|---:|---:|"]
+        for x in loc:
+            lines.append(f"| {x['points']:,} | {x['layer_triangles']:,} | {x['build_s']:.3f} | "
+                         f"{1e3 * x['per_stitch_median_s']:.2f} | {1e3 * x['per_stitch_max_s']:.2f} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--points", type=int, default=1_000_000)
+    ap.add_argument("--faults", type=int, default=200)
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--locality", action="store_true", help="also run the locality check")
+    ap.add_argument("--out", type=Path, default=ROOT / "bench" / "results" / "scale")
+    ap.add_argument("--docs", action="store_true", help="write docs/bench/scale.md")
+    args = ap.parse_args(argv)
+    command = "python bench/bench_scale.py " + " ".join(argv if argv is not None else sys.argv[1:])
+
+    res = run(args.points, args.faults, args.repeat, args.seed)
+    loc = []
+    if args.locality:
+        # Same density, area 1/4, 1/2, 1: the 50 faults stay in the same
+        # lower-left block (its side is the smallest square's).
+        for frac in (0.25, 0.5, 1.0):
+            n = int(args.points * frac)
+            side = np.sqrt(n) * SPACING
+            region = (np.sqrt(args.points * 0.25) * SPACING) / side * 0.999
+            loc.append(run(n, 50, args.repeat, args.seed, region=region, delaunay_repeat=1))
+    args.out.mkdir(parents=True, exist_ok=True)
+    md = markdown(res, loc, command)
+    (args.out / "scale.md").write_text(md)
+    (args.out / "scale.json").write_text(json.dumps(
+        {"machine": machine(), "command": command, "date": _dt.date.today().isoformat(),
+         "result": res, "locality": loc}, indent=2))
+    if args.docs:
+        (ROOT / "docs" / "bench").mkdir(parents=True, exist_ok=True)
+        (ROOT / "docs" / "bench" / "scale.md").write_text(md)
+    print(md)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
