@@ -824,7 +824,6 @@ def _trace_points(arr: np.ndarray, sec: Optional[Section], section_coords: bool)
 
 def save_dataset(ds: Dataset, path, *, section_coords: bool = False) -> Path:
     """Write ``ds`` in format v1; see :meth:`Dataset.save`."""
-    import json
     import os
     import tempfile
 

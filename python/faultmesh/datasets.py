@@ -169,7 +169,8 @@ def _fault_traces(geo: Geology, fm: FaultModel, sections: Sequence[Section], rin
                 npts = int(rng.integers(4, 6))
                 for _ in range(8):  # shorten until every point is valid and inside
                     far_s = s_cut + sgn * dist
-                    ss = np.linspace(far_s, s_cut, npts) if side == "foot" else np.linspace(s_cut, far_s, npts)
+                    ss = (np.linspace(far_s, s_cut, npts) if side == "foot"
+                          else np.linspace(s_cut, far_s, npts))
                     xy = sec.to_xy(ss)
                     z = geo.side_value(lay, fm.name, side, xy[:, 0], xy[:, 1])
                     # The cutoff point itself lies on the fault surface.
