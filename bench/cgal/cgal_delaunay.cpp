@@ -12,7 +12,7 @@
 //
 // Prints one JSON line on stdout:
 //   {"program": "cgal_delaunay", "n": n, "vertices": v, "triangles": m,
-//    "seconds": best, "runs": [...]}
+//    "seconds": best, "runs": [...], "peak_rss_kib": VmHWM}
 // where each run times, excluding file I/O, what a user of CGAL does to get an
 // index array: building the (Point_2, index) pairs, range insertion into a
 // Delaunay_triangulation_2<Epick> whose vertices carry the input index (the
@@ -35,6 +35,21 @@ using Vb = CGAL::Triangulation_vertex_base_with_info_2<std::int64_t, K>;
 using Fb = CGAL::Triangulation_face_base_2<K>;
 using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
 using Delaunay = CGAL::Delaunay_triangulation_2<K, Tds>;
+
+// Peak resident memory of this process image in KiB: VmHWM of
+// /proc/self/status (Linux). getrusage's ru_maxrss is not used because Linux
+// carries the parent's high-water mark over fork + exec, so a child of a big
+// Python process would report the parent's size. -1 if unavailable.
+static long peak_rss_kib() {
+    std::FILE* f = std::fopen("/proc/self/status", "r");
+    if (!f) return -1;
+    char line[256];
+    long kib = -1;
+    while (std::fgets(line, sizeof line, f))
+        if (std::strncmp(line, "VmHWM:", 6) == 0) kib = std::strtol(line + 6, nullptr, 10);
+    std::fclose(f);
+    return kib;
+}
 
 static void die(const std::string& msg) {
     std::fprintf(stderr, "cgal_delaunay: %s\n", msg.c_str());
@@ -104,7 +119,7 @@ int main(int argc, char** argv) {
         rs += buf;
     }
     std::printf("{\"program\": \"cgal_delaunay\", \"n\": %lld, \"vertices\": %zu, \"triangles\": %zu, "
-                "\"seconds\": %.6f, \"runs\": [%s]}\n",
-                static_cast<long long>(n), nv, tri.size() / 3, best, rs.c_str());
+                "\"seconds\": %.6f, \"runs\": [%s], \"peak_rss_kib\": %ld}\n",
+                static_cast<long long>(n), nv, tri.size() / 3, best, rs.c_str(), peak_rss_kib());
     return 0;
 }

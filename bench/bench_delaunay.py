@@ -1,0 +1,248 @@
+"""Benchmark faultmesh.delaunay against CGAL's Delaunay_triangulation_2.
+
+    python bench/bench_delaunay.py [--runs 5] [--only NAME ...] [--no-write]
+
+Both sides are C++ programs reading the same binary point file:
+  * faultmesh: bench/delaunay_driver.cpp, compiled here against the library
+    sources (cpp/src/delaunay.cpp, predicates.cpp) with -O3 -DNDEBUG, i.e. the
+    flags of a CMake Release build;
+  * CGAL: bench/cgal/cgal_delaunay.cpp (Epick, range insertion of
+    (point, index) pairs with vertex info, faces extracted into an int64
+    array), built with CMake Release.
+Each run is a fresh subprocess; its peak memory is the VmHWM the program reads
+from /proc/self/status at its end. (The ru_maxrss that os.wait4 returns is used
+only as a fallback: Linux carries the parent's high-water mark over fork +
+exec, so for a child of this Python process it is at least this process's
+size -- measured here, a 21k-point run "peaked" at 394 MiB.) The time is the one the program measures around the algorithm,
+excluding file I/O. Reported: medians over --runs runs, the ratio
+faultmesh/CGAL of the medians, peak RSS, triangle counts, and whether the two
+triangle sets are identical (CGAL's duplicate representatives mapped to ours).
+The markdown table goes to stdout and to docs/bench/delaunay.md.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import datetime
+import json
+import os
+import platform
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+# ----------------------------------------------------------------- datasets
+
+def uniform(n: int, seed: int) -> np.ndarray:
+    return np.random.default_rng(seed).random((n, 2))
+
+
+def grid(k: int) -> np.ndarray:
+    return np.stack(np.meshgrid(np.arange(float(k)), np.arange(float(k))), -1).reshape(-1, 2)
+
+
+def clustered(n: int, seed: int) -> np.ndarray:
+    # 100 gaussian clusters whose spreads range over four orders of magnitude,
+    # centres uniform in [0, 1000]^2.
+    rng = np.random.default_rng(seed)
+    k = 100
+    centres = rng.random((k, 2)) * 1000.0
+    sigma = np.geomspace(0.01, 100.0, k)
+    which = rng.integers(0, k, n)
+    return centres[which] + rng.normal(size=(n, 2)) * sigma[which, None]
+
+
+def claudius() -> np.ndarray:
+    pts = []
+    with open(ROOT / "tests" / "data" / "claudius" / "claudius.csv", newline="") as f:
+        for r in csv.DictReader(f):
+            if r["val"]:
+                pts.append((float(r["X"]), float(r["Y"])))
+    return np.array(pts)
+
+
+DATASETS = [
+    ("uniform 10k", lambda: uniform(10_000, 1)),
+    ("uniform 100k", lambda: uniform(100_000, 2)),
+    ("uniform 1M", lambda: uniform(1_000_000, 3)),
+    ("uniform 4M", lambda: uniform(4_000_000, 4)),
+    ("grid 1000x1000 (integer)", lambda: grid(1000)),
+    ("clustered 1M (100 gaussians)", lambda: clustered(1_000_000, 5)),
+    ("Claudius 4 horizons XY", claudius),
+]
+
+
+# ------------------------------------------------------------------- build
+
+def build(build_dir: Path) -> tuple[Path, Path]:
+    build_dir.mkdir(parents=True, exist_ok=True)
+    cxx = os.environ.get("CXX", "g++")
+    driver = build_dir / "delaunay_driver"
+    srcs = [ROOT / "bench" / "delaunay_driver.cpp", ROOT / "cpp" / "src" / "delaunay.cpp",
+            ROOT / "cpp" / "src" / "predicates.cpp"]
+    subprocess.run([cxx, "-O3", "-DNDEBUG", "-std=c++17", "-ffp-contract=off",
+                    "-I", str(ROOT / "cpp" / "include"), "-I", str(ROOT / "cpp" / "src"),
+                    *map(str, srcs), "-o", str(driver)], check=True)
+    cgal_dir = build_dir / "cgal"
+    gen = ["-G", "Ninja"] if shutil.which("ninja") else []
+    subprocess.run(["cmake", "-S", str(ROOT / "bench" / "cgal"), "-B", str(cgal_dir),
+                    "-DCMAKE_BUILD_TYPE=Release", *gen], check=True, stdout=subprocess.DEVNULL)
+    subprocess.run(["cmake", "--build", str(cgal_dir), "--target", "cgal_delaunay"], check=True,
+                   stdout=subprocess.DEVNULL)
+    return driver, cgal_dir / "cgal_delaunay"
+
+
+# -------------------------------------------------------------------- runs
+
+def run_once(exe: Path, inp: Path, out: str = "-") -> tuple[dict, float]:
+    """One subprocess: (its JSON line, its peak RSS in MiB)."""
+    # VmHWM as the child reports it; ru_maxrss only if that is unavailable.
+    proc = subprocess.Popen([str(exe), str(inp), out], stdout=subprocess.PIPE)
+    _, status, usage = os.wait4(proc.pid, 0)
+    stdout = proc.stdout.read().decode()
+    proc.stdout.close()
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{exe.name} failed on {inp} (exit {proc.returncode})")
+    j = json.loads(stdout.strip().splitlines()[-1])
+    kib = j.get("peak_rss_kib", -1)
+    return j, (kib if kib > 0 else usage.ru_maxrss) / 1024.0
+
+
+def write_points(path: Path, xy: np.ndarray) -> None:
+    xy = np.ascontiguousarray(xy, dtype="<f8")
+    with open(path, "wb") as f:
+        f.write(np.int64(len(xy)).astype("<i8").tobytes())
+        f.write(xy.tobytes())
+
+
+def canonical(t: np.ndarray) -> np.ndarray:
+    """Rows rotated to start at their smallest index, then sorted."""
+    k = np.argmin(t, axis=1)
+    rows = np.arange(len(t))
+    r = np.stack([t[rows, (k + i) % 3] for i in range(3)], axis=1)
+    return r[np.lexsort((r[:, 2], r[:, 1], r[:, 0]))]
+
+
+def identical(fm_out: Path, cgal_out: Path) -> bool:
+    a = np.fromfile(fm_out, dtype="<i8")
+    m = int(a[0])
+    tri = a[1:1 + 3 * m].reshape(-1, 3)
+    rep = a[2 + 3 * m:]
+    b = np.fromfile(cgal_out, dtype="<i8")
+    ref = rep[b[1:].reshape(-1, 3)]
+    return tri.shape == ref.shape and bool(np.array_equal(canonical(tri), canonical(ref)))
+
+
+def machine() -> str:
+    cpu = "unknown CPU"
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    cxx = subprocess.run([os.environ.get("CXX", "g++"), "--version"], capture_output=True,
+                         text=True).stdout.splitlines()[0]
+    cgal = "CGAL ?"
+    try:
+        txt = Path("/usr/include/CGAL/version.h").read_text()
+        m = re.search(r'#define CGAL_VERSION_STR CGAL_STR\(([^)]*)\)', txt) or \
+            re.search(r'#define CGAL_VERSION (\S+)', txt)
+        if m:
+            cgal = "CGAL " + m.group(1)
+    except OSError:
+        pass
+    return (f"{cpu}, {os.cpu_count()} logical cores, {platform.system()} {platform.release()}, "
+            f"{cxx}, {cgal}")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--only", nargs="*", help="substrings of dataset names to run")
+    ap.add_argument("--build-dir", default=str(ROOT / "build" / "bench-delaunay"))
+    ap.add_argument("--no-write", action="store_true", help="do not write docs/bench/delaunay.md")
+    args = ap.parse_args()
+    if args.runs < 1:
+        ap.error("--runs must be >= 1")
+
+    driver, cgal = build(Path(args.build_dir))
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        for name, make in DATASETS:
+            if args.only and not any(s in name for s in args.only):
+                continue
+            xy = make()
+            inp = tmp / "points.bin"
+            write_points(inp, xy)
+            # First run of each side writes its triangles for the comparison;
+            # runs alternate between the sides so that load changes on the
+            # machine hit both alike.
+            t_fm, t_cg, mem_fm, mem_cg = [], [], [], []
+            for r in range(args.runs):
+                out_fm = str(tmp / "fm.tri") if r == 0 else "-"
+                out_cg = str(tmp / "cg.tri") if r == 0 else "-"
+                j, mem = run_once(driver, inp, out_fm)
+                t_fm.append(j["seconds"])
+                mem_fm.append(mem)
+                m_fm = j["triangles"]
+                j, mem = run_once(cgal, inp, out_cg)
+                t_cg.append(j["seconds"])
+                mem_cg.append(mem)
+                m_cg = j["triangles"]
+            same = identical(tmp / "fm.tri", tmp / "cg.tri")
+            med_fm, med_cg = statistics.median(t_fm), statistics.median(t_cg)
+            row = dict(name=name, n=len(xy), fm=med_fm, cgal=med_cg, ratio=med_fm / med_cg,
+                       mem_fm=max(mem_fm), mem_cg=max(mem_cg), m_fm=m_fm, m_cg=m_cg, same=same)
+            rows.append(row)
+            print(f"{name}: faultmesh {med_fm:.4f} s, CGAL {med_cg:.4f} s, ratio {row['ratio']:.3f}, "
+                  f"identical={same}", file=sys.stderr, flush=True)
+
+    cmd = "python bench/bench_delaunay.py" + "".join(
+        f" {a}" for a in sys.argv[1:] if a != "--no-write")
+    lines = [
+        "## Delaunay triangulation: faultmesh vs CGAL",
+        "",
+        f"Command: `{cmd}`  ",
+        f"Date: {datetime.date.today().isoformat()}  ",
+        f"Machine: {machine()}  ",
+        f"Runs: median of {args.runs} runs per side, each a fresh process; sides alternate.",
+        "",
+        "faultmesh: `faultmesh::delaunay` called from C++ (bench/delaunay_driver.cpp, -O3).",
+        "CGAL: `Delaunay_triangulation_2<Epick>` with vertex info, range insertion of",
+        "(point, index) pairs, faces extracted into an int64 array (bench/cgal/cgal_delaunay.cpp,",
+        "CMake Release). Times exclude file I/O. Peak memory: the process's VmHWM",
+        "(/proc/self/status; includes the input array, the same for both).",
+        "",
+        "| data | points | faultmesh s | CGAL s | ratio fm/CGAL | faultmesh MiB | CGAL MiB "
+        "| triangles fm | triangles CGAL | identical sets |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|:---:|",
+    ]
+    for r in rows:
+        lines.append(f"| {r['name']} | {r['n']:,} | {r['fm']:.4f} | {r['cgal']:.4f} | {r['ratio']:.3f} "
+                     f"| {r['mem_fm']:.0f} | {r['mem_cg']:.0f} | {r['m_fm']:,} | {r['m_cg']:,} "
+                     f"| {'yes' if r['same'] else 'NO'} |")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if not args.no_write and not args.only:
+        out = ROOT / "docs" / "bench" / "delaunay.md"
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(text)
+        print(f"wrote {out.relative_to(ROOT)}", file=sys.stderr)
+    return 0 if all(r["same"] and r["m_fm"] == r["m_cg"] for r in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
