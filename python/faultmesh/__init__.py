@@ -39,3 +39,5 @@ def include_dir() -> str:
 
 from .dataset import Dataset, DatasetError, load_dataset  # noqa: E402
 from . import datasets  # noqa: E402
+from .io import load_model  # noqa: E402
+from .model import Model, Surface, Gap  # noqa: E402

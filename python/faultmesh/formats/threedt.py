@@ -1,0 +1,358 @@
+"""The ``.3dt`` format: faultmesh's own text format for a multi-layer model.
+
+The specification is ``docs/3dt.md``; this module is its reference reader and
+writer. In short::
+
+    3DT 1
+    # comments and blank lines are ignored anywhere
+    MODEL name="demo" crs="EPSG:32650" surfaces=2 gaps=0
+    META {"any": "json object"}
+    BOUNDARY points=4
+    0.0 0.0
+    ...
+    SURFACE name="coal8" kind=layer order=0 vertices=3 triangles=1
+    VERTICES
+    0.0 0.0 -120.5
+    ...
+    TRIANGLES
+    0 1 2
+    END SURFACE
+    GAP fault="F22" layer="coal8" polygon_vertices=14 holes=1 seconds=0.0021 triangles=16
+    0 1 2 3 ...
+    END GAP
+    END MODEL
+
+Coordinates are written with the shortest decimal that reads back as the same
+double, so a write/read round trip is exact.
+"""
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+from typing import Any, Dict, List, Optional, Tuple
+
+import numpy as np
+
+from ._common import AtomicFiles, _Shared, ModelFileError, format_floats, format_ints, parse_numbers, read_text
+
+MAGIC = "3DT"
+VERSION = 1
+SUFFIX = ".3dt"
+
+# key=value, value a JSON string (with escapes) or a bare token.
+_ATTR = re.compile(r'\s*([A-Za-z_][A-Za-z0-9_]*)=("(?:[^"\\]|\\.)*"|[^\s"]+)')
+
+
+def _json_default(o: Any):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, (set, tuple)):
+        return list(o)
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(f"metadata value of type {type(o).__name__} is not JSON-serialisable")
+
+
+def _meta_line(meta: Dict[str, Any], owner: str) -> Optional[str]:
+    if not meta:
+        return None
+    try:
+        return "META " + json.dumps(meta, default=_json_default, sort_keys=True,
+                                    ensure_ascii=False, allow_nan=False)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"save .3dt: metadata of {owner} cannot be written as JSON: {e}") from None
+
+
+def _q(s: str) -> str:
+    return json.dumps(str(s), ensure_ascii=False)
+
+
+def model_lines(model) -> List[str]:
+    """The ``.3dt`` text of ``model`` as a list of lines (no end-of-line characters)."""
+    from .. import __version__
+
+    out: List[str] = [f"{MAGIC} {VERSION}",
+                      f"# faultmesh {__version__} multi-layer model; format: docs/3dt.md",
+                      "# surfaces: layers top to bottom, then faults; triangle indices are "
+                      "0-based rows of VERTICES, counter-clockwise seen from above"]
+    surfaces = [(s, "layer", i) for i, s in enumerate(model.surfaces.values())]
+    surfaces += [(s, "fault", i) for i, s in enumerate(model.faults.values())]
+    out.append(f"MODEL name={_q(model.name)} crs={_q(model.crs or '')} "
+               f"surfaces={len(surfaces)} gaps={len(model.gaps)}")
+    m = _meta_line(model.metadata, f"model {model.name!r}")
+    if m:
+        out.append(m)
+    if model.boundary is not None:
+        b = np.asarray(model.boundary, dtype=np.float64).reshape(-1, 2)
+        out.append(f"BOUNDARY points={len(b)}")
+        out.extend(format_floats(b))
+    for surf, kind, order in surfaces:
+        out.append(f"SURFACE name={_q(surf.name)} kind={kind} order={order} "
+                   f"vertices={surf.n_vertices} triangles={surf.n_triangles}")
+        m = _meta_line(surf.metadata, f"surface {surf.name!r}")
+        if m:
+            out.append(m)
+        out.append("VERTICES")
+        out.extend(format_floats(surf.vertices))
+        out.append("TRIANGLES")
+        out.extend(format_ints(surf.triangles))
+        out.append("END SURFACE")
+    for gap in model.gaps:
+        rows = np.asarray(gap.triangles, dtype=np.int64).reshape(-1)
+        out.append(f"GAP fault={_q(gap.fault)} layer={_q(gap.layer)} "
+                   f"polygon_vertices={int(gap.n_vertices)} holes={int(gap.n_holes)} "
+                   f"seconds={float(gap.seconds)!r} triangles={len(rows)}")
+        m = _meta_line(gap.metadata, f"gap {gap.fault!r}/{gap.layer!r}")
+        if m:
+            out.append(m)
+        # 20 row indices per line keeps lines short and the file diff-able.
+        for k in range(0, len(rows), 20):
+            out.append(" ".join(map(str, rows[k:k + 20].tolist())))
+        out.append("END GAP")
+    out.append("END MODEL")
+    return out
+
+
+def write_3dt(model, path, files: Optional[AtomicFiles] = None) -> Path:
+    """Write ``model`` to ``path`` atomically (temp file + rename; with ``files``
+    the rename happens when that shared :class:`AtomicFiles` commits)."""
+    path = Path(path)
+    lines = model_lines(model)  # build everything first: errors leave no file behind
+    with (AtomicFiles() if files is None else _Shared(files)) as f:
+        fh = f.open(path)
+        fh.write("\n".join(lines))
+        fh.write("\n")
+    return path
+
+
+class _Reader:
+    """Statement-level cursor over the significant lines of a ``.3dt`` file."""
+
+    def __init__(self, path: Path, text: str) -> None:
+        self.path = path
+        self.nums: List[int] = []
+        self.lines: List[str] = []
+        for no, raw in enumerate(text.splitlines(), start=1):
+            s = raw.strip()
+            if s and not s.startswith("#"):
+                self.nums.append(no)
+                self.lines.append(s)
+        self.i = 0
+
+    def error(self, msg: str, at: Optional[int] = None) -> ModelFileError:
+        if at is None:
+            at = self.i
+        line = self.nums[at] if at < len(self.nums) else (self.nums[-1] if self.nums else None)
+        if at >= len(self.nums):
+            msg = f"unexpected end of file: {msg}"
+        return ModelFileError(self.path, msg, line)
+
+    def peek(self) -> Optional[str]:
+        return self.lines[self.i] if self.i < len(self.lines) else None
+
+    def next(self, expected: str) -> str:
+        if self.i >= len(self.lines):
+            raise self.error(f"expected {expected}")
+        s = self.lines[self.i]
+        self.i += 1
+        return s
+
+    def statement(self, keyword: str) -> Dict[str, str]:
+        """Read ``KEYWORD key=value ...`` and return the attributes (raw strings)."""
+        at = self.i
+        s = self.next(keyword)
+        word, _, rest = s.partition(" ")
+        if word != keyword:
+            raise self.error(f"expected {keyword}, got {s[:60]!r}", at)
+        return self.attributes(rest, keyword, at)
+
+    def attributes(self, rest: str, keyword: str, at: int) -> Dict[str, str]:
+        attrs: Dict[str, str] = {}
+        pos = 0
+        rest = rest.rstrip()
+        while pos < len(rest):
+            m = _ATTR.match(rest, pos)
+            if not m:
+                raise self.error(f"{keyword}: expected key=value, got {rest[pos:pos + 40].strip()!r}", at)
+            key, val = m.group(1), m.group(2)
+            if val.startswith('"'):
+                try:
+                    val = json.loads(val)
+                except json.JSONDecodeError as e:
+                    raise self.error(f"{keyword}: bad quoted value for {key}: {e}", at) from None
+            if key in attrs:
+                raise self.error(f"{keyword}: attribute {key!r} given twice", at)
+            attrs[key] = val
+            pos = m.end()
+        return attrs
+
+    def need(self, attrs: Dict[str, str], key: str, keyword: str, at: int, kind=str):
+        if key not in attrs:
+            raise self.error(f"{keyword}: missing attribute {key}=", at)
+        val = attrs[key]
+        try:
+            if kind is int:
+                v = int(val)
+                if v < 0:
+                    raise ValueError
+                return v
+            if kind is float:
+                v = float(val)
+                if not np.isfinite(v):
+                    raise ValueError
+                return v
+        except ValueError:
+            noun = "a non-negative integer" if kind is int else "a finite number"
+            raise self.error(f"{keyword}: {key} must be {noun}, got {val!r}", at) from None
+        return str(val)
+
+    def meta(self) -> Dict[str, Any]:
+        s = self.peek()
+        if s is None or not (s == "META" or s.startswith("META ")):
+            return {}
+        at = self.i
+        self.i += 1
+        try:
+            val = json.loads(s[4:].strip() or "null")
+        except json.JSONDecodeError as e:
+            raise self.error(f"META: expected a JSON object on one line ({e})", at) from None
+        if not isinstance(val, dict):
+            raise self.error(f"META: expected a JSON object, got {type(val).__name__}", at)
+        return val
+
+    def block(self, n: int, ncols: int, what: str, kind, context: str) -> np.ndarray:
+        lines = self.lines[self.i:self.i + n]
+        nums = self.nums[self.i:self.i + n]
+        if len(lines) < n:
+            raise self.error(f"expected {n} {what} rows{context}, the file ends after {len(lines)}",
+                             len(self.lines))
+        arr = parse_numbers(self.path, lines, nums, ncols, what, kind=kind, context=context)
+        self.i += n
+        return arr
+
+    def keyword_line(self, expected: str) -> None:
+        at = self.i
+        s = self.next(expected)
+        if s != expected:
+            raise self.error(f"expected {expected!r}, got {s[:60]!r}", at)
+
+
+def read_3dt(path):
+    """Read a ``.3dt`` file into a :class:`faultmesh.Model`."""
+    from ..model import Gap, Model, Surface
+
+    path = Path(path)
+    r = _Reader(path, read_text(path))
+    if not r.lines:
+        raise ModelFileError(path, f"empty file, expected the header '{MAGIC} {VERSION}'", 1)
+    head = r.lines[0].split()
+    if len(head) != 2 or head[0] != MAGIC:
+        raise ModelFileError(path, f"not a .3dt file: expected the header '{MAGIC} {VERSION}', "
+                                   f"got {r.lines[0][:60]!r}", r.nums[0])
+    try:
+        version = int(head[1])
+    except ValueError:
+        raise ModelFileError(path, f"bad .3dt version {head[1]!r}, expected an integer",
+                             r.nums[0]) from None
+    if version != VERSION:
+        raise ModelFileError(path, f"unsupported .3dt version {version}; this faultmesh reads "
+                                   f"version {VERSION}", r.nums[0])
+    r.i = 1
+    at = r.i
+    attrs = r.statement("MODEL")
+    name = r.need(attrs, "name", "MODEL", at)
+    crs = str(attrs.get("crs", ""))
+    n_surf = r.need(attrs, "surfaces", "MODEL", at, int)
+    n_gaps = r.need(attrs, "gaps", "MODEL", at, int)
+    model_meta = r.meta()
+
+    boundary = None
+    if r.peek() is not None and r.peek().split(" ", 1)[0] == "BOUNDARY":
+        at = r.i
+        battrs = r.statement("BOUNDARY")
+        k = r.need(battrs, "points", "BOUNDARY", at, int)
+        boundary = r.block(k, 2, "boundary x y", float,
+                           f" (BOUNDARY at line {r.nums[at]} announced {k} points)")
+
+    layers: List[Tuple[int, Surface]] = []
+    faults: List[Tuple[int, Surface]] = []
+    seen = set()
+    for _ in range(n_surf):
+        at = r.i
+        sattrs = r.statement("SURFACE")
+        sname = r.need(sattrs, "name", "SURFACE", at)
+        kind = r.need(sattrs, "kind", "SURFACE", at)
+        if kind not in ("layer", "fault"):
+            raise r.error(f"SURFACE {sname!r}: kind must be 'layer' or 'fault', got {kind!r}", at)
+        order = r.need(sattrs, "order", "SURFACE", at, int)
+        nv = r.need(sattrs, "vertices", "SURFACE", at, int)
+        nt = r.need(sattrs, "triangles", "SURFACE", at, int)
+        if (kind, sname) in seen:
+            raise r.error(f"SURFACE: a {kind} named {sname!r} was already defined", at)
+        seen.add((kind, sname))
+        meta = r.meta()
+        ctx = f" (SURFACE {sname!r} at line {r.nums[at]})"
+        r.keyword_line("VERTICES")
+        verts = r.block(nv, 3, "vertex x y z", float, ctx)
+        t_at = r.i
+        r.keyword_line("TRIANGLES")
+        tris = r.block(nt, 3, "triangle vertex indices", int, ctx)
+        if tris.size and (tris.min() < 0 or tris.max() >= nv):
+            row = int(np.flatnonzero((tris < 0).any(axis=1) | (tris >= nv).any(axis=1))[0])
+            raise r.error(f"SURFACE {sname!r}: triangle {row} has vertex index "
+                          f"{tris[row].tolist()} outside 0..{nv - 1}", t_at + 1 + row)
+        r.keyword_line("END SURFACE")
+        surf = Surface(name=sname, vertices=verts, triangles=tris, kind=kind, metadata=meta)
+        (layers if kind == "layer" else faults).append((order, surf))
+
+    layer_map = {s.name: s for _, s in sorted(layers, key=lambda t: t[0])}
+    gaps: List[Gap] = []
+    for _ in range(n_gaps):
+        at = r.i
+        gattrs = r.statement("GAP")
+        fault = r.need(gattrs, "fault", "GAP", at)
+        layer = r.need(gattrs, "layer", "GAP", at)
+        if layer not in layer_map:
+            raise r.error(f"GAP: layer {layer!r} is not a layer surface of this file "
+                          f"(layers: {list(layer_map)})", at)
+        npoly = r.need(gattrs, "polygon_vertices", "GAP", at, int)
+        holes = r.need(gattrs, "holes", "GAP", at, int)
+        secs = r.need(gattrs, "seconds", "GAP", at, float) if "seconds" in gattrs else 0.0
+        k = r.need(gattrs, "triangles", "GAP", at, int)
+        meta = r.meta()
+        rows: List[int] = []
+        while len(rows) < k:
+            row_at = r.i
+            s = r.next(f"{k} triangle rows of GAP at line {r.nums[at]}")
+            try:
+                vals = [int(v) for v in s.split()]
+            except ValueError:
+                raise r.error(f"GAP: expected triangle row indices (integers), got {s[:60]!r}",
+                              row_at) from None
+            rows.extend(vals)
+            if len(rows) > k:
+                raise r.error(f"GAP: announced {k} triangle rows, found more", row_at)
+        arr = np.asarray(rows, dtype=np.int64)
+        nt = layer_map[layer].n_triangles
+        if arr.size and (arr.min() < 0 or arr.max() >= nt):
+            raise r.error(f"GAP {fault!r}/{layer!r}: triangle row outside 0..{nt - 1} of layer "
+                          f"{layer!r}", at)
+        r.keyword_line("END GAP")
+        gaps.append(Gap(fault=fault, layer=layer, triangles=arr, n_vertices=npoly,
+                        n_holes=holes, seconds=secs, metadata=meta))
+    at = r.i
+    s = r.next("END MODEL")
+    if s != "END MODEL":
+        word = s.split(" ", 1)[0]
+        extra = (f" (MODEL at the top announced surfaces={n_surf} gaps={n_gaps})"
+                 if word in ("SURFACE", "GAP") else "")
+        raise r.error(f"expected 'END MODEL', got {s[:60]!r}{extra}", at)
+    if r.i < len(r.lines):
+        raise r.error(f"unexpected content after END MODEL: {r.lines[r.i][:60]!r}")
+
+    return Model(name=name, surfaces=layer_map,
+                 faults={s.name: s for _, s in sorted(faults, key=lambda t: t[0])},
+                 boundary=boundary, crs=crs, gaps=gaps, metadata=model_meta)
