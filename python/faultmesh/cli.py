@@ -1,0 +1,530 @@
+"""The ``faultmesh`` command line (also ``python -m faultmesh``).
+
+Every sub-command reports errors as one line on stderr and exits with status 2
+(``--debug`` shows the traceback instead). See ``docs/cli.md``.
+"""
+from __future__ import annotations
+
+import argparse
+import inspect
+import sys
+import time
+from pathlib import Path
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
+
+EXIT_ERROR = 2
+
+# The paper's two demonstration cuts (Gao et al. 2025, section 3.2, Figure 7).
+PAPER_AZIMUTHS = (317.089497, 18.146639)
+
+MAIN_EPILOG = """\
+examples:
+  faultmesh demo -o demo_out                 build the built-in paper-like model and
+                                             write model files, report and pictures
+  faultmesh build site/dataset.json -o out   build a model from your own dataset
+  faultmesh build paper_like -o out --loft shortest_diagonal
+  faultmesh section out/site.3dt --origin 4500 3200 --azimuth 90 -o cut.csv --png cut.png
+  faultmesh quality out/site.3dt --json quality.json
+  faultmesh convert out/site.3dt site.ts     (GOCAD TSurf; also .vtu .vtk .obj .ply)
+  faultmesh plot out/site.3dt --png model.png
+
+Datasets: a format-v1 JSON file (docs/dataset.md) or a built-in name
+(paper_like, synthetic). Models: .3dt (faultmesh's own, keeps everything),
+.ts, .vtu, .vtk, .obj, .ply, or a folder written by 'build'.
+Azimuths are degrees clockwise from north (0 = north, 90 = east).
+"""
+
+
+class CliError(Exception):
+    """An error worth one line on stderr (no traceback)."""
+
+
+# ----------------------------------------------------------------------------
+# helpers
+# ----------------------------------------------------------------------------
+
+def _echo(msg: str = "") -> None:
+    print(msg, flush=True)
+
+
+def _quiet(args) -> bool:
+    return bool(getattr(args, "quiet", False))
+
+
+def _info(args, msg: str) -> None:
+    if not _quiet(args):
+        print(msg, file=sys.stderr, flush=True)
+
+
+class _Progress:
+    """``progress(step, i, n)`` callback for build_model drawing tqdm bars on
+    stderr: one bar per step, replaced when the step changes."""
+
+    def __init__(self, enabled: bool = True) -> None:
+        self.enabled = enabled
+        self.bar = None
+        self.step: Optional[str] = None
+
+    def __call__(self, step: str, i: int, n: int) -> None:
+        if not self.enabled:
+            return
+        from tqdm import tqdm
+
+        if step != self.step or self.bar is None:
+            self.close()
+            self.step = step
+            self.bar = tqdm(total=n or None, desc=f"{step:<28.28}", unit="", leave=False,
+                            file=sys.stderr, dynamic_ncols=True,
+                            bar_format="{desc} {bar} {n_fmt}/{total_fmt} [{elapsed}]")
+        if n and self.bar.total != n:
+            self.bar.total = n
+        self.bar.n = i
+        self.bar.refresh()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+
+def _builtin_datasets() -> Dict[str, Callable]:
+    from . import datasets
+
+    out = {}
+    for name in ("paper_like", "synthetic"):
+        fn = getattr(datasets, name, None)
+        if callable(fn):
+            out[name] = fn
+    return out
+
+
+def _load_dataset(spec: str):
+    """A dataset file, or a built-in name (``paper_like``, ``synthetic``)."""
+    p = Path(spec)
+    builtins = _builtin_datasets()
+    if not p.exists() and spec in builtins:
+        return builtins[spec](), spec
+    if not p.exists():
+        raise CliError(f"dataset {spec!r}: no such file, and not a built-in dataset "
+                       f"({', '.join(builtins) or 'none available'})")
+    from .dataset import load_dataset
+
+    if p.is_dir():
+        cands = sorted(p.glob("*.json"))
+        if len(cands) != 1:
+            raise CliError(f"dataset folder {p}: expected exactly one .json file, found "
+                           f"{len(cands)}")
+        p = cands[0]
+    return load_dataset(p), None
+
+
+def _build_model_fn():
+    try:
+        from .build import build_model
+    except ImportError as e:
+        raise CliError(f"this faultmesh has no model builder (faultmesh.build: {e})") from None
+    return build_model
+
+
+def _build(dataset, args, progress: _Progress):
+    build_model = _build_model_fn()
+    wanted: Dict[str, object] = {}
+    if getattr(args, "plain_order", False):
+        wanted["plain_order"] = True
+    if getattr(args, "no_refine", False):
+        wanted["refine"] = False
+    if getattr(args, "loft", None):
+        wanted["loft"] = args.loft
+    params = inspect.signature(build_model).parameters
+    takes_kwargs = any(p.kind == p.VAR_KEYWORD for p in params.values())
+    for k in wanted:
+        if k not in params and not takes_kwargs:
+            raise CliError(f"build_model of this faultmesh has no option {k!r} "
+                           f"(options: {', '.join(p for p in params if p != 'dataset')})")
+    kw = dict(wanted)
+    if "progress" in params or takes_kwargs:
+        kw["progress"] = progress
+    t0 = time.perf_counter()
+    try:
+        model = build_model(dataset, **kw)
+    finally:
+        progress.close()
+    return model, time.perf_counter() - t0
+
+
+def _attach_builtin_truth(model) -> None:
+    """Models saved by ``demo``/``build`` of a built-in dataset name it in their
+    metadata; the ground truth (a function) is rebuilt from it."""
+    if model.truth is not None:
+        return
+    spec = (model.metadata or {}).get("builtin_dataset")
+    if not spec:
+        return
+    name = spec.get("name") if isinstance(spec, dict) else str(spec)
+    kwargs = spec.get("kwargs", {}) if isinstance(spec, dict) else {}
+    fn = _builtin_datasets().get(name)
+    if fn is not None:
+        model.truth = fn(**kwargs).truth
+
+
+def _load_model(path: str):
+    from .io import load_model
+
+    p = Path(path)
+    if not p.exists():
+        raise CliError(f"model {path!r}: no such file or folder")
+    return load_model(p)
+
+
+def _sections_for(model, dataset=None) -> List[Tuple[str, object, float]]:
+    """The demo's sections: the paper's two azimuths through the study area's
+    centre, plus the dataset's first and last exploration line."""
+    import numpy as np
+
+    if model.boundary is not None and len(model.boundary):
+        b = np.asarray(model.boundary, dtype=float)
+    else:
+        b = np.vstack([s.vertices[:, :2] for s in model.surfaces.values()])
+    centre = (b.min(0) + b.max(0)) / 2
+    out = [(f"az{az:.0f}", centre, az) for az in PAPER_AZIMUTHS]
+    secs = list(getattr(dataset, "sections", {}).values()) if dataset is not None else []
+    for sec in secs[:1] + secs[-1:] if len(secs) > 1 else secs:
+        out.append((str(sec.name), np.asarray(sec.origin, dtype=float), float(sec.azimuth)))
+    return out
+
+
+def _write_report(model, out: Path, stem: str = "quality") -> List[Path]:
+    rep = model.quality()
+    return [rep.to_markdown_file(out / f"{stem}.md"), rep.to_csv(out / f"{stem}.csv"),
+            _write_json(rep, out / f"{stem}.json")], rep
+
+
+def _write_json(rep, path: Path) -> Path:
+    rep.to_json(path)
+    return path
+
+
+def _print_tables(rep) -> None:
+    t = rep.tables()
+    if not t["table2"]:
+        _echo("  (no stitched gaps recorded)")
+        return
+    _echo("  gap                      triangles   <10°    <20°   (3D angles)")
+    for r in t["table2"]:
+        _echo(f"  {r['gap']:<24} {r['triangles']:>9}  {100 * r['lt10']:5.1f}%  "
+              f"{100 * r['lt20']:5.1f}%")
+
+
+# ----------------------------------------------------------------------------
+# sub-commands
+# ----------------------------------------------------------------------------
+
+def cmd_demo(args) -> int:
+    from .io import save_model
+    from . import plots
+
+    out = Path(args.output)
+    t_start = time.perf_counter()
+    builtins = _builtin_datasets()
+    if "paper_like" not in builtins:
+        raise CliError("the built-in dataset paper_like is not available in this faultmesh")
+    _info(args, "faultmesh demo: generating the built-in paper-like dataset ...")
+    ds = builtins["paper_like"]()
+    _info(args, f"  {ds.name}: {len(ds.layers)} layers, {len(ds.boreholes)} borehole rows, "
+                f"{len(ds.faults)} faults, {len(ds.sections)} exploration lines")
+    _info(args, "building the model ...")
+    model, secs = _build(ds, args, _Progress(not _quiet(args)))
+    model.metadata = dict(model.metadata or {})
+    model.metadata["builtin_dataset"] = {"name": "paper_like", "kwargs": {}}
+    if model.truth is None:
+        model.truth = ds.truth
+    _info(args, f"  built in {secs:.1f} s: " + ", ".join(
+        f"{n} {s.n_triangles} triangles" for n, s in model.surfaces.items()))
+    files = save_model(model, out, formats=("3dt", "ts", "vtu"))
+    rep_files, rep = _write_report(model, out)
+    files += rep_files
+    sections = []
+    for name, origin, az in _sections_for(model, ds):
+        sec = model.section(origin, az)
+        sec.name = name
+        sections.append(sec)
+        files.append(sec.to_csv(out / f"section_{name}.csv"))
+        fig = sec.plot(out / f"section_{name}.png")
+        files.append(out / f"section_{name}.png")
+        _close(fig)
+    _info(args, "drawing pictures ...")
+    for fname, fn in (("model_3d.png", lambda p: plots.plot_model_3d(model, p)),
+                      ("gaps.png", lambda p: plots.plot_gaps(model, p)),
+                      ("map.png", lambda p: plots.plot_map(model, p, sections=sections))):
+        _close(fn(out / fname))
+        files.append(out / fname)
+    _echo(f"faultmesh demo: model {model.name!r} built in {secs:.1f} s, everything written "
+          f"in {time.perf_counter() - t_start:.1f} s to {out.resolve()}/")
+    for f in files:
+        _echo(f"  {f}")
+    _echo("mesh quality of the stitched gaps (the paper's Table 2):")
+    _print_tables(rep)
+    return 0
+
+
+def _close(fig) -> None:
+    try:
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    except Exception:  # pragma: no cover
+        pass
+
+
+def cmd_build(args) -> int:
+    from .io import save_model
+
+    ds, builtin = _load_dataset(args.dataset)
+    out = Path(args.output)
+    _info(args, f"building {ds.name!r} ...")
+    model, secs = _build(ds, args, _Progress(not _quiet(args)))
+    if builtin:
+        model.metadata = dict(model.metadata or {})
+        model.metadata["builtin_dataset"] = {"name": builtin, "kwargs": {}}
+    if model.truth is None and getattr(ds, "truth", None) is not None:
+        model.truth = ds.truth
+    formats = args.formats.split(",") if args.formats else None
+    files = save_model(model, out, formats=formats)
+    rep_files, rep = _write_report(model, out)
+    files += rep_files
+    if args.plots:
+        from . import plots
+
+        _close(plots.plot_model_3d(model, out / "model_3d.png"))
+        _close(plots.plot_gaps(model, out / "gaps.png"))
+        files += [out / "model_3d.png", out / "gaps.png"]
+    _echo(f"model {model.name!r} built in {secs:.1f} s; written to {out.resolve()}/")
+    for f in files:
+        _echo(f"  {f}")
+    _print_tables(rep)
+    return 0
+
+
+def cmd_section(args) -> int:
+    model = _load_model(args.model)
+    sec = model.section(tuple(args.origin), args.azimuth)
+    if not sec.lines:
+        _info(args, "warning: the section plane does not cut any surface of the model")
+    if args.output:
+        sec.to_csv(args.output)
+        _info(args, f"wrote {args.output}")
+    if args.png:
+        _close(sec.plot(args.png, vertical_exaggeration=args.ve))
+        _info(args, f"wrote {args.png}")
+    if not args.output and not args.png:
+        import csv
+
+        w = csv.writer(sys.stdout, lineterminator="\n")
+        w.writerow(["surface", "kind", "part", "s", "x", "y", "z"])
+        for r in sec.to_rows():
+            w.writerow([r["surface"], r["kind"], r["part"]] +
+                       [repr(float(r[k])) for k in ("s", "x", "y", "z")])
+    return 0
+
+
+def cmd_quality(args) -> int:
+    model = _load_model(args.model)
+    _attach_builtin_truth(model)
+    from .report import quality
+
+    rep = quality(model, near=args.near)
+    if args.json:
+        rep.to_json(args.json)
+        _info(args, f"wrote {args.json}")
+    if args.csv:
+        rep.to_csv(args.csv)
+        _info(args, f"wrote {args.csv}")
+    if args.markdown:
+        rep.to_markdown_file(args.markdown)
+        _info(args, f"wrote {args.markdown}")
+    if not (args.json or args.csv or args.markdown) or args.print:
+        sys.stdout.write(rep.to_markdown())
+    return 0
+
+
+def cmd_convert(args) -> int:
+    from .io import save_model
+
+    model = _load_model(args.input)
+    files = save_model(model, args.output)
+    for f in files:
+        _echo(f"wrote {f}")
+    return 0
+
+
+def cmd_plot(args) -> int:
+    from . import plots
+
+    model = _load_model(args.model)
+    wrote = []
+    if args.png or not args.gaps:
+        target = args.png or "model_3d.png"
+        _close(plots.plot_model_3d(model, target, vertical_exaggeration=args.ve,
+                                   elev=args.elev, azim=args.azim))
+        wrote.append(target)
+    if args.gaps:
+        _close(plots.plot_gaps(model, args.gaps))
+        wrote.append(args.gaps)
+    for w in wrote:
+        _echo(f"wrote {w}")
+    return 0
+
+
+# ----------------------------------------------------------------------------
+# parser
+# ----------------------------------------------------------------------------
+
+def _add_common(p: argparse.ArgumentParser, top: bool = False) -> None:
+    # On sub-commands the default is SUPPRESS so that "faultmesh --debug demo"
+    # keeps the top-level value (argparse would overwrite it with False).
+    d = False if top else argparse.SUPPRESS
+    p.add_argument("--debug", action="store_true", default=d,
+                   help="show the full traceback on errors")
+    p.add_argument("-q", "--quiet", action="store_true", default=d,
+                   help="no progress bars or notes on stderr")
+
+
+def _add_build_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--plain-order", action="store_true",
+                   help="insert points in the given order instead of the spatially sorted one")
+    p.add_argument("--no-refine", action="store_true",
+                   help="do not refine the ear-clipped gap triangulation (the paper's plain "
+                        "ear clipping)")
+    p.add_argument("--loft", choices=("shortest_diagonal", "min_area"),
+                   help="rule for lofting fault-model polylines (default: the builder's)")
+
+
+def make_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
+    fmt = argparse.RawDescriptionHelpFormatter
+    parser = argparse.ArgumentParser(
+        prog="faultmesh", formatter_class=fmt,
+        description="Build 3D geological models of layered ground cut by faults as "
+                    "triangulated surfaces, cut sections, report mesh quality, convert files.",
+        epilog=MAIN_EPILOG)
+    parser.add_argument("--version", action="version", version=f"faultmesh {__version__}")
+    _add_common(parser, top=True)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = sub.add_parser("demo", formatter_class=fmt, help="build the built-in paper-like model "
+                       "and write everything (model files, report, sections, pictures)",
+                       description="Generate the built-in paper-like dataset (4 layers, 112 "
+                       "boreholes, faults 2F4, F22, 2F1 and 4F2), build the model and write: "
+                       "<name>.3dt/.ts/.vtu, quality.md/.csv/.json, section_*.csv/.png, "
+                       "model_3d.png, gaps.png, map.png.",
+                       epilog="example:\n  faultmesh demo -o demo_out")
+    p.add_argument("-o", "--output", default="demo_out", metavar="DIR",
+                   help="output folder (default: demo_out)")
+    _add_build_options(p)
+    _add_common(p)
+    p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("build", formatter_class=fmt, help="build a model from a dataset",
+                       description="Build the faulted multi-layer model of DATASET and write "
+                       "it to DIR in every format (.3dt, .ts, .vtu, obj/, ply/) with the "
+                       "quality report.",
+                       epilog="examples:\n  faultmesh build site/dataset.json -o out\n"
+                              "  faultmesh build paper_like -o out --loft shortest_diagonal "
+                              "--formats 3dt,ts")
+    p.add_argument("dataset", metavar="DATASET",
+                   help="dataset JSON (docs/dataset.md) or a built-in name: paper_like, synthetic")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    _add_build_options(p)
+    p.add_argument("--formats", metavar="LIST",
+                   help="comma-separated formats to write (3dt,ts,vtu,vtk,obj,ply); "
+                        "default 3dt,ts,vtu,obj,ply")
+    p.add_argument("--plots", action="store_true", help="also draw model_3d.png and gaps.png")
+    _add_common(p)
+    p.set_defaults(func=cmd_build)
+
+    p = sub.add_parser("section", formatter_class=fmt, help="cut a model by a vertical plane",
+                       description="Cut every surface of MODEL by the vertical plane through "
+                       "ORIGIN with the given azimuth (degrees clockwise from north). Without "
+                       "-o/--png the polylines are printed as CSV (surface,kind,part,s,x,y,z).",
+                       epilog="examples:\n  faultmesh section out/m.3dt --origin 4500 3200 "
+                              "--azimuth 90 -o cut.csv --png cut.png\n"
+                              "  faultmesh section out/m.ts --origin 0 0 --azimuth 317.09 > cut.csv")
+    p.add_argument("model", metavar="MODEL", help="model file or folder")
+    p.add_argument("--origin", nargs=2, type=float, required=True, metavar=("X", "Y"),
+                   help="a point of the section plane")
+    p.add_argument("--azimuth", type=float, required=True, metavar="DEG",
+                   help="direction of the section, degrees clockwise from north")
+    p.add_argument("-o", "--output", metavar="CSV", help="write the polylines to this CSV")
+    p.add_argument("--png", metavar="PNG", help="draw the section (also .svg, .pdf)")
+    p.add_argument("--ve", type=float, metavar="X", help="vertical exaggeration (default: automatic)")
+    _add_common(p)
+    p.set_defaults(func=cmd_section)
+
+    p = sub.add_parser("quality", formatter_class=fmt, help="mesh-quality report of a model",
+                       description="Per stitched gap and per surface: triangle counts and the "
+                       "share of triangles with a smallest angle under 10 and 20 degrees (the "
+                       "paper's Tables 1 and 2; 3D angles, XY too), and vertical errors when "
+                       "the model comes from a built-in dataset. Prints markdown unless an "
+                       "output file is given.",
+                       epilog="example:\n  faultmesh quality out/m.3dt --json q.json --csv q.csv")
+    p.add_argument("model", metavar="MODEL", help="model file or folder (.3dt keeps the gaps)")
+    p.add_argument("--json", metavar="PATH", help="write the report as JSON")
+    p.add_argument("--csv", metavar="PATH", help="write the report as CSV")
+    p.add_argument("--markdown", metavar="PATH", help="write the report as markdown")
+    p.add_argument("--print", action="store_true", help="print markdown even when writing files")
+    p.add_argument("--near", type=float, default=150.0, metavar="M",
+                   help="distance from a fault counted as near, in metres (default 150)")
+    _add_common(p)
+    p.set_defaults(func=cmd_quality)
+
+    p = sub.add_parser("convert", formatter_class=fmt, help="convert a model between formats",
+                       description="Read IN and write OUT; formats follow the suffixes "
+                       "(.3dt, .ts, .vtu, .vtk, .obj, .ply; a folder OUT receives all).",
+                       epilog="examples:\n  faultmesh convert out/m.3dt m.ts\n"
+                              "  faultmesh convert other_tool.ts model.3dt")
+    p.add_argument("input", metavar="IN")
+    p.add_argument("output", metavar="OUT")
+    _add_common(p)
+    p.set_defaults(func=cmd_convert)
+
+    p = sub.add_parser("plot", formatter_class=fmt, help="draw a model in 3D (and its gaps)",
+                       epilog="example:\n  faultmesh plot out/m.3dt --png model.png --gaps gaps.png")
+    p.add_argument("model", metavar="MODEL")
+    p.add_argument("--png", metavar="PNG", help="3D view (default model_3d.png)")
+    p.add_argument("--gaps", metavar="PNG", help="stitched gaps close up")
+    p.add_argument("--ve", type=float, metavar="X", help="vertical exaggeration (default: automatic)")
+    p.add_argument("--elev", type=float, default=28.0, help="view elevation angle (degrees)")
+    p.add_argument("--azim", type=float, default=-58.0, help="view azimuth angle (degrees)")
+    _add_common(p)
+    p.set_defaults(func=cmd_plot)
+    return parser
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    parser = make_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = parser.parse_args(argv)
+    debug = bool(getattr(args, "debug", False))
+    if not getattr(args, "command", None):
+        parser.print_help()
+        return EXIT_ERROR
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print("faultmesh: interrupted", file=sys.stderr)
+        return 130
+    except Exception as e:  # one clear line, no traceback (unless --debug)
+        if debug:
+            raise
+        msg = str(e) or type(e).__name__
+        if isinstance(e, (FileNotFoundError, PermissionError, IsADirectoryError)) and e.filename:
+            msg = f"{e.filename}: {e.strerror}"
+        first = msg.strip().splitlines()[0] if msg.strip() else type(e).__name__
+        kind = "" if isinstance(e, (CliError, ValueError, OSError)) else f"{type(e).__name__}: "
+        print(f"faultmesh {args.command}: error: {kind}{first}", file=sys.stderr)
+        return EXIT_ERROR
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

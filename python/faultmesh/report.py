@@ -1,0 +1,517 @@
+"""Mesh-quality report of a model (the paper's Tables 1 and 2, and more).
+
+Angles
+    The interior angles of every triangle, in 3D (the mesh as it is: what a
+    simulator or a renderer sees) and in XY (the plane in which the gaps were
+    ear-clipped). **The headline is 3D**, as in the paper, which measures the
+    interior angles "of the triangles in the mesh model". A triangle is
+    *narrow* when its smallest angle is under 10 degrees, or under 20 degrees
+    (the paper's two thresholds); shares are fractions of the triangles counted.
+
+Tables
+    *Table 1*: per fault (rows) and layer (columns), the number of triangles
+    created by stitching the gap(s). *Table 2*: per fault and layer, the share
+    of those triangles whose smallest angle is under 10 and under 20 degrees.
+
+Vertical error (when ``model.truth`` is set, e.g. built-in datasets)
+    The model's layer surfaces are evaluated on a regular grid of sample
+    points (cell centres) inside the study-area boundary: each sample is
+    located in the layer's triangles in XY and the triangle's plane gives z
+    (barycentric interpolation, the TIN's own surface). ``|dz| = |z_model -
+    truth|`` is summarised in three regions:
+
+    * ``away``: single-valued samples farther than ``near`` metres (default
+      150 m) in XY from every fault surface (its triangles' XY footprint);
+    * ``near``: single-valued samples within ``near`` metres of a fault;
+    * ``overlap``: samples where the layer surface has several sheets (the
+      footwall, fault strip and hanging wall of a reverse fault cover the same
+      XY). The ground truth reports the upper (hanging-wall) sheet there, so
+      the model's upper sheet (largest z) is compared with it.
+
+    Distances to faults are measured on the sample grid (accurate to about one
+    grid spacing). Samples where the model has no triangle or the truth has no
+    value (NaN) are left out and counted.
+"""
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Dict, List, Tuple
+
+import numpy as np
+
+__all__ = ["QualityReport", "quality", "triangle_angles", "min_angles", "evaluate_surface"]
+
+THRESHOLDS = (10.0, 20.0)
+
+
+def triangle_angles(points, triangles) -> np.ndarray:
+    """Interior angles (m, 3) in degrees of triangles (m, 3) over ``points``
+    (n, 2) or (n, 3); column k is the angle at vertex k. Uses
+    ``atan2(|u x v|, u . v)``, accurate for needle-like triangles; a
+    degenerate triangle gets angles 0 (and 180)."""
+    P = np.asarray(points, dtype=np.float64)
+    T = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if P.ndim != 2 or P.shape[1] not in (2, 3):
+        raise ValueError(f"triangle_angles: points must have shape (n, 2) or (n, 3), got {P.shape}")
+    if P.shape[1] == 2:
+        P = np.column_stack([P, np.zeros(len(P))])
+    if T.size and (T.min() < 0 or T.max() >= len(P)):
+        raise ValueError(f"triangle_angles: vertex index outside 0..{len(P) - 1}")
+    A, B, C = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
+    out = np.empty((len(T), 3), dtype=np.float64)
+    for k, (p, q, r) in enumerate(((A, B, C), (B, C, A), (C, A, B))):
+        u, v = q - p, r - p
+        cr = np.linalg.norm(np.cross(u, v), axis=1)
+        dt = np.einsum("ij,ij->i", u, v)
+        out[:, k] = np.degrees(np.arctan2(cr, dt))
+    return out
+
+
+def min_angles(points, triangles) -> np.ndarray:
+    """Smallest interior angle (m,) in degrees of each triangle."""
+    a = triangle_angles(points, triangles)
+    return a.min(axis=1) if len(a) else np.zeros(0)
+
+
+def _shares(minang: np.ndarray) -> Dict[str, float]:
+    n = len(minang)
+    if n == 0:
+        return {"lt10": float("nan"), "lt20": float("nan")}
+    return {"lt10": float(np.count_nonzero(minang < 10.0) / n),
+            "lt20": float(np.count_nonzero(minang < 20.0) / n)}
+
+
+# ----------------------------------------------------------------------------
+# Evaluating a TIN on a regular grid of samples
+# ----------------------------------------------------------------------------
+
+def _grid_hits(V: np.ndarray, T: np.ndarray, x0: float, y0: float, hx: float, hy: float,
+               nx: int, ny: int) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(sample index j*nx+i, triangle, z) for every grid sample inside (or on)
+    a triangle in XY. Sample (i, j) sits at (x0 + i hx, y0 + j hy).
+
+    Each triangle enumerates the samples of its bounding box (vectorised with
+    ``np.repeat``), so the work is ~ samples x overlap + triangles.
+    """
+    if len(T) == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    P = V[T]                                  # (m, 3, 3)
+    xmin, xmax = P[:, :, 0].min(1), P[:, :, 0].max(1)
+    ymin, ymax = P[:, :, 1].min(1), P[:, :, 1].max(1)
+    i0 = np.clip(np.ceil((xmin - x0) / hx - 1e-9), 0, nx).astype(np.int64)
+    i1 = np.clip(np.floor((xmax - x0) / hx + 1e-9), -1, nx - 1).astype(np.int64)
+    j0 = np.clip(np.ceil((ymin - y0) / hy - 1e-9), 0, ny).astype(np.int64)
+    j1 = np.clip(np.floor((ymax - y0) / hy + 1e-9), -1, ny - 1).astype(np.int64)
+    wi = np.maximum(i1 - i0 + 1, 0)
+    wj = np.maximum(j1 - j0 + 1, 0)
+    cnt = wi * wj
+    # Signed doubled XY area; vertical (zero-area) triangles carry no height.
+    ax, ay = P[:, 0, 0], P[:, 0, 1]
+    bx, by = P[:, 1, 0], P[:, 1, 1]
+    cx, cy = P[:, 2, 0], P[:, 2, 1]
+    area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    cnt[area == 0] = 0
+    tot = int(cnt.sum())
+    if tot == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    tri = np.repeat(np.arange(len(T)), cnt)
+    local = np.arange(tot) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    w = wi[tri]
+    ii = i0[tri] + local % w
+    jj = j0[tri] + local // w
+    px, py = x0 + ii * hx, y0 + jj * hy
+    # Barycentric coordinates (orientation-independent: divided by the signed area).
+    l0 = ((bx[tri] - px) * (cy[tri] - py) - (by[tri] - py) * (cx[tri] - px)) / area[tri]
+    l1 = ((cx[tri] - px) * (ay[tri] - py) - (cy[tri] - py) * (ax[tri] - px)) / area[tri]
+    l2 = 1.0 - l0 - l1
+    # Samples on an edge belong to both triangles (same z): a tiny tolerance
+    # keeps them from falling through rounding; duplicates are harmless.
+    eps = -1e-10
+    inside = (l0 >= eps) & (l1 >= eps) & (l2 >= eps)
+    tri, ii, jj = tri[inside], ii[inside], jj[inside]
+    z = (l0[inside] * P[tri, 0, 2] + l1[inside] * P[tri, 1, 2] + l2[inside] * P[tri, 2, 2])
+    return jj * nx + ii, tri, z
+
+
+def evaluate_surface(surface, x, y) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """z of a TIN at arbitrary points ``x``, ``y`` (k,): returns ``(z_low,
+    z_high, n_hits)``; ``z_low == z_high`` where the surface is single-valued,
+    NaN where no triangle covers the point. (Brute force per point in chunks:
+    meant for a few thousand points; the report uses the grid version.)"""
+    x = np.asarray(x, dtype=np.float64).reshape(-1)
+    y = np.asarray(y, dtype=np.float64).reshape(-1)
+    V, T = surface.vertices, surface.triangles
+    lo = np.full(len(x), np.nan)
+    hi = np.full(len(x), np.nan)
+    nh = np.zeros(len(x), dtype=np.int64)
+    if len(T) == 0:
+        return lo, hi, nh
+    P = V[T]
+    ax, ay, az_ = P[:, 0, 0], P[:, 0, 1], P[:, 0, 2]
+    bx, by, bz = P[:, 1, 0], P[:, 1, 1], P[:, 1, 2]
+    cx, cy, cz = P[:, 2, 0], P[:, 2, 1], P[:, 2, 2]
+    area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    ok = area != 0
+    chunk = max(1, 2_000_000 // max(len(T), 1))
+    for s in range(0, len(x), chunk):
+        px, py = x[s:s + chunk, None], y[s:s + chunk, None]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            l0 = ((bx - px) * (cy - py) - (by - py) * (cx - px)) / area
+            l1 = ((cx - px) * (ay - py) - (cy - py) * (ax - px)) / area
+        l2 = 1.0 - l0 - l1
+        inside = (l0 >= -1e-10) & (l1 >= -1e-10) & (l2 >= -1e-10) & ok
+        z = np.where(inside, l0 * az_ + l1 * bz + l2 * cz, np.nan)
+        nh[s:s + chunk] = inside.sum(axis=1)
+        with np.errstate(all="ignore"):
+            lo[s:s + chunk] = np.nanmin(np.where(inside, z, np.inf), axis=1)
+            hi[s:s + chunk] = np.nanmax(np.where(inside, z, -np.inf), axis=1)
+    lo[nh == 0] = np.nan
+    hi[nh == 0] = np.nan
+    return lo, hi, nh
+
+
+def _sample_grid(model, n: int):
+    """Cell-centred n x n' grid over the boundary's bounding box (square cells),
+    with the mask of samples inside the boundary polygon."""
+    from matplotlib.path import Path as MplPath
+
+    if model.boundary is not None and len(model.boundary) >= 3:
+        B = np.asarray(model.boundary, dtype=np.float64).reshape(-1, 2)
+    else:
+        allv = np.vstack([s.vertices[:, :2] for s in model.surfaces.values()])
+        (xa, ya), (xb, yb) = allv.min(0), allv.max(0)
+        B = np.array([[xa, ya], [xb, ya], [xb, yb], [xa, yb]])
+    (xa, ya), (xb, yb) = B.min(0), B.max(0)
+    h = max(xb - xa, yb - ya) / n
+    nx, ny = max(1, int(round((xb - xa) / h))), max(1, int(round((yb - ya) / h)))
+    hx, hy = (xb - xa) / nx, (yb - ya) / ny
+    x0, y0 = xa + hx / 2, ya + hy / 2
+    gx = x0 + hx * np.arange(nx)
+    gy = y0 + hy * np.arange(ny)
+    X, Y = np.meshgrid(gx, gy)
+    inside = MplPath(B).contains_points(np.column_stack([X.ravel(), Y.ravel()]))
+    return (x0, y0, hx, hy, nx, ny), X.ravel(), Y.ravel(), inside
+
+
+def _near_mask(model, grid, radius: float) -> np.ndarray:
+    """Samples within ``radius`` (XY) of any fault surface, on the grid."""
+    x0, y0, hx, hy, nx, ny = grid
+    mark = np.zeros(nx * ny, dtype=bool)
+    for f in model.faults.values():
+        V, T = f.vertices, f.triangles
+        if len(V) == 0:
+            continue
+        idx, _, _ = _grid_hits(V, T, x0, y0, hx, hy, nx, ny)
+        mark[idx] = True
+        # Steep faults have a thin footprint: also mark the cells of points
+        # spaced at half a cell along every edge (and the vertices).
+        E = np.unique(np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1),
+                      axis=0) if len(T) else np.zeros((0, 2), np.int64)
+        a, b = V[E[:, 0], :2], V[E[:, 1], :2]
+        L = np.linalg.norm(b - a, axis=1)
+        k = np.maximum(1, np.ceil(L / (0.5 * min(hx, hy)))).astype(np.int64)
+        e = np.repeat(np.arange(len(E)), k + 1)
+        t = (np.arange(int((k + 1).sum())) - np.repeat(np.cumsum(k + 1) - (k + 1), k + 1)) / k[e]
+        pts = np.vstack([a[e] + t[:, None] * (b[e] - a[e]), V[:, :2]])
+        i = np.rint((pts[:, 0] - x0) / hx).astype(np.int64)
+        j = np.rint((pts[:, 1] - y0) / hy).astype(np.int64)
+        ok = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
+        mark[j[ok] * nx + i[ok]] = True
+    if not mark.any() or radius <= 0:
+        return mark
+    m2 = mark.reshape(ny, nx)
+    out = np.zeros_like(m2)
+    ri, rj = int(np.ceil(radius / hx)), int(np.ceil(radius / hy))
+    for dj in range(-rj, rj + 1):
+        for di in range(-ri, ri + 1):
+            if (di * hx) ** 2 + (dj * hy) ** 2 > radius ** 2:
+                continue
+            src = m2[max(0, -dj):ny - max(0, dj), max(0, -di):nx - max(0, di)]
+            out[max(0, dj):ny - max(0, -dj), max(0, di):nx - max(0, -di)] |= src
+    return out.ravel()
+
+
+def _vertical_errors(model, truth, near: float, samples: int) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
+    grid, X, Y, inside = _sample_grid(model, samples)
+    x0, y0, hx, hy, nx, ny = grid
+    nearm = _near_mask(model, grid, near)
+    rows: List[Dict[str, Any]] = []
+    for layer, surf in model.surfaces.items():
+        idx, _, z = _grid_hits(surf.vertices, surf.triangles, x0, y0, hx, hy, nx, ny)
+        N = nx * ny
+        zlo = np.full(N, np.inf)
+        zhi = np.full(N, -np.inf)
+        np.minimum.at(zlo, idx, z)
+        np.maximum.at(zhi, idx, z)
+        covered = np.isfinite(zlo) & inside
+        # Sheets further apart than 1 mm are distinct (the overlap band of a
+        # reverse fault); closer values are the same sheet seen from the
+        # triangles sharing an edge or a vertex.
+        multi = covered & (zhi - zlo > 1e-3)
+        sel = np.flatnonzero(covered)
+        tz = np.asarray(truth(layer, X[sel], Y[sel]), dtype=np.float64).reshape(-1)
+        t_full = np.full(N, np.nan)
+        t_full[sel] = tz
+        valid = covered & np.isfinite(t_full)
+        dz = np.abs(zhi - t_full)          # upper sheet == the only sheet where single-valued
+        regions = {"away": valid & ~multi & ~nearm, "near": valid & ~multi & nearm,
+                   "overlap": valid & multi}
+        for region, mask in regions.items():
+            d = dz[mask]
+            rows.append({"layer": layer, "region": region, "samples": int(d.size),
+                         "mean_abs_dz": float(d.mean()) if d.size else float("nan"),
+                         "max_abs_dz": float(d.max()) if d.size else float("nan"),
+                         "rmse": float(np.sqrt(np.mean(d * d))) if d.size else float("nan")})
+        rows.append({"layer": layer, "region": "skipped", "samples": int(np.count_nonzero(
+            inside & ~valid)), "mean_abs_dz": float("nan"), "max_abs_dz": float("nan"),
+            "rmse": float("nan")})
+    settings = {"near_m": near, "grid": [nx, ny], "spacing_m": [hx, hy],
+                "samples_inside_boundary": int(inside.sum())}
+    return rows, settings
+
+
+# ----------------------------------------------------------------------------
+# The report
+# ----------------------------------------------------------------------------
+
+@dataclass
+class QualityReport:
+    """Result of :func:`quality`: rows of plain dicts, ready for tables.
+
+    ``gaps``: one row per stitched gap; ``surfaces``: one row per layer and
+    fault surface; ``errors``: vertical error per layer and region (empty
+    without ground truth); ``settings``: how the numbers were made.
+    """
+
+    model_name: str
+    gaps: List[Dict[str, Any]] = field(default_factory=list)
+    surfaces: List[Dict[str, Any]] = field(default_factory=list)
+    errors: List[Dict[str, Any]] = field(default_factory=list)
+    settings: Dict[str, Any] = field(default_factory=dict)
+    notes: List[str] = field(default_factory=list)
+
+    # -- the paper's tables ---------------------------------------------------
+    def _pairs(self) -> Dict[Tuple[str, str], Dict[str, Any]]:
+        """Gaps aggregated per (fault, layer), in order of first appearance."""
+        out: Dict[Tuple[str, str], Dict[str, Any]] = {}
+        for g in self.gaps:
+            key = (g["fault"], g["layer"])
+            a = out.setdefault(key, {"fault": g["fault"], "layer": g["layer"], "triangles": 0,
+                                     "n_lt10": 0, "n_lt20": 0, "n_lt10_xy": 0, "n_lt20_xy": 0})
+            a["triangles"] += g["triangles"]
+            for k in ("n_lt10", "n_lt20", "n_lt10_xy", "n_lt20_xy"):
+                a[k] += g[k]
+        return out
+
+    def tables(self) -> Dict[str, List[Dict[str, Any]]]:
+        """``{"table1": [...], "table2": [...]}`` in the paper's layout.
+
+        Table 1: one row per fault, ``{"fault": name, <layer>: triangles or None}``.
+        Table 2: one row per fault and layer, ``{"gap": "<fault>-<layer>",
+        "fault", "layer", "triangles", "lt10", "lt20"}`` (3D angles; ``_xy``
+        variants too).
+        """
+        pairs = self._pairs()
+        layers = [s["name"] for s in self.surfaces if s["kind"] == "layer"]
+        t1: Dict[str, Dict[str, Any]] = {}
+        for (fault, layer), a in pairs.items():
+            row = t1.setdefault(fault, {"fault": fault, **{ly: None for ly in layers}})
+            row[layer] = a["triangles"]
+        t2 = []
+        for (fault, layer), a in pairs.items():
+            n = a["triangles"]
+            t2.append({"gap": f"{fault}-{layer}", "fault": fault, "layer": layer, "triangles": n,
+                       "lt10": a["n_lt10"] / n if n else float("nan"),
+                       "lt20": a["n_lt20"] / n if n else float("nan"),
+                       "lt10_xy": a["n_lt10_xy"] / n if n else float("nan"),
+                       "lt20_xy": a["n_lt20_xy"] / n if n else float("nan")})
+        return {"table1": list(t1.values()), "table2": t2}
+
+    # -- output ---------------------------------------------------------------
+    def to_dict(self) -> Dict[str, Any]:
+        return {"model": self.model_name, "settings": self.settings, "notes": self.notes,
+                "tables": self.tables(), "gaps": self.gaps, "surfaces": self.surfaces,
+                "errors": self.errors}
+
+    def to_json(self, path=None) -> str:
+        """JSON text of :meth:`to_dict` (NaN written as null); written to ``path`` if given."""
+        def clean(o):
+            if isinstance(o, float) and not np.isfinite(o):
+                return None
+            if isinstance(o, dict):
+                return {k: clean(v) for k, v in o.items()}
+            if isinstance(o, (list, tuple)):
+                return [clean(v) for v in o]
+            if isinstance(o, np.generic):
+                return clean(o.item())
+            return o
+
+        text = json.dumps(clean(self.to_dict()), indent=2)
+        if path is not None:
+            _write_text(path, text + "\n")
+        return text
+
+    CSV_COLUMNS = ["table", "fault", "layer", "name", "kind", "region", "triangles", "vertices",
+                   "polygon_vertices", "holes", "expected_triangles", "seconds",
+                   "lt10", "lt20", "lt10_xy", "lt20_xy", "min_angle", "min_angle_xy",
+                   "samples", "mean_abs_dz", "max_abs_dz", "rmse"]
+
+    def to_csv(self, path) -> Path:
+        """One CSV, one row per gap / surface / error region; the ``table``
+        column says which (``gap``, ``surface``, ``error``), other columns are
+        empty where they do not apply."""
+        import io as _io
+
+        buf = _io.StringIO()
+        w = csv.DictWriter(buf, fieldnames=self.CSV_COLUMNS, extrasaction="ignore",
+                           lineterminator="\n")
+        w.writeheader()
+
+        def fmt(row, table):
+            out = {"table": table}
+            for k, v in row.items():
+                if isinstance(v, float):
+                    out[k] = "" if not np.isfinite(v) else repr(v)
+                else:
+                    out[k] = v
+            return out
+
+        for g in self.gaps:
+            w.writerow(fmt(g, "gap"))
+        for s in self.surfaces:
+            w.writerow(fmt(s, "surface"))
+        for e in self.errors:
+            w.writerow(fmt(e, "error"))
+        return _write_text(path, buf.getvalue())
+
+    def to_markdown(self) -> str:
+        def pct(v):
+            return "–" if v is None or (isinstance(v, float) and not np.isfinite(v)) else f"{100 * v:.1f} %"
+
+        def num(v, d=2):
+            return "–" if v is None or (isinstance(v, float) and not np.isfinite(v)) else f"{v:.{d}f}"
+
+        L = [f"# Mesh quality: {self.model_name}", ""]
+        L += ["Angles are the interior angles of the triangles **in 3D** (headline, as in the "
+              "paper's Table 2); the XY values (the plane of the ear clipping) follow in the "
+              "per-gap table. A triangle is narrow when its smallest angle is under 10° or 20°.", ""]
+        tabs = self.tables()
+        layers = [s["name"] for s in self.surfaces if s["kind"] == "layer"]
+        if self.gaps:
+            L += ["## Table 1 — triangles created by stitching each gap", ""]
+            L += ["| fault | " + " | ".join(layers) + " |",
+                  "|---|" + "---:|" * len(layers)]
+            for r in tabs["table1"]:
+                L.append(f"| {r['fault']} | " + " | ".join("–" if r[ly] is None else str(r[ly])
+                                                          for ly in layers) + " |")
+            L += ["", "## Table 2 — share of narrow triangles in the stitched gaps", "",
+                  "| gap | triangles | < 10° | < 20° | < 10° (XY) | < 20° (XY) |",
+                  "|---|---:|---:|---:|---:|---:|"]
+            for r in tabs["table2"]:
+                L.append(f"| {r['gap']} | {r['triangles']} | {pct(r['lt10'])} | {pct(r['lt20'])} "
+                         f"| {pct(r['lt10_xy'])} | {pct(r['lt20_xy'])} |")
+            L += ["", "## Gaps", "",
+                  "| fault | layer | triangles | polygon vertices | holes | n + 2h − 2 "
+                  "| min angle 3D | min angle XY | seconds |",
+                  "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+            for g in self.gaps:
+                L.append(f"| {g['fault']} | {g['layer']} | {g['triangles']} | "
+                         f"{g['polygon_vertices']} | {g['holes']} | {g['expected_triangles']} | "
+                         f"{num(g['min_angle'], 1)}° | {num(g['min_angle_xy'], 1)}° | "
+                         f"{num(g['seconds'], 4)} |")
+        else:
+            L += ["No stitched gaps are recorded in this model (a model read from a file "
+                  "other than .3dt carries none).", ""]
+        L += ["", "## Surfaces", "",
+              "| surface | kind | vertices | triangles | < 10° | < 20° | < 10° (XY) | < 20° (XY) "
+              "| min angle 3D |",
+              "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+        for s in self.surfaces:
+            L.append(f"| {s['name']} | {s['kind']} | {s['vertices']} | {s['triangles']} | "
+                     f"{pct(s['lt10'])} | {pct(s['lt20'])} | {pct(s['lt10_xy'])} | "
+                     f"{pct(s['lt20_xy'])} | {num(s['min_angle'], 1)}° |")
+        if self.errors:
+            st = self.settings
+            L += ["", "## Vertical error against the ground truth", "",
+                  f"Samples: a {st['grid'][0]} × {st['grid'][1]} grid (spacing "
+                  f"{st['spacing_m'][0]:.1f} m), inside the study area. *near*: within "
+                  f"{st['near_m']:g} m of a fault in XY; *overlap*: several sheets (reverse "
+                  "fault), upper sheet compared.", "",
+                  "| layer | region | samples | mean \\|dz\\| (m) | max \\|dz\\| (m) | RMSE (m) |",
+                  "|---|---|---:|---:|---:|---:|"]
+            for e in self.errors:
+                if e["region"] == "skipped":
+                    continue
+                L.append(f"| {e['layer']} | {e['region']} | {e['samples']} | "
+                         f"{num(e['mean_abs_dz'], 3)} | {num(e['max_abs_dz'], 3)} | "
+                         f"{num(e['rmse'], 3)} |")
+        if self.notes:
+            L += ["", "## Notes", ""] + [f"- {n}" for n in self.notes]
+        return "\n".join(L) + "\n"
+
+    def to_markdown_file(self, path) -> Path:
+        return _write_text(path, self.to_markdown())
+
+    def __repr__(self) -> str:
+        return (f"QualityReport({self.model_name!r}: {len(self.gaps)} gaps, "
+                f"{len(self.surfaces)} surfaces, {len(self.errors)} error rows)")
+
+
+def _write_text(path, text: str) -> Path:
+    from .formats._common import AtomicFiles
+
+    path = Path(path)
+    with AtomicFiles() as files:
+        files.open(path).write(text)
+    return path
+
+
+def _angle_row(P: np.ndarray, T: np.ndarray) -> Dict[str, Any]:
+    m3 = min_angles(P, T)
+    m2 = min_angles(P[:, :2], T)
+    s3, s2 = _shares(m3), _shares(m2)
+    return {"lt10": s3["lt10"], "lt20": s3["lt20"], "lt10_xy": s2["lt10"], "lt20_xy": s2["lt20"],
+            "min_angle": float(m3.min()) if len(m3) else float("nan"),
+            "min_angle_xy": float(m2.min()) if len(m2) else float("nan"),
+            "n_lt10": int(np.count_nonzero(m3 < 10)), "n_lt20": int(np.count_nonzero(m3 < 20)),
+            "n_lt10_xy": int(np.count_nonzero(m2 < 10)), "n_lt20_xy": int(np.count_nonzero(m2 < 20))}
+
+
+def quality(model, *, near: float = 150.0, samples: int = 200, truth=None) -> QualityReport:
+    """Mesh quality of ``model``: per gap, per surface, and (with ground truth,
+    ``truth`` or ``model.truth``) vertical errors. ``near``: the distance (m)
+    from a fault within which samples count as near; ``samples``: grid
+    samples along the longer side of the study area."""
+    rep = QualityReport(model_name=model.name)
+    for g in model.gaps:
+        if g.layer not in model.surfaces:
+            raise ValueError(f"quality: gap {g.fault!r}/{g.layer!r} names a layer the model "
+                             f"does not have (layers: {list(model.surfaces)})")
+        surf = model.surfaces[g.layer]
+        rows = np.asarray(g.triangles, dtype=np.int64).reshape(-1)
+        if rows.size and (rows.min() < 0 or rows.max() >= surf.n_triangles):
+            raise ValueError(f"quality: gap {g.fault!r}/{g.layer!r} has triangle rows outside "
+                             f"0..{surf.n_triangles - 1}")
+        row = {"fault": g.fault, "layer": g.layer, "triangles": int(rows.size),
+               "polygon_vertices": int(g.n_vertices), "holes": int(g.n_holes),
+               "expected_triangles": int(g.n_vertices + 2 * g.n_holes - 2),
+               "seconds": float(g.seconds)}
+        row.update(_angle_row(surf.vertices, surf.triangles[rows]))
+        rep.gaps.append(row)
+    for kind, group in (("layer", model.surfaces), ("fault", model.faults)):
+        for name, s in group.items():
+            row = {"name": name, "kind": kind, "vertices": s.n_vertices, "triangles": s.n_triangles}
+            row.update(_angle_row(s.vertices, s.triangles))
+            rep.surfaces.append(row)
+    truth = truth if truth is not None else model.truth
+    rep.settings = {"angles": "3D headline; XY also given", "thresholds_deg": list(THRESHOLDS)}
+    if truth is not None:
+        errors, st = _vertical_errors(model, truth, near, samples)
+        rep.errors = errors
+        rep.settings.update(st)
+    else:
+        rep.notes.append("no ground truth attached to the model: vertical errors not computed")
+    return rep
