@@ -49,7 +49,7 @@ void build_core(DelaunayCore& core, const double* pts, std::size_t stride, std::
         msg << fn << ": need at least 3 distinct points, got " << n << " point" << (n == 1 ? "" : "s");
         throw GeometryError(msg.str());
     }
-    const std::vector<std::uint32_t> ord = brio_order(pts, stride, n);
+    std::vector<std::uint32_t> ord = brio_order(pts, stride, n);
     auto P = [&](std::size_t k) { return pts + static_cast<std::size_t>(ord[k]) * stride; };
 
     // The first triangle: the first point in BRIO order, the next distinct
@@ -78,13 +78,17 @@ void build_core(DelaunayCore& core, const double* pts, std::size_t stride, std::
         throw GeometryError(msg.str());
     }
 
-    input_of_id.clear();
-    input_of_id.reserve(n);
-    input_of_id.push_back(ord[0]);
-    input_of_id.push_back(ord[i1]);
-    input_of_id.push_back(ord[i2]);
-    for (std::size_t k = 1; k < n; ++k)
-        if (k != i1 && k != i2) input_of_id.push_back(ord[k]);
+    // Ids: ord with positions i1 and i2 moved to 1 and 2 (the others keep
+    // their order), in place.
+    {
+        const std::uint32_t a = ord[i1], b = ord[i2];
+        std::size_t w = i2;
+        for (std::size_t k = i2; k-- > 1;)
+            if (k != i1) ord[w--] = ord[k];
+        ord[1] = a;
+        ord[2] = b;
+    }
+    input_of_id = std::move(ord);
 
     core.reserve_vertices(n);
     core.xy.resize(2 * n);
@@ -127,9 +131,10 @@ std::size_t compact_slots(const DelaunayCore& core, std::vector<std::int32_t>& c
     return static_cast<std::size_t>(m);
 }
 
-void export_mesh(const DelaunayCore& core, const std::vector<std::int32_t>& compact, std::size_t m,
-                 const std::int64_t* vertex_of_id, std::vector<std::int64_t>* triangles,
-                 std::vector<std::int64_t>* halfedges) {
+template <class Index>
+void export_mesh_impl(const DelaunayCore& core, const std::vector<std::int32_t>& compact, std::size_t m,
+                      const Index* vertex_of_id, std::vector<std::int64_t>* triangles,
+                      std::vector<std::int64_t>* halfedges) {
     if (triangles) triangles->resize(3 * m);
     if (halfedges) halfedges->resize(3 * m);
     const std::int32_t* V = core.tv.data();
@@ -143,7 +148,7 @@ void export_mesh(const DelaunayCore& core, const std::vector<std::int32_t>& comp
         const std::size_t out = 3 * static_cast<std::size_t>(c);
         for (std::size_t i = 0; i < 3; ++i) {
             const std::size_t e = 3 * t + i;
-            if (T) T[out + i] = vertex_of_id[V[e]];
+            if (T) T[out + i] = static_cast<std::int64_t>(vertex_of_id[V[e]]);
             if (E) {
                 const std::int32_t tw = H[e];
                 const std::int32_t ct = compact[tw / 3];
@@ -151,6 +156,18 @@ void export_mesh(const DelaunayCore& core, const std::vector<std::int32_t>& comp
             }
         }
     }
+}
+
+void export_mesh(const DelaunayCore& core, const std::vector<std::int32_t>& compact, std::size_t m,
+                 const std::int64_t* vertex_of_id, std::vector<std::int64_t>* triangles,
+                 std::vector<std::int64_t>* halfedges) {
+    export_mesh_impl(core, compact, m, vertex_of_id, triangles, halfedges);
+}
+
+void export_mesh(const DelaunayCore& core, const std::vector<std::int32_t>& compact, std::size_t m,
+                 const std::uint32_t* vertex_of_id, std::vector<std::int64_t>* triangles,
+                 std::vector<std::int64_t>* halfedges) {
+    export_mesh_impl(core, compact, m, vertex_of_id, triangles, halfedges);
 }
 
 }  // namespace detail
@@ -164,24 +181,26 @@ DelaunayResult delaunay(const double* xy, std::size_t n) {
     DelaunayResult r;
     // Representative of a duplicate group: its smallest input index, so the
     // result does not depend on which copy the insertion order met first.
-    std::vector<std::int64_t> rep(n);
-    for (std::size_t id = 0; id < n; ++id) rep[id] = input_of_id[id];
+    // input_of_id becomes that representative, in place: first remember the
+    // id each row maps to, then lower the vertices' input index to their
+    // group's minimum, then resolve the rows.
+    r.vertex_of_input.resize(n);
+    for (std::size_t id = 0; id < n; ++id) {
+        const std::int32_t d = dup_of[id];
+        r.vertex_of_input[input_of_id[id]] = d >= 0 ? d : static_cast<std::int64_t>(id);
+    }
     for (std::size_t id = 0; id < n; ++id) {
         const std::int32_t d = dup_of[id];
         if (d >= 0) {
             ++r.n_duplicates;
-            if (rep[id] < rep[d]) rep[d] = rep[id];
+            if (input_of_id[id] < input_of_id[d]) input_of_id[d] = input_of_id[id];
         }
     }
-    r.vertex_of_input.resize(n);
-    for (std::size_t id = 0; id < n; ++id) {
-        const std::int32_t d = dup_of[id];
-        r.vertex_of_input[input_of_id[id]] = rep[d >= 0 ? static_cast<std::size_t>(d) : id];
-    }
+    for (auto& v : r.vertex_of_input) v = input_of_id[static_cast<std::size_t>(v)];
 
     std::vector<std::int32_t> compact;
     const std::size_t m = detail::compact_slots(core, compact);
-    detail::export_mesh(core, compact, m, rep.data(), &r.triangles, &r.halfedges);
+    detail::export_mesh(core, compact, m, input_of_id.data(), &r.triangles, &r.halfedges);
     return r;
 }
 

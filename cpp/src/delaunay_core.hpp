@@ -324,5 +324,8 @@ std::size_t compact_slots(const DelaunayCore& core, std::vector<std::int32_t>& c
 void export_mesh(const DelaunayCore& core, const std::vector<std::int32_t>& compact, std::size_t m,
                  const std::int64_t* vertex_of_id, std::vector<std::int64_t>* triangles,
                  std::vector<std::int64_t>* halfedges);
+void export_mesh(const DelaunayCore& core, const std::vector<std::int32_t>& compact, std::size_t m,
+                 const std::uint32_t* vertex_of_id, std::vector<std::int64_t>* triangles,
+                 std::vector<std::int64_t>* halfedges);
 
 }  // namespace faultmesh::detail

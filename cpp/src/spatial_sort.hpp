@@ -13,10 +13,11 @@
 //                     expected cavity sizes small even for adversarial input
 //                     orders; the Hilbert order keeps the walks short.
 //
-// Keys are computed by quantising each coordinate to `levels` bits and
+// Keys are computed by quantising each coordinate to kHilbertLevels bits and
 // mapping the cell to its Hilbert index with a 4-state automaton (the state is
-// the accumulated swap/complement of the sub-square); the keys are then sorted
-// with an LSD radix sort, which skips the byte positions where all keys agree.
+// the accumulated swap/complement of the sub-square); the 32-bit keys are then
+// sorted with an LSD radix sort, and runs of points sharing a cell are
+// re-sorted on a grid over their own extent (clustered data).
 // Everything is deterministic: the random rounds come from a fixed-seed hash
 // of the point's index.
 #pragma once
@@ -86,23 +87,26 @@ inline std::uint64_t hilbert_index(std::uint32_t x, std::uint32_t y, int levels)
     return d;
 }
 
-// Sorts vals by keys (both permuted), stable, LSD radix on bytes.
-inline void radix_sort_by_key(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>& vals) {
+// Sorts vals by keys (both permuted), stable, LSD radix on bytes; byte
+// positions where all keys agree are skipped.
+template <class Key>
+void radix_sort_by_key(std::vector<Key>& keys, std::vector<std::uint32_t>& vals) {
+    constexpr int kBytes = static_cast<int>(sizeof(Key));
     const std::size_t n = keys.size();
     if (n < 2) return;
-    std::vector<std::size_t> hist(8 * 256, 0);
+    std::vector<std::size_t> hist(kBytes * 256, 0);
     for (std::size_t i = 0; i < n; ++i) {
-        const std::uint64_t k = keys[i];
-        for (int b = 0; b < 8; ++b) ++hist[b * 256 + ((k >> (8 * b)) & 0xffu)];
+        const Key k = keys[i];
+        for (int b = 0; b < kBytes; ++b) ++hist[b * 256 + ((k >> (8 * b)) & 0xffu)];
     }
-    std::vector<std::uint64_t> k2(n);
+    std::vector<Key> k2(n);
     std::vector<std::uint32_t> v2(n);
-    for (int b = 0; b < 8; ++b) {
+    for (int b = 0; b < kBytes; ++b) {
         std::size_t* h = &hist[b * 256];
         bool trivial = false;
         for (int j = 0; j < 256; ++j)
             if (h[j] == n) trivial = true;
-        if (trivial) continue;  // every key has the same byte here
+        if (trivial) continue;
         std::size_t sum = 0;
         for (int j = 0; j < 256; ++j) {
             const std::size_t c = h[j];
@@ -120,46 +124,84 @@ inline void radix_sort_by_key(std::vector<std::uint64_t>& keys, std::vector<std:
     }
 }
 
-// Quantisation of a point set's bounding square onto a 2^levels grid.
-struct HilbertFrame {
-    double x0 = 0, y0 = 0, scale = 0, cells = 0;
-    int levels = 16;
+// Levels of the Hilbert keys: 2^28 cells leave 4 bits of a 32-bit key for
+// the BRIO round and give a uniform set of a few million points tens of cells
+// per point; cells that still hold many points (clusters) are refined by
+// refine_ties.
+constexpr int kHilbertLevels = 14;
 
-    // pts: n points with `stride` doubles each (x, y first); non-finite
-    // coordinates are ignored for the frame.
-    HilbertFrame(const double* pts, std::size_t stride, std::size_t n) {
+// Quantisation of the bounding square of a point set (or of a subset given by
+// indices) onto a 2^kHilbertLevels grid.
+struct HilbertFrame {
+    double x0 = 0, y0 = 0, scale = 0;
+    static constexpr double kCells = double((1u << kHilbertLevels) - 1);
+
+    // Points i (or idx[i] when idx is given) for i < n, `stride` doubles each
+    // (x, y first); non-finite coordinates are ignored.
+    HilbertFrame(const double* pts, std::size_t stride, std::size_t n, const std::uint32_t* idx = nullptr) {
         double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
         for (std::size_t i = 0; i < n; ++i) {
-            const double x = pts[i * stride], y = pts[i * stride + 1];
+            const double* p = pts + stride * (idx ? idx[i] : i);
+            const double x = p[0], y = p[1];
             if (!(std::isfinite(x) && std::isfinite(y))) continue;
             xmin = std::min(xmin, x);
             xmax = std::max(xmax, x);
             ymin = std::min(ymin, y);
             ymax = std::max(ymax, y);
         }
-        // Enough levels that a uniform set has ~2^8 cells per point (so that
-        // ties are rare) while keeping the radix sort short; 24 levels at
-        // most (2^48 cells) covers strongly clustered sets too.
-        int lv = 8;
-        while (lv < 24 && (std::uint64_t(1) << (2 * lv)) < std::uint64_t(n) * 256u) lv += 4;
-        levels = lv;
         const double ext = std::max(xmax - xmin, ymax - ymin);
         x0 = xmin;
         y0 = ymin;
-        // The largest cell index is 2^levels - 1; scale maps the extent just
-        // inside it. A degenerate (single point) extent maps everything to 0.
-        cells = std::ldexp(1.0, levels) - 1.0;
-        scale = (ext > 0 && std::isfinite(ext)) ? cells / ext : 0.0;
+        // A zero extent (one point, or all equal) maps everything to cell 0.
+        scale = (ext > 0 && std::isfinite(ext)) ? kCells / ext : 0.0;
     }
 
-    std::uint64_t key(double x, double y) const {
+    // 28-bit Hilbert key of (x, y); points outside the frame are clamped and
+    // NaN goes to cell 0.
+    std::uint32_t key(double x, double y) const {
         double fx = (x - x0) * scale, fy = (y - y0) * scale;
-        // Clamp (queries may lie outside the frame; NaN goes to 0).
-        fx = fx > 0 ? (fx < cells ? fx : cells) : 0.0;
-        fy = fy > 0 ? (fy < cells ? fy : cells) : 0.0;
-        return hilbert_index(static_cast<std::uint32_t>(fx), static_cast<std::uint32_t>(fy), levels);
+        fx = fx > 0 ? (fx < kCells ? fx : kCells) : 0.0;
+        fy = fy > 0 ? (fy < kCells ? fy : kCells) : 0.0;
+        // 16 table levels on coordinates shifted up by 2: the key of the
+        // 2^14 grid is the 2^16 key of its cell's corner, shifted down by 4
+        // (the Hilbert curve of a coarser grid is the finer one's prefix).
+        const std::uint32_t ix = static_cast<std::uint32_t>(fx) << 2, iy = static_cast<std::uint32_t>(fy) << 2;
+        return static_cast<std::uint32_t>(hilbert_index(ix, iy, 16) >> 4);
     }
 };
+
+// Within idx[lo, hi) (sorted by keys), re-sorts every run of equal keys
+// longer than a few points along a Hilbert curve over the run's own
+// bounding square, recursively: clustered inputs (many points per cell of the
+// global grid) keep a spatially coherent order.
+inline void refine_ties(const double* pts, std::size_t stride, std::vector<std::uint32_t>& keys,
+                        std::vector<std::uint32_t>& idx, std::size_t lo, std::size_t hi, int depth) {
+    constexpr std::size_t kRun = 16;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> buf;
+    std::size_t i = lo;
+    while (i < hi) {
+        std::size_t j = i + 1;
+        while (j < hi && keys[j] == keys[i]) ++j;
+        if (j - i > kRun && depth < 4) {
+            const HilbertFrame f(pts, stride, j - i, &idx[i]);
+            if (f.scale > 0) {
+                buf.resize(j - i);
+                for (std::size_t k = i; k < j; ++k) {
+                    const double* p = pts + stride * idx[k];
+                    buf[k - i] = {f.key(p[0], p[1]), idx[k]};
+                }
+                std::stable_sort(buf.begin(), buf.end(),
+                                 [](const auto& a, const auto& b) { return a.first < b.first; });
+                for (std::size_t k = i; k < j; ++k) {
+                    keys[k] = buf[k - i].first;
+                    idx[k] = buf[k - i].second;
+                }
+                refine_ties(pts, stride, keys, idx, i, j, depth + 1);
+            }
+        }
+        i = j;
+    }
+}
 
 inline std::uint64_t splitmix64(std::uint64_t x) {
     x += 0x9e3779b97f4a7c15ull;
@@ -170,14 +212,14 @@ inline std::uint64_t splitmix64(std::uint64_t x) {
 
 // Indices 0..n-1 in Hilbert order of the points (stride doubles per point).
 inline std::vector<std::uint32_t> hilbert_order(const double* pts, std::size_t stride, std::size_t n) {
-    HilbertFrame frame(pts, stride, n);
-    std::vector<std::uint64_t> keys(n);
-    std::vector<std::uint32_t> idx(n);
+    const HilbertFrame frame(pts, stride, n);
+    std::vector<std::uint32_t> keys(n), idx(n);
     for (std::size_t i = 0; i < n; ++i) {
         keys[i] = frame.key(pts[i * stride], pts[i * stride + 1]);
         idx[i] = static_cast<std::uint32_t>(i);
     }
     radix_sort_by_key(keys, idx);
+    refine_ties(pts, stride, keys, idx, 0, n, 0);
     return idx;
 }
 
@@ -185,26 +227,26 @@ inline std::vector<std::uint32_t> hilbert_order(const double* pts, std::size_t s
 // curve. The first round holds about 64 points or more.
 inline std::vector<std::uint32_t> brio_order(const double* pts, std::size_t stride, std::size_t n,
                                              std::uint64_t seed = 0x9d2c5680f00dcafeull) {
-    HilbertFrame frame(pts, stride, n);
+    const HilbertFrame frame(pts, stride, n);
     int rounds = 0;  // number of halvings: round r holds ~n / 2^(r+1) points
     while (rounds < 12 && (n >> (rounds + 1)) >= 64) ++rounds;
-    std::vector<std::uint64_t> keys(n);
-    std::vector<std::uint32_t> idx(n);
-    const int key_bits = 2 * frame.levels;
+    std::vector<std::uint32_t> keys(n), idx(n);
     for (std::size_t i = 0; i < n; ++i) {
         const std::uint64_t h = splitmix64(seed ^ (std::uint64_t(i) * 0x2545f4914f6cdd1dull));
-        int r = 0;  // geometric: P(r) = 2^-(r+1), capped
+        // Geometric round: P(r) = 2^-(r+1), capped; the coarsest round
+        // (r == rounds) is inserted first.
+        int r = 0;
         std::uint64_t bits = h;
         while (r < rounds && (bits & 1u)) {
             ++r;
             bits >>= 1;
         }
-        // The coarsest round (r == rounds) is inserted first.
-        const std::uint64_t round_rank = static_cast<std::uint64_t>(rounds - r);
-        keys[i] = (round_rank << key_bits) | frame.key(pts[i * stride], pts[i * stride + 1]);
+        const std::uint32_t round_rank = static_cast<std::uint32_t>(rounds - r);
+        keys[i] = (round_rank << (2 * kHilbertLevels)) | frame.key(pts[i * stride], pts[i * stride + 1]);
         idx[i] = static_cast<std::uint32_t>(i);
     }
     radix_sort_by_key(keys, idx);
+    refine_ties(pts, stride, keys, idx, 0, n, 0);
     return idx;
 }
 

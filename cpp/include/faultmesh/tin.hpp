@@ -14,8 +14,16 @@
 // its z are kept unchanged, and the point is reported as mapping to it
 // (vertex_of_input() for the constructor, the return value of insert()).
 //
+// Only x and y must be finite; z may be NaN (a layer without a value there).
+//
 // Triangle indices (triangles(), halfedges(), locate()) refer to the compacted
-// list of finite triangles and are valid until the next insert().
+// list of finite triangles and are valid until the next insert(). Each
+// insert() call costs O(triangles) on top of the insertions (the compacted
+// index is rebuilt), so insert points in batches where possible.
+//
+// Thread safety: const member functions keep no mutable state and may run
+// concurrently; insert() must not run concurrently with anything else on the
+// same Tin.
 #pragma once
 
 #include <cstddef>
@@ -32,8 +40,8 @@ struct TinImpl;
 class Tin {
 public:
     // n points interleaved as x0, y0, z0, x1, y1, z1, ... Throws
-    // std::invalid_argument for NaN/inf (naming the point) and GeometryError
-    // for fewer than 3 distinct points or all-collinear XY.
+    // std::invalid_argument for a NaN/inf x or y (naming the point) and
+    // GeometryError for fewer than 3 distinct points or all-collinear XY.
     Tin(const double* xyz, std::size_t n);
     ~Tin();
     Tin(Tin&&) noexcept;
@@ -43,7 +51,7 @@ public:
 
     // Inserts n points (x, y, z interleaved) and returns, for each, the index of
     // the vertex it maps to (a new vertex, or the existing one of equal XY).
-    // Throws std::invalid_argument for NaN/inf before changing anything.
+    // Throws std::invalid_argument for a NaN/inf x or y before changing anything.
     std::vector<std::int64_t> insert(const double* xyz, std::size_t n);
 
     std::size_t n_vertices() const;
