@@ -28,7 +28,7 @@ void gather_rings_st(const py::handle& rings, const char* fn, std::vector<double
 }
 
 StitchOptions make_options(bool refine, const std::string& order, const std::string& bridge,
-                           double tol, const char* fn) {
+                           double tol, double clearance, const char* fn) {
     StitchOptions o;
     o.ear_clip.refine = refine;
     if (order == "quality") o.ear_clip.order = EarOrder::quality;
@@ -38,6 +38,8 @@ StitchOptions make_options(bool refine, const std::string& order, const std::str
     else if (bridge == "eberly") o.ear_clip.bridge = BridgeMethod::eberly;
     else throw std::invalid_argument(std::string(fn) + ": bridge must be 'extreme' or 'eberly', got '" + bridge + "'");
     o.boundary_tolerance = tol;
+    if (!(clearance >= 0.0)) throw std::invalid_argument(std::string(fn) + ": clearance must be >= 0");
+    o.clearance = clearance;
     return o;
 }
 
@@ -90,7 +92,8 @@ Stitches fault patches into one layer surface, one after another (paper 2.4-2.6)
 Stitcher(vertices (n, 3), triangles (m, 3) CCW TIN, boundary=None (k, 2) study area,
          halfedges=None (3m,) opposite half-edges (Tin.halfedges) to skip the adjacency
          build, name="layer", refine=True, order="quality", bridge="extreme",
-         boundary_tolerance=-1 (auto))
+         boundary_tolerance=-1 (auto), clearance=0.0 (grow the removed region until its
+         boundary vertices are at least this far from the patch outline))
 
 Each stitch() is local to the patch's neighbourhood: AABB candidates, exact
 closed-region overlap, growth of the removed set to a disk strictly containing the
@@ -100,7 +103,7 @@ local merge with shared vertices. mesh() returns the compacted surface.
 )doc")
         .def(py::init([](const py::handle& vertices, const py::handle& triangles, const py::handle& boundary,
                          const py::handle& halfedges, const std::string& name, bool refine,
-                         const std::string& order, const std::string& bridge, double tol) {
+                         const std::string& order, const std::string& bridge, double tol, double clearance) {
                  const char* fn = "Stitcher";
                  auto V = as_points(vertices, fn, "vertices", 3, 3);
                  auto T = as_indices(triangles, fn, "triangles", 3);
@@ -117,7 +120,7 @@ local merge with shared vertices. mesh() returns the compacted surface.
                                                      std::to_string(3 * T.shape(0)) + ",)");
                      he.assign(H.data(), H.data() + H.shape(0));
                  }
-                 StitchOptions opt = make_options(refine, order, bridge, tol, fn);
+                 StitchOptions opt = make_options(refine, order, bridge, tol, clearance, fn);
                  py::gil_scoped_release release;
                  return new LayerStitcher(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
                                           static_cast<std::size_t>(T.shape(0)), bxy.empty() ? nullptr : bxy.data(),
@@ -125,7 +128,8 @@ local merge with shared vertices. mesh() returns the compacted surface.
              }),
              py::arg("vertices"), py::arg("triangles"), py::arg("boundary") = py::none(),
              py::arg("halfedges") = py::none(), py::arg("name") = "layer", py::arg("refine") = true,
-             py::arg("order") = "quality", py::arg("bridge") = "extreme", py::arg("boundary_tolerance") = -1.0)
+             py::arg("order") = "quality", py::arg("bridge") = "extreme", py::arg("boundary_tolerance") = -1.0,
+             py::arg("clearance") = 0.0)
         .def(
             "stitch",
             [](LayerStitcher& st, const py::handle& pv, const py::handle& pt, const std::string& name) {
@@ -170,7 +174,7 @@ local merge with shared vertices. mesh() returns the compacted surface.
         "stitch",
         [](const py::handle& vertices, const py::handle& triangles, const py::handle& patch_vertices,
            const py::handle& patch_triangles, const py::handle& boundary, bool refine, const std::string& order,
-           const std::string& bridge) {
+           const std::string& bridge, double clearance) {
             const char* fn = "stitch";
             auto V = as_points(vertices, fn, "vertices", 3, 3);
             auto T = as_indices(triangles, fn, "triangles", 3);
@@ -181,7 +185,7 @@ local merge with shared vertices. mesh() returns the compacted surface.
                 auto B = as_points(boundary, fn, "boundary", 2, 2);
                 bxy.assign(B.data(), B.data() + 2 * B.shape(0));
             }
-            StitchOptions opt = make_options(refine, order, bridge, -1.0, fn);
+            StitchOptions opt = make_options(refine, order, bridge, -1.0, clearance, fn);
             StitchResult r;
             {
                 py::gil_scoped_release release;
@@ -195,7 +199,7 @@ local merge with shared vertices. mesh() returns the compacted surface.
         },
         py::arg("vertices"), py::arg("triangles"), py::arg("patch_vertices"), py::arg("patch_triangles"),
         py::arg("boundary") = py::none(), py::arg("refine") = true, py::arg("order") = "quality",
-        py::arg("bridge") = "extreme",
+        py::arg("bridge") = "extreme", py::arg("clearance") = 0.0,
         "Stitch one fault patch into a layer TIN (one-shot Stitcher). Returns (vertices (n, 3),\n"
         "triangles (m, 3), gap_rows (g,)): the merged surface with shared vertices and the rows\n"
         "of its gap triangles. boundary: the study area (default: the mesh's outer boundary).");

@@ -124,6 +124,21 @@ public:
         });
         return hit;
     }
+    // Euclidean XY distance from p to the nearest edge, if below `limit`
+    // (otherwise returns limit).
+    double distance(const double* p, double limit) const {
+        double best = limit;
+        tree_.visit(Box2{p[0] - limit, p[1] - limit, p[0] + limit, p[1] + limit}, [&](std::int64_t e) {
+            const double* u = edge_a(static_cast<std::size_t>(e));
+            const double* v = edge_b(static_cast<std::size_t>(e));
+            const double dx = v[0] - u[0], dy = v[1] - u[1];
+            const double L2 = dx * dx + dy * dy;
+            double t = L2 > 0.0 ? ((p[0] - u[0]) * dx + (p[1] - u[1]) * dy) / L2 : 0.0;
+            t = std::min(1.0, std::max(0.0, t));
+            best = std::min(best, std::hypot(p[0] - (u[0] + t * dx), p[1] - (u[1] + t * dy)));
+        });
+        return best;
+    }
     // True iff the closed triangle meets the closed region.
     bool closed_triangle_meets(const double* a, const double* b, const double* c) const {
         const Box2 tb = tri_box(a, b, c);
@@ -687,6 +702,20 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
 
     // ---- 3. growth until every component is a disk (holes: earlier patches)
     auto is_in = [&](std::int64_t r) { return r >= 0 && s.in_d[static_cast<std::size_t>(r)] == stamp; };
+    // Pull in the free triangles around the vertex that half-edge h0 leaves.
+    auto star = [&](std::int64_t h0) {
+        for (int dir = 0; dir < 2; ++dir) {
+            std::int64_t h = h0;
+            for (std::size_t guard = 0; guard < 100000; ++guard) {
+                add(h / 3);
+                const std::int64_t o = dir == 0 ? s.adj[static_cast<std::size_t>(detail::prev_h(h))]
+                                                : s.adj[static_cast<std::size_t>(h)];
+                if (o < 0) break;
+                h = dir == 0 ? o : detail::next_h(o);
+                if (h == h0) break;
+            }
+        }
+    };
     std::vector<std::int64_t> bnd;                       // boundary half-edges of D (D on the left)
     std::unordered_map<std::int64_t, std::int64_t> out;  // vertex -> boundary half-edge leaving it
     std::vector<std::vector<std::int64_t>> loops;
@@ -710,19 +739,7 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
             }
         if (!pinch.empty()) {
             // A pinch vertex (D meets itself at a vertex) pulls in its star.
-            for (std::int64_t h0 : pinch) {
-                for (int dir = 0; dir < 2; ++dir) {
-                    std::int64_t h = h0;  // a half-edge leaving the pinch vertex
-                    for (std::size_t guard = 0; guard < 100000; ++guard) {
-                        add(h / 3);
-                        const std::int64_t o = dir == 0 ? s.adj[static_cast<std::size_t>(detail::prev_h(h))]
-                                                        : s.adj[static_cast<std::size_t>(h)];
-                        if (o < 0) break;
-                        h = dir == 0 ? o : detail::next_h(o);
-                        if (h == h0) break;
-                    }
-                }
-            }
+            for (std::int64_t h0 : pinch) star(h0);
             add_closure(before);
             if (D.size() == before) {
                 const std::int64_t vtx = s.tri[static_cast<std::size_t>(pinch[0])];
@@ -782,6 +799,16 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
                 }
             }
             for (std::int64_t r : enclosed) add(r);
+        }
+        if (D.size() == before && s.opt.clearance > 0.0) {
+            // Clearance: pull in the star of every boundary vertex of D that
+            // lies closer than the clearance to the patch outline.
+            for (std::int64_t h0 : bnd) {
+                if (s.adj[static_cast<std::size_t>(h0)] < 0) continue;  // study boundary
+                const std::int64_t vtx = s.tri[static_cast<std::size_t>(h0)];
+                if (region.distance(s.v(vtx), s.opt.clearance) >= s.opt.clearance) continue;
+                star(h0);
+            }
         }
         if (D.size() == before) break;
         add_closure(before);

@@ -39,10 +39,10 @@ area
 Fault surfaces (``kind == "fault"``) are checked for the first three groups
 only (they are near-vertical: no XY requirement).
 
-Gaps (:class:`~faultmesh.model.Gap`): a gap polygon with ``n`` vertices and
-``h`` holes has exactly ``n + 2h - 2`` triangles; every gap triangle is a
-triangle of its layer surface and is counter-clockwise with non-zero area in
-XY (the gap is ear-clipped in XY).
+Gaps (:class:`~faultmesh.model.Gap`, ``triangles`` = row indices into the
+layer surface's triangles): a gap polygon with ``n`` vertices and ``h`` holes
+has exactly ``n + 2h - 2`` triangles, each counter-clockwise with non-zero
+area in XY (the gap is ear-clipped in XY).
 """
 from __future__ import annotations
 
@@ -307,41 +307,40 @@ def check_surface(surface, boundary: Optional[np.ndarray] = None) -> None:
 
 
 def check_gaps(surface, gaps: Iterable) -> None:
-    """Check the stitched gaps of one layer surface (n + 2h - 2 triangles each)."""
+    """Check the stitched gaps of one layer surface: ``Gap.triangles`` are row
+    indices into ``surface.triangles``; a polygon with n vertices and h holes
+    has n + 2h - 2 of them, each counter-clockwise with non-zero area in XY."""
     name = surface.name
     T = np.asarray(surface.triangles, dtype=np.int64)
     V = np.asarray(surface.vertices, dtype=np.float64)
-    n = len(V)
-    keys = None
+    m = len(T)
     for g in gaps:
-        gt = np.asarray(g.triangles, dtype=np.int64).reshape(-1, 3)
+        rows = np.asarray(g.triangles, dtype=np.int64).reshape(-1)
         want = int(g.n_vertices) + 2 * int(g.n_holes) - 2
         label = f"gap of {g.fault!r} in {g.layer!r}"
-        if len(gt) != want:
+        if len(rows) != want:
             raise GeometryError(
                 f"check_surface: surface {name!r}: invariant 'gap triangle count' violated: "
-                f"{label} has {len(gt)} triangles, a polygon with n = {g.n_vertices} vertices "
+                f"{label} has {len(rows)} triangles, a polygon with n = {g.n_vertices} vertices "
                 f"and h = {g.n_holes} holes must have n + 2h - 2 = {want}")
-        if len(gt) == 0:
+        if len(rows) == 0:
             continue
-        if (gt < 0).any() or (gt >= n).any():
+        if rows.min() < 0 or rows.max() >= m:
             raise GeometryError(
                 f"check_surface: surface {name!r}: invariant 'gap triangles in the surface' "
-                f"violated: {label} refers to a vertex outside [0, {n})")
-        if keys is None:
-            s = np.sort(T, axis=1)
-            keys = set(map(tuple, s.tolist()))
-        for row in np.sort(gt, axis=1).tolist():
-            if tuple(row) not in keys:
-                raise GeometryError(
-                    f"check_surface: surface {name!r}: invariant 'gap triangles in the surface' "
-                    f"violated: {label}: triangle {row} is not a triangle of the surface")
+                f"violated: {label} refers to triangle row {int(rows.max() if rows.max() >= m else rows.min())} "
+                f"outside [0, {m})")
+        if len(np.unique(rows)) != len(rows):
+            raise GeometryError(
+                f"check_surface: surface {name!r}: invariant 'gap triangles in the surface' "
+                f"violated: {label} lists a triangle row twice")
+        gt = T[rows]
         o = orient2d(V[gt[:, 0], :2], V[gt[:, 1], :2], V[gt[:, 2], :2])
         if (o <= 0).any():
             k = int(np.flatnonzero(o <= 0)[0])
             raise GeometryError(
                 f"check_surface: surface {name!r}: invariant 'gap triangles CCW' violated: "
-                f"{label}: triangle {gt[k].tolist()} is "
+                f"{label}: triangle row {int(rows[k])} {gt[k].tolist()} is "
                 f"{'degenerate' if o[k] == 0 else 'clockwise'} in XY")
 
 

@@ -66,6 +66,11 @@ struct StitchOptions {
     // Distance within which a point counts as lying on the study-area
     // boundary; < 0: 64 eps max|boundary coordinate| (see stitch.cpp).
     double boundary_tolerance = -1.0;
+    // Clearance: the removed region also grows until every vertex of its
+    // boundary lies at least this far (XY) from the patch outline (except on
+    // the study-area boundary where the patch reaches it). A layer vertex just
+    // outside the outline would otherwise make sliver gap triangles. 0: off.
+    double clearance = 0.0;
     // Safety bound on the growth rounds of one stitch.
     int max_grow_rounds = 10000;
 };

@@ -1,0 +1,470 @@
+"""Fine fault models (DESIGN.md step 4, paper 2.3.2).
+
+Per fault and per layer, each trace gives ONE polyline in section order:
+the footwall polyline (far end -> footwall cutoff), the fault-plane trace
+points strictly between the two cutoffs (the fault strip), and the
+hanging-wall polyline (hanging-wall cutoff -> far end). Consecutive polylines
+are lofted (:func:`faultmesh.loft`, minimum area by default or shortest
+diagonal) into one connected patch. For a reverse fault the strip runs
+backwards in XY, so the patch folds: footwall (+), strip (-), hanging wall (+)
+cover the repetition band three times and their signed areas add up to one
+cover. A normal fault's strip is positive.
+
+Each end of a fault is closed in one of four ways:
+
+* ``tip``: a pinch-out point of the dataset (the tip nearest to that end)
+  closes the patch with a fan. The tip is given in XY for one layer (the
+  one whose cutoff line it continues); for every other layer it is moved by
+  that layer's cutoff offset on the end trace (a deeper layer meets a dipping
+  fault further down dip), and its z is the mean of the end trace's two
+  cutoffs plus the change of the continuous layer TIN between them.
+* ``zero_throw``: the end trace has zero throw (its cutoffs coincide): the
+  patch simply ends there.
+* ``extended``: no tip and non-zero throw: the end trace is carried along
+  strike (each point along the strike direction of the last two traces) onto
+  the nearest target within reach: the study-area boundary (paper: F22, a
+  fault "without pinching at the boundary") or, for faults of one group, the
+  outline of the partner fault that this one abuts (T-crossing). z follows
+  the continuous layer TIN's change along the way.
+* ``synthetic_tip``: nothing within reach: a tip half a trace spacing
+  further along strike closes the patch (recorded in the metadata).
+
+Faults of one group (T- or X-crossings) are modelled together as ONE patch
+per layer (:func:`group_patch`): faults that abut no partner come first; each
+later fault is clipped by the XY outlines of the earlier ones (every
+triangle whose closed XY projection touches them is removed, exactly, then
+pinch vertices are cleaned up), so the group's patch is a set of disjoint
+pieces that the stitcher treats as one region: one removed set, one gap
+polygon with every piece as a hole.
+
+The fault surface itself is lofted from the fault-plane traces, closed at a
+tip by the end plane trace moved to the tip, and extended like the layers.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ._core import GeometryError, boundary_contours, loft, triangles_touching_region
+from .dataset import points_in_polygon
+
+__all__ = ["LayerPatch", "FaultEnds", "fault_ends", "trace_polyline", "layer_patch",
+           "fault_surface", "group_patch", "patch_outline"]
+
+
+@dataclass
+class FaultEnds:
+    """How each end of a fault is closed: ``tip`` (2,) or None per end and the
+    outward along-strike direction (2,) per end."""
+
+    tips: List[Optional[np.ndarray]]
+    directions: List[np.ndarray]
+    spacing: float
+
+
+@dataclass
+class LayerPatch:
+    """The fine model of one fault (or group) in one layer."""
+
+    fault: str
+    layer: str
+    vertices: np.ndarray
+    triangles: np.ndarray
+    ends: List[str] = field(default_factory=list)         # closing kind per end
+    abuts: List[str] = field(default_factory=list)        # partners reached by an extension
+    metadata: Dict[str, Any] = field(default_factory=dict)
+
+
+# ---------------------------------------------------------------------------
+# Polylines
+# ---------------------------------------------------------------------------
+def _merge_tol(p: np.ndarray) -> float:
+    # Two computed points closer than 1e-9 of the polyline's extent (1 um for
+    # a 1 km trace) are one point: a zero-throw trace's cutoffs, or a plane
+    # point that coincides with a cutoff up to the root finder's rounding.
+    ext = float(np.ptp(p, axis=0).max()) if len(p) > 1 else 1.0
+    return 1e-9 * max(1.0, ext)
+
+
+def trace_polyline(trace, layer: str) -> Optional[Tuple[np.ndarray, float]]:
+    """(polyline (k, 3), throw distance) of ``layer`` on ``trace``: footwall
+    -> strip (plane points strictly between the cutoffs) -> hanging wall,
+    consecutive coincident points merged. None if the trace lacks the layer."""
+    sides = trace.layers.get(layer)
+    if sides is None:
+        return None
+    foot = np.asarray(sides["foot"], dtype=np.float64).reshape(-1, 3)
+    hang = np.asarray(sides["hanging"], dtype=np.float64).reshape(-1, 3)
+    if len(foot) == 0 or len(hang) == 0:
+        return None
+    cf, ch = foot[-1], hang[0]
+    throw = float(np.linalg.norm(ch - cf))
+    plane = np.asarray(trace.plane, dtype=np.float64).reshape(-1, 3)
+    lo, hi = min(cf[2], ch[2]), max(cf[2], ch[2])
+    strip = plane[(plane[:, 2] > lo) & (plane[:, 2] < hi)]
+    # From the footwall cutoff to the hanging-wall cutoff.
+    strip = strip[np.argsort(-strip[:, 2])] if cf[2] > ch[2] else strip[np.argsort(strip[:, 2])]
+    pts = np.vstack([foot, strip, hang])
+    tol = _merge_tol(pts)
+    keep = [0]
+    for i in range(1, len(pts)):
+        if np.linalg.norm(pts[i] - pts[keep[-1]]) > tol:
+            keep.append(i)
+    pts = pts[keep]
+    if throw <= tol:
+        throw = 0.0
+    return np.ascontiguousarray(pts), throw
+
+
+def _cut_mid(trace, layer: str) -> Optional[np.ndarray]:
+    sides = trace.layers.get(layer)
+    if sides is None:
+        return None
+    return 0.5 * (np.asarray(sides["foot"])[-1] + np.asarray(sides["hanging"])[0])
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = float(np.hypot(v[0], v[1]))
+    if n == 0.0:
+        raise GeometryError("faults: zero-length direction")
+    return np.asarray(v[:2], dtype=np.float64) / n
+
+
+def fault_ends(fault) -> FaultEnds:
+    """Tips assigned to the two ends and the outward strike directions."""
+    if not fault.traces:
+        raise GeometryError(f"fault {fault.name!r} has no trace")
+    centres = [np.asarray(tr.plane, dtype=np.float64)[:, :2].mean(axis=0) for tr in fault.traces]
+    tips = [np.asarray(t, dtype=np.float64) for t in np.asarray(fault.tips).reshape(-1, 2)]
+    end_tips: List[Optional[np.ndarray]] = [None, None]
+    if len(centres) >= 2:
+        d_start = _unit(centres[0] - centres[1])
+        d_end = _unit(centres[-1] - centres[-2])
+        spacing = float(np.mean([np.hypot(*(b - a)) for a, b in zip(centres[:-1], centres[1:])]))
+        for t in tips:
+            e = 0 if np.hypot(*(t - centres[0])) <= np.hypot(*(t - centres[-1])) else 1
+            if end_tips[e] is None:
+                end_tips[e] = t
+            elif end_tips[1 - e] is None:
+                end_tips[1 - e] = t
+    else:
+        tr = fault.traces[0]
+        poly = np.asarray(tr.plane, dtype=np.float64)
+        some = next(iter(tr.layers.values()), None)
+        if some is not None:
+            dip_dir = np.asarray(some["hanging"])[-1, :2] - np.asarray(some["foot"])[0, :2]
+        else:
+            dip_dir = poly[-1, :2] - poly[0, :2]
+        strike = _unit(np.array([-dip_dir[1], dip_dir[0]]))
+        spacing = 2.0 * float(np.hypot(*dip_dir)) if np.hypot(*dip_dir) > 0 else 100.0
+        if tips:
+            end_tips[0] = tips[0]
+            d_start = _unit(tips[0] - centres[0])
+            if len(tips) > 1:
+                end_tips[1] = tips[1]
+                d_end = _unit(tips[1] - centres[0])
+            else:
+                d_end = -d_start
+        else:
+            d_start, d_end = -strike, strike
+    return FaultEnds(end_tips, [d_start, d_end], spacing)
+
+
+# ---------------------------------------------------------------------------
+# Ends
+# ---------------------------------------------------------------------------
+def _ray_hits(p: np.ndarray, d: np.ndarray, rings: Sequence[np.ndarray]) -> np.ndarray:
+    """Smallest t > 0 with p + t d on one of the rings' edges (inf if none)."""
+    segs = []
+    for r in rings:
+        r = np.asarray(r, dtype=np.float64).reshape(-1, 2)
+        segs.append(np.stack([r, np.roll(r, -1, axis=0)], axis=1))
+    S = np.concatenate(segs) if segs else np.zeros((0, 2, 2))
+    a, b = S[:, 0], S[:, 1]
+    e = b - a
+    den = d[0] * e[:, 1] - d[1] * e[:, 0]
+    out = np.full(len(p), np.inf)
+    for i, q in enumerate(p):
+        w = a - q[None, :2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / den
+            u = (w[:, 0] * d[1] - w[:, 1] * d[0]) / den
+        ok = (den != 0) & (t > 0) & (u >= 0) & (u <= 1)
+        if ok.any():
+            out[i] = float(t[ok].min())
+    return out
+
+
+def _shift_z(pts_old: np.ndarray, xy_new: np.ndarray, surface_z) -> np.ndarray:
+    """z of points moved to xy_new: old z plus the continuous surface's change."""
+    z = pts_old[:, 2].copy()
+    if surface_z is None:
+        return z
+    z0 = surface_z(pts_old[:, :2])
+    z1 = surface_z(xy_new)
+    dz = z1 - z0
+    return np.where(np.isfinite(dz), z + dz, z)
+
+
+def _layer_tip(fault, traces_with, layer: str, end: int, tip: np.ndarray, direction: np.ndarray,
+               ring: np.ndarray, surface_z) -> np.ndarray:
+    """The tip (x, y, z) of ``layer`` at fault end ``end`` (see module doc)."""
+    tr = traces_with[0] if end == 0 else traces_with[-1]
+    mid_l = _cut_mid(tr, layer)
+    # Reference layer: the one whose cutoff line (through its cutoff midpoint
+    # along the strike direction) passes closest to the given tip.
+    best, ref = np.inf, mid_l
+    for lay in tr.layers:
+        m = _cut_mid(tr, lay)
+        off = tip - m[:2]
+        dist = abs(direction[0] * off[1] - direction[1] * off[0])
+        if dist < best:
+            best, ref = dist, m
+    v = tip - ref[:2]
+    xy = mid_l[:2] + v
+    # Keep the tip inside the study area (a deep layer's shifted tip can
+    # leave a study area that the fault's tip just fits in).
+    for _ in range(40):
+        if points_in_polygon(xy[None, :], ring)[0]:
+            break
+        xy = mid_l[:2] + 0.5 * (xy - mid_l[:2])
+    sides = tr.layers[layer]
+    zc = 0.5 * (float(np.asarray(sides["foot"])[-1, 2]) + float(np.asarray(sides["hanging"])[0, 2]))
+    z = zc
+    if surface_z is not None:
+        dz = float(surface_z(xy[None, :])[0] - surface_z(mid_l[None, :2])[0])
+        if np.isfinite(dz):
+            z = zc + dz
+    return np.array([xy[0], xy[1], z])
+
+
+def _extend(poly: np.ndarray, d: np.ndarray, targets: Dict[str, List[np.ndarray]],
+            max_dist: float, surface_z) -> Optional[Tuple[np.ndarray, str, float]]:
+    """``poly`` carried along ``d`` onto the nearest target (all points must
+    hit it within ``max_dist``): (new polyline, target name, median distance)."""
+    best = None
+    for name, rings in targets.items():
+        if not rings:
+            continue
+        t = _ray_hits(poly, d, rings)
+        if not np.all(np.isfinite(t)) or float(t.max()) > max_dist:
+            continue
+        med = float(np.median(t))
+        if best is None or med < best[2]:
+            best = (t, name, med)
+    if best is None:
+        return None
+    t, name, med = best
+    xy = poly[:, :2] + t[:, None] * d[None, :]
+    return np.column_stack([xy, _shift_z(poly, xy, surface_z)]), name, med
+
+
+# ---------------------------------------------------------------------------
+# Assembly
+# ---------------------------------------------------------------------------
+def _assemble(seq: List[np.ndarray], method: str) -> Tuple[np.ndarray, np.ndarray]:
+    """Loft consecutive polylines of ``seq`` into one patch (shared vertices)."""
+    offs = np.cumsum([0] + [len(p) for p in seq])
+    V = np.vstack(seq)
+    tris = []
+    for i in range(len(seq) - 1):
+        a, b = seq[i], seq[i + 1]
+        t = np.asarray(loft(a, b, method=method), dtype=np.int64)
+        k = len(a)
+        tris.append(np.where(t < k, t + offs[i], t - k + offs[i + 1]))
+    T = np.vstack(tris) if tris else np.zeros((0, 3), dtype=np.int64)
+    return np.ascontiguousarray(V), np.ascontiguousarray(T)
+
+
+def layer_patch(fault, layer: str, ends: FaultEnds, ring: np.ndarray, surface_z=None,
+                loft_method: str = "min_area",
+                partners: Optional[Dict[str, List[np.ndarray]]] = None,
+                max_extension: Optional[float] = None) -> Optional[LayerPatch]:
+    """The fine model of ``fault`` in ``layer`` (None if no trace has it).
+
+    ``surface_z(xy) -> z`` is the continuous layer surface (tips and
+    extensions follow its trend); ``partners``: group partners' XY outlines
+    in this layer (extension targets besides the study-area boundary)."""
+    with_layer = [tr for tr in fault.traces if layer in tr.layers]
+    if not with_layer:
+        return None
+    polys = [trace_polyline(tr, layer) for tr in with_layer]
+    seq = [p for p, _ in polys]
+    throws = [t for _, t in polys]
+    if max_extension is None:
+        max_extension = max(1.5 * ends.spacing, 0.25 * math.sqrt(abs(_area(ring))))
+    kinds, abuts, meta = [], [], {}
+    targets = {"boundary": [ring]}
+    for name, rings in (partners or {}).items():
+        targets[name] = rings
+    for end in (0, 1):
+        poly = seq[0] if end == 0 else seq[-1]
+        tip = ends.tips[end]
+        d = ends.directions[end]
+        add: Optional[np.ndarray] = None
+        if tip is not None:
+            add = _layer_tip(fault, with_layer, layer, end, tip, d, ring, surface_z)[None, :]
+            kinds.append("tip")
+        elif (throws[0] if end == 0 else throws[-1]) == 0.0:
+            kinds.append("zero_throw")
+        else:
+            ext = _extend(poly, d, targets, max_extension, surface_z)
+            if ext is not None:
+                add, target, dist = ext
+                kinds.append("extended")
+                meta[f"end{end}_extended_to"] = target
+                meta[f"end{end}_extension"] = dist
+                if target != "boundary":
+                    abuts.append(target)
+            else:
+                # Nothing within reach: close by a synthetic pinch-out.
+                sides = (with_layer[0] if end == 0 else with_layer[-1]).layers[layer]
+                cm = 0.5 * (np.asarray(sides["foot"])[-1] + np.asarray(sides["hanging"])[0])
+                xy = cm[:2] + 0.5 * ends.spacing * d
+                for _ in range(40):
+                    if points_in_polygon(xy[None, :], ring)[0]:
+                        break
+                    xy = cm[:2] + 0.5 * (xy - cm[:2])
+                add = np.array([[xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])]])
+                kinds.append("synthetic_tip")
+        if add is not None:
+            if end == 0:
+                seq.insert(0, add)
+            else:
+                seq.append(add)
+    V, T = _assemble(seq, loft_method)
+    return LayerPatch(fault.name, layer, V, T, kinds, abuts, meta)
+
+
+def fault_surface(fault, ends: FaultEnds, ring: np.ndarray, loft_method: str = "min_area",
+                  end_moves: Optional[Sequence[Optional[Tuple[str, np.ndarray]]]] = None):
+    """(vertices, triangles) of the fault surface lofted from its plane
+    traces, or None with fewer than two polylines.
+
+    A tip end is closed by the end plane trace moved to the tip (by the
+    offset from the cutoff midpoint of the layer whose cutoff line passes
+    closest to the tip). ``end_moves`` (per end, None, ``("ray", d)``: each
+    point carried along d onto the study-area boundary, or ``("shift", v)``:
+    the trace moved by v) extends an end like the layers' patches."""
+    seq = [np.asarray(tr.plane, dtype=np.float64).reshape(-1, 3) for tr in fault.traces]
+    seq = [p for p in seq if len(p) >= 1]
+    if not seq:
+        return None
+    for end in (0, 1):
+        tr = fault.traces[0] if end == 0 else fault.traces[-1]
+        plane = seq[0] if end == 0 else seq[-1]
+        tip = ends.tips[end]
+        moved = None
+        if tip is not None:
+            d = ends.directions[end]
+            best, ref = np.inf, None
+            for lay in tr.layers:
+                m = _cut_mid(tr, lay)
+                off = tip - m[:2]
+                dist = abs(d[0] * off[1] - d[1] * off[0])
+                if dist < best:
+                    best, ref = dist, m
+            if ref is None:
+                ref = plane[len(plane) // 2]
+            moved = plane.copy()
+            moved[:, :2] += (tip - ref[:2])[None, :]
+        elif end_moves is not None and end_moves[end] is not None:
+            how, vec = end_moves[end]
+            moved = plane.copy()
+            if how == "ray":
+                t = _ray_hits(plane, np.asarray(vec, dtype=np.float64), [ring])
+                t = np.where(np.isfinite(t), t, 0.0)
+                moved[:, :2] += t[:, None] * np.asarray(vec)[None, :]
+            else:
+                moved[:, :2] += np.asarray(vec, dtype=np.float64)[None, :]
+        if moved is not None:
+            # Keep it inside the study area (halve the move where it leaves).
+            inside = points_in_polygon(moved[:, :2], ring)
+            for _ in range(40):
+                if inside.all():
+                    break
+                moved[~inside, :2] = 0.5 * (moved[~inside, :2] + plane[~inside, :2])
+                inside = points_in_polygon(moved[:, :2], ring)
+            if end == 0:
+                seq.insert(0, moved)
+            else:
+                seq.append(moved)
+    if len(seq) < 2:
+        return None
+    return _assemble(seq, loft_method)
+
+
+def _area(ring: np.ndarray) -> float:
+    r = np.asarray(ring, dtype=np.float64)
+    x, y = r[:, 0] - r[0, 0], r[:, 1] - r[0, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def patch_outline(V: np.ndarray, T: np.ndarray) -> List[np.ndarray]:
+    """The XY outline rings (k, 2) of a patch (its boundary loops)."""
+    c = boundary_contours(T, n_vertices=len(V))
+    return [np.ascontiguousarray(V[np.asarray(l), :2]) for l in c.loops]
+
+
+def _compact(V: np.ndarray, T: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    used = np.zeros(len(V), dtype=bool)
+    used[T.ravel()] = True
+    remap = np.cumsum(used) - 1
+    return V[used], remap[T]
+
+
+def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
+               max_rounds: int = 50) -> Tuple[np.ndarray, np.ndarray]:
+    """Remove the triangles whose closed XY projection touches the region
+    ``rings``, then the triangles at pinch vertices until every piece has
+    simple boundary loops. Returns the compacted remainder (may be empty)."""
+    if len(T) == 0 or not rings:
+        return V, T
+    rows = np.asarray(triangles_touching_region(V, T, rings), dtype=np.int64)
+    keep = np.ones(len(T), dtype=bool)
+    keep[rows] = False
+    T = T[keep]
+    for _ in range(max_rounds):
+        if len(T) == 0:
+            break
+        c = boundary_contours(T, n_vertices=len(V))
+        bad = np.asarray(c.pinch_vertices, dtype=np.int64)
+        if bad.size == 0:
+            break
+        T = T[~np.isin(T, bad).any(axis=1)]
+    else:
+        raise GeometryError("clip_patch: could not clean up the clipped patch")
+    if len(T) == 0:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
+    return _compact(V, T)
+
+
+def group_patch(patches: List[LayerPatch]) -> Tuple[np.ndarray, np.ndarray, Dict[str, Any]]:
+    """One patch per layer for a group of crossing faults (module doc).
+
+    Order: faults that abut no partner first (in the given order), then the
+    abutting ones; each is clipped by the outlines of those before it.
+    Returns (vertices, triangles, info) with info["pieces"] listing, per
+    fault, the triangles kept and removed."""
+    order = sorted(range(len(patches)), key=lambda i: (bool(patches[i].abuts), i))
+    Vs, Ts, rings, info = [], [], [], {"order": [patches[i].fault for i in order], "pieces": {}}
+    off = 0
+    for i in order:
+        p = patches[i]
+        V, T = p.vertices, p.triangles
+        n0 = len(T)
+        if rings:
+            V, T = clip_patch(V, T, rings)
+        info["pieces"][p.fault] = {"triangles": int(len(T)), "clipped": int(n0 - len(T))}
+        if len(T) == 0:
+            continue
+        rings = rings + patch_outline(V, T)
+        Vs.append(V)
+        Ts.append(T + off)
+        off += len(V)
+    if not Vs:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64), info
+    return np.vstack(Vs), np.vstack(Ts), info
