@@ -41,3 +41,4 @@ from .dataset import Dataset, DatasetError, load_dataset  # noqa: E402
 from . import datasets  # noqa: E402
 from .io import load_model  # noqa: E402
 from .model import Model, Surface, Gap  # noqa: E402
+from .build import build_model  # noqa: E402
