@@ -13,7 +13,7 @@
 //
 // OUTPUT (text): one triangle per line, "i j k", counter-clockwise, indices
 // of input points (for points given more than once with equal coordinates,
-// the first index).
+// the first index; Steiner vertices at crossing constraints: n, n+1, ...).
 //
 // stdout: one JSON line {"program": ..., "triangles": m, "seconds": t} where t
 // is the wall time of building the CDT (Epick kernel, points inserted with
@@ -40,7 +40,13 @@
 #include <vector>
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
-using Vb = CGAL::Triangulation_vertex_base_with_info_2<std::int64_t, K>;
+// Vertex info: input index; -1 for a Steiner vertex CGAL adds where two
+// constraints cross (invalid polygons only). Those are numbered n, n+1, ...
+// in the output (and counted as "steiner" in the JSON line).
+struct Index {
+    std::int64_t v = -1;
+};
+using Vb = CGAL::Triangulation_vertex_base_with_info_2<Index, K>;
 using Fbi = CGAL::Triangulation_face_base_with_info_2<int, K>;  // nesting level, -1 = unset
 using Fb = CGAL::Constrained_triangulation_face_base_2<K, Fbi>;
 using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
@@ -87,19 +93,19 @@ int main(int argc, char** argv) {
         return pts[a] < pts[b] || (pts[a] == pts[b] && a < b);
     });
     std::vector<std::int64_t> canon(pts.size());
-    std::vector<std::pair<Point, std::int64_t>> unique;
+    std::vector<std::pair<Point, Index>> unique;
     for (std::size_t k = 0; k < order.size(); ++k) {
         if (k > 0 && pts[order[k]] == pts[order[k - 1]]) {
             canon[order[k]] = canon[order[k - 1]];
         } else {
             canon[order[k]] = order[k];
-            unique.emplace_back(pts[order[k]], order[k]);
+            unique.emplace_back(pts[order[k]], Index{order[k]});
         }
     }
     CDT cdt;
     cdt.insert(unique.begin(), unique.end());  // spatially sorted bulk insertion
     std::vector<CDT::Vertex_handle> vh(pts.size());
-    for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) vh[v->info()] = v;
+    for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) vh[v->info().v] = v;
     for (const auto& [b, e] : rings) {
         for (std::size_t i = b; i < e; ++i) {
             const std::size_t j = (i + 1 == e) ? b : i + 1;
@@ -107,6 +113,9 @@ int main(int argc, char** argv) {
             if (va != vb) cdt.insert_constraint(va, vb);
         }
     }
+    std::int64_t steiner = 0;
+    for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v)
+        if (v->info().v < 0) v->info().v = static_cast<std::int64_t>(pts.size()) + steiner++;
     // Nesting levels by flood fill across edges; a constrained edge raises the level.
     for (auto f = cdt.all_faces_begin(); f != cdt.all_faces_end(); ++f) f->info() = -1;
     std::deque<CDT::Face_handle> border{cdt.infinite_face()};
@@ -140,7 +149,7 @@ int main(int argc, char** argv) {
     std::vector<std::int64_t> tris;
     for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f)
         if (f->info() % 2 == 1)
-            for (int i = 0; i < 3; ++i) tris.push_back(f->vertex(i)->info());
+            for (int i = 0; i < 3; ++i) tris.push_back(f->vertex(i)->info().v);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
     std::FILE* out = std::fopen(argv[2], "w");
@@ -152,7 +161,7 @@ int main(int argc, char** argv) {
         std::fprintf(out, "%lld %lld %lld\n", static_cast<long long>(tris[t]),
                      static_cast<long long>(tris[t + 1]), static_cast<long long>(tris[t + 2]));
     std::fclose(out);
-    std::printf("{\"program\": \"cgal_polygon_cdt\", \"triangles\": %zu, \"seconds\": %.9f}\n",
-                tris.size() / 3, seconds);
+    std::printf("{\"program\": \"cgal_polygon_cdt\", \"triangles\": %zu, \"steiner\": %lld, \"seconds\": %.9f}\n",
+                tris.size() / 3, static_cast<long long>(steiner), seconds);
     return 0;
 }
