@@ -66,7 +66,7 @@ void bind_delaunay(py::module_& m) {
             DelaunayResult r;
             {
                 py::gil_scoped_release release;
-                r = delaunay(pts.data(), n);
+                r = delaunay(pts.data(), n, /*with_halfedges=*/return_info);
             }
             if (!return_info) return to_numpy(std::move(r.triangles), 3);
             DelaunayInfo info;

@@ -22,6 +22,12 @@ void check_finite_xy(const double* pts, std::size_t stride, std::size_t n, const
             msg << fn << ": point " << i << " has a non-finite coordinate (x=" << x << ", y=" << y << ")";
             throw std::invalid_argument(msg.str());
         }
+        if (std::fabs(x) > kMaxCoordinate || std::fabs(y) > kMaxCoordinate) {
+            std::ostringstream msg;
+            msg << fn << ": point " << i << " has a coordinate beyond +-" << kMaxCoordinate << " (x=" << x
+                << ", y=" << y << "); the exact in-circle test could overflow";
+            throw std::invalid_argument(msg.str());
+        }
     }
 }
 
@@ -172,7 +178,7 @@ void export_mesh(const DelaunayCore& core, const std::vector<std::int32_t>& comp
 
 }  // namespace detail
 
-DelaunayResult delaunay(const double* xy, std::size_t n) {
+DelaunayResult delaunay(const double* xy, std::size_t n, bool with_halfedges) {
     detail::DelaunayCore core;
     std::vector<std::uint32_t> input_of_id;
     std::vector<std::int32_t> dup_of;
@@ -200,7 +206,8 @@ DelaunayResult delaunay(const double* xy, std::size_t n) {
 
     std::vector<std::int32_t> compact;
     const std::size_t m = detail::compact_slots(core, compact);
-    detail::export_mesh(core, compact, m, input_of_id.data(), &r.triangles, &r.halfedges);
+    detail::export_mesh(core, compact, m, input_of_id.data(), &r.triangles,
+                        with_halfedges ? &r.halfedges : nullptr);
     return r;
 }
 

@@ -154,7 +154,13 @@ public:
         const double* X = xy.data();
         std::int32_t t = start;
         std::int32_t entry = -1;
+        // The walk cannot cycle in a Delaunay triangulation (Edelsbrunner's
+        // acyclicity of the in-front relation); the step limit only turns a
+        // broken invariant into a slow scan instead of a hang.
+        std::size_t steps = 0;
+        const std::size_t max_steps = nslots_ + 8;
         for (;;) {
+            if (++steps > max_steps) return locate_scan(p);
             const std::int32_t base = 3 * t;
             std::int32_t cross = -1;
             for (int i = 0; i < 3; ++i) {
@@ -172,6 +178,26 @@ public:
             const std::int32_t* v = V + 3 * t;
             if (v[0] == kInf || v[1] == kInf || v[2] == kInf) return t;
         }
+    }
+
+    // Linear-time location: a finite triangle containing p, else a ghost
+    // whose hull edge p is strictly beyond.
+    std::int32_t locate_scan(const double* p) const {
+        std::int32_t ghost = -1;
+        for (std::size_t t = 0; t < nslots_; ++t) {
+            const std::int32_t* v = &tv[3 * t];
+            if (v[0] == kInf || v[1] == kInf || v[2] == kInf) {
+                if (ghost < 0) {
+                    const int i = v[0] == kInf ? 1 : (v[1] == kInf ? 2 : 0);
+                    if (orient2d(pt(v[i]), pt(v[(i + 1) % 3]), p) > 0.0) ghost = static_cast<std::int32_t>(t);
+                }
+                continue;
+            }
+            if (orient2d(pt(v[0]), pt(v[1]), p) >= 0.0 && orient2d(pt(v[1]), pt(v[2]), p) >= 0.0 &&
+                orient2d(pt(v[2]), pt(v[0]), p) >= 0.0)
+                return static_cast<std::int32_t>(t);
+        }
+        return ghost;
     }
 
     // Is triangle slot t in conflict with p?
@@ -289,8 +315,14 @@ private:
     }
 };
 
+// The in-circle determinant is of degree 4 in the coordinates: with
+// |coordinate| <= 1e60 no product in the exact evaluation can overflow
+// (16 * 1e240 is far below 1.8e308), so the predicates stay exact.
+constexpr double kMaxCoordinate = 1e60;
+
 // Throws std::invalid_argument naming `fn` and the point if a coordinate of
-// one of the n points (stride doubles each, x and y first) is NaN or infinite.
+// one of the n points (stride doubles each, x and y first) is NaN, infinite or
+// beyond kMaxCoordinate in magnitude.
 void check_finite_xy(const double* pts, std::size_t stride, std::size_t n, const char* fn);
 
 // Largest number of points the 32-bit half-edge arrays can index (6 half-edges

@@ -65,7 +65,9 @@ struct TinImpl {
     // hull or non-finite query). `start` is a finite slot to walk from; it is
     // updated to a finite slot near the query.
     std::int32_t locate_slot(double x, double y, std::int32_t& start) const {
-        if (!(std::isfinite(x) && std::isfinite(y))) return -1;
+        // Non-finite queries and those beyond the vertices' coordinate range
+        // (where orient2d could overflow) are outside the hull.
+        if (!(std::fabs(x) <= kMaxCoordinate && std::fabs(y) <= kMaxCoordinate)) return -1;
         const double p[2] = {x, y};
         const std::int32_t t = core.locate(p, start);
         if (core.is_ghost(t)) {

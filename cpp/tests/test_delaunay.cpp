@@ -346,7 +346,25 @@ TEST(Delaunay, ErrorsNameTheProblem) {
     }
     bad[7] = std::numeric_limits<double>::infinity();
     EXPECT_THROW(run(bad), std::invalid_argument);
+    bad[7] = -2e60;  // would overflow the exact in-circle evaluation
+    try {
+        run(bad);
+        FAIL();
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("point 3 has a coordinate beyond"), std::string::npos) << e.what();
+    }
+    bad[7] = -1e60;  // the largest accepted magnitude
+    check_valid(bad, run(bad));
     EXPECT_THROW(fm::delaunay(nullptr, 0), fm::GeometryError);
+}
+
+TEST(Delaunay, WithoutHalfedgesGivesTheSameTriangles) {
+    const auto xy = uniform(2000, 12);
+    const auto full = run(xy);
+    const auto lean = fm::delaunay(xy.data(), 2000, false);
+    EXPECT_TRUE(lean.halfedges.empty());
+    EXPECT_EQ(lean.triangles, full.triangles);
+    EXPECT_EQ(lean.vertex_of_input, full.vertex_of_input);
 }
 
 TEST(Delaunay, ClusteredAndTinyExtentInput) {

@@ -149,11 +149,11 @@ TEST(Tin, LocateAndInterpolate) {
     }
     EXPECT_GT(inside, 3000);
     // Far outside, NaN and infinity.
-    const double bad[6] = {1e9, 0, std::numeric_limits<double>::quiet_NaN(), 0, 0,
-                           std::numeric_limits<double>::infinity()};
-    const auto lb = tin.locate(bad, 3);
-    const auto zb = tin.interpolate(bad, 3);
-    for (int i = 0; i < 3; ++i) {
+    const double bad[8] = {1e9, 0, std::numeric_limits<double>::quiet_NaN(), 0, 0,
+                           std::numeric_limits<double>::infinity(), -1e200, 1e300};
+    const auto lb = tin.locate(bad, 4);
+    const auto zb = tin.interpolate(bad, 4);
+    for (int i = 0; i < 4; ++i) {
         EXPECT_EQ(lb[i], -1);
         EXPECT_TRUE(std::isnan(zb[i]));
     }
