@@ -33,6 +33,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -103,10 +104,10 @@ def build(build_dir: Path) -> tuple[Path, Path]:
 
 # -------------------------------------------------------------------- runs
 
-def run_once(exe: Path, inp: Path, out: str = "-") -> tuple[dict, float]:
+def run_once(exe: Path, inp: Path, out: str = "-", repeat: int = 1) -> tuple[dict, float]:
     """One subprocess: (its JSON line, its peak RSS in MiB)."""
     # VmHWM as the child reports it; ru_maxrss only if that is unavailable.
-    proc = subprocess.Popen([str(exe), str(inp), out], stdout=subprocess.PIPE)
+    proc = subprocess.Popen([str(exe), str(inp), out, "--repeat", str(repeat)], stdout=subprocess.PIPE)
     _, status, usage = os.wait4(proc.pid, 0)
     stdout = proc.stdout.read().decode()
     proc.stdout.close()
@@ -178,6 +179,11 @@ def main() -> int:
         ap.error("--runs must be >= 1")
 
     driver, cgal = build(Path(args.build_dir))
+    try:  # the Python-call column needs an importable faultmesh (dev build or installed)
+        import faultmesh as fm
+    except ImportError as exc:
+        print(f"faultmesh not importable ({exc}); no Python-call column", file=sys.stderr)
+        fm = None
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -190,21 +196,32 @@ def main() -> int:
             # First run of each side writes its triangles for the comparison;
             # runs alternate between the sides so that load changes on the
             # machine hit both alike.
+            # Small inputs take milliseconds, where a fresh process's cold
+            # caches and page faults dominate: those processes repeat the call
+            # (every repetition counts in the median).
+            repeat = 1 if len(xy) >= 500_000 else 5
             t_fm, t_cg, mem_fm, mem_cg = [], [], [], []
             for r in range(args.runs):
                 out_fm = str(tmp / "fm.tri") if r == 0 else "-"
                 out_cg = str(tmp / "cg.tri") if r == 0 else "-"
-                j, mem = run_once(driver, inp, out_fm)
-                t_fm.append(j["seconds"])
+                j, mem = run_once(driver, inp, out_fm, repeat)
+                t_fm += j["runs"]
                 mem_fm.append(mem)
                 m_fm = j["triangles"]
-                j, mem = run_once(cgal, inp, out_cg)
-                t_cg.append(j["seconds"])
+                j, mem = run_once(cgal, inp, out_cg, repeat)
+                t_cg += j["runs"]
                 mem_cg.append(mem)
                 m_cg = j["triangles"]
+            t_py = []
+            if fm is not None:
+                for r in range(args.runs):
+                    t0 = time.perf_counter()
+                    fm.delaunay(xy)
+                    t_py.append(time.perf_counter() - t0)
             same = identical(tmp / "fm.tri", tmp / "cg.tri")
             med_fm, med_cg = statistics.median(t_fm), statistics.median(t_cg)
-            row = dict(name=name, n=len(xy), fm=med_fm, cgal=med_cg, ratio=med_fm / med_cg,
+            row = dict(name=name, n=len(xy), fm=med_fm, cgal=med_cg, ratio=med_fm / med_cg, reps=len(t_fm),
+                       py=statistics.median(t_py) if t_py else None,
                        mem_fm=max(mem_fm), mem_cg=max(mem_cg), m_fm=m_fm, m_cg=m_cg, same=same)
             rows.append(row)
             print(f"{name}: faultmesh {med_fm:.4f} s, CGAL {med_cg:.4f} s, ratio {row['ratio']:.3f}, "
@@ -218,20 +235,24 @@ def main() -> int:
         f"Command: `{cmd}`  ",
         f"Date: {datetime.date.today().isoformat()}  ",
         f"Machine: {machine()}  ",
-        f"Runs: median of {args.runs} runs per side, each a fresh process; sides alternate.",
+        f"Runs: {args.runs} fresh processes per side, sides alternating; inputs under 500k points",
+        "repeat the call 5 times in each process. Times are medians over all calls.",
         "",
         "faultmesh: `faultmesh::delaunay` called from C++ (bench/delaunay_driver.cpp, -O3).",
+        "\"Python s\": `faultmesh.delaunay(xy)` timed around the Python call (numpy in, (m, 3) int64",
+        "out), median of the same number of calls, in the bench process.",
         "CGAL: `Delaunay_triangulation_2<Epick>` with vertex info, range insertion of",
         "(point, index) pairs, faces extracted into an int64 array (bench/cgal/cgal_delaunay.cpp,",
         "CMake Release). Times exclude file I/O. Peak memory: the process's VmHWM",
         "(/proc/self/status; includes the input array, the same for both).",
         "",
-        "| data | points | faultmesh s | CGAL s | ratio fm/CGAL | faultmesh MiB | CGAL MiB "
+        "| data | points | faultmesh s | CGAL s | ratio fm/CGAL | Python s | faultmesh MiB | CGAL MiB "
         "| triangles fm | triangles CGAL | identical sets |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|:---:|",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---:|",
     ]
     for r in rows:
-        lines.append(f"| {r['name']} | {r['n']:,} | {r['fm']:.4f} | {r['cgal']:.4f} | {r['ratio']:.3f} "
+        py = f"{r['py']:.4f}" if r["py"] is not None else "n/a"
+        lines.append(f"| {r['name']} | {r['n']:,} | {r['fm']:.4f} | {r['cgal']:.4f} | {r['ratio']:.3f} | {py} "
                      f"| {r['mem_fm']:.0f} | {r['mem_cg']:.0f} | {r['m_fm']:,} | {r['m_cg']:,} "
                      f"| {'yes' if r['same'] else 'NO'} |")
     text = "\n".join(lines) + "\n"

@@ -273,6 +273,14 @@ def test_non_finite_coordinate_names_the_row(value):
         fm.delaunay(xy)
 
 
+def test_huge_coordinate_is_rejected_before_the_predicates_could_overflow():
+    xy = np.array([[0, 0], [1, 0], [0, 1], [3, 2e61]])
+    with pytest.raises(ValueError, match="delaunay: point 3 has a coordinate beyond"):
+        fm.delaunay(xy)
+    xy[3, 1] = 1e60
+    assert len(fm.delaunay(xy)) == 2
+
+
 @pytest.mark.parametrize("xy,msg", [
     ([[0, 0], [1, 1]], "at least 3 distinct"),
     ([[0, 0], [1, 1], [0, 0], [1, 1]], "at least 3 distinct"),
