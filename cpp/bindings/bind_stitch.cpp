@@ -112,19 +112,20 @@ local merge with shared vertices. mesh() returns the compacted surface.
                      auto B = as_points(boundary, fn, "boundary", 2, 2);
                      bxy.assign(B.data(), B.data() + 2 * B.shape(0));
                  }
-                 std::vector<std::int64_t> he;
-                 if (!halfedges.is_none()) {
-                     IndexArray H = IndexArray::ensure(halfedges);
+                 IndexArray H;
+                 const bool has_h = !halfedges.is_none();
+                 if (has_h) {
+                     H = IndexArray::ensure(halfedges);
                      if (!H || H.ndim() != 1 || H.shape(0) != 3 * T.shape(0))
                          throw std::invalid_argument("Stitcher: halfedges must have shape (3 m,) = (" +
                                                      std::to_string(3 * T.shape(0)) + ",)");
-                     he.assign(H.data(), H.data() + H.shape(0));
                  }
+                 const std::int64_t* he = has_h ? H.data() : nullptr;
                  StitchOptions opt = make_options(refine, order, bridge, tol, clearance, fn);
                  py::gil_scoped_release release;
                  return new LayerStitcher(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
                                           static_cast<std::size_t>(T.shape(0)), bxy.empty() ? nullptr : bxy.data(),
-                                          bxy.size() / 2, he.empty() ? nullptr : he.data(), name, opt);
+                                          bxy.size() / 2, he, name, opt);
              }),
              py::arg("vertices"), py::arg("triangles"), py::arg("boundary") = py::none(),
              py::arg("halfedges") = py::none(), py::arg("name") = "layer", py::arg("refine") = true,

@@ -24,6 +24,7 @@ namespace detail {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr std::size_t kBlock = 8;  // triangles per leaf box of the stitcher's AABB tree
 
 std::string fmt_point(const double* p) {
     char buf[96];
@@ -315,6 +316,7 @@ struct StitcherState {
     std::vector<std::int8_t> kind;
     std::vector<std::int64_t> owner;
     std::vector<char> alive;
+    std::vector<char> checked;  // base triangles verified (orientation, half-edges)
     std::size_t n_live = 0;
     AabbTree base;
     std::size_t n_base = 0;
@@ -333,6 +335,27 @@ struct StitcherState {
     std::uint32_t stamp = 0;
 
     std::size_t n_tri() const { return kind.size(); }
+
+    // Verify a base triangle before a stitch relies on it: counter-clockwise
+    // with non-zero area in XY, and each half-edge's opposite points back at
+    // it with the same two vertices.
+    void ensure(std::int64_t r) {
+        if (static_cast<std::size_t>(r) >= n_base || checked[static_cast<std::size_t>(r)]) return;
+        const std::int64_t* t = &tri[3 * static_cast<std::size_t>(r)];
+        if (orient2d(v(t[0]), v(t[1]), v(t[2])) <= 0.0)
+            throw GeometryError("LayerStitcher('" + name + "'): triangle row " + std::to_string(r) +
+                                " is clockwise or degenerate in XY; the layer mesh must be a "
+                                "counter-clockwise TIN");
+        for (int k = 0; k < 3; ++k) {
+            const std::int64_t h = 3 * r + k, o = adj[static_cast<std::size_t>(h)];
+            if (o < 0) continue;
+            if (adj[static_cast<std::size_t>(o)] != h || tri[static_cast<std::size_t>(o)] != t[(k + 1) % 3] ||
+                tri[static_cast<std::size_t>(next_h(o))] != t[k])
+                throw std::invalid_argument("LayerStitcher('" + name + "'): halfedges[" + std::to_string(h) +
+                                            "] = " + std::to_string(o) + " is not the opposite half-edge");
+        }
+        checked[static_cast<std::size_t>(r)] = 1;
+    }
     const double* v(std::int64_t i) const { return xyz.data() + 3 * i; }
 
     void grow_markers() {
@@ -417,8 +440,18 @@ LayerStitcher::LayerStitcher(const double* vertices, std::size_t n_vertices,
     if (n_triangles == 0) throw std::invalid_argument(fn + ": the mesh has no triangles");
     if ((vertices == nullptr && n_vertices) || triangles == nullptr)
         throw std::invalid_argument(fn + ": null array");
+    // Room for the patches and gaps to come: appending must not reallocate
+    // (and copy) the whole mesh at the first stitch.
+    const std::size_t spare_t = n_triangles / 4 + 1024, spare_v = n_vertices / 4 + 1024;
+    s.xyz.reserve(3 * (n_vertices + spare_v));
     s.xyz.assign(vertices, vertices + 3 * n_vertices);
+    s.tri.reserve(3 * (n_triangles + spare_t));
     s.tri.assign(triangles, triangles + 3 * n_triangles);
+    // Eager checks are sequential scans only. What needs random access (the
+    // orientation of a triangle, the symmetry of given half-edges) is checked
+    // lazily, for each triangle the first time a stitch touches it
+    // (StitcherState::ensure): a stitch never relies on an unchecked triangle,
+    // and the set-up stays O(mesh) with a small constant.
     for (std::size_t t = 0; t < n_triangles; ++t) {
         const std::int64_t* r = &s.tri[3 * t];
         for (int k = 0; k < 3; ++k)
@@ -430,34 +463,48 @@ LayerStitcher::LayerStitcher(const double* vertices, std::size_t n_vertices,
     for (std::size_t i = 0; i < 3 * n_vertices; ++i)
         if (!std::isfinite(s.xyz[i]))
             throw std::invalid_argument(fn + ": vertex " + std::to_string(i / 3) + " has a non-finite coordinate");
-    for (std::size_t t = 0; t < n_triangles; ++t) {
-        const std::int64_t* r = &s.tri[3 * t];
-        if (orient2d(s.v(r[0]), s.v(r[1]), s.v(r[2])) <= 0.0)
-            throw GeometryError(fn + ": triangle row " + std::to_string(t) +
-                                " is clockwise or degenerate in XY; the layer mesh must be a "
-                                "counter-clockwise TIN");
-    }
+    s.adj.reserve(3 * (n_triangles + spare_t));
     if (halfedges) {
         s.adj.assign(halfedges, halfedges + 3 * n_triangles);
-        for (std::size_t h = 0; h < 3 * n_triangles; ++h) {
-            const std::int64_t o = s.adj[h];
-            if (o == -1) continue;
-            if (o < 0 || static_cast<std::size_t>(o) >= 3 * n_triangles ||
-                s.adj[static_cast<std::size_t>(o)] != static_cast<std::int64_t>(h) ||
-                s.tri[static_cast<std::size_t>(o)] != s.tri[detail::next_h(static_cast<std::int64_t>(h))] ||
-                s.tri[detail::next_h(o)] != s.tri[h])
-                throw std::invalid_argument(fn + ": halfedges[" + std::to_string(h) +
-                                            "] is not the opposite half-edge");
-        }
+        const std::int64_t nh = static_cast<std::int64_t>(3 * n_triangles);
+        for (std::size_t h = 0; h < 3 * n_triangles; ++h)
+            if (s.adj[h] < -1 || s.adj[h] >= nh)
+                throw std::invalid_argument(fn + ": halfedges[" + std::to_string(h) + "] = " +
+                                            std::to_string(s.adj[h]) + " is outside [-1, " +
+                                            std::to_string(nh) + ")");
     } else {
         s.adj = detail::build_adjacency(s.tri.data(), n_triangles, n_vertices, fn.c_str());
+        s.adj.reserve(3 * (n_triangles + spare_t));
     }
+    s.kind.reserve(n_triangles + spare_t);
     s.kind.assign(n_triangles, static_cast<std::int8_t>(TriangleKind::layer));
+    s.owner.reserve(n_triangles + spare_t);
     s.owner.assign(n_triangles, -1);
+    s.alive.reserve(n_triangles + spare_t);
     s.alive.assign(n_triangles, 1);
+    s.checked.assign(n_triangles, 0);
     s.n_live = n_triangles;
     s.n_base = n_triangles;
-    s.base = AabbTree::from_triangles(s.xyz.data(), n_vertices, 3, s.tri.data(), n_triangles);
+    // Stage 1 index: an AABB tree over blocks of kBlock consecutive triangles
+    // (a Delaunay TIN's rows are spatially coherent: Hilbert-ordered
+    // insertion), 1/kBlock of the tree build of one box per triangle; a
+    // query then tests the boxes of the block's triangles.
+    {
+        const std::size_t nb = (n_triangles + detail::kBlock - 1) / detail::kBlock;
+        std::vector<Box2> boxes(nb, Box2{detail::kInf, detail::kInf, -detail::kInf, -detail::kInf});
+        for (std::size_t t = 0; t < n_triangles; ++t) {
+            const std::int64_t* r = &s.tri[3 * t];
+            Box2& b = boxes[t / detail::kBlock];
+            for (int k = 0; k < 3; ++k) {
+                const double* p = s.v(r[k]);
+                b.xmin = std::min(b.xmin, p[0]);
+                b.ymin = std::min(b.ymin, p[1]);
+                b.xmax = std::max(b.xmax, p[0]);
+                b.ymax = std::max(b.ymax, p[1]);
+            }
+        }
+        s.base = AabbTree(boxes);
+    }
     s.grow_markers();
 
     std::vector<double> bpts;
@@ -656,6 +703,7 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
     std::unordered_set<std::int64_t> merged_gap_set;
     auto add = [&](std::int64_t r) {
         if (s.in_d[static_cast<std::size_t>(r)] == stamp) return;
+        s.ensure(r);
         if (s.kind[static_cast<std::size_t>(r)] == static_cast<std::int8_t>(TriangleKind::patch)) return;
         s.in_d[static_cast<std::size_t>(r)] = stamp;
         D.push_back(r);
@@ -673,7 +721,16 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
     };
     {
         std::vector<std::int64_t> cand;
-        s.base.query(region.box(), cand);
+        const Box2 rb = region.box();
+        s.base.visit(rb, [&](std::int64_t b) {
+            const std::size_t r0 = static_cast<std::size_t>(b) * detail::kBlock;
+            const std::size_t r1 = std::min(s.n_base, r0 + detail::kBlock);
+            for (std::size_t r = r0; r < r1; ++r) {
+                const std::int64_t* t = &s.tri[3 * r];
+                if (boxes_meet(detail::tri_box(s.v(t[0]), s.v(t[1]), s.v(t[2])), rb))
+                    cand.push_back(static_cast<std::int64_t>(r));
+            }
+        });
         for (const auto& b : s.blocks)
             if (boxes_meet(b.box, region.box()))
                 for (std::int64_t r = b.begin; r < b.end; ++r) cand.push_back(r);
@@ -787,6 +844,7 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
             while (!stack.empty()) {
                 const std::int64_t r = stack.back();
                 stack.pop_back();
+                s.ensure(r);
                 enclosed.push_back(r);
                 for (int k = 0; k < 3; ++k) {
                     const std::int64_t o = s.adj[static_cast<std::size_t>(3 * r + k)];
