@@ -15,49 +15,64 @@ namespace detail {
 namespace {
 
 // ------------------------------------------------------------ validation
+// One streaming pass: negative indices, repeated vertices and the largest
+// index are accumulated without branches; the row is searched only on error.
 std::size_t check_triangles(const char* fn, const std::int64_t* tri, std::size_t m,
                             std::size_t n_vertices) {
     std::int64_t mx = -1;
+    bool bad = false;
     for (std::size_t t = 0; t < m; ++t) {
         const std::int64_t a = tri[3 * t], b = tri[3 * t + 1], c = tri[3 * t + 2];
-        if (a < 0 || b < 0 || c < 0)
-            throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
-                                        " has a negative vertex index");
-        if (a == b || b == c || c == a)
-            throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
-                                        " repeats vertex " + std::to_string(a == b || a == c ? a : b));
+        bad |= (a < 0) | (b < 0) | (c < 0) | (a == b) | (b == c) | (c == a);
         mx = std::max(mx, std::max(a, std::max(b, c)));
     }
-    if (n_vertices == 0) return static_cast<std::size_t>(mx + 1);
-    if (mx >= 0 && static_cast<std::size_t>(mx) >= n_vertices)
-        throw std::invalid_argument(std::string(fn) + ": vertex index " + std::to_string(mx) +
-                                    " out of range [0, " + std::to_string(n_vertices) + ")");
-    if (n_vertices > (std::size_t{1} << 31) - 1)
+    if (bad) {
+        for (std::size_t t = 0; t < m; ++t) {
+            const std::int64_t a = tri[3 * t], b = tri[3 * t + 1], c = tri[3 * t + 2];
+            if (a < 0 || b < 0 || c < 0)
+                throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
+                                            " has a negative vertex index");
+            if (a == b || b == c || c == a)
+                throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
+                                            " repeats vertex " + std::to_string(a == b || a == c ? a : b));
+        }
+    }
+    std::size_t n = n_vertices;
+    if (n == 0) {
+        n = static_cast<std::size_t>(mx + 1);
+    } else if (mx >= 0 && static_cast<std::size_t>(mx) >= n) {
+        for (std::size_t t = 0; t < 3 * m; ++t)
+            if (tri[t] == mx)
+                throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t / 3) +
+                                            " has vertex index " + std::to_string(mx) + " out of range [0, " +
+                                            std::to_string(n) + ")");
+    }
+    if (n > (std::size_t{1} << 31) - 1)
         throw std::invalid_argument(std::string(fn) + ": at most 2^31 - 1 vertices");
-    return n_vertices;
+    return n;
 }
 
 // ------------------------------------------------------------ edge frequency
 struct EdgeCount {
-    std::vector<std::uint32_t> boundary_h;  // boundary half-edges, ascending (triangle order)
+    std::vector<std::int64_t> boundary;     // (from, to) pairs, by smaller vertex
     std::vector<std::int64_t> nonmanifold;  // (min, max) pairs
     std::vector<std::int64_t> inconsistent;
 };
 
-inline std::int64_t half_from(const std::int64_t* tri, std::size_t h) { return tri[h]; }
-inline std::int64_t half_to(const std::int64_t* tri, std::size_t h) {
-    return tri[h % 3 == 2 ? h - 2 : h + 1];
-}
-
-// Half-edge h = 3 t + e is the edge tri[3t+e] -> tri[3t+(e+1)%3]. Half-edges
-// are bucketed by their smaller vertex with a counting sort; an entry packs
-// the other vertex (31 bits), whether the half-edge leaves the bucket's
-// vertex (1 bit) and h (32 bits), so that one 8-byte write places it.
+// Every half-edge u -> v of every triangle goes into the bucket of its
+// smaller vertex (counting sort: one counting pass, one placing pass). An
+// entry is 4 bytes: the larger vertex (31 bits) and whether the half-edge
+// leaves the bucket's vertex (1 bit); the bucket is the other endpoint. In a
+// TIN a bucket holds about six entries, so each is matched against all others
+// of its bucket with branch-free compares (vectorised); buckets above 32
+// entries (fan centres) are sorted instead. A group of entries with the same
+// larger vertex is one undirected edge: 1 entry = boundary edge, 2 entries of
+// opposite directions = interior edge, 2 of one direction = inconsistent
+// orientation, 3+ = non-manifold.
 EdgeCount count_edges(const std::int64_t* tri, std::size_t m, std::size_t n) {
     if (3 * m > std::numeric_limits<std::uint32_t>::max())
         throw std::invalid_argument("boundary: at most 1431655765 triangles");
     EdgeCount out;
-    const std::size_t nh = 3 * m;
     std::vector<std::uint32_t> start(n + 1, 0);
     for (std::size_t t = 0; t < m; ++t) {
         const auto a = static_cast<std::uint32_t>(tri[3 * t]);
@@ -68,49 +83,83 @@ EdgeCount count_edges(const std::int64_t* tri, std::size_t m, std::size_t n) {
         ++start[std::min(c, a) + 1];
     }
     for (std::size_t v = 0; v < n; ++v) start[v + 1] += start[v];
-    std::vector<std::uint64_t> entry(nh);
+    std::vector<std::uint32_t> entry(3 * m);
     {
         std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+        std::uint32_t* E = entry.data();
+        std::uint32_t* F = fill.data();
+        auto put = [E, F](std::uint32_t u, std::uint32_t v) {
+            if (u < v)
+                E[F[u]++] = (v << 1) | 1u;
+            else
+                E[F[v]++] = u << 1;
+        };
         for (std::size_t t = 0; t < m; ++t) {
-            for (int e = 0; e < 3; ++e) {
-                const std::size_t h = 3 * t + static_cast<std::size_t>(e);
-                const auto u = static_cast<std::uint64_t>(tri[h]);
-                const auto v = static_cast<std::uint64_t>(tri[e == 2 ? h - 2 : h + 1]);
-                const std::uint64_t key = u < v ? u : v, other = u < v ? v : u;
-                const std::uint64_t leaves = u < v ? 1 : 0;
-                entry[fill[key]++] = (other << 33) | (leaves << 32) | h;
-            }
+            const auto a = static_cast<std::uint32_t>(tri[3 * t]);
+            const auto b = static_cast<std::uint32_t>(tri[3 * t + 1]);
+            const auto c = static_cast<std::uint32_t>(tri[3 * t + 2]);
+            put(a, b);
+            put(b, c);
+            put(c, a);
         }
     }
-    // Scan each bucket: entries with the same other vertex are one edge.
-    std::vector<std::uint64_t> tmp;
+    auto emit_boundary = [&](std::size_t v, std::uint32_t e) {
+        const auto o = static_cast<std::int64_t>(e >> 1);
+        const auto k = static_cast<std::int64_t>(v);
+        if (e & 1u) {
+            out.boundary.push_back(k);
+            out.boundary.push_back(o);
+        } else {
+            out.boundary.push_back(o);
+            out.boundary.push_back(k);
+        }
+    };
+    auto irregular = [&](std::size_t v, std::uint32_t other, unsigned cnt, unsigned leaving) {
+        auto& dst = cnt == 2 ? out.inconsistent : out.nonmanifold;
+        if (cnt == 2 && leaving == 1) return;  // regular interior edge
+        dst.push_back(static_cast<std::int64_t>(v));
+        dst.push_back(static_cast<std::int64_t>(other));
+    };
+    const std::uint32_t* E = entry.data();
     for (std::size_t v = 0; v < n; ++v) {
-        std::uint64_t* b = entry.data() + start[v];
-        const std::size_t d = start[v + 1] - start[v];
-        if (d == 0) continue;
-        if (d > 1) std::sort(b, b + d);  // by other vertex, then direction, then h
-        std::size_t i = 0;
-        while (i < d) {
-            const std::uint64_t other = b[i] >> 33;
-            std::size_t j = i + 1;
-            while (j < d && (b[j] >> 33) == other) ++j;
-            const std::size_t cnt = j - i;
-            if (cnt == 1) {
-                out.boundary_h.push_back(static_cast<std::uint32_t>(b[i] & 0xffffffffULL));
-            } else if (cnt == 2) {
-                // Opposite directions: a regular interior edge.
-                if (((b[i] >> 32) & 1) == ((b[i + 1] >> 32) & 1)) {
-                    out.inconsistent.push_back(static_cast<std::int64_t>(v));
-                    out.inconsistent.push_back(static_cast<std::int64_t>(other));
+        const std::size_t s = start[v], d = start[v + 1] - s;
+        std::uint32_t* b = entry.data() + s;
+        if (d <= 32) {
+            for (std::size_t i = 0; i < d; ++i) {
+                const std::uint32_t o = E[s + i] >> 1;
+                unsigned cnt = 0, leaving = 0;
+                for (std::size_t j = 0; j < d; ++j) {
+                    const unsigned eq = (E[s + j] >> 1) == o;
+                    cnt += eq;
+                    leaving += eq & E[s + j];
                 }
-            } else {
-                out.nonmanifold.push_back(static_cast<std::int64_t>(v));
-                out.nonmanifold.push_back(static_cast<std::int64_t>(other));
+                if (cnt == 1) {
+                    emit_boundary(v, E[s + i]);
+                } else if (!(cnt == 2 && leaving == 1)) {
+                    // Report each irregular edge once: at its first entry.
+                    bool first = true;
+                    for (std::size_t j = 0; j < i; ++j) first &= (E[s + j] >> 1) != o;
+                    if (first) irregular(v, o, cnt, leaving);
+                }
             }
-            i = j;
+        } else {
+            // Sorting changes the order within the bucket; boundary entries
+            // are then emitted by increasing other vertex.
+            std::sort(b, b + d);
+            for (std::size_t i = 0; i < d;) {
+                const std::uint32_t o = b[i] >> 1;
+                std::size_t j = i + 1;
+                unsigned leaving = b[i] & 1u;
+                while (j < d && (b[j] >> 1) == o) leaving += b[j++] & 1u;
+                const auto cnt = static_cast<unsigned>(j - i);
+                if (cnt == 1)
+                    emit_boundary(v, b[i]);
+                else
+                    irregular(v, o, cnt, leaving);
+                i = j;
+            }
         }
     }
-    std::sort(out.boundary_h.begin(), out.boundary_h.end());
     return out;
 }
 
@@ -123,29 +172,29 @@ using PinchResolver = std::function<bool(std::int64_t v, const std::vector<std::
                                          const std::vector<std::int64_t>& out_edges,
                                          std::vector<std::int64_t>& succ)>;
 
-// Directed segments seg[2e] -> seg[2e+1], vertices < n.
-BoundaryContours assemble(const std::vector<std::int64_t>& seg, std::size_t n,
-                          const PinchResolver& resolve) {
+// Directed segments seg[2e] -> seg[2e+1]. The per-vertex tables are indexed
+// by a compact numbering of the segments' own vertices, so the cost does not
+// depend on the size of the mesh the segments came from.
+BoundaryContours assemble(const std::vector<std::int64_t>& seg, const PinchResolver& resolve) {
     BoundaryContours res;
     const std::size_t k = seg.size() / 2;
     if (k == 0) return res;
-    std::vector<std::int32_t> outd(n, 0), ind(n, 0);
+    std::vector<std::int64_t> verts(seg);
+    std::sort(verts.begin(), verts.end());
+    verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+    const std::size_t nv = verts.size();
+    std::vector<std::uint32_t> lid(2 * k);
+    for (std::size_t i = 0; i < 2 * k; ++i)
+        lid[i] = static_cast<std::uint32_t>(std::lower_bound(verts.begin(), verts.end(), seg[i]) - verts.begin());
+    std::vector<std::int32_t> outd(nv, 0), ind(nv, 0);
     for (std::size_t e = 0; e < k; ++e) {
-        ++outd[static_cast<std::size_t>(seg[2 * e])];
-        ++ind[static_cast<std::size_t>(seg[2 * e + 1])];
+        ++outd[lid[2 * e]];
+        ++ind[lid[2 * e + 1]];
     }
     // Irregular vertices: pinch (in == out >= 2) or break (in != out, one >= 2).
-    std::vector<std::int64_t> special;  // vertices with in >= 2 or out >= 2
-    for (std::size_t e = 0; e < k; ++e)
-        for (int s = 0; s < 2; ++s) {
-            const auto v = static_cast<std::size_t>(seg[2 * e + static_cast<std::size_t>(s)]);
-            if ((outd[v] >= 2 || ind[v] >= 2) && outd[v] >= 0) {
-                special.push_back(static_cast<std::int64_t>(v));
-                outd[v] = -outd[v] - 1;  // mark as listed (decoded below)
-            }
-        }
-    for (std::int64_t v : special) outd[static_cast<std::size_t>(v)] = -outd[static_cast<std::size_t>(v)] - 1;
-    std::sort(special.begin(), special.end());
+    std::vector<std::int64_t> special;  // vertices with in >= 2 or out >= 2, sorted
+    for (std::size_t v = 0; v < nv; ++v)
+        if (outd[v] >= 2 || ind[v] >= 2) special.push_back(verts[v]);
     res.pinch_vertices = special;
 
     // Explicit successor for edges entering special vertices: -2 = not
@@ -197,13 +246,13 @@ BoundaryContours assemble(const std::vector<std::int64_t>& seg, std::size_t n,
     // ways joins two sequences, or closes a loop when they are the same one.
     std::vector<std::int64_t> next(k, -1), prev(k, -1);
     std::vector<char> placed(k, 0);
-    std::vector<std::int64_t> head_slot(n, -1), tail_slot(n, -1);
+    std::vector<std::int64_t> head_slot(nv, -1), tail_slot(nv, -1);
     auto link = [&](std::int64_t p, std::int64_t e) {
         next[static_cast<std::size_t>(p)] = e;
         prev[static_cast<std::size_t>(e)] = p;
     };
     for (std::size_t e = 0; e < k; ++e) {
-        const auto a = static_cast<std::size_t>(seg[2 * e]), b = static_cast<std::size_t>(seg[2 * e + 1]);
+        const std::size_t a = lid[2 * e], b = lid[2 * e + 1];
         const auto ei = static_cast<std::int64_t>(e);
         placed[e] = 1;
         // Where the segment starts.
@@ -280,14 +329,7 @@ BoundaryContours assemble(const std::vector<std::int64_t>& seg, std::size_t n,
 std::vector<std::int64_t> boundary_edges(const std::int64_t* triangles, std::size_t n_triangles,
                                          std::size_t n_vertices) {
     const std::size_t n = detail::check_triangles("boundary_edges", triangles, n_triangles, n_vertices);
-    const detail::EdgeCount ec = detail::count_edges(triangles, n_triangles, n);
-    std::vector<std::int64_t> out;
-    out.reserve(2 * ec.boundary_h.size());
-    for (std::uint32_t h : ec.boundary_h) {
-        out.push_back(detail::half_from(triangles, h));
-        out.push_back(detail::half_to(triangles, h));
-    }
-    return out;
+    return detail::count_edges(triangles, n_triangles, n).boundary;
 }
 
 BoundaryContours boundary_contours(const std::int64_t* triangles, std::size_t n_triangles,
@@ -295,12 +337,8 @@ BoundaryContours boundary_contours(const std::int64_t* triangles, std::size_t n_
     const std::size_t n =
         detail::check_triangles("boundary_contours", triangles, n_triangles, n_vertices);
     detail::EdgeCount ec = detail::count_edges(triangles, n_triangles, n);
-    const std::size_t k = ec.boundary_h.size();
-    std::vector<std::int64_t> seg(2 * k);
-    for (std::size_t e = 0; e < k; ++e) {
-        seg[2 * e] = detail::half_from(triangles, ec.boundary_h[e]);
-        seg[2 * e + 1] = detail::half_to(triangles, ec.boundary_h[e]);
-    }
+    const std::vector<std::int64_t>& seg = ec.boundary;
+    const std::size_t k = seg.size() / 2;
 
     // Star of every pinch vertex, gathered lazily in one pass over the
     // triangles the first time a pinch needs resolving.
@@ -313,14 +351,20 @@ BoundaryContours boundary_contours(const std::int64_t* triangles, std::size_t n_
             // First pinch: gather the stars of all vertices that lie on more
             // than one boundary edge (one pass over the triangles).
             star_built = true;
+            // A bitset over the vertices filters the hash lookups.
             std::unordered_map<std::int64_t, int> deg;
             for (std::size_t e = 0; e < k; ++e) ++deg[seg[2 * e]];
+            std::vector<std::uint64_t> mark(n / 64 + 1, 0);
             for (const auto& kv : deg)
-                if (kv.second >= 2) star[kv.first];
+                if (kv.second >= 2) {
+                    star[kv.first];
+                    mark[static_cast<std::size_t>(kv.first) >> 6] |= std::uint64_t{1} << (kv.first & 63);
+                }
             for (std::size_t t = 0; t < n_triangles; ++t)
                 for (int c = 0; c < 3; ++c) {
-                    auto it = star.find(triangles[3 * t + static_cast<std::size_t>(c)]);
-                    if (it != star.end()) it->second.push_back(static_cast<std::uint32_t>(t));
+                    const std::int64_t v = triangles[3 * t + static_cast<std::size_t>(c)];
+                    if (!((mark[static_cast<std::size_t>(v) >> 6] >> (v & 63)) & 1)) continue;
+                    star[v].push_back(static_cast<std::uint32_t>(t));
                 }
         }
         auto sit = star.find(v);
@@ -358,7 +402,7 @@ BoundaryContours boundary_contours(const std::int64_t* triangles, std::size_t n_
         }
         return true;
     };
-    BoundaryContours res = detail::assemble(seg, n, resolve);
+    BoundaryContours res = detail::assemble(seg, resolve);
     res.nonmanifold_edges = std::move(ec.nonmanifold);
     res.inconsistent_edges = std::move(ec.inconsistent);
     return res;
@@ -422,7 +466,7 @@ BoundaryContours sort_segments(const std::int64_t* segments, std::size_t n_segme
         for (std::size_t i = 0; i < in_edges.size(); ++i) succ[i] = out_edges[i];
         return true;
     };
-    return detail::assemble(seg, n, resolve);
+    return detail::assemble(seg, resolve);
 }
 
 }  // namespace faultmesh

@@ -9,11 +9,12 @@
 // orientation: for counter-clockwise triangles the outer loop is
 // counter-clockwise and the holes are clockwise. The count is done without a
 // hash table: half-edges are bucketed by their smaller vertex with a counting
-// sort (O(m + n)), and each bucket (about six entries in a TIN) is scanned.
+// sort (O(m + n)), and each bucket (about six entries in a TIN) is matched
+// with branch-free compares.
 // Interior edges used twice in the same direction (inconsistent orientation)
 // and edges used three or more times (non-manifold) are reported.
 //
-// Sorting (Algorithm 1): segments are read in input order; each one is
+// Sorting (Algorithm 1): segments are read in the order above; each one is
 // appended to the sequence whose tail it continues (tail insertion), put in
 // front of the sequence whose head it precedes (head insertion), joins two
 // sequences, closes one into a loop, or starts a new sequence. The paper
@@ -40,8 +41,10 @@
 
 namespace faultmesh {
 
-// Directed boundary edges (2 per edge: from, to), in triangle order (the
-// edges of triangle 0 first, within a triangle a->b, b->c, c->a).
+// Directed boundary edges (2 per edge: from, to), grouped by their smaller
+// vertex in ascending order (the counting sort's order; within a group in
+// triangle order, except around vertices with more than 32 incident
+// half-edges, whose edges come by increasing other vertex).
 // n_vertices == 0 means "max index + 1". Throws std::invalid_argument for a
 // negative (or >= n_vertices) index, naming the row.
 std::vector<std::int64_t> boundary_edges(const std::int64_t* triangles, std::size_t n_triangles,
