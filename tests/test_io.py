@@ -435,3 +435,19 @@ def test_written_files_have_normal_permissions(tmp_path):
     um = os.umask(0)
     os.umask(um)
     assert mode == 0o666 & ~um
+
+
+def test_the_example_in_the_format_documentation_loads(tmp_path):
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "3dt.md").read_text(encoding="utf-8")
+    example = doc.split("```\n", 2)[1]
+    assert example.startswith("3DT 1\n")
+    p = tmp_path / "doc.3dt"
+    p.write_text(example, encoding="utf-8")
+    m = load_model(p)
+    assert list(m.surfaces) == ["coal 8", "coal 10"] and list(m.faults) == ["F22"]
+    assert m.faults["F22"].metadata == {"kind": "normal"}
+    assert m.gaps[0].triangles.tolist() == [1] and m.metadata["builtin_dataset"]["name"] == "paper_like"
+    # The writer reproduces the documented layout line for line (after the comment).
+    p2 = tmp_path / "again.3dt"
+    m.save(p2)
+    assert p2.read_text(encoding="utf-8").splitlines()[3:] == example.splitlines()[2:]

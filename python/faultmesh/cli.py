@@ -73,8 +73,9 @@ class _Progress:
         if step != self.step or self.bar is None:
             self.close()
             self.step = step
+            # disable=None: bars only on a terminal (no carriage-return noise in logs).
             self.bar = tqdm(total=n or None, desc=f"{step:<28.28}", unit="", leave=False,
-                            file=sys.stderr, dynamic_ncols=True,
+                            file=sys.stderr, dynamic_ncols=True, disable=None,
                             bar_format="{desc} {bar} {n_fmt}/{total_fmt} [{elapsed}]")
         if n and self.bar.total != n:
             self.bar.total = n
@@ -129,12 +130,13 @@ def _build_model_fn():
 def _build(dataset, args, progress: _Progress):
     build_model = _build_model_fn()
     wanted: Dict[str, object] = {}
+    # CLI option -> build_model keyword (faultmesh.build.build_model).
     if getattr(args, "plain_order", False):
-        wanted["plain_order"] = True
+        wanted["stitch_order"] = "plain"
     if getattr(args, "no_refine", False):
         wanted["refine"] = False
     if getattr(args, "loft", None):
-        wanted["loft"] = args.loft
+        wanted["loft_method"] = args.loft
     params = inspect.signature(build_model).parameters
     takes_kwargs = any(p.kind == p.VAR_KEYWORD for p in params.values())
     for k in wanted:
@@ -254,6 +256,7 @@ def cmd_demo(args) -> int:
         _close(fig)
     _info(args, "drawing pictures ...")
     for fname, fn in (("model_3d.png", lambda p: plots.plot_model_3d(model, p)),
+                      ("layers_3d.png", lambda p: plots.plot_layers_3d(model, p)),
                       ("gaps.png", lambda p: plots.plot_gaps(model, p)),
                       ("map.png", lambda p: plots.plot_map(model, p, sections=sections))):
         _close(fn(out / fname))
@@ -391,12 +394,14 @@ def _add_common(p: argparse.ArgumentParser, top: bool = False) -> None:
 
 def _add_build_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--plain-order", action="store_true",
-                   help="insert points in the given order instead of the spatially sorted one")
+                   help="clip the ears of each gap in the paper's plain (Eberly) order instead "
+                        "of the best-ear-first quality order")
     p.add_argument("--no-refine", action="store_true",
-                   help="do not refine the ear-clipped gap triangulation (the paper's plain "
-                        "ear clipping)")
-    p.add_argument("--loft", choices=("shortest_diagonal", "min_area"),
-                   help="rule for lofting fault-model polylines (default: the builder's)")
+                   help="keep the ear-clipped gap triangles as they are (no constrained-"
+                        "Delaunay edge flips); with --plain-order this is the paper's method")
+    p.add_argument("--loft", choices=("min_area", "shortest_diagonal"),
+                   help="rule for lofting the fault-model polylines: min_area (Fuchs-Kedem-"
+                        "Uselton, default) or shortest_diagonal")
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -417,7 +422,7 @@ def make_parser() -> argparse.ArgumentParser:
                        description="Generate the built-in paper-like dataset (4 layers, 112 "
                        "boreholes, faults 2F4, F22, 2F1 and 4F2), build the model and write: "
                        "<name>.3dt/.ts/.vtu, quality.md/.csv/.json, section_*.csv/.png, "
-                       "model_3d.png, gaps.png, map.png.",
+                       "model_3d.png, layers_3d.png, gaps.png, map.png.",
                        epilog="example:\n  faultmesh demo -o demo_out")
     p.add_argument("-o", "--output", default="demo_out", metavar="DIR",
                    help="output folder (default: demo_out)")

@@ -565,34 +565,45 @@ def plot_gaps(model, path=None, *, gaps: Optional[Sequence] = None, ncols: int =
 # ----------------------------------------------------------------------------
 
 def plot_map(model, path=None, *, sections: Iterable = (), layer: Optional[str] = None):
-    """Plan view: elevation of one layer (default: the top one) as shaded
-    colours, the fault surfaces' footprints, and the section lines."""
+    """Plan view: elevation of one layer (default: the one with the most
+    stitched gaps, i.e. the most faulted seam) with contours, the fault
+    surfaces' footprints, the study area and the section lines."""
     plt = _plt()
     from matplotlib.tri import Triangulation
     from matplotlib.collections import PolyCollection
     from matplotlib.lines import Line2D
+    import matplotlib.patheffects as pe
 
-    fig, ax = plt.subplots(figsize=(7.5, 7))
-    name = layer or next(iter(model.surfaces))
-    s = model.surfaces[name]
+    fig, ax = plt.subplots(figsize=(8, 7))
+    if layer is None:
+        counts = {n: sum(1 for g in model.gaps if g.layer == n) for n in model.surfaces}
+        layer = max(model.surfaces, key=lambda n: (counts[n], -list(model.surfaces).index(n)))
+    s = model.surfaces[layer]
     V, T = s.vertices, s.triangles
-    # Only counter-clockwise triangles: a reverse fault's strip is CW and the
-    # hanging wall above it is what the map shows.
+    # Only counter-clockwise triangles: a reverse fault's strip is clockwise.
     area = ((V[T[:, 1], 0] - V[T[:, 0], 0]) * (V[T[:, 2], 1] - V[T[:, 0], 1]) -
             (V[T[:, 1], 1] - V[T[:, 0], 1]) * (V[T[:, 2], 0] - V[T[:, 0], 0]))
     tri = Triangulation(V[:, 0], V[:, 1], T[area > 0])
-    tc = ax.tripcolor(tri, V[:, 2], shading="gouraud", cmap="terrain")
+    tc = ax.tripcolor(tri, V[:, 2], shading="gouraud", cmap="viridis")
+    try:
+        cs = ax.tricontour(tri, V[:, 2], levels=12, colors="k", linewidths=0.4, alpha=0.45)
+        ax.clabel(cs, fontsize=6, fmt="%.0f")
+    except Exception:  # contouring a degenerate surface is optional decoration
+        pass
     cb = fig.colorbar(tc, ax=ax, shrink=0.8)
-    cb.set_label(f"elevation of {name} (m)")
+    cb.set_label(f"elevation of {layer} (m)")
+    halo = [pe.withStroke(linewidth=2.5, foreground="white")]
     for f in model.faults.values():
         ax.add_collection(PolyCollection(f.vertices[f.triangles][:, :, :2], facecolors=FAULT_COLOR,
                                          edgecolors=FAULT_COLOR, linewidths=0.3, alpha=0.6))
         c = f.vertices[:, :2].mean(0)
         ax.annotate(f.name, c, fontsize=9, color="white", fontweight="bold", ha="center",
-                    bbox=dict(boxstyle="round,pad=0.2", fc=FAULT_COLOR, ec="none", alpha=0.85))
+                    va="center", bbox=dict(boxstyle="round,pad=0.2", fc=FAULT_COLOR, ec="none",
+                                           alpha=0.9))
     if model.boundary is not None:
         b = np.asarray(model.boundary)
         ax.plot(np.r_[b[:, 0], b[0, 0]], np.r_[b[:, 1], b[0, 1]], color="k", lw=1.2)
+    sections = list(sections)
     for sec in sections:
         if not sec.lines:
             continue
@@ -600,17 +611,22 @@ def plot_map(model, path=None, *, sections: Iterable = (), layer: Optional[str] 
         smax = max(float(ln.s.max()) for ln in sec.lines)
         d = sec.direction
         a, b = sec.origin + smin * d, sec.origin + smax * d
-        ax.plot([a[0], b[0]], [a[1], b[1]], color="k", lw=1.6, ls="--")
-        ax.annotate(sec.name or f"{sec.azimuth:g}°", b, fontsize=9, fontweight="bold",
-                    xytext=(3, 3), textcoords="offset points")
+        ax.plot([a[0], b[0]], [a[1], b[1]], color="k", lw=1.4, ls="--")
+        ax.annotate(sec.name or f"{sec.azimuth:g}°", b, fontsize=8, fontweight="bold",
+                    ha="center", va="center", path_effects=halo,
+                    xytext=8 * d, textcoords="offset points")
+    (xa, ya), (xb, yb) = V[:, :2].min(0), V[:, :2].max(0)
+    pad = 0.07 * max(xb - xa, yb - ya)      # room for the section labels
+    ax.set_xlim(xa - pad, xb + pad)
+    ax.set_ylim(ya - pad, yb + pad)
     ax.set_aspect("equal")
     _plain_ticks(ax, 5)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title(f"{model.name}: plan view", fontsize=11)
+    ax.set_title(f"{model.name}: plan view of {layer}", fontsize=11)
     handles = [Line2D([], [], color=FAULT_COLOR, lw=6, alpha=0.6, label="fault footprint")]
     if sections:
-        handles.append(Line2D([], [], color="k", lw=1.6, ls="--", label="section line"))
-    ax.legend(handles=handles, loc="upper right", fontsize=8)
+        handles.append(Line2D([], [], color="k", lw=1.4, ls="--", label="section line"))
+    ax.legend(handles=handles, loc="lower left", fontsize=8, framealpha=0.9)
     _save(fig, path)
     return fig

@@ -1,0 +1,187 @@
+"""The faultmesh command line: help, sub-commands, errors (exit 2, one line)."""
+from __future__ import annotations
+
+import csv
+import importlib
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from faultmesh.cli import main
+from faultmesh.io import load_model
+
+from test_io import assert_same_geometry, make_model
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _env():
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "python"), env.get("PYTHONPATH", "")])
+    env["MPLBACKEND"] = "Agg"
+    return env
+
+
+def _has_builder() -> bool:
+    try:
+        mod = importlib.import_module("faultmesh.build")
+    except ImportError:
+        return False
+    return callable(getattr(mod, "build_model", None))
+
+
+def test_help_lists_commands_and_examples(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["--help"])
+    assert e.value.code == 0
+    out = capsys.readouterr().out
+    for word in ("demo", "build", "section", "quality", "convert", "examples:",
+                 "faultmesh section out/site.3dt --origin"):
+        assert word in out
+    for cmd in ("demo", "build", "section", "quality", "convert", "plot"):
+        with pytest.raises(SystemExit) as e:
+            main([cmd, "--help"])
+        assert e.value.code == 0
+        assert "example" in capsys.readouterr().out
+
+
+def test_no_command_prints_help_and_fails(capsys):
+    assert main([]) == 2
+    assert "usage: faultmesh" in capsys.readouterr().out
+
+
+def test_python_dash_m_runs_the_cli():
+    r = subprocess.run([sys.executable, "-m", "faultmesh", "--version"], capture_output=True,
+                       text=True, env=_env(), timeout=120)
+    assert r.returncode == 0 and r.stdout.startswith("faultmesh ")
+
+
+@pytest.fixture
+def model_file(tmp_path):
+    p = tmp_path / "m.3dt"
+    make_model().save(p)
+    return p
+
+
+def test_convert_between_formats(model_file, tmp_path, capsys):
+    assert main(["convert", str(model_file), str(tmp_path / "m.ts")]) == 0
+    assert "wrote" in capsys.readouterr().out
+    assert_same_geometry(load_model(model_file), load_model(tmp_path / "m.ts"))
+    assert main(["convert", str(tmp_path / "m.ts"), str(tmp_path / "back.3dt")]) == 0
+    assert_same_geometry(load_model(model_file), load_model(tmp_path / "back.3dt"))
+    assert main(["convert", str(model_file), str(tmp_path / "all")]) == 0
+    assert (tmp_path / "all" / "obj").is_dir()
+
+
+def test_section_to_csv_png_and_stdout(model_file, tmp_path, capsys):
+    x0, y0 = 512400.0, 3926800.0
+    rc = main(["section", str(model_file), "--origin", str(x0 + 100), str(y0 + 500),
+               "--azimuth", "90", "-o", str(tmp_path / "c.csv"), "--png", str(tmp_path / "c.png"),
+               "-q"])
+    assert rc == 0
+    rows = list(csv.DictReader((tmp_path / "c.csv").open()))
+    assert {r["surface"] for r in rows} == {"top soil", "coal 8", "F22"}
+    assert all(float(r["y"]) == y0 + 500 for r in rows)
+    assert (tmp_path / "c.png").stat().st_size > 10_000
+    capsys.readouterr()
+    assert main(["section", str(model_file), "--origin", str(x0), str(y0), "--azimuth", "45"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == "surface,kind,part,s,x,y,z" and len(out) > 10
+
+
+def test_quality_prints_and_writes(model_file, tmp_path, capsys):
+    assert main(["quality", str(model_file)]) == 0
+    out = capsys.readouterr().out
+    assert "## Table 1" in out and "| F22 | – | 3 |" in out
+    assert main(["quality", str(model_file), "--json", str(tmp_path / "q.json"),
+                 "--csv", str(tmp_path / "q.csv"), "-q"]) == 0
+    data = json.loads((tmp_path / "q.json").read_text())
+    assert data["tables"]["table2"][0]["gap"] == "F22-coal 8"
+    assert (tmp_path / "q.csv").read_text().startswith("table,fault,layer")
+
+
+def test_plot_command(model_file, tmp_path):
+    assert main(["plot", str(model_file), "--png", str(tmp_path / "m.png"),
+                 "--gaps", str(tmp_path / "g.png")]) == 0
+    assert (tmp_path / "m.png").stat().st_size > 20_000
+    assert (tmp_path / "g.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["quality", "/no/such/model.3dt"], "quality: error: model '/no/such/model.3dt': no such file"),
+    (["convert", "{model}", "{tmp}/m.stl"], "convert: error: save_model: unknown format '.stl'"),
+    (["section", "{bad}", "--origin", "0", "0", "--azimuth", "0"], "bad.3dt, line 1: not a .3dt file"),
+    (["build", "no_such_dataset", "-o", "{tmp}/o"], "build: error: dataset 'no_such_dataset': no such file"),
+    (["section", "{model}", "--origin", "0", "0", "--azimuth", "nan"], "azimuth must be a finite number"),
+])
+def test_errors_are_one_line_with_exit_code_2(model_file, tmp_path, capsys, argv, fragment):
+    bad = tmp_path / "bad.3dt"
+    bad.write_text("hello\n")
+    argv = [a.format(model=model_file, tmp=tmp_path, bad=bad) for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert fragment in err, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_debug_shows_the_traceback(tmp_path):
+    bad = tmp_path / "bad.3dt"
+    bad.write_text("hello\n")
+    with pytest.raises(ValueError, match="not a .3dt file"):
+        main(["--debug", "quality", str(bad)])
+    with pytest.raises(ValueError, match="not a .3dt file"):
+        main(["quality", str(bad), "--debug"])
+
+
+def test_subprocess_error_has_no_traceback(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "faultmesh", "quality", str(tmp_path / "x.3dt")],
+                       capture_output=True, text=True, env=_env(), timeout=120)
+    assert r.returncode == 2
+    assert r.stderr.strip().startswith("faultmesh quality: error:") and "Traceback" not in r.stderr
+
+
+builder = pytest.mark.skipif(not _has_builder(), reason="faultmesh.build.build_model is not "
+                             "available in this checkout")
+
+
+@builder
+def test_demo_runs_the_real_workflow(tmp_path):
+    out = tmp_path / "demo"
+    r = subprocess.run([sys.executable, "-m", "faultmesh", "demo", "-o", str(out), "-q"],
+                       capture_output=True, text=True, env=_env(), timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert str(out.resolve()) in r.stdout
+    names = {p.name for p in out.iterdir()}
+    for f in ("paper_like.3dt", "paper_like.ts", "paper_like.vtu", "quality.md", "quality.csv",
+              "quality.json", "model_3d.png", "layers_3d.png", "gaps.png", "map.png"):
+        assert f in names, f
+    assert any(n.startswith("section_") and n.endswith(".csv") for n in names)
+    assert any(n.startswith("section_") and n.endswith(".png") for n in names)
+    m = load_model(out / "paper_like.3dt")
+    assert len(m.surfaces) == 4 and m.gaps
+    m.check()                                     # the invariants hold after a round trip
+    q = json.loads((out / "quality.json").read_text())
+    assert q["tables"]["table1"] and q["errors"]
+    # quality on the saved model rebuilds the ground truth from the metadata
+    r = subprocess.run([sys.executable, "-m", "faultmesh", "quality", str(out / "paper_like.3dt"),
+                        "--json", str(tmp_path / "q2.json"), "-q"], capture_output=True, text=True,
+                       env=_env(), timeout=300)
+    assert r.returncode == 0, r.stderr
+    q2 = json.loads((tmp_path / "q2.json").read_text())
+    assert q2["errors"] == q["errors"]
+
+
+@builder
+def test_build_command_with_options(tmp_path, capsys):
+    rc = main(["build", "paper_like", "-o", str(tmp_path / "b"), "--formats", "3dt,ts",
+               "--loft", "shortest_diagonal", "-q"])
+    assert rc == 0, capsys.readouterr().err
+    files = sorted(p.name for p in (tmp_path / "b").iterdir())
+    assert files == ["paper_like.3dt", "paper_like.ts", "quality.csv", "quality.json", "quality.md"]
+    m = load_model(tmp_path / "b" / "paper_like.3dt")
+    assert np.all(np.isfinite(m.surfaces[next(iter(m.surfaces))].vertices))
