@@ -1,0 +1,200 @@
+"""faultmesh.invariants: every check passes on good surfaces and catches a
+deliberately broken one, naming the surface, the invariant and an element."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import faultmesh
+from faultmesh.invariants import check_gaps, check_model, check_surface, on_boundary_tolerance
+from faultmesh.model import Gap, Model, Surface
+
+SQ = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]])
+
+
+def grid(n=4, z=None):
+    """An n x n grid of squares over SQ, two CCW triangles each."""
+    g = np.linspace(0.0, 4.0, n + 1)
+    X, Y = np.meshgrid(g, g)
+    V = np.column_stack([X.ravel(), Y.ravel(), np.zeros(X.size) if z is None else z(X.ravel(), Y.ravel())])
+    T = []
+    for j in range(n):
+        for i in range(n):
+            a = j * (n + 1) + i
+            b, c, d = a + 1, a + n + 2, a + n + 1
+            T += [[a, b, c], [a, c, d]]
+    return V, np.array(T, dtype=np.int64)
+
+
+def S(V, T, name="bed", kind="layer"):
+    return Surface(name, V, T, kind=kind)
+
+
+def test_good_surface_passes():
+    V, T = grid(z=lambda x, y: 0.3 * x - y)
+    check_surface(S(V, T), SQ)
+    check_surface(S(V, T, kind="fault"), None)
+
+
+def test_translated_utm_magnitudes_pass():
+    off = np.array([550000.0, 7820000.0])
+    V, T = grid()
+    V[:, :2] += off
+    check_surface(S(V, T), SQ + off)
+
+
+@pytest.mark.parametrize("breakage,invariant,element", [
+    ("index", "conforming", "triangle 3"),
+    ("repeat", "conforming", "repeats a vertex"),
+    ("unused", "conforming", "not used by any triangle"),
+    ("duplicate", "conforming", "duplicates"),
+    ("collinear3d", "conforming", "zero area"),
+    ("nonmanifold", "conforming", "is used by 3 triangles"),
+    ("nan", "conforming", "non-finite"),
+    ("flip", "consistent orientation", "used twice in the same direction"),
+    ("pieces", "topological disk", "edge-connected pieces"),
+    ("pinch", "topological disk", "pinch vertex"),
+    ("hole", "topological disk", "loops"),
+    ("closed", "topological disk", "closed"),
+    ("shrunk", "boundary on the study area", "off the study-area boundary"),
+    ("chord", "boundary on the study area", "cuts across"),
+    ("reversed", "area", "signed XY areas add up to -16"),
+])
+def test_each_invariant_catches_a_broken_surface(breakage, invariant, element):
+    V, T = grid()
+    n = len(V)
+    if breakage == "index":
+        T[3, 1] = n + 5
+    elif breakage == "repeat":
+        T[2, 2] = T[2, 0]
+    elif breakage == "unused":
+        V = np.vstack([V, [[9.0, 9.0, 9.0]]])
+    elif breakage == "duplicate":
+        # A copy of vertex 7 used by one of its triangles, the original by the others.
+        V = np.vstack([V, V[7:8]])
+        t = int(np.flatnonzero((T == 7).any(axis=1))[0])
+        T[t][T[t] == 7] = n
+    elif breakage == "collinear3d":
+        # Flat in XY and in 3D: three points on a line (a strip's zero-area triangle).
+        V = np.vstack([V, [[5.0, 5.0, 0.0], [6.0, 6.0, 1.0], [7.0, 7.0, 2.0]]])
+        T = np.vstack([T, [[n, n + 1, n + 2]]])
+    elif breakage == "nonmanifold":
+        V = np.vstack([V, [[1.0, 1.0, 5.0]]])
+        T = np.vstack([T, [[0, 6, n]]])   # third triangle on the interior edge (0, 6)
+    elif breakage == "nan":
+        V[4, 2] = np.nan
+    elif breakage == "flip":
+        T[5] = T[5, ::-1]
+    elif breakage == "pieces":
+        W = V.copy()
+        W[:, 0] += 10.0
+        V = np.vstack([V, W])
+        T = np.vstack([T, T + n])
+    elif breakage == "pinch":
+        # Remove the cells (1, 1) and (2, 2): around their common vertex
+        # (2, 2) the rest forms two fans (the surface stays edge-connected).
+        cells = np.repeat(np.arange(16), 2)
+        T = T[(cells != 5) & (cells != 10)]
+    elif breakage == "hole":
+        # Remove the four triangles around the centre vertex: an annulus.
+        centre = 12
+        T = T[~(T == centre).any(axis=1)]
+        V = V.copy()
+        used = np.unique(T)
+        remap = -np.ones(n, int)
+        remap[used] = np.arange(len(used))
+        V, T = V[used], remap[T]
+    elif breakage == "closed":
+        V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+        T = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    elif breakage == "shrunk":
+        V[:, :2] = 0.5 + 0.75 * V[:, :2]
+    elif breakage == "chord":
+        # Cut off the corner triangle at (4, 0): boundary edge across the square.
+        corner = 4
+        T = T[~(T == corner).any(axis=1)]
+        keep = np.unique(T)
+        remap = -np.ones(n, int)
+        remap[keep] = np.arange(len(keep))
+        V, T = V[keep], remap[T]
+    elif breakage == "reversed":
+        T = T[:, ::-1]
+    with pytest.raises(faultmesh.GeometryError) as ei:
+        check_surface(S(V, T), SQ)
+    msg = str(ei.value)
+    assert "surface 'bed'" in msg
+    assert f"invariant '{invariant}'" in msg
+    assert element in msg
+
+
+def test_reverse_fold_cancels_in_the_area():
+    # A fold along x: footwall 0 -> 1 -> 3 (z 0), fault strip back 3 -> 2 -> 1
+    # (clockwise in XY, z 0 -> -2), hanging wall 1 -> 3 -> 4 (z -2), lofted
+    # between y = 0 and y = 4: the band 1..3 is covered three times and the
+    # signed areas add up to one cover.
+    xs = [0.0, 1.0, 3.0, 2.0, 1.0, 3.0, 4.0]
+    zs = [0, 0, 0, -1, -2, -2, -2]
+    row0 = np.array([[x, 0.0, z] for x, z in zip(xs, zs)])
+    row1 = np.array([[x, 4.0, z] for x, z in zip(xs, zs)])
+    V = np.vstack([row0, row1])
+    k = len(xs)
+    T = []
+    for i in range(k - 1):
+        a, b, c, d = i, i + 1, k + i + 1, k + i
+        T += [[a, b, c], [a, c, d]]
+    T = np.array(T)
+    check_surface(S(V, T), SQ)
+    o = faultmesh.orient2d(V[T[:, 0], :2], V[T[:, 1], :2], V[T[:, 2], :2])
+    assert (o < 0).sum() == 4 and (o > 0).sum() == len(T) - 4
+
+
+def test_vertical_strip_has_zero_xy_area_but_is_not_degenerate():
+    # A vertical fault strip: footwall cutoff and hanging-wall cutoff at the
+    # same XY, different z. Zero XY area is fine; zero 3D area is not.
+    xs = [0.0, 2.0, 2.0, 4.0]
+    zs = [0.0, 0.0, -1.0, -1.0]
+    V = np.vstack([np.array([[x, 0.0, z] for x, z in zip(xs, zs)]),
+                   np.array([[x, 4.0, z] for x, z in zip(xs, zs)])])
+    T = []
+    for i in range(3):
+        a, b, c, d = i, i + 1, 4 + i + 1, 4 + i
+        T += [[a, b, c], [a, c, d]]
+    check_surface(S(V, np.array(T)), SQ)
+
+
+def test_boundary_tolerance_is_relative_to_magnitude():
+    assert on_boundary_tolerance(SQ) == pytest.approx(64 * 2.0 ** -53 * 4.0)
+    big = SQ + 7.8e6
+    assert on_boundary_tolerance(big) < 1e-6
+
+
+def test_gap_checks():
+    V, T = grid()
+    surf = S(V, T)
+    check_gaps(surf, [Gap("F", "bed", np.arange(4), n_vertices=6, n_holes=0)])
+    with pytest.raises(faultmesh.GeometryError, match="gap triangle count.*n \\+ 2h - 2 = 6"):
+        check_gaps(surf, [Gap("F", "bed", np.arange(5), n_vertices=6, n_holes=1)])
+    with pytest.raises(faultmesh.GeometryError, match="outside"):
+        check_gaps(surf, [Gap("F", "bed", np.array([0, 1, 99]), n_vertices=5, n_holes=0)])
+    W, U = V.copy(), T.copy()
+    U[1] = U[1, ::-1]
+    with pytest.raises(faultmesh.GeometryError, match="gap triangles CCW.*clockwise"):
+        check_gaps(S(W, U), [Gap("F", "bed", np.arange(3), n_vertices=5, n_holes=0)])
+
+
+def test_check_model_names_the_bad_surface():
+    V, T = grid()
+    fault_V = np.array([[1, 1, 0], [3, 1, 0], [1, 1, -2], [3, 1, -2]], float)
+    fault_T = np.array([[0, 1, 3], [0, 3, 2]])
+    m = Model("m", {"bed": S(V, T)}, faults={"F1": S(fault_V, fault_T, "F1", "fault")}, boundary=SQ)
+    m.check()
+    check_model(m)
+    bad = fault_T.copy()
+    bad[1] = bad[1, ::-1]
+    m.faults["F1"] = S(fault_V, bad, "F1", "fault")
+    with pytest.raises(faultmesh.GeometryError, match="surface 'F1'.*consistent orientation"):
+        m.check()
+    m.faults.clear()
+    m.gaps.append(Gap("F9", "nope", np.arange(1), 3, 0))
+    with pytest.raises(faultmesh.GeometryError, match="unknown layers"):
+        m.check()
