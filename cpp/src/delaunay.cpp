@@ -204,10 +204,28 @@ DelaunayResult delaunay(const double* xy, std::size_t n, bool with_halfedges) {
     }
     for (auto& v : r.vertex_of_input) v = input_of_id[static_cast<std::size_t>(v)];
 
+    if (!with_halfedges) {
+        // Triangles only: no compacted slot index is needed, one pass.
+        const std::size_t ns = core.n_slots();
+        // Finite triangles = slots - hull edges; 2n - 2 slots bound it.
+        r.triangles.resize(3 * ns);
+        const std::int32_t* V = core.tv.data();
+        std::int64_t* T = r.triangles.data();
+        std::size_t w = 0;
+        for (std::size_t e = 0; e < 3 * ns; e += 3) {
+            const std::int32_t a = V[e], b = V[e + 1], c = V[e + 2];
+            if (a == detail::kInf || b == detail::kInf || c == detail::kInf) continue;
+            T[w] = input_of_id[a];
+            T[w + 1] = input_of_id[b];
+            T[w + 2] = input_of_id[c];
+            w += 3;
+        }
+        r.triangles.resize(w);
+        return r;
+    }
     std::vector<std::int32_t> compact;
     const std::size_t m = detail::compact_slots(core, compact);
-    detail::export_mesh(core, compact, m, input_of_id.data(), &r.triangles,
-                        with_halfedges ? &r.halfedges : nullptr);
+    detail::export_mesh(core, compact, m, input_of_id.data(), &r.triangles, &r.halfedges);
     return r;
 }
 

@@ -124,7 +124,9 @@ public:
 
     // Makes room for n vertices in total without reallocation during insertion.
     void reserve_vertices(std::size_t n) {
-        xy.reserve(2 * n);
+        // Geometric growth: a Tin grown one point per insert() must not copy
+        // its coordinates on every call.
+        if (xy.capacity() < 2 * n) xy.reserve(std::max(2 * n, xy.capacity() + xy.capacity() / 2));
         // A triangulated sphere with n + 1 vertices has 2n - 2 triangles.
         ensure_slots(2 * n + 2);
     }
