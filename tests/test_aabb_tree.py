@@ -88,8 +88,8 @@ def test_triangle_tree_box_and_exact_queries(seed, npts):
         return
     v = np.column_stack([xy, rng.normal(size=npts)])  # z is ignored
     tree = faultmesh.AabbTree(v, t)
-    q = rng.integers(-5, 105, size=(60, 2)).astype(float)
-    q = np.column_stack([q, q + rng.integers(0, 15, size=(60, 2))])
+    q = rng.integers(-5, 105, size=(150, 2)).astype(float)
+    q = np.column_stack([q, q + rng.integers(0, 15, size=(150, 2))])
     off, idx = tree.query(q)
     for got, want in zip(split(off, idx), brute(tri_boxes(v, t), q)):
         np.testing.assert_array_equal(got, want)

@@ -113,30 +113,14 @@ void bind_aabb_tree(py::module_& m) {
                 Csr r;
                 {
                     py::gil_scoped_release release;
-                    if (!exact) {
+                    if (!exact)
                         r = self.tree.query(q.data(), q.size(), sorted);
-                    } else {
-                        const double* V = self.vertices.data();
-                        const std::int64_t* E = self.elems.data();
-                        const std::size_t s = self.stride;
-                        const int per = self.per;
-                        r.offsets.resize(q.size() + 1);
-                        r.offsets[0] = 0;
-                        for (std::size_t i = 0; i < q.size(); ++i) {
-                            const std::size_t start = r.indices.size();
-                            self.tree.visit(q[i], [&](std::int64_t t) {
-                                const std::int64_t* e = E + per * t;
-                                const double* a = V + s * static_cast<std::size_t>(e[0]);
-                                const double* b = V + s * static_cast<std::size_t>(e[1]);
-                                const double* c = per == 3 ? V + s * static_cast<std::size_t>(e[2]) : b;
-                                if (triangle_meets_box(a, b, c, q[i])) r.indices.push_back(t);
-                            });
-                            if (sorted)
-                                std::sort(r.indices.begin() + static_cast<std::ptrdiff_t>(start),
-                                          r.indices.end());
-                            r.offsets[i + 1] = static_cast<std::int64_t>(r.indices.size());
-                        }
-                    }
+                    else if (self.per == 3)
+                        r = self.tree.query_triangles_exact(q.data(), q.size(), self.vertices.data(),
+                                                            self.stride, self.elems.data(), sorted);
+                    else
+                        r = self.tree.query_segments_exact(q.data(), q.size(), self.vertices.data(),
+                                                           self.stride, self.elems.data(), sorted);
                 }
                 return csr_to_py(std::move(r));
             },

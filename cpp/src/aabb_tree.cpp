@@ -264,17 +264,76 @@ void AabbTree::query(const Box2& q, std::vector<std::int64_t>& out) const {
     visit(q, [&](std::int64_t i) { out.push_back(i); });
 }
 
-Csr AabbTree::query(const Box2* queries, std::size_t n_queries, bool sorted) const {
-    Csr r;
-    r.offsets.resize(n_queries + 1);
-    r.offsets[0] = 0;
+std::vector<std::uint32_t> AabbTree::batch_order(const Box2* queries, std::size_t n_queries) const {
+    std::vector<std::uint32_t> order(n_queries);
+    for (std::size_t i = 0; i < n_queries; ++i) order[i] = static_cast<std::uint32_t>(i);
+    if (n_queries < 64 || nodes_.empty()) return order;
+    // 16 bits per axis over the tree's bounds is plenty to group neighbours.
+    const Box2 b = bounds();
+    const double sx = b.xmax > b.xmin ? 65535.0 / (b.xmax - b.xmin) : 0.0;
+    const double sy = b.ymax > b.ymin ? 65535.0 / (b.ymax - b.ymin) : 0.0;
+    std::vector<std::uint64_t> code(n_queries);
     for (std::size_t i = 0; i < n_queries; ++i) {
-        const std::size_t start = r.indices.size();
-        query(queries[i], r.indices);
-        if (sorted) std::sort(r.indices.begin() + static_cast<std::ptrdiff_t>(start), r.indices.end());
-        r.offsets[i + 1] = static_cast<std::int64_t>(r.indices.size());
+        const Box2& q = queries[i];
+        double qx = ((0.5 * q.xmin + 0.5 * q.xmax) - b.xmin) * sx;
+        double qy = ((0.5 * q.ymin + 0.5 * q.ymax) - b.ymin) * sy;
+        // Clamp (and map NaN to 0): the order only affects speed.
+        qx = qx >= 0.0 ? std::min(qx, 65535.0) : 0.0;
+        qy = qy >= 0.0 ? std::min(qy, 65535.0) : 0.0;
+        if (!std::isfinite(sx) || !std::isfinite(sy)) qx = qy = 0.0;
+        code[i] = (detail::part1by1(static_cast<std::uint64_t>(qy)) << 1) |
+                  detail::part1by1(static_cast<std::uint64_t>(qx));
+    }
+    detail::radix_sort(code, order);
+    return order;
+}
+
+Csr AabbTree::gather(std::vector<std::int64_t>& hits, std::vector<std::int64_t>& start,
+                     std::vector<std::int64_t>& count, bool sorted) {
+    const std::size_t nq = start.size();
+    Csr r;
+    r.offsets.resize(nq + 1);
+    r.offsets[0] = 0;
+    for (std::size_t j = 0; j < nq; ++j) r.offsets[j + 1] = r.offsets[j] + count[j];
+    r.indices.resize(hits.size());
+    for (std::size_t j = 0; j < nq; ++j) {
+        auto src = hits.begin() + start[j];
+        auto dst = r.indices.begin() + r.offsets[j];
+        std::copy(src, src + count[j], dst);
+        if (sorted) std::sort(dst, dst + count[j]);
     }
     return r;
+}
+
+Csr AabbTree::query(const Box2* queries, std::size_t n_queries, bool sorted) const {
+    return query_filtered(queries, n_queries, [](std::size_t, std::int64_t) { return true; }, sorted);
+}
+
+Csr AabbTree::query_triangles_exact(const Box2* queries, std::size_t n_queries, const double* xy,
+                                    std::size_t stride, const std::int64_t* triangles,
+                                    bool sorted) const {
+    return query_filtered(
+        queries, n_queries,
+        [&](std::size_t j, std::int64_t t) {
+            const std::int64_t* e = triangles + 3 * t;
+            return triangle_meets_box(xy + stride * static_cast<std::size_t>(e[0]),
+                                      xy + stride * static_cast<std::size_t>(e[1]),
+                                      xy + stride * static_cast<std::size_t>(e[2]), queries[j]);
+        },
+        sorted);
+}
+
+Csr AabbTree::query_segments_exact(const Box2* queries, std::size_t n_queries, const double* xy,
+                                   std::size_t stride, const std::int64_t* segments,
+                                   bool sorted) const {
+    return query_filtered(
+        queries, n_queries,
+        [&](std::size_t j, std::int64_t s) {
+            const std::int64_t* e = segments + 2 * s;
+            const double* b = xy + stride * static_cast<std::size_t>(e[1]);
+            return triangle_meets_box(xy + stride * static_cast<std::size_t>(e[0]), b, b, queries[j]);
+        },
+        sorted);
 }
 
 void AabbTree::query_polygon(const double* ring_xy, const std::int64_t* ring_offsets,
@@ -308,13 +367,16 @@ bool triangle_meets_box(const double* a, const double* b, const double* c, const
     const double tymin = std::min({a[1], b[1], c[1]}), tymax = std::max({a[1], b[1], c[1]});
     if (!(txmin <= box.xmax && txmax >= box.xmin && tymin <= box.ymax && tymax >= box.ymin))
         return false;
-    const double corners[4][2] = {
-        {box.xmin, box.ymin}, {box.xmax, box.ymin}, {box.xmax, box.ymax}, {box.xmin, box.ymax}};
+    // Quick accept: a vertex in the closed box (coordinate comparisons only).
+    auto in_box = [&](const double* p) {
+        return p[0] >= box.xmin && p[0] <= box.xmax && p[1] >= box.ymin && p[1] <= box.ymax;
+    };
+    if (in_box(a) || in_box(b) || in_box(c)) return true;
     const int s = orient2d_sign(a, b, c);
     if (s == 0) {
-        // Degenerate triangle: a segment between its two extreme points (or a
-        // point, decided by the bounding boxes already). Separated iff all
-        // corners lie strictly on one side of the segment's line.
+        // Degenerate triangle: a segment between its two extreme points (a
+        // point would have been accepted above). Separated iff all corners
+        // lie strictly on one side of the segment's line.
         const double* pts[3] = {a, b, c};
         const double* lo = a;
         const double* hi = a;
@@ -322,7 +384,8 @@ bool triangle_meets_box(const double* a, const double* b, const double* c, const
             if (p[0] < lo[0] || (p[0] == lo[0] && p[1] < lo[1])) lo = p;
             if (p[0] > hi[0] || (p[0] == hi[0] && p[1] > hi[1])) hi = p;
         }
-        if (lo[0] == hi[0] && lo[1] == hi[1]) return true;
+        const double corners[4][2] = {
+            {box.xmin, box.ymin}, {box.xmax, box.ymin}, {box.xmax, box.ymax}, {box.xmin, box.ymax}};
         int pos = 0, neg = 0;
         for (const auto& q : corners) {
             const int o = orient2d_sign(lo, hi, q);
@@ -331,17 +394,21 @@ bool triangle_meets_box(const double* a, const double* b, const double* c, const
         }
         return !(pos == 4 || neg == 4);
     }
+    // For each edge u -> v only the corner deepest on the triangle's side can
+    // decide: the signs of the edge's (exactly signed) coordinate differences
+    // pick it. With the triangle on the left (s > 0), orient(u, v, corner)
+    // grows with -dy * x + dx * y.
     const double* tri[3] = {a, b, c};
     for (int e = 0; e < 3; ++e) {
         const double* u = tri[e];
         const double* v = tri[(e + 1) % 3];
-        bool all_out = true;
-        for (const auto& q : corners)
-            if (s * orient2d_sign(u, v, q) >= 0) {
-                all_out = false;
-                break;
-            }
-        if (all_out) return false;
+        double dx = v[0] - u[0], dy = v[1] - u[1];
+        if (s < 0) {
+            dx = -dx;
+            dy = -dy;
+        }
+        const double corner[2] = {dy > 0 ? box.xmin : box.xmax, dx > 0 ? box.ymax : box.ymin};
+        if (s * orient2d_sign(u, v, corner) < 0) return false;
     }
     return true;
 }

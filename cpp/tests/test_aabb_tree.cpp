@@ -163,3 +163,43 @@ TEST(TriangleMeetsBox, ExactCases) {
     EXPECT_FALSE(triangle_meets_box(p, q, r, {4, 1, 6, 3.5}));
     EXPECT_TRUE(triangle_meets_box(p, p, p, {0, 0, 0, 0}));
 }
+
+TEST(AabbTree, BatchedExactTriangleQueriesEqualBruteForce) {
+    // Random triangles (some degenerate), > 64 queries so that the batch is
+    // processed in Morton order and put back in input order.
+    std::mt19937_64 rng(99);
+    std::uniform_int_distribution<int> u(0, 60);
+    std::vector<double> xy;
+    for (int i = 0; i < 600; ++i) xy.insert(xy.end(), {double(u(rng)), double(u(rng))});
+    std::vector<std::int64_t> tri;
+    for (int t = 0; t < 500; ++t) {
+        const std::int64_t a = static_cast<std::int64_t>(rng() % 600);
+        tri.insert(tri.end(), {a, (a + 1 + static_cast<std::int64_t>(rng() % 5)) % 600,
+                               (a + 7 + static_cast<std::int64_t>(rng() % 9)) % 600});
+    }
+    tri.insert(tri.end(), {0, 0, 0});  // a point
+    const std::size_t m = tri.size() / 3;
+    AabbTree t = AabbTree::from_triangles(xy.data(), 600, 2, tri.data(), m);
+    std::vector<Box2> qs;
+    for (int i = 0; i < 400; ++i) {
+        const double x = u(rng), y = u(rng);
+        qs.push_back({x, y, x + u(rng) % 7, y + u(rng) % 7});
+    }
+    const faultmesh::Csr r = t.query_triangles_exact(qs.data(), qs.size(), xy.data(), 2, tri.data());
+    const faultmesh::Csr c = t.query(qs.data(), qs.size(), false);
+    for (std::size_t i = 0; i < qs.size(); ++i) {
+        std::vector<std::int64_t> want;
+        for (std::size_t k = 0; k < m; ++k)
+            if (faultmesh::triangle_meets_box(&xy[2 * tri[3 * k]], &xy[2 * tri[3 * k + 1]], &xy[2 * tri[3 * k + 2]], qs[i]))
+                want.push_back(static_cast<std::int64_t>(k));
+        std::vector<std::int64_t> got(r.indices.begin() + r.offsets[i], r.indices.begin() + r.offsets[i + 1]);
+        EXPECT_EQ(got, want) << "query " << i;
+        std::vector<std::int64_t> cand(c.indices.begin() + c.offsets[i], c.indices.begin() + c.offsets[i + 1]);
+        std::sort(cand.begin(), cand.end());
+        EXPECT_EQ(cand, brute([&] {
+                      std::vector<Box2> b;
+                      for (std::size_t k = 0; k < m; ++k) b.push_back(t.box(k));
+                      return b;
+                  }(), qs[i]));
+    }
+}

@@ -87,8 +87,29 @@ public:
     // Appends the hits of one query to `out` (tree order, not sorted).
     void query(const Box2& q, std::vector<std::int64_t>& out) const;
 
-    // Batched queries; one CSR answer.
+    // Batched queries; one CSR answer in the order of `queries`. The queries
+    // are processed in Morton order of their centres (neighbouring queries
+    // visit the same nodes while they are in cache) and the answers are put
+    // back in input order.
     Csr query(const Box2* queries, std::size_t n_queries, bool sorted = true) const;
+
+    // Batched queries with a refinement: primitive i is reported for query j
+    // only if its box meets queries[j] and keep(j, i) is true (e.g. the exact
+    // triangle/box test). Same ordering and output as query().
+    template <class Keep>
+    Csr query_filtered(const Box2* queries, std::size_t n_queries, Keep&& keep,
+                       bool sorted = true) const;
+
+    // Batched exact queries over triangles (3 indices per triangle, the same
+    // arrays the tree was built from): the triangles that themselves meet
+    // each closed query box, by triangle_meets_box.
+    Csr query_triangles_exact(const Box2* queries, std::size_t n_queries, const double* xy,
+                              std::size_t stride, const std::int64_t* triangles,
+                              bool sorted = true) const;
+    // Same for segments (2 indices per segment).
+    Csr query_segments_exact(const Box2* queries, std::size_t n_queries, const double* xy,
+                             std::size_t stride, const std::int64_t* segments,
+                             bool sorted = true) const;
 
     // Polygon queries, stage 1 of the overlap test: the candidates for a
     // region given as rings (interleaved x, y; ring r is points
@@ -99,6 +120,12 @@ public:
                        std::vector<std::int64_t>& out, bool sorted = true) const;
 
 private:
+    // Processing order of a batch of queries (Morton order of their centres).
+    std::vector<std::uint32_t> batch_order(const Box2* queries, std::size_t n_queries) const;
+    // Gathers per-query hits produced in processing order into a CSR in input order.
+    static Csr gather(std::vector<std::int64_t>& hits, std::vector<std::int64_t>& start,
+                      std::vector<std::int64_t>& count, bool sorted);
+
     struct Node {
         Box2 box;
         // Internal node: children are `first` and `second` (node indices).
@@ -141,6 +168,21 @@ void AabbTree::visit(const Box2& q, F&& f) const {
             stack[top++] = nd.first;
         }
     }
+}
+
+template <class Keep>
+Csr AabbTree::query_filtered(const Box2* queries, std::size_t n_queries, Keep&& keep,
+                             bool sorted) const {
+    const std::vector<std::uint32_t> order = batch_order(queries, n_queries);
+    std::vector<std::int64_t> hits, start(n_queries), count(n_queries);
+    for (std::uint32_t j : order) {
+        start[j] = static_cast<std::int64_t>(hits.size());
+        visit(queries[j], [&](std::int64_t i) {
+            if (keep(static_cast<std::size_t>(j), i)) hits.push_back(i);
+        });
+        count[j] = static_cast<std::int64_t>(hits.size()) - start[j];
+    }
+    return gather(hits, start, count, sorted);
 }
 
 template <class F>
