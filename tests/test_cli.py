@@ -158,7 +158,8 @@ def test_demo_runs_the_real_workflow(tmp_path):
     assert str(out.resolve()) in r.stdout
     names = {p.name for p in out.iterdir()}
     for f in ("paper_like.3dt", "paper_like.ts", "paper_like.vtu", "quality.md", "quality.csv",
-              "quality.json", "model_3d.png", "layers_3d.png", "gaps.png", "map.png"):
+              "quality.json", "model_3d.png", "fence_3d.png", "layers_3d.png", "gaps.png",
+              "map.png"):
         assert f in names, f
     assert any(n.startswith("section_") and n.endswith(".csv") for n in names)
     assert any(n.startswith("section_") and n.endswith(".png") for n in names)

@@ -277,6 +277,8 @@ def test_ts_reads_files_of_other_tools(tmp_path):
     ("PVRTX 11 10 0 100 1 46", "PVRTX 11 10 0", 24, "PVRTX: expected 'id x y z'"),
     ("PVRTX 12 0 10 120 0 47", "PVRTX 11 0 10 120 0 47", 25, "vertex id 11 defined twice"),
     ("PVRTX 12 0 10 120 0 47", "PVRTX 12 0 ten 120 0 47", 25, "expected a number for y, got 'ten'"),
+    ("PVRTX 12 0 10 120 0 47", "PVRTX 12 0 10 nan 0 47", 25, "non-finite vertex coordinates"),
+    ("TRGL 10 11 12", "TRGL 10 11 x", 26, "expected an integer TRGL vertex id, got 'x'"),
     ("ZPOSITIVE Depth", "ZPOSITIVE Up", 11, "ZPOSITIVE must be Elevation or Depth"),
     ("ATOM 4 2", "ATOM 4 9", 44, "ATOM 4 refers to vertex 9, which is not defined before it"),
     ("# exported by some other tool", "TFACE", 1, "expected 'GOCAD <type> 1'"),

@@ -195,6 +195,21 @@ def _sections_for(model, dataset=None) -> List[Tuple[str, object, float]]:
     return out
 
 
+def _fence_sections(model, dataset) -> list:
+    """Every other exploration line of the dataset (and the last one) for the
+    fence diagram."""
+    secs = list(getattr(dataset, "sections", {}).values())
+    if len(secs) < 3:
+        return []
+    pick = secs[::2] + ([secs[-1]] if (len(secs) - 1) % 2 else [])
+    out = []
+    for sec in pick:
+        cut = model.section(sec.origin, sec.azimuth)
+        cut.name = str(sec.name)
+        out.append(cut)
+    return out
+
+
 def _write_report(model, out: Path, stem: str = "quality") -> List[Path]:
     rep = model.quality()
     return [rep.to_markdown_file(out / f"{stem}.md"), rep.to_csv(out / f"{stem}.csv"),
@@ -255,7 +270,11 @@ def cmd_demo(args) -> int:
         files.append(out / f"section_{name}.png")
         _close(fig)
     _info(args, "drawing pictures ...")
+    fence = _fence_sections(model, ds) or sections
+    first = 1 if len(model.surfaces) >= 3 else 0
     for fname, fn in (("model_3d.png", lambda p: plots.plot_model_3d(model, p)),
+                      ("fence_3d.png", lambda p: plots.plot_fence_3d(model, fence, p,
+                                                                     first_layer=first)),
                       ("layers_3d.png", lambda p: plots.plot_layers_3d(model, p)),
                       ("gaps.png", lambda p: plots.plot_gaps(model, p)),
                       ("map.png", lambda p: plots.plot_map(model, p, sections=sections))):
@@ -422,7 +441,7 @@ def make_parser() -> argparse.ArgumentParser:
                        description="Generate the built-in paper-like dataset (4 layers, 112 "
                        "boreholes, faults 2F4, F22, 2F1 and 4F2), build the model and write: "
                        "<name>.3dt/.ts/.vtu, quality.md/.csv/.json, section_*.csv/.png, "
-                       "model_3d.png, layers_3d.png, gaps.png, map.png.",
+                       "model_3d.png, fence_3d.png, layers_3d.png, gaps.png, map.png.",
                        epilog="example:\n  faultmesh demo -o demo_out")
     p.add_argument("-o", "--output", default="demo_out", metavar="DIR",
                    help="output folder (default: demo_out)")

@@ -170,7 +170,7 @@ def plot_model_3d(model, path=None, *, vertical_exaggeration: Optional[float] = 
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(lo[2] * ve, hi[2] * ve)
-    ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], max((hi[2] - lo[2]) * ve, 1e-9)))
+    ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], max((hi[2] - lo[2]) * ve, 1e-9)), zoom=1.15)
     ax.view_init(elev=elev, azim=azim)
     for axis in (ax.xaxis, ax.yaxis):
         axis.set_major_locator(MaxNLocator(5))
@@ -243,12 +243,12 @@ def plot_layers_3d(model, path=None, *, vertical_exaggeration: Optional[float] =
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
         ax.set_zlim(lo[2] * ve, hi[2] * ve)
-        ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], max((hi[2] - lo[2]) * ve, 1e-9)))
+        ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], max((hi[2] - lo[2]) * ve, 1e-9)), zoom=1.15)
         ax.view_init(elev=elev, azim=azim)
         for axis in (ax.xaxis, ax.yaxis):
             axis.set_major_locator(MaxNLocator(4))
             axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.0f}"))
-        ax.zaxis.set_major_locator(MaxNLocator(4))
+        ax.zaxis.set_major_locator(MaxNLocator(3))
         ax.zaxis.set_major_formatter(FuncFormatter(lambda v, _, ve=ve: f"{v / ve:.0f}"))
         ax.tick_params(labelsize=6)
         ax.set_zlabel("elevation (m)", fontsize=7, labelpad=2)
@@ -259,6 +259,182 @@ def plot_layers_3d(model, path=None, *, vertical_exaggeration: Optional[float] =
     fig.legend(handles=handles, loc="lower center", ncol=2, fontsize=9, frameon=False)
     fig.suptitle(f"{model.name}: layer surfaces", fontsize=12)
     fig.subplots_adjust(left=0.02, right=0.98, bottom=0.06, top=0.92, wspace=0.05, hspace=0.12)
+    _save(fig, path)
+    return fig
+
+
+def _envelope(section, name: str, s: np.ndarray) -> np.ndarray:
+    """Upper envelope z(s) of a surface's section polylines (NaN where none).
+    A reverse fault's fold is reduced to its upper sheet: good enough for a
+    fence picture, and what a vertical borehole would meet first."""
+    z = np.full(len(s), np.nan)
+    for ln in section.polylines(name):
+        ss, zz = ln.s, ln.xyz[:, 2]
+        for k in range(len(ss) - 1):
+            a, b = ss[k], ss[k + 1]
+            lo, hi = min(a, b), max(a, b)
+            m = (s >= lo) & (s <= hi)
+            if not m.any():
+                continue
+            zi = np.full(m.sum(), max(zz[k], zz[k + 1])) if hi == lo else \
+                zz[k] + (s[m] - a) / (b - a) * (zz[k + 1] - zz[k])
+            z[m] = np.fmax(z[m], zi)
+    return z
+
+
+def plot_fence_3d(model, sections, path=None, *, vertical_exaggeration: Optional[float] = None,
+                  elev: float = 28.0, azim: float = -60.0, samples: int = 160,
+                  first_layer: int = 0, title: Optional[str] = None):
+    """Fence diagram: the given cross-sections (:class:`~faultmesh.section.CrossSection`)
+    stood up in 3D, the unit below each layer top filled with the layer's
+    colour, faults as dark red lines on the panels and translucent planes,
+    the deepest layer as the floor and the study area outlined at the top.
+    Each panel is cut into narrow vertical quads so that matplotlib's
+    painter's sort orders panels and faults correctly. ``first_layer`` > 0
+    starts the panels at that layer's top (e.g. 1 leaves out a thick, plain
+    topsoil unit so the faulted seams get the height). Returns the figure."""
+    plt = _plt()
+    from matplotlib.colors import to_rgb
+    from matplotlib.patches import Patch
+    from matplotlib.ticker import FuncFormatter, MaxNLocator
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
+
+    sections = [sec for sec in sections if sec.lines]
+    all_layers = list(model.surfaces)
+    if not 0 <= first_layer < len(all_layers):
+        raise ValueError(f"plot_fence_3d: first_layer must be in 0..{len(all_layers) - 1}, "
+                         f"got {first_layer}")
+    layers = all_layers[first_layer:]
+    allv = np.vstack([model.surfaces[n].vertices for n in layers if model.surfaces[n].n_vertices])
+    lo, hi = allv.min(0), allv.max(0)
+    width = float(max(hi[0] - lo[0], hi[1] - lo[1]))
+    zbot = lo[2] - 0.05 * (hi[2] - lo[2])
+    ve = vertical_exaggeration or _auto_exaggeration(width, float(hi[2] - zbot), 0.3)
+    light = np.array([-0.5, 0.6, 1.0])
+    light /= np.linalg.norm(light)
+    fig = plt.figure(figsize=(11, 8.5))
+    ax = fig.add_subplot(projection="3d")
+    ax.computed_zorder = False
+    # Floor: the deepest layer, drawn first (everything else is above it).
+    floor = model.surfaces[layers[-1]] if layers else None
+    if floor is not None and floor.n_triangles:
+        P = floor.vertices.copy()
+        P[:, 2] *= ve
+        ax.add_collection3d(Poly3DCollection(P[floor.triangles], facecolors=_shaded(
+            P, floor.triangles, layer_color(len(all_layers) - 1), 0.55, light), edgecolors="none",
+            zorder=0))
+    # Camera direction in XY (mplot3d: azim measured from +x towards +y): each
+    # object (a section panel with its lines, a fault plane) is drawn as its
+    # own collection, farthest first - panels are planar, so this painter's
+    # order is right except where a fault plane passes through a panel.
+    cam = np.array([np.cos(np.radians(azim)), np.sin(np.radians(azim))])
+    objects = []   # (depth, kind, payload)
+    for sec in sections:
+        smin = min(float(ln.s.min()) for ln in sec.lines)
+        smax = max(float(ln.s.max()) for ln in sec.lines)
+        sg = np.linspace(smin, smax, samples)
+        zs = [_envelope(sec, n, sg) for n in layers] + [np.full(len(sg), zbot)]
+        d = sec.direction
+        xy = sec.origin[None, :] + sg[:, None] * d[None, :]
+        # A panel facing the light is brighter: the same shading as the surfaces.
+        nrm = np.array([d[1], -d[0], 0.0])
+        shade = 0.62 + 0.38 * abs(float(nrm @ light))
+        polys, colors = [], []
+        for i, n in enumerate(layers):
+            top, below = zs[i], zs[i + 1]
+            # The unit ends at the next layer down that exists here.
+            for j in range(i + 2, len(zs)):
+                below = np.where(np.isnan(below), zs[j], below)
+            ok = ~np.isnan(top[:-1]) & ~np.isnan(top[1:]) & ~np.isnan(below[:-1]) & ~np.isnan(below[1:])
+            col = tuple(np.clip(np.array(to_rgb(layer_color(i + first_layer))) * shade, 0, 1)) + (1.0,)
+            k = np.flatnonzero(ok)
+            q = np.stack([np.column_stack([xy[k], top[k] * ve]),
+                          np.column_stack([xy[k + 1], top[k + 1] * ve]),
+                          np.column_stack([xy[k + 1], below[k + 1] * ve]),
+                          np.column_stack([xy[k], below[k] * ve])], axis=1)
+            polys.extend(q)
+            colors.extend([col] * len(k))
+        segs, scol, widths = [], [], []
+        for ln in sec.lines:
+            if ln.kind != "fault" and ln.surface not in layers:
+                continue
+            P = ln.xyz.copy()
+            keep = np.ones(len(P) - 1, dtype=bool)
+            if ln.kind == "fault" and first_layer:
+                # Only the part of a fault below the first panel's top.
+                env = _envelope(sec, layers[0], ln.s)
+                below_top = ~(P[:, 2] > env + 1e-9)
+                keep = below_top[:-1] & below_top[1:]
+            P[:, 2] *= ve
+            seg = np.stack([P[:-1], P[1:]], axis=1)[keep]
+            segs.extend(seg)
+            if ln.kind == "fault":
+                c, w = FAULT_COLOR, 2.4
+            else:
+                c, w = tuple(np.array(to_rgb(layer_color(all_layers.index(ln.surface)))) * 0.55), 1.0
+            scol.extend([c] * len(seg))
+            widths.extend([w] * len(seg))
+        depth = float(xy.mean(0) @ cam)
+        objects.append((depth, "panel", (polys, colors, segs, scol, widths)))
+    for f in model.faults.values():
+        if f.n_triangles == 0:
+            continue
+        P = f.vertices.copy()
+        P[:, 2] *= ve
+        objects.append((float(f.vertices[:, :2].mean(0) @ cam), "fault",
+                        (P[f.triangles], _shaded(P, f.triangles, FAULT_COLOR, 0.5, light))))
+    if model.boundary is not None:
+        b0 = np.asarray(model.boundary, dtype=np.float64)
+        ring = np.vstack([b0, b0[:1]])
+        ax.plot(ring[:, 0], ring[:, 1], np.full(len(ring), zbot * ve), color="0.3", lw=0.9,
+                ls=":", zorder=1)
+    z = 2
+    for _, kind, payload in sorted(objects, key=lambda o: o[0]):
+        if kind == "panel":
+            polys, colors, segs, scol, widths = payload
+            if polys:
+                # Edges in the face colour hide the hairline seams between quads.
+                ax.add_collection3d(Poly3DCollection(polys, facecolors=colors, edgecolors=colors,
+                                                     linewidths=0.4, zorder=z))
+            if segs:
+                ax.add_collection3d(Line3DCollection(segs, colors=scol, linewidths=widths,
+                                                     zorder=z + 1))
+        else:
+            tris, fc = payload
+            ax.add_collection3d(Poly3DCollection(tris, facecolors=fc, edgecolors="none", zorder=z))
+        z += 2
+    if model.boundary is not None and layers:
+        # The study area at the top of the model, drawn last (thin, above all).
+        top = model.surfaces[layers[0]]
+        zt = float(np.nanmax(top.vertices[:, 2])) if top.n_vertices else hi[2]
+        ax.plot(ring[:, 0], ring[:, 1], np.full(len(ring), zt * ve), color="0.3", lw=0.9,
+                zorder=z)
+    for sec in sections:
+        smax = max(float(ln.s.max()) for ln in sec.lines)
+        p = sec.origin + smax * sec.direction
+        ax.text(p[0], p[1], hi[2] * ve, f" {sec.name}", fontsize=9, fontweight="bold", zorder=4)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(zbot * ve, hi[2] * ve)
+    ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], max((hi[2] - zbot) * ve, 1e-9)), zoom=1.15)
+    ax.view_init(elev=elev, azim=azim)
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_locator(MaxNLocator(5))
+        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.0f}"))
+    ax.zaxis.set_major_locator(MaxNLocator(5))
+    ax.zaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v / ve:.0f}"))
+    ax.set_xlabel("x (m)", labelpad=10)
+    ax.set_ylabel("y (m)", labelpad=10)
+    ax.set_zlabel("elevation (m)", labelpad=6)
+    ax.tick_params(labelsize=7)
+    handles = [Patch(facecolor=layer_color(i + first_layer), edgecolor="0.3", label=n)
+               for i, n in enumerate(layers)]
+    handles.append(Patch(facecolor=FAULT_COLOR, edgecolor="0.3", alpha=0.7, label="faults"))
+    ax.legend(handles=handles, loc="upper left", fontsize=9, title="units (below each top)",
+              title_fontsize=9)
+    above = f" below the top of {layers[0]}" if first_layer else ""
+    ax.set_title(title or f"{model.name}: fence diagram, {len(sections)} sections{above}, "
+                 f"vertical exaggeration ×{ve:g}", fontsize=11)
     _save(fig, path)
     return fig
 

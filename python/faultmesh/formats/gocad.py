@@ -126,6 +126,7 @@ class _Object:
         self.alias: Dict[int, int] = {}   # merged ATOM id -> vertex row
         self.tri_ids: List[Tuple[int, int, int]] = []
         self.tri_lines: List[int] = []
+        self.vlines: List[int] = []       # line of each vertex row (for error messages)
         self.seg_ids: List[Tuple[int, int]] = []
         self.parts = 0
 
@@ -200,13 +201,18 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
             tok = rest.split()
             if len(tok) < 4:
                 raise err(f"{key}: expected 'id x y z', got {s[:80]!r}", no)
-            vid = ident(tok[0], no, f"{key} id")
+            try:  # fast path; the checks below name the bad field
+                vid = int(tok[0])
+                xyz = (float(tok[1]), float(tok[2]), float(tok[3]))
+            except ValueError:
+                vid = ident(tok[0], no, f"{key} id")
+                xyz = (number(tok[1], no, "x"), number(tok[2], no, "y"), number(tok[3], no, "z"))
             if vid in id_row or vid in obj.alias:
                 raise err(f"{key}: vertex id {vid} defined twice", no)
             id_row[vid] = len(obj.xyz)
             obj.ids.append(vid)
-            obj.xyz.append((number(tok[1], no, "x"), number(tok[2], no, "y"),
-                            number(tok[3], no, "z")))
+            obj.xyz.append(xyz)
+            obj.vlines.append(no)
             if key == "PVRTX":
                 try:
                     obj.props.append([float(t) for t in tok[4:]])
@@ -234,6 +240,7 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
                 id_row[vid] = len(obj.xyz)
                 obj.ids.append(vid)
                 obj.xyz.append(obj.xyz[ref_row])
+                obj.vlines.append(no)
                 try:
                     own = [float(t) for t in tok[2:]] if key == "PATOM" else []
                 except ValueError:
@@ -243,9 +250,12 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
             tok = rest.split()
             if len(tok) < 3:
                 raise err(f"TRGL: expected three vertex ids, got {s[:80]!r}", no)
-            obj.tri_ids.append((ident(tok[0], no, "TRGL vertex id"),
-                                ident(tok[1], no, "TRGL vertex id"),
-                                ident(tok[2], no, "TRGL vertex id")))
+            try:
+                obj.tri_ids.append((int(tok[0]), int(tok[1]), int(tok[2])))
+            except ValueError:
+                obj.tri_ids.append((ident(tok[0], no, "TRGL vertex id"),
+                                    ident(tok[1], no, "TRGL vertex id"),
+                                    ident(tok[2], no, "TRGL vertex id")))
             obj.tri_lines.append(no)
         elif key == "SEG":
             tok = rest.split()
@@ -299,6 +309,15 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
 def _rows(path: Path, obj: _Object, ids: np.ndarray, lines: List[int], what: str) -> np.ndarray:
     """Map file vertex ids to rows (vectorised), naming the line of an unknown id."""
     id_row = obj.id_row  # type: ignore[attr-defined]
+    if not obj.alias and obj.ids:
+        # Common case (faultmesh's own files and most exports): ids k0, k0+1, ...
+        first = obj.ids[0]
+        if obj.ids[-1] - first == len(obj.ids) - 1 and \
+                np.array_equal(np.asarray(obj.ids), np.arange(first, first + len(obj.ids))):
+            rows = ids - first
+            ok = (rows >= 0) & (rows < len(obj.ids))
+            if ok.all():
+                return rows
     keys = np.array(list(id_row.keys()) + list(obj.alias.keys()), dtype=np.int64)
     vals = np.array(list(id_row.values()) + list(obj.alias.values()), dtype=np.int64)
     order = np.argsort(keys)
@@ -347,6 +366,11 @@ def read_ts(path, atoms: str = "copy"):
             n += 1
         used.add(name)
         xyz = np.array(obj.xyz, dtype=np.float64).reshape(-1, 3)
+        bad = ~np.all(np.isfinite(xyz), axis=1)
+        if bad.any():   # float() accepts "nan" and "inf" on the fast path
+            r = int(np.flatnonzero(bad)[0])
+            raise ModelFileError(path, f"non-finite vertex coordinates {xyz[r].tolist()}",
+                                 obj.vlines[r])
         xyz[:, 2] *= obj.z_sign
         if obj.tri_ids:
             tri = _rows(path, obj, np.array(obj.tri_ids, dtype=np.int64), obj.tri_lines, "TRGL")
