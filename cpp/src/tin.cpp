@@ -3,6 +3,7 @@
 #include <faultmesh/errors.hpp>
 #include <faultmesh/tin.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -16,6 +17,7 @@ struct TinImpl {
     DelaunayCore core;
     std::vector<double> xyz;                   // 3 per Tin vertex
     std::vector<std::int64_t> tin_of_id;       // engine id -> Tin vertex (duplicates too)
+    std::vector<double> z_of_id;               // engine id -> z of its vertex (memory order of core.xy)
     std::vector<std::int64_t> vertex_of_input; // constructor rows -> Tin vertex
     std::size_t n_dups = 0;
     std::vector<std::int32_t> compact;         // engine slot -> triangle index or -1
@@ -54,11 +56,44 @@ struct TinImpl {
             }
             out[row] = tin_of_id[root];
         }
-        for (std::size_t id = first; id < end; ++id)
+        z_of_id.resize(end);
+        for (std::size_t id = first; id < end; ++id) {
             if (dup_of[id - first] >= 0)
                 tin_of_id[id] = tin_of_id[static_cast<std::size_t>(dup_of[id - first])];
+            z_of_id[id] = xyz[3 * static_cast<std::size_t>(tin_of_id[id]) + 2];
+        }
         m = compact_slots(core, compact);
+        build_samples();
         return out;
+    }
+
+    // Jump-and-walk (Muecke, Saias and Zhu): a single query starts from the
+    // sampled triangle whose first vertex is nearest, so that its walk is
+    // O(n^(1/3)) steps instead of O(n^(1/2)) from an arbitrary triangle.
+    std::vector<std::int32_t> samples;
+
+    void build_samples() {
+        samples.clear();
+        const std::size_t want = std::max<std::size_t>(1, static_cast<std::size_t>(std::cbrt(double(m))) * 2);
+        const std::size_t ns = core.n_slots();
+        const std::size_t stride = std::max<std::size_t>(1, ns / want);
+        for (std::size_t t = 0; t < ns; t += stride)
+            if (compact[t] >= 0) samples.push_back(static_cast<std::int32_t>(t));
+        if (samples.empty()) samples.push_back(core.hint);
+    }
+
+    std::int32_t nearest_sample(double x, double y) const {
+        std::int32_t best = core.hint;
+        double best_d = INFINITY;
+        for (const std::int32_t t : samples) {
+            const double* a = core.pt(core.tv[3 * static_cast<std::size_t>(t)]);
+            const double d = (a[0] - x) * (a[0] - x) + (a[1] - y) * (a[1] - y);
+            if (d < best_d) {
+                best_d = d;
+                best = t;
+            }
+        }
+        return best;
     }
 
     // Engine slot of a finite triangle containing (x, y), or -1 (outside the
@@ -81,20 +116,27 @@ struct TinImpl {
         return t;
     }
 
-    // Slots for n queries, walked in Hilbert order.
-    std::vector<std::int32_t> locate_slots(const double* xy, std::size_t n) const {
-        std::vector<std::int32_t> slot(n, -1);
-        std::int32_t start = core.hint;
+    // Calls f(i, query, slot) for each of n queries (slot -1 outside), walking them
+    // in Hilbert order, so that each walk starts where the previous ended and
+    // f's accesses to the triangles stay local.
+    template <class F>
+    void for_each_located(const double* xy, std::size_t n, F&& f) const {
+        if (n == 0) return;
         if (n == 1) {
-            slot[0] = locate_slot(xy[0], xy[1], start);
-            return slot;
+            std::int32_t start = nearest_sample(xy[0], xy[1]);
+            f(std::size_t(0), xy, locate_slot(xy[0], xy[1], start));
+            return;
         }
         const std::vector<std::uint32_t> ord = hilbert_order(xy, 2, n);
+        // The queries gathered in walk order (one pass), so that the walks
+        // read them sequentially.
+        std::vector<double> q(2 * n);
         for (std::size_t k = 0; k < n; ++k) {
-            const std::size_t i = ord[k];
-            slot[i] = locate_slot(xy[2 * i], xy[2 * i + 1], start);
+            q[2 * k] = xy[2 * static_cast<std::size_t>(ord[k])];
+            q[2 * k + 1] = xy[2 * static_cast<std::size_t>(ord[k]) + 1];
         }
-        return slot;
+        std::int32_t start = nearest_sample(q[0], q[1]);
+        for (std::size_t k = 0; k < n; ++k) f(ord[k], &q[2 * k], locate_slot(q[2 * k], q[2 * k + 1], start));
     }
 };
 
@@ -147,32 +189,30 @@ std::vector<std::int64_t> Tin::halfedges() const {
 }
 
 std::int64_t Tin::locate(double x, double y) const {
-    std::int32_t start = impl_->core.hint;
-    const std::int32_t s = impl_->locate_slot(x, y, start);
-    return s < 0 ? -1 : impl_->compact[s];
+    const double q[2] = {x, y};
+    std::int64_t out = -1;
+    impl_->for_each_located(q, 1, [&](std::size_t, const double*, std::int32_t s) { out = s < 0 ? -1 : impl_->compact[s]; });
+    return out;
 }
 
 std::vector<std::int64_t> Tin::locate(const double* xy, std::size_t n) const {
-    const std::vector<std::int32_t> slot = impl_->locate_slots(xy, n);
     std::vector<std::int64_t> out(n);
-    for (std::size_t i = 0; i < n; ++i) out[i] = slot[i] < 0 ? -1 : impl_->compact[slot[i]];
+    const detail::TinImpl& T = *impl_;
+    T.for_each_located(xy, n, [&](std::size_t i, const double*, std::int32_t s) { out[i] = s < 0 ? -1 : T.compact[s]; });
     return out;
 }
 
 std::vector<double> Tin::interpolate(const double* xy, std::size_t n) const {
     const detail::TinImpl& T = *impl_;
-    const std::vector<std::int32_t> slot = T.locate_slots(xy, n);
     std::vector<double> out(n, std::numeric_limits<double>::quiet_NaN());
-    for (std::size_t i = 0; i < n; ++i) {
-        if (slot[i] < 0) continue;
-        const std::int32_t* v = &T.core.tv[3 * static_cast<std::size_t>(slot[i])];
+    T.for_each_located(xy, n, [&](std::size_t i, const double* p, std::int32_t s) {
+        if (s < 0) return;
+        const std::int32_t* v = &T.core.tv[3 * static_cast<std::size_t>(s)];
         const double* a = T.core.pt(v[0]);
         const double* b = T.core.pt(v[1]);
         const double* c = T.core.pt(v[2]);
-        const double za = T.xyz[3 * T.tin_of_id[v[0]] + 2];
-        const double zb = T.xyz[3 * T.tin_of_id[v[1]] + 2];
-        const double zc = T.xyz[3 * T.tin_of_id[v[2]] + 2];
-        const double qx = xy[2 * i] - a[0], qy = xy[2 * i + 1] - a[1];
+        const double za = T.z_of_id[v[0]], zb = T.z_of_id[v[1]], zc = T.z_of_id[v[2]];
+        const double qx = p[0] - a[0], qy = p[1] - a[1];
         const double bx = b[0] - a[0], by = b[1] - a[1];
         const double cx = c[0] - a[0], cy = c[1] - a[1];
         // Barycentric weights relative to a (coordinates near 1e6 lose
@@ -184,7 +224,7 @@ std::vector<double> Tin::interpolate(const double* xy, std::size_t n) const {
         const double wc = (bx * qy - by * qx) / d;
         const double wa = 1.0 - wb - wc;
         out[i] = wa * za + wb * zb + wc * zc;
-    }
+    });
     return out;
 }
 
