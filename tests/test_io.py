@@ -453,3 +453,26 @@ def test_the_example_in_the_format_documentation_loads(tmp_path):
     p2 = tmp_path / "again.3dt"
     m.save(p2)
     assert p2.read_text(encoding="utf-8").splitlines()[3:] == example.splitlines()[2:]
+
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+_finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+
+
+@settings(max_examples=40, deadline=None)
+@given(coords=st.lists(st.tuples(_finite, _finite, _finite), min_size=3, max_size=12),
+       name=st.text(min_size=1, max_size=12).filter(lambda s: s.strip() == s and '"' not in s
+                                                     and "\n" not in s and "\r" not in s))
+def test_any_doubles_and_names_round_trip_exactly(tmp_path_factory, coords, name):
+    V = np.array(coords, dtype=np.float64)
+    T = np.array([[0, 1, 2], [len(V) - 1, 0, 1]], dtype=np.int64)
+    m = Model(name, {name: Surface(name, V, T)})
+    d = tmp_path_factory.mktemp("rt")
+    for suffix in (".3dt", ".ts"):
+        m.save(d / f"m{suffix}")
+        r = load_model(d / f"m{suffix}")
+        (s,) = r.surfaces.values()
+        assert s.name == name
+        assert np.array_equal(s.vertices.view(np.int64), V.view(np.int64))
+        assert np.array_equal(s.triangles, T)

@@ -158,7 +158,7 @@ def plot_model_3d(model, path=None, *, vertical_exaggeration: Optional[float] = 
     z = 0
     for k in range(n - 1, -1, -1):
         # Opaque at the bottom, more transparent upwards: every seam stays readable.
-        alpha = 1.0 if k == n - 1 else upper_alpha * (0.55 + 0.45 * k / max(n - 2, 1))
+        alpha = 1.0 if k == n - 1 else upper_alpha * (0.45 + 0.85 * k / max(n - 2, 1))
         add(layers[k], layer_color(k), alpha, z)
         z += 1
         _outline(ax, layers[k], ve, layer_color(k), z)
@@ -170,7 +170,8 @@ def plot_model_3d(model, path=None, *, vertical_exaggeration: Optional[float] = 
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(lo[2] * ve, hi[2] * ve)
-    ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], max((hi[2] - lo[2]) * ve, 1e-9)), zoom=1.15)
+    ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], max((hi[2] - lo[2]) * ve, 1e-9)))
+    fig.subplots_adjust(left=0.0, right=0.97, bottom=0.02, top=0.95)
     ax.view_init(elev=elev, azim=azim)
     for axis in (ax.xaxis, ax.yaxis):
         axis.set_major_locator(MaxNLocator(5))
@@ -416,7 +417,8 @@ def plot_fence_3d(model, sections, path=None, *, vertical_exaggeration: Optional
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(zbot * ve, hi[2] * ve)
-    ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], max((hi[2] - zbot) * ve, 1e-9)), zoom=1.15)
+    ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], max((hi[2] - zbot) * ve, 1e-9)))
+    fig.subplots_adjust(left=0.0, right=0.97, bottom=0.02, top=0.95)
     ax.view_init(elev=elev, azim=azim)
     for axis in (ax.xaxis, ax.yaxis):
         axis.set_major_locator(MaxNLocator(5))

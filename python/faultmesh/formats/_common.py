@@ -225,9 +225,20 @@ def parse_numbers(path, lines: Sequence[str], linenos: Sequence[int], ncols: int
     raise AssertionError("parse_numbers: unreachable")  # pragma: no cover
 
 
+def split_lines(text: str) -> List[str]:
+    """Lines of a model file: split on ``\n`` only (``\r\n`` tolerated).
+
+    ``str.splitlines`` would also split on characters such as U+0085, U+001E
+    or U+2028, which may legally occur inside a quoted name."""
+    lines = text.split("\n")
+    if lines and lines[-1] == "":
+        lines.pop()
+    return [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
+
+
 def iter_numbered(text: str) -> Iterable[Tuple[int, str]]:
     """(1-based line number, line without the end-of-line) pairs."""
-    return enumerate(text.splitlines(), start=1)
+    return enumerate(split_lines(text), start=1)
 
 
 def read_text(path) -> str:

@@ -26,7 +26,7 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-from ._common import AtomicFiles, _Shared, ModelFileError, format_floats, read_text
+from ._common import AtomicFiles, ModelFileError, _Shared, format_floats, read_text, split_lines
 
 SUFFIX = ".ts"
 
@@ -137,7 +137,7 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
     block_end: Optional[str] = None   # inside HEADER {...} or another brace block
     in_crs = False
     id_row: Dict[int, int] = {}
-    lines = text.splitlines()
+    lines = split_lines(text)
 
     def err(msg: str, no: int) -> ModelFileError:
         return ModelFileError(path, msg, no)

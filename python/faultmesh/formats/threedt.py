@@ -34,7 +34,8 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
-from ._common import AtomicFiles, _Shared, ModelFileError, format_floats, format_ints, parse_numbers, read_text
+from ._common import (AtomicFiles, ModelFileError, _Shared, format_floats, format_ints,
+                      parse_numbers, read_text, split_lines)
 
 MAGIC = "3DT"
 VERSION = 1
@@ -135,7 +136,7 @@ class _Reader:
         self.path = path
         self.nums: List[int] = []
         self.lines: List[str] = []
-        for no, raw in enumerate(text.splitlines(), start=1):
+        for no, raw in enumerate(split_lines(text), start=1):
             s = raw.strip()
             if s and not s.startswith("#"):
                 self.nums.append(no)
