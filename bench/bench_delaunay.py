@@ -168,6 +168,57 @@ def machine() -> str:
             f"{cxx}, {cgal}")
 
 
+def tin_section(fm, runs: int) -> list[str]:
+    """Timings of the Tin operations the workflow uses, via Python."""
+    rng = np.random.default_rng(7)
+    n, k, q = 1_000_000, 100_000, 1_000_000
+    pts = np.c_[rng.random((n, 2)), rng.random(n)]
+    extra = np.c_[rng.random((k, 2)), rng.random(k)]
+    queries = rng.random((q, 2))
+
+    def med(f):
+        ts = []
+        for _ in range(runs):
+            t0 = time.perf_counter()
+            f()
+            ts.append(time.perf_counter() - t0)
+        return statistics.median(ts)
+
+    tin = fm.Tin(pts)
+    rows = [
+        (f"Tin(xyz) of {n:,} uniform points", med(lambda: fm.Tin(pts))),
+        (f"Tin.insert of {k:,} points into it (copy of the Tin excluded)", None),
+        (f"Tin.interpolate at {q:,} random points", med(lambda: tin.interpolate(queries))),
+        (f"Tin.locate at {q:,} random points", med(lambda: tin.locate(queries))),
+        ("Tin.locate of one point, per call (1000 calls)",
+         med(lambda: [tin.locate(queries[i:i + 1]) for i in range(1000)]) / 1000),
+    ]
+    ts = []
+    for _ in range(runs):
+        t = fm.Tin(pts)
+        t0 = time.perf_counter()
+        t.insert(extra)
+        ts.append(time.perf_counter() - t0)
+    rows[1] = (rows[1][0], statistics.median(ts))
+    out = ["### Tin operations (Python calls, median of %d)" % runs, "",
+           "| operation | seconds |", "|---|---:|"]
+    out += [f"| {name} | {sec:.6f} |" for name, sec in rows]
+    try:
+        from scipy.interpolate import LinearNDInterpolator
+        sub = pts[:100_000]
+        t0 = time.perf_counter()
+        LinearNDInterpolator(sub[:, :2], sub[:, 2])(queries)
+        t_sc = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        fm.Tin(sub).interpolate(queries)
+        t_fm = time.perf_counter() - t0
+        out += ["", f"Reference: build + interpolate {q:,} queries on 100,000 points: faultmesh.Tin "
+                f"{t_fm:.3f} s, scipy LinearNDInterpolator (qhull) {t_sc:.3f} s (one run each)."]
+    except ImportError:
+        pass
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", type=int, default=5)
@@ -255,6 +306,8 @@ def main() -> int:
         lines.append(f"| {r['name']} | {r['n']:,} | {r['fm']:.4f} | {r['cgal']:.4f} | {r['ratio']:.3f} | {py} "
                      f"| {r['mem_fm']:.0f} | {r['mem_cg']:.0f} | {r['m_fm']:,} | {r['m_cg']:,} "
                      f"| {'yes' if r['same'] else 'NO'} |")
+    if fm is not None and not args.only:
+        lines += [""] + tin_section(fm, args.runs)
     text = "\n".join(lines) + "\n"
     print(text)
     if not args.no_write and not args.only:
