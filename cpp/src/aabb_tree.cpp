@@ -128,6 +128,7 @@ void AabbTree::build(const Box2* boxes, std::size_t n) {
     boxes_.clear();
     index_.clear();
     rank_.clear();
+    root_ = Ref{detail::kEmptyBox, 0, 0};
     if (n == 0) return;
     if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
         throw std::invalid_argument("AabbTree: at most 2^31 - 1 boxes");
@@ -174,91 +175,62 @@ void AabbTree::build(const Box2* boxes, std::size_t n) {
         index_[i] = order[i];
         rank_[order[i]] = static_cast<std::int64_t>(i);
     }
-    nodes_.reserve(2 * (n / kLeafSize + 1));
-
-    // Depth-first build with an explicit stack; a node's box is filled in
-    // when both children are done (post-order pass below).
-    struct Item {
-        std::int32_t lo, hi, node;
-    };
-    std::vector<Item> stack;
-    nodes_.push_back(Node{detail::kEmptyBox, 0, static_cast<std::int32_t>(n), 1, 0});
-    stack.push_back({0, static_cast<std::int32_t>(n), 0});
-    while (!stack.empty()) {
-        const Item it = stack.back();
-        stack.pop_back();
-        if (it.hi - it.lo <= kLeafSize) {
-            Node& nd = nodes_[static_cast<std::size_t>(it.node)];
-            nd.leaf = 1;
-            nd.first = it.lo;
-            nd.second = it.hi;
-            continue;
-        }
-        const std::uint64_t c0 = code[static_cast<std::size_t>(it.lo)];
-        const std::uint64_t c1 = code[static_cast<std::size_t>(it.hi - 1)];
-        std::int32_t split;
-        if (c0 == c1) {
-            split = it.lo + (it.hi - it.lo) / 2;
-        } else {
-            // First position whose code has the highest differing bit set.
-            const int bit = 63 - __builtin_clzll(c0 ^ c1);
-            const std::uint64_t prefix = (c0 >> bit) | 1;  // c1's prefix
-            std::int32_t lo = it.lo + 1, hi = it.hi - 1;
-            while (lo < hi) {
-                const std::int32_t mid = lo + (hi - lo) / 2;
-                if ((code[static_cast<std::size_t>(mid)] >> bit) >= prefix)
-                    hi = mid;
-                else
-                    lo = mid + 1;
-            }
-            split = lo;
-        }
-        const auto left = static_cast<std::int32_t>(nodes_.size());
-        nodes_.push_back(Node{detail::kEmptyBox, 0, 0, 1, 0});
-        const auto right = static_cast<std::int32_t>(nodes_.size());
-        nodes_.push_back(Node{detail::kEmptyBox, 0, 0, 1, 0});
-        Node& nd = nodes_[static_cast<std::size_t>(it.node)];
-        nd.leaf = 0;
-        nd.first = left;
-        nd.second = right;
-        stack.push_back({split, it.hi, right});
-        stack.push_back({it.lo, split, left});
-    }
-    // Children always have larger indices than their parent: one backward
-    // pass computes every box after its children's.
-    for (std::size_t i = nodes_.size(); i-- > 0;) {
-        Node& nd = nodes_[i];
-        if (nd.leaf) {
-            Box2 b = detail::kEmptyBox;
-            for (std::int32_t j = nd.first; j < nd.second; ++j)
-                b = detail::join(b, boxes_[static_cast<std::size_t>(j)]);
-            nd.box = b;
-        } else {
-            nd.box = detail::join(nodes_[static_cast<std::size_t>(nd.first)].box,
-                                  nodes_[static_cast<std::size_t>(nd.second)].box);
-        }
-    }
+    nodes_.reserve(n / kLeafSize + 1);
+    root_ = build_range(0, static_cast<std::int32_t>(n), code);
     if (depth() > 120) throw std::logic_error("AabbTree: tree deeper than the query stack");
 }
 
-Box2 AabbTree::bounds() const { return nodes_.empty() ? detail::kEmptyBox : nodes_[0].box; }
-
-int AabbTree::depth() const {
-    if (nodes_.empty()) return 0;
-    int best = 0;
-    std::vector<std::pair<std::int32_t, int>> stack{{0, 1}};
-    while (!stack.empty()) {
-        auto [i, d] = stack.back();
-        stack.pop_back();
-        best = std::max(best, d);
-        const Node& nd = nodes_[static_cast<std::size_t>(i)];
-        if (!nd.leaf) {
-            stack.push_back({nd.first, d + 1});
-            stack.push_back({nd.second, d + 1});
-        }
+// Depth-first build over the Morton-sorted range [lo, hi): a node's index is
+// reserved before its children's, so the layout is pre-order. Recursion depth
+// is the tree depth (<= 64 bit levels + log2 n middle splits).
+AabbTree::Ref AabbTree::build_range(std::int32_t lo, std::int32_t hi, const std::vector<std::uint64_t>& code) {
+    if (hi - lo <= kLeafSize) {
+        Box2 b = detail::kEmptyBox;
+        for (std::int32_t j = lo; j < hi; ++j) b = detail::join(b, boxes_[static_cast<std::size_t>(j)]);
+        return {b, lo, hi - lo};
     }
-    return best;
+    const std::uint64_t c0 = code[static_cast<std::size_t>(lo)];
+    const std::uint64_t c1 = code[static_cast<std::size_t>(hi - 1)];
+    std::int32_t split;
+    if (c0 == c1) {
+        split = lo + (hi - lo) / 2;
+    } else {
+        // First position whose code has the highest differing bit set.
+        const int bit = 63 - __builtin_clzll(c0 ^ c1);
+        const std::uint64_t prefix = (c0 >> bit) | 1;  // c1's prefix
+        std::int32_t a = lo + 1, b = hi - 1;
+        while (a < b) {
+            const std::int32_t mid = a + (b - a) / 2;
+            if ((code[static_cast<std::size_t>(mid)] >> bit) >= prefix)
+                b = mid;
+            else
+                a = mid + 1;
+        }
+        split = a;
+    }
+    const auto self = static_cast<std::int32_t>(nodes_.size());
+    nodes_.push_back(Node{});
+    const Ref l = build_range(lo, split, code);
+    const Ref r = build_range(split, hi, code);
+    Node& nd = nodes_[static_cast<std::size_t>(self)];
+    nd.box[0] = l.box;
+    nd.box[1] = r.box;
+    nd.ref[0] = l.ref;
+    nd.ref[1] = r.ref;
+    nd.cnt[0] = l.cnt;
+    nd.cnt[1] = r.cnt;
+    return {detail::join(l.box, r.box), self, 0};
 }
+
+Box2 AabbTree::bounds() const { return index_.empty() ? detail::kEmptyBox : root_.box; }
+
+int AabbTree::depth_of(std::int32_t ref, std::int32_t cnt) const {
+    if (cnt > 0) return 1;
+    const Node& nd = nodes_[static_cast<std::size_t>(ref)];
+    return 1 + std::max(depth_of(nd.ref[0], nd.cnt[0]), depth_of(nd.ref[1], nd.cnt[1]));
+}
+
+int AabbTree::depth() const { return index_.empty() ? 0 : depth_of(root_.ref, root_.cnt); }
 
 void AabbTree::query(const Box2& q, std::vector<std::int64_t>& out) const {
     visit(q, [&](std::int64_t i) { out.push_back(i); });
@@ -267,7 +239,7 @@ void AabbTree::query(const Box2& q, std::vector<std::int64_t>& out) const {
 std::vector<std::uint32_t> AabbTree::batch_order(const Box2* queries, std::size_t n_queries) const {
     std::vector<std::uint32_t> order(n_queries);
     for (std::size_t i = 0; i < n_queries; ++i) order[i] = static_cast<std::uint32_t>(i);
-    if (n_queries < 64 || nodes_.empty()) return order;
+    if (n_queries < 64 || index_.empty()) return order;
     // 16 bits per axis over the tree's bounds is plenty to group neighbours.
     const Box2 b = bounds();
     const double sx = b.xmax > b.xmin ? 65535.0 / (b.xmax - b.xmin) : 0.0;
@@ -300,7 +272,18 @@ Csr AabbTree::gather(std::vector<std::int64_t>& hits, std::vector<std::int64_t>&
         auto src = hits.begin() + start[j];
         auto dst = r.indices.begin() + r.offsets[j];
         std::copy(src, src + count[j], dst);
-        if (sorted) std::sort(dst, dst + count[j]);
+        if (!sorted) continue;
+        if (count[j] <= 24) {
+            // Typical answers are short: insertion sort beats introsort's setup.
+            for (std::int64_t a = 1; a < count[j]; ++a) {
+                const std::int64_t x = dst[a];
+                std::int64_t b = a;
+                for (; b > 0 && dst[b - 1] > x; --b) dst[b] = dst[b - 1];
+                dst[b] = x;
+            }
+        } else {
+            std::sort(dst, dst + count[j]);
+        }
     }
     return r;
 }

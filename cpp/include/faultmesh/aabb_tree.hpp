@@ -46,7 +46,7 @@ struct Csr {
 
 class AabbTree {
 public:
-    static constexpr int kLeafSize = 4;
+    static constexpr int kLeafSize = 8;
 
     AabbTree() = default;
 
@@ -71,7 +71,8 @@ public:
     Box2 bounds() const;
     // Box of primitive i (caller's numbering).
     Box2 box(std::size_t i) const { return boxes_[rank_[i]]; }
-    // Number of nodes and depth of the tree (for tests and benchmarks).
+    // Number of internal nodes and depth (levels, leaves included) of the
+    // tree, for tests and benchmarks.
     std::size_t node_count() const { return nodes_.size(); }
     int depth() const;
 
@@ -126,17 +127,25 @@ private:
     static Csr gather(std::vector<std::int64_t>& hits, std::vector<std::int64_t>& start,
                       std::vector<std::int64_t>& count, bool sorted);
 
+    // A binary node stores the boxes of its two children, so a child whose
+    // box misses the query is rejected without being fetched. A child is an
+    // internal node (cnt == 0, ref = node index) or a leaf (cnt primitives
+    // starting at position ref of the tree order).
     struct Node {
+        Box2 box[2];
+        std::int32_t ref[2];
+        std::int32_t cnt[2];
+    };
+    struct Ref {
         Box2 box;
-        // Internal node: children are `first` and `second` (node indices).
-        // Leaf: primitives [first, second) in tree order, flagged by leaf == 1.
-        std::int32_t first, second;
-        std::int32_t leaf;
-        std::int32_t pad_;
+        std::int32_t ref, cnt;
     };
     void build(const Box2* boxes, std::size_t n);
+    Ref build_range(std::int32_t lo, std::int32_t hi, const std::vector<std::uint64_t>& code);
+    int depth_of(std::int32_t ref, std::int32_t cnt) const;
 
     std::vector<Node> nodes_;
+    Ref root_{{0, 0, 0, 0}, 0, 0};
     std::vector<Box2> boxes_;          // primitive boxes in tree order
     std::vector<std::int64_t> index_;  // tree order -> caller's index
     std::vector<std::int64_t> rank_;   // caller's index -> tree order
@@ -152,22 +161,10 @@ bool triangle_meets_box(const double* a, const double* b, const double* c, const
 // ------------------------------------------------------------- inline
 template <class F>
 void AabbTree::visit(const Box2& q, F&& f) const {
-    if (nodes_.empty() || !(q.xmin <= q.xmax) || !(q.ymin <= q.ymax)) return;
-    std::int32_t stack[128];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-        const Node& nd = nodes_[static_cast<std::size_t>(stack[--top])];
-        if (!boxes_meet(nd.box, q)) continue;
-        if (nd.leaf) {
-            for (std::int32_t i = nd.first; i < nd.second; ++i)
-                if (boxes_meet(boxes_[static_cast<std::size_t>(i)], q))
-                    f(index_[static_cast<std::size_t>(i)]);
-        } else {
-            stack[top++] = nd.second;
-            stack[top++] = nd.first;
-        }
-    }
+    (void)any_of(q, [&](std::int64_t i) {
+        f(i);
+        return false;
+    });
 }
 
 template <class Keep>
@@ -175,6 +172,7 @@ Csr AabbTree::query_filtered(const Box2* queries, std::size_t n_queries, Keep&& 
                              bool sorted) const {
     const std::vector<std::uint32_t> order = batch_order(queries, n_queries);
     std::vector<std::int64_t> hits, start(n_queries), count(n_queries);
+    hits.reserve(8 * n_queries);
     for (std::uint32_t j : order) {
         start[j] = static_cast<std::int64_t>(hits.size());
         visit(queries[j], [&](std::int64_t i) {
@@ -187,21 +185,27 @@ Csr AabbTree::query_filtered(const Box2* queries, std::size_t n_queries, Keep&& 
 
 template <class F>
 bool AabbTree::any_of(const Box2& q, F&& pred) const {
-    if (nodes_.empty() || !(q.xmin <= q.xmax) || !(q.ymin <= q.ymax)) return false;
+    if (index_.empty() || !(q.xmin <= q.xmax) || !(q.ymin <= q.ymax) || !boxes_meet(root_.box, q))
+        return false;
+    auto leaf = [&](std::int32_t first, std::int32_t cnt) {
+        for (std::int32_t i = first; i < first + cnt; ++i)
+            if (boxes_meet(boxes_[static_cast<std::size_t>(i)], q) && pred(index_[static_cast<std::size_t>(i)]))
+                return true;
+        return false;
+    };
+    if (root_.cnt > 0) return leaf(root_.ref, root_.cnt);
     std::int32_t stack[128];
     int top = 0;
-    stack[top++] = 0;
+    stack[top++] = root_.ref;
     while (top > 0) {
         const Node& nd = nodes_[static_cast<std::size_t>(stack[--top])];
-        if (!boxes_meet(nd.box, q)) continue;
-        if (nd.leaf) {
-            for (std::int32_t i = nd.first; i < nd.second; ++i)
-                if (boxes_meet(boxes_[static_cast<std::size_t>(i)], q) &&
-                    pred(index_[static_cast<std::size_t>(i)]))
-                    return true;
-        } else {
-            stack[top++] = nd.second;
-            stack[top++] = nd.first;
+        for (int c = 1; c >= 0; --c) {
+            if (!boxes_meet(nd.box[c], q)) continue;
+            if (nd.cnt[c] > 0) {
+                if (leaf(nd.ref[c], nd.cnt[c])) return true;
+            } else {
+                stack[top++] = nd.ref[c];
+            }
         }
     }
     return false;
