@@ -220,6 +220,24 @@ def test_workflow_layer_operations_on_claudius(data_dir):
     check_tin(lower)
 
 
+def test_set_z_rule_one_of_the_crossing_repair(data_dir):
+    """Rule 1: lower vertices above the upper surface take its elevation."""
+    layers = claudius(data_dir)
+    upper, lower = fm.Tin(layers["60.0"]), fm.Tin(layers["250.0"] + [0.0, 0.0, 400.0])
+    tri = lower.triangles
+    z_up = upper.interpolate(lower.vertices[:, :2])
+    above = np.flatnonzero(lower.z > z_up)
+    assert len(above) > 0
+    lower.set_z(above, z_up[above])
+    assert np.array_equal(lower.triangles, tri)
+    assert np.all(~(lower.z > z_up))
+    assert np.array_equal(lower.interpolate(lower.vertices[above, :2]), z_up[above])
+    with pytest.raises(ValueError, match="Tin.set_z: vertex index -1 at entry 0 is out of range"):
+        lower.set_z([-1], [0.0])
+    with pytest.raises(ValueError, match="one value per vertex"):
+        lower.set_z([0, 1], [0.0])
+
+
 # ---------------------------------------------------------------- contract
 
 

@@ -124,6 +124,34 @@ void bind_delaunay(py::module_& m) {
             "row maps to (a new vertex, or the existing vertex with the same XY, whose z is\n"
             "kept). Raises ValueError for NaN/inf before changing anything.")
         .def(
+            "set_z",
+            [](PyTin& t, const py::handle& vertices, const py::handle& z) {
+                IndexArray v = IndexArray::ensure(vertices);
+                DoubleArray zz = DoubleArray::ensure(z);
+                if (!v || v.ndim() != 1)
+                    throw std::invalid_argument("Tin.set_z: vertices must be a 1-D int64 array");
+                if (!zz || zz.ndim() != 1 || zz.shape(0) != v.shape(0))
+                    throw std::invalid_argument("Tin.set_z: z must be a 1-D float64 array with one value per "
+                                                "vertex index (" + std::to_string(v.shape(0)) + ")");
+                const std::size_t n = static_cast<std::size_t>(v.shape(0));
+                py::gil_scoped_release release;
+                std::unique_lock<std::shared_mutex> lock(t.mu);
+                t.tin.set_z(v.data(), zz.data(), n);
+            },
+            py::arg("vertices"), py::arg("z"),
+            "Sets the z of the given vertices (int64 (k,)) to z (float64 (k,)); XY and the\n"
+            "triangles are unchanged. Raises ValueError for an index out of range (naming it),\n"
+            "before changing anything.")
+        .def_property_readonly(
+            "z",
+            [](const PyTin& t) {
+                auto v = read_locked(t, [](const Tin& tin) { return tin.vertices(); });
+                std::vector<double> z(v.size() / 3);
+                for (std::size_t i = 0; i < z.size(); ++i) z[i] = v[3 * i + 2];
+                return to_numpy(std::move(z));
+            },
+            "float64 (n,): the z of each vertex (a fresh copy; change it with set_z).")
+        .def(
             "locate",
             [](const PyTin& t, const py::handle& xy) {
                 auto pts = as_points(xy, "Tin.locate", "xy", 2, 3);

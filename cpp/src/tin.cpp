@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "delaunay_core.hpp"
 #include "spatial_sort.hpp"
@@ -168,6 +170,19 @@ std::vector<std::int64_t> Tin::insert(const double* xyz, std::size_t n) {
     std::vector<std::int32_t> dup_of;
     detail::insert_batch(T.core, xyz, 3, n, input_of_id, dup_of);
     return T.assign(xyz, n, first, input_of_id, dup_of);
+}
+
+void Tin::set_z(const std::int64_t* vertices, const double* z, std::size_t n) {
+    detail::TinImpl& T = *impl_;
+    const std::int64_t nv = static_cast<std::int64_t>(T.xyz.size() / 3);
+    for (std::size_t i = 0; i < n; ++i)
+        if (vertices[i] < 0 || vertices[i] >= nv)
+            throw std::invalid_argument("Tin.set_z: vertex index " + std::to_string(vertices[i]) + " at entry " +
+                                        std::to_string(i) + " is out of range [0, " + std::to_string(nv) + ")");
+    for (std::size_t i = 0; i < n; ++i) T.xyz[3 * static_cast<std::size_t>(vertices[i]) + 2] = z[i];
+    // The engine-order copy of z: every id of a vertex (its duplicates too).
+    for (std::size_t id = 0; id < T.z_of_id.size(); ++id)
+        T.z_of_id[id] = T.xyz[3 * static_cast<std::size_t>(T.tin_of_id[id]) + 2];
 }
 
 std::size_t Tin::n_vertices() const { return impl_->xyz.size() / 3; }

@@ -234,3 +234,21 @@ TEST(Tin, ClaudiusHorizonGrownEqualsRebuilt) {
     EXPECT_EQ(tri_set(grown.triangles()), tri_set(whole.triangles()));
     EXPECT_EQ(geo_set(grown), geo_set(whole));
 }
+
+TEST(Tin, SetZChangesHeightsNotTriangles) {
+    const auto pts = random_xyz(300, 6, 0, 10);
+    fm::Tin tin(pts.data(), 300);
+    const auto tri = tin.triangles();
+    const std::int64_t idx[3] = {0, 5, 0};
+    const double z[3] = {1.0, 2.0, 3.0};
+    tin.set_z(idx, z, 3);
+    EXPECT_EQ(tin.triangles(), tri);
+    const auto v = tin.vertices();
+    EXPECT_EQ(v[2], 3.0) << "later entry wins";
+    EXPECT_EQ(v[3 * 5 + 2], 2.0);
+    const double q[2] = {v[0], v[1]};
+    EXPECT_EQ(tin.interpolate(q, 1)[0], 3.0) << "interpolation sees the new z";
+    const std::int64_t bad[2] = {1, 300};
+    EXPECT_THROW(tin.set_z(bad, z, 2), std::invalid_argument);
+    EXPECT_EQ(tin.vertices()[3 * 1 + 2], v[3 * 1 + 2]) << "nothing changed on error";
+}

@@ -54,6 +54,12 @@ public:
     // Throws std::invalid_argument for a NaN/inf x or y before changing anything.
     std::vector<std::int64_t> insert(const double* xyz, std::size_t n);
 
+    // Sets the z of n vertices (vertices[i] gets z[i]; later entries win for a
+    // repeated vertex). The triangulation depends on XY only and is unchanged.
+    // Throws std::invalid_argument naming the entry if an index is out of
+    // range, before changing anything.
+    void set_z(const std::int64_t* vertices, const double* z, std::size_t n);
+
     std::size_t n_vertices() const;
     std::size_t n_triangles() const;
     // For each point of the constructor's input: the vertex it maps to.
