@@ -122,12 +122,12 @@ def run_cgal(exe: Path, mode: str, files: list[Path], out: str = "-") -> dict:
 
 
 def run_fm(xy, tri, q, exact: bool):
-    t0 = time.perf_counter()
+    c0, t0 = time.process_time(), time.perf_counter()
     tree = faultmesh.AabbTree(xy, tri)
     t1 = time.perf_counter()
     off, idx = tree.query(q, exact=exact)
-    t2 = time.perf_counter()
-    return t1 - t0, t2 - t1, off, idx
+    t2, c2 = time.perf_counter(), time.process_time()
+    return t1 - t0, t2 - t1, c2 - c0, off, idx
 
 
 def machine() -> str:
@@ -178,17 +178,19 @@ def main() -> int:
             write(files[2], q, "<f8")
             for mode, exact, label in (("tree", True, "AABB_tree, exact triangle/box hits"),
                                        ("boxd", False, "box_intersection_d, box/box hits")):
-                fb, fq, cb, cq, ct = [], [], [], [], []
+                fb, fq, cb, cq, ct, fcpu, ccpu = [], [], [], [], [], [], []
                 same = True
                 for r in range(args.runs):
-                    b, s, off, idx = run_fm(xy, tri, q, exact)
+                    b, s, c, off, idx = run_fm(xy, tri, q, exact)
                     fb.append(b)
                     fq.append(s)
+                    fcpu.append(c)
                     out = str(tmp / "cg.hits") if (r == 0 and mode == "tree") else "-"
                     j = run_cgal(exe, mode, files, out)
                     cb.append(j["seconds_build"])
                     cq.append(j["seconds_query"])
                     ct.append(j["seconds"])
+                    ccpu.append(j["cpu_seconds_build"] + j["cpu_seconds_query"])
                     hits_cg = j["hits"]
                     if out != "-":
                         a = np.fromfile(out, dtype="<i8")
@@ -200,8 +202,10 @@ def main() -> int:
                 row = dict(name=name, mode=label, m=len(tri), q=len(q),
                            fb=statistics.median(fb), fq=statistics.median(fq), ft=statistics.median(ft),
                            cb=statistics.median(cb), cq=statistics.median(cq), ct=statistics.median(ct),
+                           fcpu=statistics.median(fcpu), ccpu=statistics.median(ccpu),
                            hits_fm=hits_fm, hits_cg=hits_cg, same=same)
                 row["ratio"] = row["ft"] / row["ct"]
+                row["ratio_cpu"] = row["fcpu"] / row["ccpu"]
                 rows.append(row)
                 print(f"{name} [{mode}]: faultmesh {row['ft']:.3f} s, CGAL {row['ct']:.3f} s, "
                       f"ratio {row['ratio']:.3f}, hits {hits_fm} / {hits_cg}, agree={same}",
@@ -226,13 +230,18 @@ def main() -> int:
         "CGAL times are measured inside bench/cgal/cgal_aabb.cpp (Release), excluding file I/O;",
         "its build step includes making the Triangle_3 (resp. Box_d) objects from the index arrays.",
         "",
+        "Wall-clock columns are medians of each step; the CPU columns are medians of the process",
+        "CPU time of build + query (less disturbed by other load on a shared machine).",
+        "",
         "| data | triangles | queries | CGAL analogue | fm build s | fm query s | fm total s "
-        "| CGAL build s | CGAL query s | CGAL total s | ratio fm/CGAL | hits fm | hits CGAL | agree |",
-        "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---:|",
+        "| CGAL build s | CGAL query s | CGAL total s | ratio fm/CGAL | fm CPU s | CGAL CPU s "
+        "| ratio CPU | hits fm | hits CGAL | agree |",
+        "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---:|",
     ]
     for r in rows:
         lines.append(f"| {r['name']} | {r['m']:,} | {r['q']:,} | {r['mode']} | {r['fb']:.3f} | {r['fq']:.3f} "
                      f"| {r['ft']:.3f} | {r['cb']:.3f} | {r['cq']:.3f} | {r['ct']:.3f} | {r['ratio']:.3f} "
+                     f"| {r['fcpu']:.3f} | {r['ccpu']:.3f} | {r['ratio_cpu']:.3f} "
                      f"| {r['hits_fm']:,} | {r['hits_cg']:,} | {'yes' if r['same'] else 'NO'} |")
     text = "\n".join(lines) + "\n"
     print(text)

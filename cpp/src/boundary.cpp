@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
@@ -83,16 +84,19 @@ EdgeCount count_edges(const std::int64_t* tri, std::size_t m, std::size_t n) {
         ++start[std::min(c, a) + 1];
     }
     for (std::size_t v = 0; v < n; ++v) start[v + 1] += start[v];
-    std::vector<std::uint32_t> entry(3 * m);
+    // Every slot is written by the placing pass: no zero-initialisation.
+    std::unique_ptr<std::uint32_t[]> entry(new std::uint32_t[3 * m + 1]);
     {
-        std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-        std::uint32_t* E = entry.data();
-        std::uint32_t* F = fill.data();
+        std::unique_ptr<std::uint32_t[]> fill(new std::uint32_t[n + 1]);
+        std::copy(start.begin(), start.end(), fill.get());
+        std::uint32_t* E = entry.get();
+        std::uint32_t* F = fill.get();
+        // Branch-free: the direction is random in a TIN, a branch on u < v
+        // would be mispredicted half the time.
         auto put = [E, F](std::uint32_t u, std::uint32_t v) {
-            if (u < v)
-                E[F[u]++] = (v << 1) | 1u;
-            else
-                E[F[v]++] = u << 1;
+            const std::uint32_t lt = u < v;
+            const std::uint32_t key = lt ? u : v, other = lt ? v : u;
+            E[F[key]++] = (other << 1) | lt;
         };
         for (std::size_t t = 0; t < m; ++t) {
             const auto a = static_cast<std::uint32_t>(tri[3 * t]);
@@ -120,10 +124,10 @@ EdgeCount count_edges(const std::int64_t* tri, std::size_t m, std::size_t n) {
         dst.push_back(static_cast<std::int64_t>(v));
         dst.push_back(static_cast<std::int64_t>(other));
     };
-    const std::uint32_t* E = entry.data();
+    const std::uint32_t* E = entry.get();
     for (std::size_t v = 0; v < n; ++v) {
         const std::size_t s = start[v], d = start[v + 1] - s;
-        std::uint32_t* b = entry.data() + s;
+        std::uint32_t* b = entry.get() + s;
         if (d <= 32) {
             for (std::size_t i = 0; i < d; ++i) {
                 const std::uint32_t o = E[s + i] >> 1;
