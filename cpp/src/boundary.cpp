@@ -85,12 +85,13 @@ EdgeCount count_edges(const std::int64_t* tri, std::size_t m, std::size_t n) {
     }
     for (std::size_t v = 0; v < n; ++v) start[v + 1] += start[v];
     // Every slot is written by the placing pass: no zero-initialisation.
+    // The placing pass advances start[v] itself (no separate fill array: a
+    // smaller working set for the random accesses); afterwards bucket v is
+    // [start[v-1], start[v]) with start[-1] = 0, and start is shifted back.
     std::unique_ptr<std::uint32_t[]> entry(new std::uint32_t[3 * m + 1]);
     {
-        std::unique_ptr<std::uint32_t[]> fill(new std::uint32_t[n + 1]);
-        std::copy(start.begin(), start.end(), fill.get());
         std::uint32_t* E = entry.get();
-        std::uint32_t* F = fill.get();
+        std::uint32_t* F = start.data();
         // Branch-free: the direction is random in a TIN, a branch on u < v
         // would be mispredicted half the time.
         auto put = [E, F](std::uint32_t u, std::uint32_t v) {
@@ -106,6 +107,8 @@ EdgeCount count_edges(const std::int64_t* tri, std::size_t m, std::size_t n) {
             put(b, c);
             put(c, a);
         }
+        for (std::size_t v = n; v > 0; --v) start[v] = start[v - 1];
+        start[0] = 0;
     }
     auto emit_boundary = [&](std::size_t v, std::uint32_t e) {
         const auto o = static_cast<std::int64_t>(e >> 1);
