@@ -83,3 +83,22 @@ def test_gap_rings_and_cgal_on_a_polygon_with_a_hole(cgal_gap):
     tris, info = compare.run_cgal(cgal_gap, [(V, rings)], repeat=1)
     assert len(tris[0]) == 8 and info[0]["vertices"] == 8
     assert compare._canon(tris[0]) == compare._canon(tri)
+
+
+def test_builtin_dataset_gaps_equal_cgal(cgal_gap):
+    """The comparison's key checks on the built-in dataset (bench/compare.py
+    with one run): every gap of build_model's model has CGAL's triangle count,
+    the quality-order gaps are CGAL's CDT, and the paper-order gaps are the
+    same polygons (same counts)."""
+    res = compare.compare(faultmesh.datasets.paper_like(0), repeat=1, cgal_exe=cgal_gap)
+    ch = res["checks"]
+    assert ch["gaps"] >= 7
+    assert ch["counts_equal_cgal"], ch["mismatches"]
+    assert ch["identical_to_cgal"] == ch["gaps"]
+    assert ch["quality_not_worse_than_cgal"], ch["worse"]
+    for row in res["rows"]:
+        if "quality" in row:
+            assert row["paper"]["triangles"] == row["quality"]["triangles"] == row["cgal"]["triangles"]
+        assert "cutting" in row  # every faultmesh gap has its cutting counterpart
+    md = compare.markdown(res, "python bench/compare.py", "x.png")
+    assert "Table 1" in md and "Machine:" in md and "Date:" in md

@@ -211,3 +211,34 @@ def test_cut_surface_and_fault_displacement():
 
     assert fault_displacement(F, "c8") == pytest.approx(((-6 - 4) + (-8 - 2)) / 2)
     assert fault_displacement(F, "c10") is None
+
+
+def test_cut_model_on_the_built_in_dataset():
+    """The baseline on paper_like: every fault cuts the layers its traces
+    interpret, F22 (a boundary fault) cuts every layer up to the study-area
+    boundary (one tip, not two), and the cut surfaces stay conforming and
+    counter-clockwise."""
+    from faultmesh.cutting import continuous_layers, cut_model
+
+    ds = faultmesh.datasets.paper_like(0)
+    m = cut_model(ds)
+    cont = continuous_layers(ds)
+    pairs = {(g.fault, g.layer) for g in m.gaps}
+    for f in ds.faults:
+        for layer in ds.layers:
+            assert ((f.name, layer) in pairs) == (fault_displacement(f, layer) is not None)
+    for g in m.gaps:
+        assert g.metadata["created"] > 0 and g.metadata["line_points"] >= 2
+        if g.fault == "F22":
+            assert g.metadata["split"] == 1, g.layer
+            assert g.metadata["displacement"] < 0  # normal fault: hanging wall down
+        if g.fault in ("2F4", "2F1"):
+            assert g.metadata["displacement"] > 0  # reverse
+    for name, s in m.surfaces.items():
+        o = faultmesh.orient2d(*(s.vertices[s.triangles[:, k], :2] for k in range(3)))
+        assert np.all(o > 0), name
+        assert max(edge_counts(s.triangles).values()) <= 2
+        # XY area unchanged by cutting (the crack has no area).
+        area = lambda S: 0.5 * np.sum(faultmesh.orient2d(
+            *(S.vertices[S.triangles[:, k], :2] for k in range(3))))
+        assert area(s) == pytest.approx(area(cont[name]), rel=1e-12)

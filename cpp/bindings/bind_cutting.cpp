@@ -10,7 +10,7 @@ void bind_cutting(py::module_& m) {
         "cut_layer",
         [](const py::handle& layer_vertices, const py::handle& layer_triangles, const py::handle& fault_vertices,
            const py::handle& fault_triangles, double displacement, double taper_length, bool refine,
-           const std::string& order, double min_edge_fraction) {
+           const std::string& order, double min_edge_fraction, double extension) {
             const char* fn = "cut_layer";
             DoubleArray lv = as_points(layer_vertices, fn, "layer_vertices", 3, 3);
             IndexArray lt = as_indices(layer_triangles, fn, "layer_triangles", 3);
@@ -20,6 +20,7 @@ void bind_cutting(py::module_& m) {
             opt.displacement = displacement;
             opt.taper_length = taper_length;
             opt.min_edge_fraction = min_edge_fraction;
+            opt.extension = extension;
             opt.triangulation.refine = refine;
             if (order == "quality")
                 opt.triangulation.order = EarOrder::quality;
@@ -55,7 +56,7 @@ void bind_cutting(py::module_& m) {
         },
         py::arg("layer_vertices"), py::arg("layer_triangles"), py::arg("fault_vertices"),
         py::arg("fault_triangles"), py::kw_only(), py::arg("displacement") = 0.0, py::arg("taper_length") = 0.0,
-        py::arg("refine") = true, py::arg("order") = "quality", py::arg("min_edge_fraction") = 1e-3,
+        py::arg("refine") = true, py::arg("order") = "quality", py::arg("min_edge_fraction") = 1e-3, py::arg("extension") = 0.0,
         "Cut a layer TIN along its intersection line with a fault surface (the\n"
         "surface-cutting baseline of the paper's comparison, not faultmesh's method).\n\n"
         "layer_vertices (n, 3), layer_triangles (m, 3) counter-clockwise in XY;\n"
@@ -64,7 +65,9 @@ void bind_cutting(py::module_& m) {
         "(ear clipping, refine=True: constrained Delaunay), the line's vertices are\n"
         "doubled and the hanging-wall copies (the side above the fault) get\n"
         "z += displacement * weight, the weight growing from 0 at a tip over\n"
-        "taper_length. Returns a dict: vertices (n', 3) (input vertices first),\n"
+        "taper_length. extension: on the layer's boundary edges, crossings up to this XY\n"
+        "distance outside the fault's projection are cut too (a fault surface ending just\n"
+        "short of the study-area boundary still cuts to it). Returns a dict: vertices (n', 3) (input vertices first),\n"
         "triangles (m', 3), created (row indices of the new triangles), removed and\n"
         "split (input rows replaced), line_offsets / footwall_line / hanging_line /\n"
         "line_weight (the intersection polylines, hanging wall on the left), and the\n"

@@ -71,8 +71,9 @@ public:
     bool empty() const { return live_.empty(); }
     const Box2& bounds() const { return bounds_; }
 
-    // F at p (x, y); `inside` tells whether p is in F's closed projection.
-    double z_at(const double* p, bool& inside) const {
+    // F at p (x, y); `inside` tells whether p is in F's closed projection, or
+    // within `tol` (XY distance) of it.
+    double z_at(const double* p, bool& inside, double tol = 0.0) const {
         Index best = -1;
         const Box2 q{p[0], p[1], p[0], p[1]};
         tree_.visit(q, [&](std::int64_t k) {
@@ -81,7 +82,11 @@ public:
             if (contains(t, p)) best = t;
         });
         inside = best >= 0;
-        if (!inside) best = nearest_boundary_triangle(p);
+        if (!inside) {
+            double d2 = 0.0;
+            best = nearest_boundary_triangle(p, d2);
+            inside = d2 <= tol * tol;
+        }
         return plane_z(best, p);
     }
 
@@ -106,8 +111,8 @@ private:
         return (wa * a[2] + wb * b[2] + wc * c[2]) / area;
     }
 
-    Index nearest_boundary_triangle(const double* p) const {
-        double best = std::numeric_limits<double>::infinity();
+    Index nearest_boundary_triangle(const double* p, double& best) const {
+        best = std::numeric_limits<double>::infinity();
         Index owner = live_.front();
         for (const auto& e : boundary_) {
             const double* a = xyz_ + 3 * e.a;
@@ -142,6 +147,7 @@ struct Edge {
     Index a, b;           // vertex indices, a < b
     bool crossed = false;  // end points on different sides
     bool active = false;   // crossing point inside the fault's projection
+    bool border = false;   // an edge of a single triangle: the layer's boundary
     double t = 0.0;        // crossing parameter from a to b
     double p[3] = {0, 0, 0};
     Index point = -1;      // index of the line point placed on this edge
@@ -181,6 +187,9 @@ CutResult cut_layer(const double* layer_xyz, std::size_t n_layer_vertices, const
                                     std::to_string(options.min_edge_fraction));
     if (!std::isfinite(options.displacement) || std::isnan(options.taper_length))
         throw std::invalid_argument("cut_layer: displacement and taper_length must be finite numbers");
+    if (!(options.extension >= 0.0) || !std::isfinite(options.extension))
+        throw std::invalid_argument("cut_layer: extension must be a finite number >= 0, got " +
+                                    std::to_string(options.extension));
 
     CutResult out;
     out.vertices.assign(layer_xyz, layer_xyz + 3 * n_layer_vertices);
@@ -200,7 +209,11 @@ CutResult cut_layer(const double* layer_xyz, std::size_t n_layer_vertices, const
     // ---- 1. Examined triangles: XY box meets the fault's XY box. Every
     // triangle that holds an active crossing point does (the point is in the
     // fault's projection), so nothing outside this set can be cut or split.
-    const Box2 fb = field.bounds();
+    Box2 fb = field.bounds();
+    fb.xmin -= options.extension;
+    fb.ymin -= options.extension;
+    fb.xmax += options.extension;
+    fb.ymax += options.extension;
     std::vector<Index> cand;
     for (std::size_t t = 0; t < n_layer_triangles; ++t) {
         const double* a = vx(T[3 * t]);
@@ -239,6 +252,7 @@ CutResult cut_layer(const double* layer_xyz, std::size_t n_layer_vertices, const
         Edge e;
         e.a = he[i].first.first;
         e.b = he[i].first.second;
+        e.border = j - i == 1;
         const Index id = static_cast<Index>(edges.size());
         edges.push_back(e);
         for (std::size_t q = i; q < j; ++q) edge_of[he[q].second] = id;
@@ -270,6 +284,15 @@ CutResult cut_layer(const double* layer_xyz, std::size_t n_layer_vertices, const
 
     // ---- 4. Crossing points on the edges whose end points differ in side.
     const double frac = options.min_edge_fraction;
+    // A crossing point on a line that also carries an edge of the fault's
+    // outline (a fault cut off by the study-area boundary: both meshes have
+    // edges on the boundary side) lands a few ulps off that edge, on either
+    // side. 2^-40 of the coordinates' magnitude (4 micrometres at 4e6 m) is
+    // far above such rounding and far below any modelling distance; a point
+    // that close to the fault's projection counts as inside it.
+    const double on_fault_tol =
+        std::ldexp(std::max({std::fabs(fb.xmin), std::fabs(fb.xmax), std::fabs(fb.ymin), std::fabs(fb.ymax), 1.0}),
+                   -40);
     for (Edge& e : edges) {
         const bool ha = hanging(e.a), hb = hanging(e.b);
         if (ha == hb) continue;
@@ -306,7 +329,7 @@ CutResult cut_layer(const double* layer_xyz, std::size_t n_layer_vertices, const
         e.t = t;
         for (int c = 0; c < 3; ++c) e.p[c] = a[c] + t * (b[c] - a[c]);
         bool inside = false;
-        field.z_at(e.p, inside);
+        field.z_at(e.p, inside, on_fault_tol + (e.border ? options.extension : 0.0));
         e.active = inside;
     }
 

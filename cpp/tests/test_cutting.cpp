@@ -301,6 +301,38 @@ TEST(Cutting, FaultThroughTheWholeAreaSplitsTheLayer) {
     EXPECT_EQ(nc, 2);
 }
 
+TEST(Cutting, ExtensionCarriesTheLineToTheStudyBoundary) {
+    // The fault stops 0.5 m short of the layer's north border (y = 100).
+    const Mesh layer = layer_grid(12, 100.0, kLayerZ, 5);
+    const Mesh fault = fault_grid(20.0, 99.5, 8, 10.0, -120.0, 4, kPlane60);
+    CutOptions opt;
+    opt.displacement = -3.0;
+    const CutResult r0 = cut(layer, fault, opt);
+    check_cut(layer, r0, opt.displacement, 0.0);
+    EXPECT_EQ(r0.split.size(), 2u);  // a tip at each end: the border crossing lies outside the fault
+    opt.extension = 1.0;
+    const CutResult r1 = cut(layer, fault, opt);
+    check_cut(layer, r1, opt.displacement, 0.0);
+    ASSERT_EQ(r1.split.size(), 1u);  // only the southern tip is left
+    ASSERT_EQ(r1.line_offsets.size(), 2u);
+    const Index f = r1.footwall_line.back(), h = r1.hanging_line.back();
+    const Index f0 = r1.footwall_line.front(), h0 = r1.hanging_line.front();
+    // The northern end is on the border, with two copies.
+    const bool north_last = r1.vertices[3 * f + 1] > 99.9;
+    EXPECT_TRUE(north_last ? f != h : f0 != h0);
+    EXPECT_NEAR(north_last ? r1.vertices[3 * f + 1] : r1.vertices[3 * f0 + 1], 100.0, 1e-9);
+    // Line ends inside the layer are not extended: the same southern tip.
+    auto south = [](const CutResult& r) {
+        Index best = r.footwall_line.front();
+        for (Index v : r.footwall_line)
+            if (r.vertices[3 * v + 1] < r.vertices[3 * best + 1]) best = v;
+        return std::make_pair(r.vertices[3 * best], r.vertices[3 * best + 1]);
+    };
+    EXPECT_EQ(south(r0), south(r1));
+    opt.extension = -1.0;
+    EXPECT_THROW(cut(layer, fault, opt), std::invalid_argument);
+}
+
 TEST(Cutting, BentFaultAndCoarseFaultMesh) {
     // A listric-like fault (dip steepening upward) with a strike bend.
     const Mesh layer = layer_grid(24, 100.0, kLayerZ, 9);

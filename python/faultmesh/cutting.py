@@ -25,11 +25,11 @@ import numpy as np
 from ._core import cut_layer
 from .model import Gap, Model, Surface
 
-__all__ = ["cut_surface", "fault_displacement", "cut_surfaces", "cut_model"]
+__all__ = ["cut_surface", "fault_displacement", "cut_surfaces", "continuous_layers", "cut_model"]
 
 
 def cut_surface(layer: Surface, fault: Surface, *, displacement: float = 0.0,
-                taper_length: float = 0.0, refine: bool = True,
+                taper_length: float = 0.0, extension: float = 0.0, refine: bool = True,
                 order: str = "quality") -> Tuple[Surface, Dict[str, object]]:
     """Cut one layer surface by one fault surface.
 
@@ -38,7 +38,7 @@ def cut_surface(layer: Surface, fault: Surface, *, displacement: float = 0.0,
     rows, the intersection polylines, ...)."""
     r = cut_layer(layer.vertices, layer.triangles, fault.vertices, fault.triangles,
                   displacement=float(displacement), taper_length=float(taper_length),
-                  refine=refine, order=order)
+                  extension=float(extension), refine=refine, order=order)
     out = Surface(layer.name, r["vertices"], r["triangles"], kind=layer.kind,
                   metadata=dict(layer.metadata))
     return out, r
@@ -63,8 +63,8 @@ def fault_displacement(fault, layer: str) -> Optional[float]:
 
 def cut_surfaces(layers: Mapping[str, Surface],
                  cuts: Iterable[Tuple[str, Surface, Mapping[str, float]]], *,
-                 taper_length: float = 0.0, refine: bool = True, order: str = "quality"
-                 ) -> Tuple[Dict[str, Surface], List[Gap]]:
+                 taper_length: float = 0.0, extension: float = 0.0, refine: bool = True,
+                 order: str = "quality") -> Tuple[Dict[str, Surface], List[Gap]]:
     """Cut layer surfaces by faults, one fault after another.
 
     ``cuts``: (fault name, fault surface, {layer: displacement}) in cutting
@@ -91,7 +91,7 @@ def cut_surfaces(layers: Mapping[str, Surface],
                                  f"which is not among {list(out)}")
             t0 = time.perf_counter()
             surf, r = cut_surface(out[lname], fsurf, displacement=dz, taper_length=taper_length,
-                                  refine=refine, order=order)
+                                  extension=extension, refine=refine, order=order)
             sec = time.perf_counter() - t0
             keep = np.ones(out[lname].n_triangles, dtype=bool)
             keep[np.asarray(r["removed"], dtype=np.int64)] = False
@@ -114,29 +114,48 @@ def cut_surfaces(layers: Mapping[str, Surface],
     return out, gaps
 
 
+def continuous_layers(dataset, *, spacing: Optional[float] = None, repair: bool = True,
+                      max_repair_rounds: int = 50) -> Dict[str, Surface]:
+    """The continuous layer surfaces of ``dataset``, before any fault: steps 2
+    and 3 of :func:`faultmesh.build_model` (stratum TINs covering the study
+    area, layer-crossing repair), built with the same code and defaults, so the
+    cutting baseline starts from the surfaces faultmesh stitches into."""
+    from .build import LayerTin, _ccw_ring, repair_crossings
+
+    ring = _ccw_ring(dataset.boundary)
+    layers = list(dataset.layers)
+    tins = {lay: LayerTin(lay, dataset.layer_points(lay), ring, spacing) for lay in layers}
+    if repair:
+        for up, lo in zip(layers[:-1], layers[1:]):
+            repair_crossings(tins[up], tins[lo], max_repair_rounds)
+    return {lay: Surface(lay, *tins[lay].mesh(), kind="layer") for lay in layers}
+
+
 def cut_model(dataset, *, layers: Optional[Mapping[str, Surface]] = None,
               faults: Optional[Mapping[str, Surface]] = None, taper_length: float = 150.0,
-              refine: bool = True, order: str = "quality") -> Model:
+              extension: float = 100.0, refine: bool = True, order: str = "quality") -> Model:
     """The cutting baseline on a dataset: its continuous layers cut by its faults.
 
-    ``layers`` (name -> continuous layer surface) and ``faults`` (name -> fault
-    surface) default to the ones faultmesh's own workflow builds
-    (:func:`faultmesh.workflow.continuous_layers` and
-    :func:`faultmesh.workflow.fault_surfaces`), so both methods start from the
-    same surfaces. Faults are applied in dataset order, each to the layers its
-    traces interpret, with the displacement of :func:`fault_displacement`
-    tapered over ``taper_length`` metres from the line's tips. Returns a
-    :class:`~faultmesh.model.Model` whose ``gaps`` are the cuts (see
-    :func:`cut_surfaces`) and whose ``metadata["seconds"]`` is the time of all
-    cuts (surfaces given or built are not counted).
+    ``layers`` (name -> continuous layer surface) defaults to
+    :func:`continuous_layers`; ``faults`` (name -> fault surface) to the fault
+    surfaces :func:`faultmesh.build_model` lofts from the fault-plane traces,
+    so both methods start from the same surfaces. Faults are applied in
+    dataset order (the members of a T-crossing group one after the other),
+    each to the layers its traces interpret, with the displacement of
+    :func:`fault_displacement` tapered over ``taper_length`` metres from the
+    line's tips. A fault surface that ends within ``extension`` metres of the
+    study-area boundary cuts the layer up to it (``CutOptions::extension``;
+    faultmesh's own workflow likewise carries such faults to the boundary).
+    Returns a :class:`~faultmesh.model.Model` whose ``gaps`` are
+    the cuts (see :func:`cut_surfaces`) and whose ``metadata["seconds"]`` is
+    the time of all cuts (building the surfaces it starts from not counted).
     """
-    if layers is None or faults is None:
-        from . import workflow
+    if layers is None:
+        layers = continuous_layers(dataset)
+    if faults is None:
+        from .build import build_model
 
-        if layers is None:
-            layers = workflow.continuous_layers(dataset)
-        if faults is None:
-            faults = workflow.fault_surfaces(dataset)
+        faults = build_model(dataset, evaluate=False).faults
     cuts = []
     for f in dataset.faults:
         if f.name not in faults:
@@ -148,11 +167,13 @@ def cut_model(dataset, *, layers: Optional[Mapping[str, Surface]] = None,
                 disp[lname] = dz
         cuts.append((f.name, faults[f.name], disp))
     t0 = time.perf_counter()
-    cut, gaps = cut_surfaces(layers, cuts, taper_length=taper_length, refine=refine, order=order)
+    cut, gaps = cut_surfaces(layers, cuts, taper_length=taper_length, extension=extension,
+                             refine=refine, order=order)
     seconds = time.perf_counter() - t0
     boundary = getattr(dataset, "boundary", None)
     return Model(name=f"{dataset.name} (cutting baseline)", surfaces=cut, faults=dict(faults),
                  boundary=None if boundary is None else np.asarray(boundary, dtype=np.float64),
                  crs=getattr(dataset, "crs", ""), gaps=gaps, truth=getattr(dataset, "truth", None),
                  metadata={"method": "cutting baseline", "taper_length": taper_length,
+                           "extension": extension,
                            "refine": refine, "order": order, "seconds": seconds})

@@ -28,7 +28,8 @@
 // min_edge_fraction of the edge length away from both end points so that no
 // zero-length edge is created. Its z is the layer's (the point lies on the
 // layer). A crossing is active iff its point lies in F's closed XY
-// projection: beyond the fault's lateral ends (tips) the extended planes give
+// projection (on the layer's boundary edges: or within CutOptions::extension
+// of it): beyond the fault's lateral ends (tips) the extended planes give
 // signs but the layer is not cut. A layer triangle with both of its
 // sign-change edges active is cut (the affected set R); the line through it
 // is the segment between its two crossing points. Consecutive cut triangles
@@ -84,6 +85,14 @@ struct CutOptions {
     // from the edge's end points (1e-3: the point moves by at most 0.1 % of
     // the edge, and no edge shorter than that is created).
     double min_edge_fraction = 1e-3;
+    // A crossing point on a boundary edge of the layer (the study-area
+    // boundary) that lies outside the fault's XY projection but within this
+    // XY distance of it is active too (the fault continued by the planes of
+    // its boundary triangles): a fault surface that ends just short of the
+    // study-area boundary, or does not reach the layer's depth there, still
+    // cuts the layer up to the boundary. Line ends inside the layer (tips)
+    // are not affected. 0: the projection only.
+    double extension = 0.0;
     // How each face is triangulated (default: quality ear order + CDT flips).
     EarClipOptions triangulation{};
 };
