@@ -265,7 +265,7 @@ def markdown(res: Dict[str, object], loc: List[Dict[str, object]], command: str)
         "| step | seconds |",
         "|---|---:|",
         f"| `faultmesh.delaunay` of the points (reference) | {r['delaunay_s']:.3f} |",
-        f"| stitcher set-up (adjacency, AABB tree) | {r['build_s']:.3f} |",
+        f"| `faultmesh.Stitcher` set-up on the TIN (with its half-edges) | {r['build_s']:.3f} |",
         f"| {r['faults']} stitches | {r['stitch_sum_s']:.3f} |",
         f"| compacted mesh | {r['mesh_s']:.3f} |",
         f"| **stitching total** | **{r['total_s']:.3f}** |",
