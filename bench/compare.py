@@ -561,9 +561,11 @@ def main(argv=None) -> int:
         {"machine": machine(), "command": command, "date": _dt.date.today().isoformat(),
          **_jsonable(res)}, indent=2))
     if args.docs:
+        # docs/bench/*.md are concatenated into docs/benchmarks.md
+        # (bench/collect_docs.py): the image path is relative to docs/.
         d = ROOT / "docs" / "bench"
         d.mkdir(parents=True, exist_ok=True)
-        (d / "compare.md").write_text(md)
+        (d / "compare.md").write_text(markdown(res, command, "bench/" + png))
         plot(res, d / png)
     print(md)
     ok = res["checks"]["counts_equal_cgal"]
