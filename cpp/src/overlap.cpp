@@ -8,6 +8,7 @@
 #include <cmath>
 #include <deque>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -337,60 +338,88 @@ void check_mesh(const double* V, std::size_t n, std::size_t stride, const std::i
 
 // ------------------------------------------------------------ mesh topology
 struct Topo {
-    std::vector<std::int64_t> nbr;        // 3 per triangle: across edge (t[e], t[e+1]), -1 = none
+    std::vector<std::int32_t> nbr;        // 3 per triangle: across edge (t[e], t[e+1]), -1 = none
     std::vector<char> boundary_vertex;    // on a mesh-boundary edge
-    std::vector<std::int64_t> vt_start;   // vertex -> triangles (CSR)
-    std::vector<std::int64_t> vt;
+    std::vector<std::uint32_t> degree;    // number of triangles at each vertex
 };
 
+// Edge adjacency by the same counting sort as boundary.cpp: half-edges go to
+// the bucket of their smaller vertex (an 8-byte entry: other vertex, half-edge
+// id), and each bucket is matched with an O(d^2) scan (d is about six in a
+// TIN; large buckets are sorted).
 Topo build_topo(const std::int64_t* T, std::size_t m, std::size_t n) {
+    if (m > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()) / 3 ||
+        n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+        throw std::invalid_argument(std::string(kFn) + ": grow_to_disk supports up to 715827882 triangles");
     Topo topo;
     topo.nbr.assign(3 * m, -1);
-    // Half-edges bucketed by their smaller vertex (counting sort).
-    std::vector<std::int64_t> start(n + 1, 0);
-    for (std::size_t h = 0; h < 3 * m; ++h) {
-        const std::int64_t u = T[h], v = T[h % 3 == 2 ? h - 2 : h + 1];
-        ++start[static_cast<std::size_t>(std::min(u, v)) + 1];
+    topo.degree.assign(n, 0);
+    std::vector<std::uint32_t> start(n + 1, 0);
+    for (std::size_t t = 0; t < m; ++t) {
+        const auto a = static_cast<std::uint32_t>(T[3 * t]), b = static_cast<std::uint32_t>(T[3 * t + 1]),
+                   c = static_cast<std::uint32_t>(T[3 * t + 2]);
+        ++start[std::min(a, b) + 1];
+        ++start[std::min(b, c) + 1];
+        ++start[std::min(c, a) + 1];
+        ++topo.degree[a];
+        ++topo.degree[b];
+        ++topo.degree[c];
     }
     for (std::size_t v = 0; v < n; ++v) start[v + 1] += start[v];
-    std::vector<std::pair<std::int64_t, std::int64_t>> ent(3 * m);  // (other, h)
-    {
-        std::vector<std::int64_t> fill(start.begin(), start.end() - 1);
-        for (std::size_t h = 0; h < 3 * m; ++h) {
-            const std::int64_t u = T[h], v = T[h % 3 == 2 ? h - 2 : h + 1];
-            ent[static_cast<std::size_t>(fill[static_cast<std::size_t>(std::min(u, v))]++)] = {
-                std::max(u, v), static_cast<std::int64_t>(h)};
-        }
+    std::unique_ptr<std::uint64_t[]> ent(new std::uint64_t[3 * m + 1]);  // other << 32 | h
+    for (std::size_t h = 0; h < 3 * m; ++h) {
+        const auto u = static_cast<std::uint64_t>(T[h]), v = static_cast<std::uint64_t>(T[h % 3 == 2 ? h - 2 : h + 1]);
+        const std::uint64_t key = u < v ? u : v, other = u < v ? v : u;
+        ent[start[key]++] = (other << 32) | h;
     }
+    for (std::size_t v = n; v > 0; --v) start[v] = start[v - 1];
+    start[0] = 0;
     topo.boundary_vertex.assign(n, 0);
+    auto fail = [&](std::size_t v, std::uint64_t other, std::size_t cnt) {
+        throw GeometryError(std::string(kFn) + ": grow_to_disk needs a manifold mesh, but edge (" +
+                            std::to_string(v) + ", " + std::to_string(other) + ") is used by " +
+                            std::to_string(cnt) + " triangles");
+    };
     for (std::size_t v = 0; v < n; ++v) {
-        auto* b = ent.data() + start[v];
-        auto* e = ent.data() + start[v + 1];
-        std::sort(b, e);
-        for (auto* i = b; i < e;) {
-            auto* j = i + 1;
-            while (j < e && j->first == i->first) ++j;
-            if (j - i == 2) {
-                topo.nbr[static_cast<std::size_t>(i->second)] = (i + 1)->second / 3;
-                topo.nbr[static_cast<std::size_t>((i + 1)->second)] = i->second / 3;
-            } else if (j - i == 1) {
-                topo.boundary_vertex[v] = 1;
-                topo.boundary_vertex[static_cast<std::size_t>(i->first)] = 1;
-            } else {
-                throw GeometryError(std::string(kFn) + ": grow_to_disk needs a manifold mesh, but edge (" +
-                                    std::to_string(v) + ", " + std::to_string(i->first) + ") is used by " +
-                                    std::to_string(j - i) + " triangles");
+        std::uint64_t* b = ent.get() + start[v];
+        const std::size_t d = start[v + 1] - start[v];
+        if (d > 32) {
+            // Fan centres: sort by other vertex, then runs are the edges.
+            std::sort(b, b + d);
+            for (std::size_t i = 0; i < d;) {
+                std::size_t j = i + 1;
+                while (j < d && (b[j] >> 32) == (b[i] >> 32)) ++j;
+                if (j - i == 1) {
+                    topo.boundary_vertex[v] = 1;
+                    topo.boundary_vertex[static_cast<std::size_t>(b[i] >> 32)] = 1;
+                } else if (j - i == 2) {
+                    topo.nbr[b[i] & 0xffffffffULL] = static_cast<std::int32_t>((b[i + 1] & 0xffffffffULL) / 3);
+                    topo.nbr[b[i + 1] & 0xffffffffULL] = static_cast<std::int32_t>((b[i] & 0xffffffffULL) / 3);
+                } else {
+                    fail(v, b[i] >> 32, j - i);
+                }
+                i = j;
             }
-            i = j;
+            continue;
+        }
+        for (std::size_t i = 0; i < d; ++i) {
+            const std::uint64_t o = b[i] >> 32;
+            std::size_t cnt = 0, partner = i;
+            for (std::size_t j = 0; j < d; ++j)
+                if ((b[j] >> 32) == o) {
+                    ++cnt;
+                    if (j != i) partner = j;
+                }
+            if (cnt == 1) {
+                topo.boundary_vertex[v] = 1;
+                topo.boundary_vertex[static_cast<std::size_t>(o)] = 1;
+            } else if (cnt == 2) {
+                topo.nbr[b[i] & 0xffffffffULL] = static_cast<std::int32_t>((b[partner] & 0xffffffffULL) / 3);
+            } else {
+                fail(v, o, cnt);
+            }
         }
     }
-    topo.vt_start.assign(n + 1, 0);
-    for (std::size_t h = 0; h < 3 * m; ++h) ++topo.vt_start[static_cast<std::size_t>(T[h]) + 1];
-    for (std::size_t v = 0; v < n; ++v) topo.vt_start[v + 1] += topo.vt_start[v];
-    topo.vt.resize(3 * m);
-    std::vector<std::int64_t> fill(topo.vt_start.begin(), topo.vt_start.end() - 1);
-    for (std::size_t h = 0; h < 3 * m; ++h)
-        topo.vt[static_cast<std::size_t>(fill[static_cast<std::size_t>(T[h])]++)] = static_cast<std::int64_t>(h / 3);
     return topo;
 }
 
@@ -426,7 +455,10 @@ private:
     bool fill_kept_components();
     void check_mesh_boundary() const;
     // The star of v in fan order; cyclic tells whether it closes.
-    bool star(std::int64_t v, std::vector<std::int64_t>& fan, bool& cyclic) const;
+    // The star of v (t0: a triangle at v) in fan order; cyclic tells whether
+    // it closes. False if the triangles at v are not one fan (a pinch of the
+    // mesh itself).
+    bool star(std::int64_t v, std::int64_t t0, std::vector<std::int64_t>& fan, bool& cyclic) const;
     long euler() const;
 
     const double* V_;
@@ -529,11 +561,10 @@ bool Grower::join_components() {
     }
 }
 
-bool Grower::star(std::int64_t v, std::vector<std::int64_t>& fan, bool& cyclic) const {
-    const auto b = topo_.vt_start[static_cast<std::size_t>(v)], e = topo_.vt_start[static_cast<std::size_t>(v) + 1];
+bool Grower::star(std::int64_t v, std::int64_t t0, std::vector<std::int64_t>& fan, bool& cyclic) const {
+    const std::size_t deg = topo_.degree[static_cast<std::size_t>(v)];
     fan.clear();
     cyclic = false;
-    if (b == e) return true;
     // In triangle t, the edge index of {v, w}, and the third vertex.
     auto edge_to = [&](std::int64_t t, std::int64_t w) {
         for (int k = 0; k < 3; ++k) {
@@ -547,7 +578,6 @@ bool Grower::star(std::int64_t v, std::vector<std::int64_t>& fan, bool& cyclic) 
             if (vtx(t, k) != v && vtx(t, k) != w) return vtx(t, k);
         return std::int64_t{-1};
     };
-    const std::int64_t t0 = topo_.vt[static_cast<std::size_t>(b)];
     std::int64_t w0 = -1;
     for (int k = 0; k < 3; ++k)
         if (vtx(t0, k) != v) {
@@ -565,7 +595,7 @@ bool Grower::star(std::int64_t v, std::vector<std::int64_t>& fan, bool& cyclic) 
             if (u < 0) return false;
             if (u == t0) return true;
             out.push_back(u);
-            if (out.size() > static_cast<std::size_t>(e - b)) return false;
+            if (out.size() > deg) return false;
             came = x;
             t = u;
         }
@@ -584,28 +614,31 @@ bool Grower::star(std::int64_t v, std::vector<std::int64_t>& fan, bool& cyclic) 
         fan.push_back(t0);
         fan.insert(fan.end(), fwd.begin(), fwd.end());
     }
-    return fan.size() == static_cast<std::size_t>(e - b);
+    return fan.size() == deg;
 }
 
 // Around each vertex on S's boundary, S and the kept triangles must each be
 // at most one fan; the smaller gaps are absorbed into S.
 bool Grower::fix_pinches() {
     changed_ = false;
-    std::vector<std::int64_t> verts;
+    // (vertex, a triangle of S at it) for the vertices of S's boundary edges.
+    std::vector<std::pair<std::int64_t, std::int64_t>> verts;
     for (std::int64_t t : members_)
         for (int e = 0; e < 3; ++e) {
             const std::int64_t u = nb(t, e);
             if (u >= 0 && in_[static_cast<std::size_t>(u)]) continue;
-            verts.push_back(vtx(t, e));
-            verts.push_back(vtx(t, (e + 1) % 3));
+            verts.push_back({vtx(t, e), t});
+            verts.push_back({vtx(t, (e + 1) % 3), t});
         }
     std::sort(verts.begin(), verts.end());
-    verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+    verts.erase(std::unique(verts.begin(), verts.end(),
+                            [](const auto& x, const auto& y) { return x.first == y.first; }),
+                verts.end());
     std::vector<std::int64_t> fan;
     std::vector<std::int64_t> to_add;
-    for (std::int64_t v : verts) {
+    for (const auto& [v, t0] : verts) {
         bool cyclic;
-        if (!star(v, fan, cyclic))
+        if (!star(v, t0, fan, cyclic))
             throw GeometryError(std::string(kFn) + ": grow_to_disk needs a manifold mesh, but vertex " +
                                 std::to_string(v) + " is a pinch of the mesh itself (its triangles form "
                                 "more than one fan)");
