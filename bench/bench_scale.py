@@ -320,12 +320,13 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     md = markdown(res, loc, command)
     (args.out / "scale.md").write_text(md)
-    (args.out / "scale.json").write_text(json.dumps(
-        {"machine": machine(), "command": command, "date": _dt.date.today().isoformat(),
-         "result": res, "locality": loc}, indent=2))
+    doc = json.dumps({"machine": machine(), "command": command, "date": _dt.date.today().isoformat(),
+                      "result": res, "locality": loc}, indent=2)
+    (args.out / "scale.json").write_text(doc)
     if args.docs:
         (ROOT / "docs" / "bench").mkdir(parents=True, exist_ok=True)
         (ROOT / "docs" / "bench" / "scale.md").write_text(md)
+        (ROOT / "docs" / "bench" / "scale.json").write_text(doc)
     print(md)
     return 0
 

@@ -28,7 +28,7 @@ the quality-order shares are not above CGAL's.
 Output in ``--out`` (default ``bench/results/compare``): ``compare.md``,
 ``compare.json`` and ``compare_min_angles.png`` (histogram and cumulative
 distribution of the smallest angle per method); ``--docs`` also writes
-``docs/bench/compare.md`` and ``docs/bench/compare_min_angles.png``.
+``docs/bench/compare.md``, ``compare.json`` and ``compare_min_angles.png``.
 """
 from __future__ import annotations
 
@@ -557,15 +557,16 @@ def main(argv=None) -> int:
     plot(res, args.out / png)
     md = markdown(res, command, png)
     (args.out / "compare.md").write_text(md)
-    (args.out / "compare.json").write_text(json.dumps(
-        {"machine": machine(), "command": command, "date": _dt.date.today().isoformat(),
-         **_jsonable(res)}, indent=2))
+    doc = json.dumps({"machine": machine(), "command": command, "date": _dt.date.today().isoformat(),
+                      **_jsonable(res)}, indent=2)
+    (args.out / "compare.json").write_text(doc)
     if args.docs:
         # docs/bench/*.md are concatenated into docs/benchmarks.md
         # (bench/collect_docs.py): the image path is relative to docs/.
         d = ROOT / "docs" / "bench"
         d.mkdir(parents=True, exist_ok=True)
         (d / "compare.md").write_text(markdown(res, command, "bench/" + png))
+        (d / "compare.json").write_text(doc)
         plot(res, d / png)
     print(md)
     ok = res["checks"]["counts_equal_cgal"]

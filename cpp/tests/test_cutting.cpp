@@ -16,6 +16,7 @@
 #include <random>
 #include <set>
 #include <stdexcept>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -389,6 +390,31 @@ TEST(Cutting, NoCrossingLeavesTheLayerUnchanged) {
     const Mesh vertical = fault_grid(20.0, 80.0, 3, 0.0, -100.0, 2, [](double, double) { return 50.0; });
     const CutResult rv = cut(layer, vertical, {});
     EXPECT_EQ(rv.triangles, layer.tri);
+}
+
+TEST(Cutting, ClosedIntersectionLineIsAGeometryError) {
+    // A bowl-shaped layer and a gently dipping fault plane spanning the whole
+    // area: they meet in a closed curve, which the baseline does not support.
+    const Mesh layer = layer_grid(16, 100.0, [](double x, double y) {
+        return -60.0 + 0.01 * ((x - 50) * (x - 50) + (y - 50) * (y - 50));
+    });
+    Mesh fault;
+    for (int j = 0; j <= 4; ++j)
+        for (int i = 0; i <= 4; ++i) {
+            const double x = -10.0 + 30.0 * i, y = -10.0 + 30.0 * j;
+            fault.xyz.insert(fault.xyz.end(), {x, y, -45.0 + 0.02 * x});
+        }
+    for (int j = 0; j < 4; ++j)
+        for (int i = 0; i < 4; ++i) {
+            const Index a = j * 5 + i;
+            fault.tri.insert(fault.tri.end(), {a, a + 1, a + 6, a, a + 6, a + 5});
+        }
+    try {
+        cut(layer, fault);
+        FAIL() << "expected a GeometryError";
+    } catch (const faultmesh::GeometryError& e) {
+        EXPECT_NE(std::string(e.what()).find("closes on itself"), std::string::npos) << e.what();
+    }
 }
 
 TEST(Cutting, BadInputIsReported) {
