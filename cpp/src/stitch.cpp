@@ -579,16 +579,44 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
 
     StitchReport rep;
     // ---- 1. orientation and outline
+    // Each edge-connected component of the patch is oriented on its own so
+    // that its signed XY area is positive (its outer outline CCW): the pieces
+    // of a fault group may come lofted in opposite directions.
     {
-        double sum = 0.0;
+        std::vector<std::int64_t> parent(npt);
+        for (std::size_t t = 0; t < npt; ++t) parent[t] = static_cast<std::int64_t>(t);
+        auto find = [&](std::int64_t x) {
+            while (parent[static_cast<std::size_t>(x)] != x) {
+                parent[static_cast<std::size_t>(x)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
+                x = parent[static_cast<std::size_t>(x)];
+            }
+            return x;
+        };
+        std::unordered_map<std::uint64_t, std::int64_t> first;
+        first.reserve(3 * npt);
         for (std::size_t t = 0; t < npt; ++t)
-            sum += orient2d(P(ptri[3 * t]), P(ptri[3 * t + 1]), P(ptri[3 * t + 2]));
-        if (sum < 0.0) {
-            for (std::size_t t = 0; t < npt; ++t) std::swap(ptri[3 * t + 1], ptri[3 * t + 2]);
-            rep.patch_flipped = true;
-        } else if (sum == 0.0) {
-            throw GeometryError(fn + ": the patch has zero signed area in XY");
-        }
+            for (int k = 0; k < 3; ++k) {
+                const std::int64_t a = ptri[3 * t + k], b = ptri[3 * t + (k + 1) % 3];
+                const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) ^
+                                          static_cast<std::uint64_t>(std::max(a, b));
+                auto ins = first.emplace(key, static_cast<std::int64_t>(t));
+                if (!ins.second) {
+                    const std::int64_t x = find(ins.first->second), y = find(static_cast<std::int64_t>(t));
+                    if (x != y) parent[static_cast<std::size_t>(x)] = y;
+                }
+            }
+        std::unordered_map<std::int64_t, double> sum;
+        for (std::size_t t = 0; t < npt; ++t)
+            sum[find(static_cast<std::int64_t>(t))] +=
+                orient2d(P(ptri[3 * t]), P(ptri[3 * t + 1]), P(ptri[3 * t + 2]));
+        for (const auto& cs : sum)
+            if (cs.second == 0.0)
+                throw GeometryError(fn + ": a piece of the patch has zero signed area in XY");
+        for (std::size_t t = 0; t < npt; ++t)
+            if (sum[find(static_cast<std::int64_t>(t))] < 0.0) {
+                std::swap(ptri[3 * t + 1], ptri[3 * t + 2]);
+                rep.patch_flipped = true;
+            }
     }
     BoundaryContours bc = boundary_contours(ptri.data(), npt, npv);
     if (!bc.nonmanifold_edges.empty())

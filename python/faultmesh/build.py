@@ -270,14 +270,18 @@ class LayerTin:
 
     def _check_boundary_edges(self) -> None:
         T = self._triangles()
-        e = np.sort(np.vstack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1)
         n = len(self.z)
-        keys = set((e[:, 0] * n + e[:, 1]).tolist())
-        for s, t in self._bnext.items():
-            a, b = min(s, t), max(s, t)
-            if a * n + b not in keys:
-                raise GeometryError(f"build_model: layer {self.name!r}: the boundary piece "
-                                    f"({s}, {t}) is not an edge of the TIN")
+        e = np.sort(np.vstack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1)
+        keys = np.unique(e[:, 0] * n + e[:, 1])
+        s = np.array(list(self._bnext.keys()), dtype=np.int64)
+        t = np.array([self._bnext[k] for k in s], dtype=np.int64)
+        want = np.minimum(s, t) * n + np.maximum(s, t)
+        pos = np.minimum(np.searchsorted(keys, want), len(keys) - 1)
+        miss = np.flatnonzero(keys[pos] != want)
+        if miss.size:
+            i = int(miss[0])
+            raise GeometryError(f"build_model: layer {self.name!r}: the boundary piece "
+                                f"({s[i]}, {t[i]}) is not an edge of the TIN")
 
     def _triangles(self) -> np.ndarray:
         if self._cache is None:
@@ -415,7 +419,8 @@ def _piercing_edges(lower: LayerTin, upper: LayerTin, tol: float):
     """Lower-surface edges (a, b) that rise above the upper surface strictly
     between their endpoints, found at their crossings with the upper TIN's
     edges (where the difference of two piecewise-linear surfaces along a
-    segment can peak)."""
+    segment can peak). Returns (lower vertices, edges (k, 2), crossing of
+    largest violation per edge (k, 3) at the upper elevation)."""
     VL, TL = lower.mesh()
     VU, TU = upper.mesh()
     E = np.vstack([TL[:, [0, 1]], TL[:, [1, 2]], TL[:, [2, 0]]])
@@ -443,17 +448,29 @@ def _piercing_edges(lower: LayerTin, upper: LayerTin, tol: float):
     ok = (den != 0) & (t > 0) & (t < 1) & (u >= 0) & (u <= 1)
     zl = P[ok, 2] + t[ok] * (Q[ok, 2] - P[ok, 2])
     zu = a[ok, 2] + u[ok] * (b[ok, 2] - a[ok, 2])
-    bad = zl - zu > tol
-    edges = np.unique(ei[ok][bad])
-    return VL, E[edges]
+    viol = zl - zu
+    bad = viol > tol
+    e_ok = ei[ok][bad]
+    if len(e_ok) == 0:
+        return VL, E[:0], np.zeros((0, 3))
+    # Per piercing edge, the crossing of largest violation (on the upper
+    # edge, at the upper elevation).
+    v = viol[bad]
+    x = P[ok][bad, :2] + t[ok][bad, None] * r[ok][bad]
+    order = np.lexsort((-v, e_ok))
+    first = np.r_[True, e_ok[order][1:] != e_ok[order][:-1]]
+    sel = order[first]
+    cross = np.column_stack([x[sel], zu[bad][sel]])
+    return VL, E[e_ok[sel]], cross
 
 
 def repair_crossings(upper: LayerTin, lower: LayerTin, max_rounds: int = 50,
-                     tol: Optional[float] = None) -> Dict[str, int]:
+                     tol: Optional[float] = None, midpoint_rounds: int = 8) -> Dict[str, int]:
     """Make ``lower`` lie nowhere above ``upper`` (paper 3.2, Figure 6).
 
     Returns counts: rule1 (vertices lowered), rule1b (points supplemented
-    under upper vertices), rule2 (edge midpoints inserted), rounds.
+    under upper vertices), rule2 (edge midpoints inserted), rule2_crossing
+    (crossing points inserted after ``midpoint_rounds`` rounds), rounds.
     Raises GeometryError if crossings remain after ``max_rounds`` rounds.
     """
     if tol is None:
@@ -462,7 +479,7 @@ def repair_crossings(upper: LayerTin, lower: LayerTin, max_rounds: int = 50,
         # is far above that and far below any geological thickness.
         zs = max(1.0, float(np.abs(lower.z).max()), float(np.abs(upper.z).max()))
         tol = 1e-9 * zs
-    counts = {"rule1": 0, "rule1b": 0, "rule2": 0, "rounds": 0}
+    counts = {"rule1": 0, "rule1b": 0, "rule2": 0, "rule2_crossing": 0, "rounds": 0}
     for rnd in range(max_rounds):
         changed = False
         # Rule 1: lower vertices above the upper surface take its elevation.
@@ -484,13 +501,24 @@ def repair_crossings(upper: LayerTin, lower: LayerTin, max_rounds: int = 50,
             counts["rule1b"] += int(below.sum())
             changed = True
         # Rule 2: edges piercing the upper surface between their endpoints.
-        VL, E = _piercing_edges(lower, upper, tol)
+        # The paper inserts the edge's midpoint (at the lower of the two
+        # elevations). Where the upper surface is convex across an upper edge
+        # (a valley) and the lower one touches it, the chords keep piercing
+        # and midpoints only halve the violation each round; after
+        # `midpoint_rounds` rounds the crossing point itself (on the upper
+        # edge, at the upper elevation) is inserted, which resolves that
+        # crossing exactly.
+        VL, E, cross = _piercing_edges(lower, upper, tol)
         if len(E):
-            mid = 0.5 * (VL[E[:, 0]] + VL[E[:, 1]])
-            zu = upper.interpolate(mid[:, :2])
-            mid[:, 2] = np.fmin(mid[:, 2], zu)
-            lower.insert(mid)
-            counts["rule2"] += int(len(E))
+            if rnd < midpoint_rounds:
+                mid = 0.5 * (VL[E[:, 0]] + VL[E[:, 1]])
+                zu = upper.interpolate(mid[:, :2])
+                mid[:, 2] = np.fmin(mid[:, 2], zu)
+                lower.insert(mid)
+                counts["rule2"] += int(len(E))
+            else:
+                lower.insert(cross)
+                counts["rule2_crossing"] += int(len(E))
             changed = True
         counts["rounds"] = rnd + 1
         if not changed:
