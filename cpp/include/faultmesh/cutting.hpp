@@ -54,9 +54,10 @@
 // polygon whose vertices are R's boundary vertices and the line copies of its
 // own wall, and is triangulated by triangulate_polygon (ear clipping, and with
 // EarClipOptions::refine the constrained-Delaunay flips: the result is the
-// CDT of the face, the intersection line being a constraint). Only layer
-// vertices near the fault are classified and only the triangles whose XY box
-// meets the fault's XY box are examined.
+// CDT of the face, the intersection line being a constraint). Only the
+// triangles whose XY box meets the fault's XY box are examined and only their
+// vertices classified; the whole-mesh work is one scan of the triangles'
+// boxes and the copy into the result (a baseline, not tuned for scale).
 //
 // Errors: std::invalid_argument for indices out of range or non-finite
 // coordinates (naming the argument and row); GeometryError for a layer
