@@ -187,3 +187,45 @@ def test_gil_released_during_build_and_query():
     # Without releasing the GIL the main thread could only run between the
     # two C++ calls (a few switch intervals); released, it spins throughout.
     assert ticks > 1000
+
+
+def test_agrees_with_cgal(cgal_bin, tmp_path):
+    """Same triangles and boxes through CGAL (bench/cgal/cgal_aabb.cpp): the
+    AABB_tree answers (exact triangle/box hits) equal query(exact=True) query
+    by query, and box_intersection_d's pair count equals query()'s."""
+    import csv
+    import subprocess
+    from pathlib import Path
+
+    data = Path(__file__).resolve().parent / "data" / "claudius" / "claudius.csv"
+    xy = np.array([[float(r["X"]), float(r["Y"])] for r in csv.DictReader(open(data)) if r["val"] == "330.0"])
+    t = faultmesh.delaunay(xy)
+    rng = np.random.default_rng(8)
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    c = lo + rng.random((3000, 2)) * (hi - lo)
+    q = np.column_stack([c, c + rng.random((3000, 2)) * 200.0])
+    # Boxes whose corners are mesh vertices: exact contacts on both sides.
+    v = xy[rng.integers(0, len(xy), 500)]
+    q = np.vstack([q, np.column_stack([v, v + 50.0]), np.column_stack([v - 50.0, v])])
+
+    def write(name, a, dtype):
+        p = tmp_path / name
+        a = np.ascontiguousarray(a, dtype=dtype)
+        with open(p, "wb") as f:
+            f.write(np.int64(len(a)).tobytes())
+            f.write(a.tobytes())
+        return str(p)
+
+    files = [write("v.bin", xy, "<f8"), write("t.bin", t, "<i8"), write("q.bin", q, "<f8")]
+    tree = faultmesh.AabbTree(xy, t)
+    exe = str(cgal_bin("cgal_aabb"))
+    out = tmp_path / "hits.bin"
+    subprocess.run([exe, "tree", *files, str(out)], check=True, capture_output=True)
+    a = np.fromfile(out, dtype="<i8")
+    off, idx = tree.query(q, exact=True)
+    assert a[0] == idx.size
+    np.testing.assert_array_equal(a[1:2 + len(q)], off)
+    np.testing.assert_array_equal(a[2 + len(q):], idx)
+    r = subprocess.run([exe, "boxd", *files], check=True, capture_output=True, text=True)
+    import json
+    assert json.loads(r.stdout)["hits"] == tree.query(q)[1].size
