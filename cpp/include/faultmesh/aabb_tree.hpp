@@ -7,10 +7,15 @@
 // O(n)); the tree splits each range where the highest differing Morton bit
 // changes (a quadtree-aligned split, as in Karras' LBVH), and in the middle
 // of the range when all codes are equal. Leaves hold up to kLeafSize
-// primitives. Node boxes are the exact double unions of their primitives'
-// boxes, so the tree never loses a primitive to rounding. Build is
-// O(n log n) in the worst case (depth <= 64 + log2 n), O(n) for typical
-// inputs.
+// primitives. Each binary node stores the boxes of its two children (a child
+// whose box misses the query is never fetched); boxes are the exact double
+// unions of their primitives' boxes, so the tree never loses a primitive to
+// rounding. Build is O(n log n) in the worst case (depth <= 64 + log2 n),
+// O(n) for typical inputs. At most 2^31 - 1 primitives.
+//
+// Batched queries (query, query_filtered, ...) are processed in Morton order
+// of the query centres, so that consecutive queries reuse the cached nodes,
+// and their answers are returned in the caller's order.
 //
 // Query semantics: closed boxes. A primitive is reported for a query box Q
 // iff its box B meets Q: B.xmin <= Q.xmax && B.xmax >= Q.xmin &&
