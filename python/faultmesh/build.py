@@ -429,39 +429,47 @@ def _piercing_edges(lower: LayerTin, upper: LayerTin, tol: float):
     boxes = np.column_stack([np.minimum(p[:, 0], q[:, 0]), np.minimum(p[:, 1], q[:, 1]),
                              np.maximum(p[:, 0], q[:, 0]), np.maximum(p[:, 1], q[:, 1])])
     tree = AabbTree(VU, TU)
-    off, hit = tree.query(boxes)
-    off = np.asarray(off)
-    hit = np.asarray(hit)
-    ei = np.repeat(np.arange(len(E)), np.diff(off))
-    # Upper edges of the candidate triangles.
-    UE = np.stack([TU[hit][:, [0, 1]], TU[hit][:, [1, 2]], TU[hit][:, [2, 0]]], axis=1).reshape(-1, 2)
-    ei = np.repeat(ei, 3)
-    a, b = VU[UE[:, 0]], VU[UE[:, 1]]
-    P, Q = p[ei], q[ei]
-    r = Q[:, :2] - P[:, :2]
-    s = b[:, :2] - a[:, :2]
-    den = r[:, 0] * s[:, 1] - r[:, 1] * s[:, 0]
-    w = a[:, :2] - P[:, :2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (w[:, 0] * s[:, 1] - w[:, 1] * s[:, 0]) / den
-        u = (w[:, 0] * r[:, 1] - w[:, 1] * r[:, 0]) / den
-    ok = (den != 0) & (t > 0) & (t < 1) & (u >= 0) & (u <= 1)
-    zl = P[ok, 2] + t[ok] * (Q[ok, 2] - P[ok, 2])
-    zu = a[ok, 2] + u[ok] * (b[ok, 2] - a[ok, 2])
-    viol = zl - zu
-    bad = viol > tol
-    e_ok = ei[ok][bad]
-    if len(e_ok) == 0:
+    edges, crosses, viols = [], [], []
+    # Chunks bound the memory of the candidate pairs on large layers.
+    for c0 in range(0, len(E), 100_000):
+        c1 = min(len(E), c0 + 100_000)
+        off, hit = tree.query(boxes[c0:c1])
+        off = np.asarray(off)
+        hit = np.asarray(hit)
+        ei = c0 + np.repeat(np.arange(c1 - c0), np.diff(off))
+        # Upper edges of the candidate triangles.
+        UE = np.stack([TU[hit][:, [0, 1]], TU[hit][:, [1, 2]], TU[hit][:, [2, 0]]], axis=1).reshape(-1, 2)
+        ei = np.repeat(ei, 3)
+        a, b = VU[UE[:, 0]], VU[UE[:, 1]]
+        P, Q = p[ei], q[ei]
+        r = Q[:, :2] - P[:, :2]
+        sd = b[:, :2] - a[:, :2]
+        den = r[:, 0] * sd[:, 1] - r[:, 1] * sd[:, 0]
+        w = a[:, :2] - P[:, :2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (w[:, 0] * sd[:, 1] - w[:, 1] * sd[:, 0]) / den
+            u = (w[:, 0] * r[:, 1] - w[:, 1] * r[:, 0]) / den
+        ok = (den != 0) & (t > 0) & (t < 1) & (u >= 0) & (u <= 1)
+        zl = P[ok, 2] + t[ok] * (Q[ok, 2] - P[ok, 2])
+        zu = a[ok, 2] + u[ok] * (b[ok, 2] - a[ok, 2])
+        viol = zl - zu
+        bad = viol > tol
+        if bad.any():
+            edges.append(ei[ok][bad])
+            viols.append(viol[bad])
+            x = P[ok][bad, :2] + t[ok][bad, None] * r[ok][bad]
+            crosses.append(np.column_stack([x, zu[bad]]))
+    if not edges:
         return VL, E[:0], np.zeros((0, 3))
+    e_ok = np.concatenate(edges)
+    v = np.concatenate(viols)
+    xz = np.vstack(crosses)
     # Per piercing edge, the crossing of largest violation (on the upper
     # edge, at the upper elevation).
-    v = viol[bad]
-    x = P[ok][bad, :2] + t[ok][bad, None] * r[ok][bad]
     order = np.lexsort((-v, e_ok))
     first = np.r_[True, e_ok[order][1:] != e_ok[order][:-1]]
     sel = order[first]
-    cross = np.column_stack([x[sel], zu[bad][sel]])
-    return VL, E[e_ok[sel]], cross
+    return VL, E[e_ok[sel]], xz[sel]
 
 
 def repair_crossings(upper: LayerTin, lower: LayerTin, max_rounds: int = 50,
