@@ -43,6 +43,8 @@ struct DelaunayResult {
 // faultmesh::GeometryError if there are fewer than 3 distinct points or all
 // points are collinear. With with_halfedges = false the halfedges vector is
 // left empty (saves time and memory when only the triangles are needed).
+// (The exact predicates assume no underflow either: points whose coordinate
+// differences are non-zero but below about 1e-70 are outside their range.)
 DelaunayResult delaunay(const double* xy, std::size_t n, bool with_halfedges = true);
 
 }  // namespace faultmesh
