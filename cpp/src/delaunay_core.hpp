@@ -44,48 +44,9 @@ constexpr std::int32_t kInf = -1;  // the infinite vertex
 inline std::int32_t next_he(std::int32_t e) { return (e % 3 == 2) ? e - 2 : e + 1; }
 inline std::int32_t prev_he(std::int32_t e) { return (e % 3 == 0) ? e + 2 : e - 1; }
 
-// Lexicographic (x, then y) order: the order of CGAL's perturbation.
-inline bool lex_less(const double* a, const double* b) {
-    return a[0] < b[0] || (a[0] == b[0] && a[1] < b[1]);
-}
-
-// In-circle under symbolic perturbation, exactly as CGAL's
-// Triangulation_2::side_of_oriented_circle(p0, p1, p2, p, perturb = true):
-// (p0, p1, p2) counter-clockwise; returns true if p is inside. When the exact
-// incircle is 0, the points are lifted by infinitesimals ordered by their
-// lexicographic rank and the sign of the leading non-vanishing term decides:
-// the largest point is tried first; if it is p, p is outside; otherwise the
-// orientation of the other three (with p in its place) decides unless it is 0,
-// in which case the next largest point is tried. Pointers identify the points,
-// so the four must be distinct vertices.
-inline bool incircle_perturbed_degenerate(const double* p0, const double* p1, const double* p2,
-                                          const double* p) {
-    const double* s[4] = {p0, p1, p2, p};
-    // Insertion sort of 4 pointers by lexicographic order of their points.
-    for (int i = 1; i < 4; ++i) {
-        const double* v = s[i];
-        int j = i - 1;
-        while (j >= 0 && lex_less(v, s[j])) {
-            s[j + 1] = s[j];
-            --j;
-        }
-        s[j + 1] = v;
-    }
-    for (int i = 3; i > 0; --i) {
-        if (s[i] == p) return false;
-        double o;
-        if (s[i] == p2 && (o = orient2d(p0, p1, p)) != 0.0) return o > 0.0;
-        if (s[i] == p1 && (o = orient2d(p0, p, p2)) != 0.0) return o > 0.0;
-        if (s[i] == p0 && (o = orient2d(p, p1, p2)) != 0.0) return o > 0.0;
-    }
-    return false;  // unreachable for a non-degenerate (p0, p1, p2)
-}
-
+// The conflict test of the cavity: faultmesh::incircle_perturbed (predicates.hpp).
 inline bool incircle_perturbed(const double* p0, const double* p1, const double* p2, const double* p) {
-    const double d = incircle(p0, p1, p2, p);
-    if (d > 0.0) return true;
-    if (d < 0.0) return false;
-    return incircle_perturbed_degenerate(p0, p1, p2, p);
+    return faultmesh::incircle_perturbed(p0, p1, p2, p) > 0;
 }
 
 // A growable int32 buffer without per-push capacity bookkeeping of

@@ -22,9 +22,6 @@ constexpr const char* kFn = "overlapping_triangles";
 
 // ------------------------------------------------------------ exact helpers
 inline bool same_point(const double* p, const double* q) { return p[0] == q[0] && p[1] == q[1]; }
-inline bool lex_less(const double* p, const double* q) {
-    return p[0] < q[0] || (p[0] == q[0] && p[1] < q[1]);
-}
 
 // r strictly between p and q, given that p, q, r are collinear and p != q.
 inline bool strictly_between(const double* p, const double* q, const double* r) {

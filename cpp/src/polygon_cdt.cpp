@@ -11,10 +11,6 @@ namespace faultmesh {
 
 namespace {
 
-inline bool lex_less(const double* p, const double* q) {
-    return p[0] < q[0] || (p[0] == q[0] && p[1] < q[1]);
-}
-
 // Undirected edge key; vertex indices are checked to fit in 32 bits.
 inline std::uint64_t edge_key(std::int64_t a, std::int64_t b) {
     if (a > b) std::swap(a, b);
@@ -90,25 +86,6 @@ inline bool needs_flip(const double* xy, const Mesh& m, std::int64_t h) {
 }
 
 }  // namespace
-
-int incircle_perturbed(const double* a, const double* b, const double* c, const double* p) {
-    const int s = incircle_sign(a, b, c, p);
-    if (s != 0) return s;
-    // Exactly cocircular: CGAL's symbolic perturbation (Triangulation_2::
-    // side_of_oriented_circle with perturb = true). Sort the four points
-    // lexicographically; walking from the largest, the first point whose
-    // perturbation term has a non-zero coefficient decides.
-    const double* pts[4] = {a, b, c, p};
-    std::sort(pts, pts + 4, lex_less);
-    for (int i = 3; i > 0; --i) {
-        if (pts[i] == p) return -1;
-        int o = 0;
-        if (pts[i] == c && (o = orient2d_sign(a, b, p)) != 0) return o;
-        if (pts[i] == b && (o = orient2d_sign(a, p, c)) != 0) return o;
-        if (pts[i] == a && (o = orient2d_sign(p, b, c)) != 0) return o;
-    }
-    return -1;
-}
 
 std::size_t flip_to_constrained_delaunay(const double* xy, std::size_t n_points,
                                          std::vector<std::int64_t>& triangles,

@@ -267,5 +267,26 @@ double incircle_adapt(const double* pa, const double* pb, const double* pc, cons
     return incircle_exact(pa, pb, pc, pd);
 }
 
+int incircle_perturbed_tie(const double* pa, const double* pb, const double* pc, const double* pd) {
+    // Sort the four points lexicographically (pointers identify them).
+    const double* s[4] = {pa, pb, pc, pd};
+    for (int i = 1; i < 4; ++i) {
+        const double* v = s[i];
+        int j = i - 1;
+        for (; j >= 0 && lex_less(v, s[j]); --j) s[j + 1] = s[j];
+        s[j + 1] = v;
+    }
+    for (int i = 3; i > 1; --i) {
+        if (s[i] == pd) return -1;
+        int o = 0;
+        if (s[i] == pc) o = orient2d_sign(pa, pb, pd);
+        else if (s[i] == pb) o = orient2d_sign(pa, pd, pc);
+        else o = orient2d_sign(pd, pb, pc);
+        if (o != 0) return o;
+    }
+    // Only reachable when a, b, c are collinear (the caller's precondition).
+    return -1;
+}
+
 }  // namespace detail
 }  // namespace faultmesh

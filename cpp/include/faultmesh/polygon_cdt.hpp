@@ -21,13 +21,12 @@
 #include <cstdint>
 #include <vector>
 
+#include <faultmesh/predicates.hpp>
+
 namespace faultmesh {
 
-// In-circle test with CGAL's symbolic perturbation for exact ties:
-// > 0 if p is inside the circle of the counter-clockwise a, b, c (or
-// perturbed inside), < 0 outside. Never 0 for distinct points with a, b, c
-// not collinear.
-int incircle_perturbed(const double* a, const double* b, const double* c, const double* p);
+// The in-circle test with symbolic perturbation, faultmesh::incircle_perturbed,
+// lives in <faultmesh/predicates.hpp> with every other predicate.
 
 // Flip every non-constrained interior edge that is not locally Delaunay until
 // none is left. `triangles` (3 indices per triangle, counter-clockwise,

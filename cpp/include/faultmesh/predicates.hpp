@@ -74,6 +74,36 @@ inline double incircle(const double* pa, const double* pb, const double* pc, con
     return detail::incircle_adapt(pa, pb, pc, pd, permanent);
 }
 
+// Lexicographic order (x, then y): the order of the symbolic perturbation below.
+inline bool lex_less(const double* a, const double* b) {
+    return a[0] < b[0] || (a[0] == b[0] && a[1] < b[1]);
+}
+
+namespace detail {
+int incircle_perturbed_tie(const double* pa, const double* pb, const double* pc, const double* pd);
+}  // namespace detail
+
+// In-circle test with symbolic perturbation for exact ties, so that every
+// configuration has one answer and the Delaunay triangulation is unique
+// (canonical for any insertion order, and the same as CGAL's
+// Delaunay_triangulation_2, which perturbs the same way). (a, b, c)
+// counter-clockwise; > 0 if d is inside or perturbed inside, < 0 outside;
+// never 0 for four distinct points with a, b, c not collinear.
+//
+// The perturbation: point p_i is lifted by eps^(rank of p_i in lex order),
+// eps infinitesimal. When the exact determinant is 0, the sign is that of the
+// first non-vanishing coefficient, taking the points from the lexicographically
+// largest down: if that point is d, d is outside; if it is one of a, b, c, the
+// coefficient is the orientation of the triangle with d in that point's place.
+// Two points suffice (Devillers & Teillaud, "Perturbations for Delaunay and
+// weighted Delaunay 3D triangulations", 2011).
+inline int incircle_perturbed(const double* pa, const double* pb, const double* pc, const double* pd) {
+    const double det = incircle(pa, pb, pc, pd);
+    if (det > 0.0) return 1;
+    if (det < 0.0) return -1;
+    return detail::incircle_perturbed_tie(pa, pb, pc, pd);
+}
+
 // Sign helpers: -1, 0 or +1.
 inline int orient2d_sign(const double* pa, const double* pb, const double* pc) {
     const double d = orient2d(pa, pb, pc);
