@@ -483,6 +483,7 @@ LayerStitcher::LayerStitcher(const double* vertices, std::size_t n_vertices,
     s.alive.reserve(n_triangles + spare_t);
     s.alive.assign(n_triangles, 1);
     s.checked.assign(n_triangles, 0);
+    s.in_d.reserve(n_triangles + spare_t);
     s.n_live = n_triangles;
     s.n_base = n_triangles;
     // Stage 1 index: an AABB tree over blocks of kBlock consecutive triangles

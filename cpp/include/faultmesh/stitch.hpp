@@ -18,7 +18,10 @@
 //     boundary may fold back on itself); every vertex of P lies in the study
 //     area.
 //  2. Overlap (two stages): the AABB tree gives the triangles whose XY box
-//     meets R's box; an exact test (orient2d only) keeps those whose closed
+//     meets R's box (the tree is built once per layer over blocks of 8
+//     consecutive triangles -- a Delaunay TIN's rows are spatially coherent
+//     -- plus one box per later stitch for the triangles it added); an exact
+//     test (orient2d only) keeps those whose closed
 //     XY projection meets the closed region R. Counting mere contact makes
 //     the removed set D contain R STRICTLY: no edge of D's boundary touches R
 //     except along the study-area boundary. A triangle of an earlier patch
@@ -122,8 +125,16 @@ public:
     // boundary loop. halfedges (optional, may be null): 3 m opposite
     // half-edges as in DelaunayResult (half-edge e runs triangles[e] ->
     // triangles[next(e)]), saving the adjacency build.
-    // Throws std::invalid_argument for malformed input, GeometryError for a
-    // mesh that is not a manifold CCW triangulation.
+    // Throws std::invalid_argument for malformed input (indices, non-finite
+    // coordinates, half-edges out of range), GeometryError for a mesh that is
+    // not a manifold consistently oriented triangulation. The checks that
+    // need random access -- each triangle counter-clockwise with non-zero
+    // XY area, each given half-edge pointing back at its opposite -- are
+    // made for every triangle the first time a stitch relies on it, so that
+    // the set-up costs a few sequential passes (a stitch that meets a bad
+    // triangle throws before changing anything).
+    // A LayerStitcher is not thread-safe: one object per thread (different
+    // layers can be stitched in parallel).
     LayerStitcher(const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
                   std::size_t n_triangles, const double* boundary_xy, std::size_t n_boundary,
                   const std::int64_t* halfedges = nullptr, std::string name = "layer",
