@@ -23,14 +23,7 @@ from __future__ import annotations
 
 import argparse
 import csv
-import datetime
-import json
-import os
-import platform
-import re
-import shutil
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -38,7 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+from _common import (ROOT, add_table_args, build_delaunay_driver, cgal_program, command_line, machine,
+                     median_time, parse_table_args, run_program, selected, time_runs, today, use_dev_build,
+                     write_array, write_table)
 
 
 # ----------------------------------------------------------------- datasets
@@ -85,45 +80,14 @@ DATASETS = [
 # ------------------------------------------------------------------- build
 
 def build(build_dir: Path) -> tuple[Path, Path]:
-    build_dir.mkdir(parents=True, exist_ok=True)
-    cxx = os.environ.get("CXX", "g++")
-    driver = build_dir / "delaunay_driver"
-    srcs = [ROOT / "bench" / "delaunay_driver.cpp", ROOT / "cpp" / "src" / "delaunay.cpp",
-            ROOT / "cpp" / "src" / "predicates.cpp"]
-    subprocess.run([cxx, "-O3", "-DNDEBUG", "-std=c++17", "-ffp-contract=off",
-                    "-I", str(ROOT / "cpp" / "include"), "-I", str(ROOT / "cpp" / "src"),
-                    *map(str, srcs), "-o", str(driver)], check=True)
-    cgal_dir = build_dir / "cgal"
-    gen = ["-G", "Ninja"] if shutil.which("ninja") else []
-    subprocess.run(["cmake", "-S", str(ROOT / "bench" / "cgal"), "-B", str(cgal_dir),
-                    "-DCMAKE_BUILD_TYPE=Release", *gen], check=True, stdout=subprocess.DEVNULL)
-    subprocess.run(["cmake", "--build", str(cgal_dir), "--target", "cgal_delaunay"], check=True,
-                   stdout=subprocess.DEVNULL)
-    return driver, cgal_dir / "cgal_delaunay"
+    return build_delaunay_driver(build_dir), cgal_program("cgal_delaunay", build_dir / "cgal")
 
 
 # -------------------------------------------------------------------- runs
 
 def run_once(exe: Path, inp: Path, out: str = "-", repeat: int = 1) -> tuple[dict, float]:
     """One subprocess: (its JSON line, its peak RSS in MiB)."""
-    # VmHWM as the child reports it; ru_maxrss only if that is unavailable.
-    proc = subprocess.Popen([str(exe), str(inp), out, "--repeat", str(repeat)], stdout=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    stdout = proc.stdout.read().decode()
-    proc.stdout.close()
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    if proc.returncode != 0:
-        raise RuntimeError(f"{exe.name} failed on {inp} (exit {proc.returncode})")
-    j = json.loads(stdout.strip().splitlines()[-1])
-    kib = j.get("peak_rss_kib", -1)
-    return j, (kib if kib > 0 else usage.ru_maxrss) / 1024.0
-
-
-def write_points(path: Path, xy: np.ndarray) -> None:
-    xy = np.ascontiguousarray(xy, dtype="<f8")
-    with open(path, "wb") as f:
-        f.write(np.int64(len(xy)).astype("<i8").tobytes())
-        f.write(xy.tobytes())
+    return run_program([exe, inp, out, "--repeat", repeat])
 
 
 def canonical(t: np.ndarray) -> np.ndarray:
@@ -144,30 +108,6 @@ def identical(fm_out: Path, cgal_out: Path) -> bool:
     return tri.shape == ref.shape and bool(np.array_equal(canonical(tri), canonical(ref)))
 
 
-def machine() -> str:
-    cpu = "unknown CPU"
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    cxx = subprocess.run([os.environ.get("CXX", "g++"), "--version"], capture_output=True,
-                         text=True).stdout.splitlines()[0]
-    cgal = "CGAL ?"
-    try:
-        txt = Path("/usr/include/CGAL/version.h").read_text()
-        m = re.search(r'#define CGAL_VERSION_STR CGAL_STR\(([^)]*)\)', txt) or \
-            re.search(r'#define CGAL_VERSION (\S+)', txt)
-        if m:
-            cgal = "CGAL " + m.group(1)
-    except OSError:
-        pass
-    return (f"{cpu}, {os.cpu_count()} logical cores, {platform.system()} {platform.release()}, "
-            f"{cxx}, {cgal}")
-
-
 def tin_section(fm, runs: int) -> list[str]:
     """Timings of the Tin operations the workflow uses, via Python."""
     rng = np.random.default_rng(7)
@@ -177,12 +117,7 @@ def tin_section(fm, runs: int) -> list[str]:
     queries = rng.random((q, 2))
 
     def med(f):
-        ts = []
-        for _ in range(runs):
-            t0 = time.perf_counter()
-            f()
-            ts.append(time.perf_counter() - t0)
-        return statistics.median(ts)
+        return median_time(f, runs)
 
     tin = fm.Tin(pts)
     rows = [
@@ -221,15 +156,12 @@ def tin_section(fm, runs: int) -> list[str]:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--runs", type=int, default=5)
-    ap.add_argument("--only", nargs="*", help="substrings of dataset names to run")
+    add_table_args(ap, "delaunay")
     ap.add_argument("--build-dir", default=str(ROOT / "build" / "bench-delaunay"))
-    ap.add_argument("--no-write", action="store_true", help="do not write docs/bench/delaunay.md")
-    args = ap.parse_args()
-    if args.runs < 1:
-        ap.error("--runs must be >= 1")
+    args = parse_table_args(ap)
 
     driver, cgal = build(Path(args.build_dir))
+    use_dev_build()
     try:  # the Python-call column needs an importable faultmesh (dev build or installed)
         import faultmesh as fm
     except ImportError as exc:
@@ -239,11 +171,11 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for name, make in DATASETS:
-            if args.only and not any(s in name for s in args.only):
+            if not selected(name, args.only):
                 continue
             xy = make()
             inp = tmp / "points.bin"
-            write_points(inp, xy)
+            write_array(inp, xy, "<f8")
             # First run of each side writes its triangles for the comparison;
             # runs alternate between the sides so that load changes on the
             # machine hit both alike.
@@ -263,12 +195,7 @@ def main() -> int:
                 t_cg += j["runs"]
                 mem_cg.append(mem)
                 m_cg = j["triangles"]
-            t_py = []
-            if fm is not None:
-                for r in range(args.runs):
-                    t0 = time.perf_counter()
-                    fm.delaunay(xy)
-                    t_py.append(time.perf_counter() - t0)
+            t_py = time_runs(lambda: fm.delaunay(xy), args.runs) if fm is not None else []
             same = identical(tmp / "fm.tri", tmp / "cg.tri")
             med_fm, med_cg = statistics.median(t_fm), statistics.median(t_cg)
             row = dict(name=name, n=len(xy), fm=med_fm, cgal=med_cg, ratio=med_fm / med_cg, reps=len(t_fm),
@@ -278,14 +205,13 @@ def main() -> int:
             print(f"{name}: faultmesh {med_fm:.4f} s, CGAL {med_cg:.4f} s, ratio {row['ratio']:.3f}, "
                   f"identical={same}", file=sys.stderr, flush=True)
 
-    cmd = "python bench/bench_delaunay.py" + "".join(
-        f" {a}" for a in sys.argv[1:] if a != "--no-write")
+    cmd = command_line("bench_delaunay.py")
     lines = [
         "## Delaunay triangulation: faultmesh vs CGAL",
         "",
         f"Command: `{cmd}`  ",
-        f"Date: {datetime.date.today().isoformat()}  ",
-        f"Machine: {machine()}  ",
+        f"Date: {today()}  ",
+        f"Machine: {machine(compiler=True, cgal=True, python=False)}  ",
         f"Runs: {args.runs} fresh processes per side, sides alternating; inputs under 500k points",
         "repeat the call 5 times in each process. Times are medians over all calls.",
         "",
@@ -315,13 +241,7 @@ def main() -> int:
                   "the duplicate map); CGAL's side extracts the triangles only."]
     if fm is not None and not args.only:
         lines += [""] + tin_section(fm, args.runs)
-    text = "\n".join(lines) + "\n"
-    print(text)
-    if not args.no_write and not args.only:
-        out = ROOT / "docs" / "bench" / "delaunay.md"
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(text)
-        print(f"wrote {out.relative_to(ROOT)}", file=sys.stderr)
+    write_table("\n".join(lines) + "\n", "delaunay", args)
     return 0 if all(r["same"] and r["m_fm"] == r["m_cg"] for r in rows) else 1
 
 

@@ -43,11 +43,10 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
-#include <ctime>
 #include <string>
 #include <vector>
+
+#include "bench_io.hpp"
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Point = K::Point_3;
@@ -58,48 +57,17 @@ using Traits = CGAL::AABB_traits<K, Primitive>;
 using Tree = CGAL::AABB_tree<Traits>;
 using Box = CGAL::Box_intersection_d::Box_with_info_d<double, 2, std::int64_t>;
 
-static long peak_rss_kib() {
-    std::FILE* f = std::fopen("/proc/self/status", "r");
-    if (!f) return -1;
-    char line[256];
-    long kib = -1;
-    while (std::fgets(line, sizeof line, f))
-        if (std::strncmp(line, "VmHWM:", 6) == 0) kib = std::strtol(line + 6, nullptr, 10);
-    std::fclose(f);
-    return kib;
-}
-
-static double cpu_now() {
-    timespec t;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
-
-static void die(const std::string& msg) {
-    std::fprintf(stderr, "cgal_aabb: %s\n", msg.c_str());
-    std::exit(2);
-}
-
-template <class T>
-static std::vector<T> read_array(const std::string& path, std::size_t cols) {
-    std::FILE* f = std::fopen(path.c_str(), "rb");
-    if (!f) die("cannot open " + path);
-    std::int64_t n = 0;
-    if (std::fread(&n, sizeof n, 1, f) != 1 || n < 0) die("bad header in " + path);
-    std::vector<T> a(static_cast<std::size_t>(n) * cols);
-    if (!a.empty() && std::fread(a.data(), sizeof(T), a.size(), f) != a.size()) die("truncated " + path);
-    std::fclose(f);
-    return a;
-}
-
 int main(int argc, char** argv) {
+    using bench::cpu_now;
+    using bench::die;
+    bench::program_name = "cgal_aabb";
     if (argc < 5) die("usage: cgal_aabb tree|boxd VERTICES TRIANGLES BOXES [HITS_OUT|-]");
     const std::string mode = argv[1];
     if (mode != "tree" && mode != "boxd") die("MODE must be tree or boxd");
     const std::string out_path = argc > 5 ? argv[5] : "-";
-    const std::vector<double> xy = read_array<double>(argv[2], 2);
-    const std::vector<std::int64_t> tri = read_array<std::int64_t>(argv[3], 3);
-    const std::vector<double> qb = read_array<double>(argv[4], 4);
+    const std::vector<double> xy = bench::read_array<double>(argv[2], 2);
+    const std::vector<std::int64_t> tri = bench::read_array<std::int64_t>(argv[3], 3);
+    const std::vector<double> qb = bench::read_array<double>(argv[4], 4);
     const std::size_t n = xy.size() / 2, m = tri.size() / 3, q = qb.size() / 4;
     for (std::int64_t v : tri)
         if (v < 0 || static_cast<std::size_t>(v) >= n) die("triangle index out of range");
@@ -108,6 +76,14 @@ int main(int argc, char** argv) {
     double t_build = 0, t_query = 0, c_build = 0, c_query = 0;
     std::int64_t hits = 0;
     std::vector<std::int64_t> offsets, indices;
+    // Build = [t0, t1), query = [t1, t2), wall clock and CPU time alike.
+    const auto record = [&](clock::time_point t0, clock::time_point t1, clock::time_point t2, double c0,
+                            double c1, double c2) {
+        c_build = c1 - c0;
+        c_query = c2 - c1;
+        t_build = std::chrono::duration<double>(t1 - t0).count();
+        t_query = std::chrono::duration<double>(t2 - t1).count();
+    };
 
     if (mode == "tree") {
         const double c0 = cpu_now();
@@ -134,12 +110,7 @@ int main(int argc, char** argv) {
             for (const auto& id : ids) indices.push_back(static_cast<std::int64_t>(id - tris.cbegin()));
             offsets.push_back(static_cast<std::int64_t>(indices.size()));
         }
-        const auto t2 = clock::now();
-        const double c2 = cpu_now();
-        c_build = c1 - c0;
-        c_query = c2 - c1;
-        t_build = std::chrono::duration<double>(t1 - t0).count();
-        t_query = std::chrono::duration<double>(t2 - t1).count();
+        record(t0, t1, clock::now(), c0, c1, cpu_now());
         hits = static_cast<std::int64_t>(indices.size());
     } else {
         const double c0 = cpu_now();
@@ -166,17 +137,11 @@ int main(int argc, char** argv) {
         const double c1 = cpu_now();
         CGAL::box_intersection_d(tb.begin(), tb.end(), qbox.begin(), qbox.end(),
                                  [&hits](const Box&, const Box&) { ++hits; });
-        const auto t2 = clock::now();
-        const double c2 = cpu_now();
-        c_build = c1 - c0;
-        c_query = c2 - c1;
-        t_build = std::chrono::duration<double>(t1 - t0).count();
-        t_query = std::chrono::duration<double>(t2 - t1).count();
+        record(t0, t1, clock::now(), c0, c1, cpu_now());
     }
 
     if (out_path != "-") {
-        std::FILE* f = std::fopen(out_path.c_str(), "wb");
-        if (!f) die("cannot write " + out_path);
+        std::FILE* f = bench::open_or_die(out_path, "wb");
         std::fwrite(&hits, sizeof hits, 1, f);
         if (mode == "tree") {
             for (std::size_t i = 0; i < q; ++i)
@@ -191,6 +156,6 @@ int main(int argc, char** argv) {
                 "\"cpu_seconds_build\": %.6f, \"cpu_seconds_query\": %.6f, \"hits\": %lld, "
                 "\"peak_rss_kib\": %ld}\n",
                 mode.c_str(), m, q, t_build, t_query, t_build + t_query, c_build, c_query,
-                static_cast<long long>(hits), peak_rss_kib());
+                static_cast<long long>(hits), bench::peak_rss_kib());
     return 0;
 }

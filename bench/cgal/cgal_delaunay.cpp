@@ -24,11 +24,11 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "bench_io.hpp"
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Vb = CGAL::Triangulation_vertex_base_with_info_2<std::int64_t, K>;
@@ -36,52 +36,16 @@ using Fb = CGAL::Triangulation_face_base_2<K>;
 using Tds = CGAL::Triangulation_data_structure_2<Vb, Fb>;
 using Delaunay = CGAL::Delaunay_triangulation_2<K, Tds>;
 
-// Peak resident memory of this process image in KiB: VmHWM of
-// /proc/self/status (Linux). getrusage's ru_maxrss is not used because Linux
-// carries the parent's high-water mark over fork + exec, so a child of a big
-// Python process would report the parent's size. -1 if unavailable.
-static long peak_rss_kib() {
-    std::FILE* f = std::fopen("/proc/self/status", "r");
-    if (!f) return -1;
-    char line[256];
-    long kib = -1;
-    while (std::fgets(line, sizeof line, f))
-        if (std::strncmp(line, "VmHWM:", 6) == 0) kib = std::strtol(line + 6, nullptr, 10);
-    std::fclose(f);
-    return kib;
-}
-
-static void die(const std::string& msg) {
-    std::fprintf(stderr, "cgal_delaunay: %s\n", msg.c_str());
-    std::exit(2);
-}
-
 int main(int argc, char** argv) {
-    if (argc < 2) die("usage: cgal_delaunay INPUT [OUTPUT|-] [--repeat K]");
-    std::string in_path = argv[1], out_path = "-";
-    int repeat = 1;
-    for (int i = 2; i < argc; ++i) {
-        if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) {
-            repeat = std::atoi(argv[++i]);
-            if (repeat < 1) die("--repeat must be >= 1");
-        } else {
-            out_path = argv[i];
-        }
-    }
-
-    std::FILE* f = std::fopen(in_path.c_str(), "rb");
-    if (!f) die("cannot open " + in_path);
-    std::int64_t n = 0;
-    if (std::fread(&n, sizeof n, 1, f) != 1 || n < 0) die("bad header in " + in_path);
-    std::vector<double> xy(static_cast<std::size_t>(2 * n));
-    if (n > 0 && std::fread(xy.data(), sizeof(double), xy.size(), f) != xy.size())
-        die("truncated point data in " + in_path);
-    std::fclose(f);
+    bench::program_name = "cgal_delaunay";
+    const bench::IoArgs args = bench::parse_io_args(argc, argv);
+    const std::vector<double> xy = bench::read_array<double>(args.in_path, 2);
+    const std::int64_t n = static_cast<std::int64_t>(xy.size() / 2);
 
     std::vector<std::int64_t> tri;
     std::size_t nv = 0;
     std::vector<double> runs;
-    for (int r = 0; r < repeat; ++r) {
+    for (int r = 0; r < args.repeat; ++r) {
         tri.clear();
         const auto t0 = std::chrono::steady_clock::now();
         {
@@ -102,24 +66,15 @@ int main(int argc, char** argv) {
         runs.push_back(std::chrono::duration<double>(t1 - t0).count());
     }
 
-    if (out_path != "-") {
-        std::FILE* o = std::fopen(out_path.c_str(), "wb");
-        if (!o) die("cannot open " + out_path);
-        const std::int64_t m = static_cast<std::int64_t>(tri.size() / 3);
-        std::fwrite(&m, sizeof m, 1, o);
-        std::fwrite(tri.data(), sizeof(std::int64_t), tri.size(), o);
+    if (args.out_path != "-") {
+        std::FILE* o = bench::open_or_die(args.out_path, "wb");
+        bench::write_rows(o, tri, 3);
         std::fclose(o);
     }
-    double best = runs[0];
     std::string rs;
-    for (std::size_t i = 0; i < runs.size(); ++i) {
-        if (runs[i] < best) best = runs[i];
-        char buf[32];
-        std::snprintf(buf, sizeof buf, "%s%.6f", i ? ", " : "", runs[i]);
-        rs += buf;
-    }
+    const double best = bench::runs_json(runs, rs);
     std::printf("{\"program\": \"cgal_delaunay\", \"n\": %lld, \"vertices\": %zu, \"triangles\": %zu, "
                 "\"seconds\": %.6f, \"runs\": [%s], \"peak_rss_kib\": %ld}\n",
-                static_cast<long long>(n), nv, tri.size() / 3, best, rs.c_str(), peak_rss_kib());
+                static_cast<long long>(n), nv, tri.size() / 3, best, rs.c_str(), bench::peak_rss_kib());
     return 0;
 }

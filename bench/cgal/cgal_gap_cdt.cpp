@@ -30,11 +30,11 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <deque>
 #include <string>
 #include <vector>
+
+#include "bench_io.hpp"
 
 namespace {
 
@@ -62,11 +62,6 @@ struct Polygon {
     std::vector<std::int64_t> sizes;
     std::vector<double> xy;
 };
-
-void die(const std::string& msg) {
-    std::fprintf(stderr, "cgal_gap_cdt: %s\n", msg.c_str());
-    std::exit(2);
-}
 
 // Nesting depth by breadth-first flooding: faces reachable from the infinite
 // face without crossing a constraint get depth 0, across one constraint 1, ...
@@ -132,29 +127,15 @@ std::vector<std::int64_t> triangulate(const Polygon& poly, std::size_t& n_vertic
     return tri;
 }
 
-std::int64_t read_i64(std::FILE* f, const std::string& what) {
-    std::int64_t v = 0;
-    if (std::fread(&v, sizeof v, 1, f) != 1) die("truncated input reading " + what);
-    return v;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc < 2) die("usage: cgal_gap_cdt INPUT [OUTPUT|-] [--repeat K]");
-    std::string in_path = argv[1], out_path = "-";
-    int repeat = 1;
-    for (int i = 2; i < argc; ++i) {
-        if (std::strcmp(argv[i], "--repeat") == 0 && i + 1 < argc) {
-            repeat = std::atoi(argv[++i]);
-            if (repeat < 1) die("--repeat must be >= 1");
-        } else {
-            out_path = argv[i];
-        }
-    }
-
-    std::FILE* f = std::fopen(in_path.c_str(), "rb");
-    if (!f) die("cannot open " + in_path);
+    using bench::die;
+    using bench::read_i64;
+    bench::program_name = "cgal_gap_cdt";
+    const bench::IoArgs args = bench::parse_io_args(argc, argv);
+    const std::string& in_path = args.in_path;
+    std::FILE* f = bench::open_or_die(in_path, "rb");
     const std::int64_t n_poly = read_i64(f, "the polygon count");
     if (n_poly < 0 || n_poly > (std::int64_t{1} << 32)) die("bad polygon count in " + in_path);
     std::vector<Polygon> polys(static_cast<std::size_t>(n_poly));
@@ -180,7 +161,7 @@ int main(int argc, char** argv) {
     std::vector<std::size_t> n_vertices(polys.size(), 0);
     std::vector<double> best(polys.size(), 0.0);
     for (std::size_t p = 0; p < polys.size(); ++p) {
-        for (int r = 0; r < repeat; ++r) {
+        for (int r = 0; r < args.repeat; ++r) {
             const auto t0 = std::chrono::steady_clock::now();
             results[p] = triangulate(polys[p], n_vertices[p]);
             const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -188,14 +169,9 @@ int main(int argc, char** argv) {
         }
     }
 
-    if (out_path != "-") {
-        std::FILE* o = std::fopen(out_path.c_str(), "wb");
-        if (!o) die("cannot open " + out_path);
-        for (const auto& tri : results) {
-            const std::int64_t m = static_cast<std::int64_t>(tri.size() / 3);
-            std::fwrite(&m, sizeof m, 1, o);
-            if (m) std::fwrite(tri.data(), sizeof(std::int64_t), tri.size(), o);
-        }
+    if (args.out_path != "-") {
+        std::FILE* o = bench::open_or_die(args.out_path, "wb");
+        for (const auto& tri : results) bench::write_rows(o, tri, 3);
         std::fclose(o);
     }
     double total = 0.0;
