@@ -33,14 +33,7 @@ medians. The markdown table goes to stdout and to docs/bench/aabb.md.
 from __future__ import annotations
 
 import argparse
-import datetime
-import json
-import os
-import platform
-import re
-import shutil
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -48,11 +41,10 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-# The installed faultmesh, or a development build: FAULTMESH_DEV_BUILD=build/<dir>
-# makes the package in python/ load that build's extension.
-if os.environ.get("FAULTMESH_DEV_BUILD"):
-    sys.path.insert(0, str(ROOT / "python"))
+from _common import (ROOT, add_table_args, cgal_program, command_line, machine, parse_table_args,
+                     run_program, selected, today, use_dev_build, write_array, write_table)
+
+use_dev_build()
 import faultmesh  # noqa: E402
 
 
@@ -99,27 +91,8 @@ DATASETS = [
 
 # -------------------------------------------------------------------- runs
 
-def build_cgal(build_dir: Path) -> Path:
-    gen = ["-G", "Ninja"] if shutil.which("ninja") else []
-    subprocess.run(["cmake", "-S", str(ROOT / "bench" / "cgal"), "-B", str(build_dir),
-                    "-DCMAKE_BUILD_TYPE=Release", *gen], check=True, stdout=subprocess.DEVNULL)
-    subprocess.run(["cmake", "--build", str(build_dir), "--target", "cgal_aabb"], check=True,
-                   stdout=subprocess.DEVNULL)
-    return build_dir / "cgal_aabb"
-
-
-def write(path: Path, a: np.ndarray, dtype: str) -> None:
-    a = np.ascontiguousarray(a, dtype=dtype)
-    with open(path, "wb") as f:
-        f.write(np.int64(len(a)).astype("<i8").tobytes())
-        f.write(a.tobytes())
-
-
 def run_cgal(exe: Path, mode: str, files: list[Path], out: str = "-") -> dict:
-    r = subprocess.run([str(exe), mode, *map(str, files), out], capture_output=True, text=True)
-    if r.returncode != 0:
-        raise RuntimeError(f"cgal_aabb {mode} failed: {r.stderr}")
-    return json.loads(r.stdout.strip().splitlines()[-1])
+    return run_program([exe, mode, *files, out])[0]
 
 
 def run_fm(xy, tri, q, exact: bool, sort: bool):
@@ -131,52 +104,24 @@ def run_fm(xy, tri, q, exact: bool, sort: bool):
     return t1 - t0, t2 - t1, c2 - c0, off, idx
 
 
-def machine() -> str:
-    cpu = "unknown CPU"
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    cxx = subprocess.run([os.environ.get("CXX", "g++"), "--version"], capture_output=True,
-                         text=True).stdout.splitlines()[0]
-    cgal = "CGAL ?"
-    try:
-        txt = Path("/usr/include/CGAL/version.h").read_text()
-        m = re.search(r'#define CGAL_VERSION_STR CGAL_STR\(([^)]*)\)', txt) or \
-            re.search(r'#define CGAL_VERSION (\S+)', txt)
-        if m:
-            cgal = "CGAL " + m.group(1)
-    except OSError:
-        pass
-    return (f"{cpu}, {os.cpu_count()} logical cores, {platform.system()} {platform.release()}, "
-            f"{cxx}, {cgal}, Python {platform.python_version()}, numpy {np.__version__}")
-
-
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--runs", type=int, default=5)
-    ap.add_argument("--only", nargs="*", help="substrings of dataset names to run")
+    add_table_args(ap, "aabb")
     ap.add_argument("--build-dir", default=str(ROOT / "build" / "bench-aabb"))
-    ap.add_argument("--no-write", action="store_true", help="do not write docs/bench/aabb.md")
-    args = ap.parse_args()
-    if args.runs < 1:
-        ap.error("--runs must be >= 1")
+    args = parse_table_args(ap)
 
-    exe = build_cgal(Path(args.build_dir))
+    exe = cgal_program("cgal_aabb", Path(args.build_dir))
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for name, make in DATASETS:
-            if args.only and not any(s in name for s in args.only):
+            if not selected(name, args.only):
                 continue
             xy, tri, q = make()
             files = [tmp / "v.bin", tmp / "t.bin", tmp / "q.bin"]
-            write(files[0], xy, "<f8")
-            write(files[1], tri, "<i8")
-            write(files[2], q, "<f8")
+            write_array(files[0], xy, "<f8")
+            write_array(files[1], tri, "<i8")
+            write_array(files[2], q, "<f8")
             for mode, exact, label in (("tree", True, "AABB_tree, exact triangle/box hits"),
                                        ("boxd", False, "box_intersection_d, box/box hits")):
                 fb, fq, cb, cq, ct, fcpu, ccpu, fsort = [], [], [], [], [], [], [], []
@@ -217,13 +162,13 @@ def main() -> int:
                       f"ratio {row['ratio']:.3f}, hits {hits_fm} / {hits_cg}, agree={same}",
                       file=sys.stderr, flush=True)
 
-    cmd = "python bench/bench_aabb.py" + "".join(f" {a}" for a in sys.argv[1:] if a != "--no-write")
+    cmd = command_line("bench_aabb.py")
     lines = [
         "## AABB tree: faultmesh vs CGAL (build + batched box queries)",
         "",
         f"Command: `{cmd}`  ",
-        f"Date: {datetime.date.today().isoformat()}  ",
-        f"Machine: {machine()}  ",
+        f"Date: {today()}  ",
+        f"Machine: {machine(compiler=True, cgal=True, numpy=True)}  ",
         f"Runs: median of {args.runs} runs per side; sides alternate. Target: faultmesh total at most "
         "0.5x CGAL.",
         "",
@@ -252,13 +197,7 @@ def main() -> int:
                      f"| {r['fcpu']:.3f} | {r['ccpu']:.3f} | {r['ratio_cpu']:.3f} "
                      f"| {r['fsort']:.3f} | {r['fsort'] / r['ct']:.3f} "
                      f"| {r['hits_fm']:,} | {r['hits_cg']:,} | {'yes' if r['same'] else 'NO'} |")
-    text = "\n".join(lines) + "\n"
-    print(text)
-    if not args.no_write and not args.only:
-        out = ROOT / "docs" / "bench" / "aabb.md"
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(text)
-        print(f"wrote {out.relative_to(ROOT)}", file=sys.stderr)
+    write_table("\n".join(lines) + "\n", "aabb", args)
     return 0 if all(r["same"] for r in rows) else 1
 
 

@@ -23,19 +23,16 @@ exactly one loop, and the loops' signed areas add up to the triangles' area
 from __future__ import annotations
 
 import argparse
-import datetime
-import os
-import platform
 import statistics
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-if os.environ.get("FAULTMESH_DEV_BUILD"):
-    sys.path.insert(0, str(ROOT / "python"))
+from _common import (add_table_args, command_line, machine, parse_table_args, selected, today,
+                     use_dev_build, write_table)
+
+use_dev_build()
 import faultmesh  # noqa: E402
 
 
@@ -112,31 +109,14 @@ def check(xy, tri, rep) -> bool:
     return bool(same_edges and on_loops and green)
 
 
-def machine() -> str:
-    cpu = "unknown CPU"
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return (f"{cpu}, {os.cpu_count()} logical cores, {platform.system()} {platform.release()}, "
-            f"Python {platform.python_version()}, numpy {np.__version__}")
-
-
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--runs", type=int, default=5)
-    ap.add_argument("--only", nargs="*", help="substrings of dataset names to run")
-    ap.add_argument("--no-write", action="store_true", help="do not write docs/bench/boundary.md")
-    args = ap.parse_args()
-    if args.runs < 1:
-        ap.error("--runs must be >= 1")
+    add_table_args(ap, "boundary")
+    args = parse_table_args(ap)
 
     rows = []
     for name, make in DATASETS:
-        if args.only and not any(s in name for s in args.only):
+        if not selected(name, args.only):
             continue
         xy, holes = make()
         tri = holes(faultmesh.delaunay(xy))
@@ -165,13 +145,13 @@ def main() -> int:
         print(f"{name}: delaunay {row['d']:.3f} s, contours {row['c']:.3f} s, ratio {row['ratio']:.3f}, "
               f"checks {'ok' if ok else 'FAILED'}", file=sys.stderr, flush=True)
 
-    cmd = "python bench/bench_boundary.py" + "".join(f" {a}" for a in sys.argv[1:] if a != "--no-write")
+    cmd = command_line("bench_boundary.py")
     lines = [
         "## Boundary contours: extraction + Algorithm 1 sorting vs faultmesh's Delaunay",
         "",
         f"Command: `{cmd}`  ",
-        f"Date: {datetime.date.today().isoformat()}  ",
-        f"Machine: {machine()}  ",
+        f"Date: {today()}  ",
+        f"Machine: {machine(numpy=True)}  ",
         f"Runs: median of {args.runs} runs, in-process through the Python API, the calls alternating.",
         "Target: `boundary_contours` at most 0.25x `delaunay` of the same points.",
         "",
@@ -191,13 +171,7 @@ def main() -> int:
                      f"| {r['cd']:.3f} | {r['cc']:.3f} | {r['ratio_cpu']:.3f} "
                      f"| {r['e']:.3f} | {r['loops']} | {r['edges']:,} | {r['pinch']} "
                      f"| {'ok' if r['ok'] else 'FAILED'} |")
-    text = "\n".join(lines) + "\n"
-    print(text)
-    if not args.no_write and not args.only:
-        out = ROOT / "docs" / "bench" / "boundary.md"
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(text)
-        print(f"wrote {out.relative_to(ROOT)}", file=sys.stderr)
+    write_table("\n".join(lines) + "\n", "boundary", args)
     return 0 if all(r["ok"] for r in rows) else 1
 
 
