@@ -36,12 +36,8 @@ hanging-wall polyline (from the hanging-wall cutoff, 100 m), points every
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
 import json
-import os
-import platform
 import statistics
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -49,10 +45,10 @@ from typing import Dict, List, Tuple
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-if os.environ.get("FAULTMESH_DEV_BUILD") and str(ROOT / "python") not in sys.path:
-    sys.path.insert(0, str(ROOT / "python"))
+from _common import (ROOT, machine as _machine, proc_status_mib, reset_peak_rss, time_runs, today,
+                     use_dev_build)
 
+use_dev_build()
 import faultmesh  # noqa: E402
 
 SPACING = 10.0  # mean point spacing (m)
@@ -141,46 +137,12 @@ def make_faults(n_faults: int, side: float, seed: int, region: float = 1.0
 # ----------------------------------------------------------------------------
 # Measurement helpers
 # ----------------------------------------------------------------------------
-def _proc_status(key: str) -> float:
-    """A memory figure of /proc/self/status in MiB (nan where unavailable)."""
-    try:
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith(key + ":"):
-                return int(line.split()[1]) / 1024.0
-    except OSError:
-        pass
-    return float("nan")
-
-
-def _reset_peak() -> bool:
-    """Reset VmHWM to the current RSS (Linux >= 4.0: write 5 to clear_refs)."""
-    try:
-        Path("/proc/self/clear_refs").write_text("5")
-        return True
-    except OSError:
-        return False
-
-
 def machine() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return (f"{cpu}, {os.cpu_count()} logical CPUs, {platform.system()} {platform.release()}, "
-            f"Python {platform.python_version()}, faultmesh {faultmesh.__version__}")
+    return _machine(faultmesh=True)
 
 
 def time_delaunay(xy: np.ndarray, repeat: int) -> List[float]:
-    runs = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        faultmesh.delaunay(xy)
-        runs.append(time.perf_counter() - t0)
-    return runs
+    return time_runs(lambda: faultmesh.delaunay(xy), repeat)
 
 
 def stitch_all(V: np.ndarray, T: np.ndarray, halfedges: np.ndarray, boundary: np.ndarray,
@@ -211,16 +173,16 @@ def run(n_points: int, n_faults: int, repeat: int, seed: int, region: float = 1.
     faults = make_faults(n_faults, side, seed, region=region)
     info = faultmesh.delaunay(P[:, :2], return_info=True)
     T, H = np.asarray(info.triangles), np.asarray(info.halfedges)
-    rss_before = _proc_status("VmRSS")
+    rss_before = proc_status_mib("VmRSS")
     # Delaunay and stitching runs alternate, so that both see the same load
     # on a shared machine. The peak is reset before each stitching run.
     d_runs, runs, peaks = [], [], []
     for i in range(repeat):
         if i < (delaunay_repeat or repeat):
             d_runs += time_delaunay(P[:, :2], 1)
-        peak_ok = _reset_peak()
+        peak_ok = reset_peak_rss()
         runs.append(stitch_all(P, T, H, boundary, faults))
-        peaks.append(_proc_status("VmHWM") if peak_ok else float("nan"))
+        peaks.append(proc_status_mib("VmHWM") if peak_ok else float("nan"))
     peak = max(peaks)
     per_all = [statistics.median(r["stitches"]) for r in runs]
     max_all = [max(r["stitches"]) for r in runs]
@@ -255,7 +217,7 @@ def markdown(res: Dict[str, object], loc: List[Dict[str, object]], command: str)
         "",
         f"- Machine: {machine()}",
         f"- Command: `{command}`",
-        f"- Date: {_dt.date.today().isoformat()}",
+        f"- Date: {today()}",
         f"- Data: {r['points']:,} random points on a {r['side_m'] / 1000:.1f} km square "
         f"({r['layer_triangles']:,} Delaunay triangles), {r['faults']} fault patches "
         f"({r['patch_triangles']:,} triangles), median {r['removed_per_stitch_median']:.0f} "
@@ -320,7 +282,7 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     md = markdown(res, loc, command)
     (args.out / "scale.md").write_text(md)
-    doc = json.dumps({"machine": machine(), "command": command, "date": _dt.date.today().isoformat(),
+    doc = json.dumps({"machine": machine(), "command": command, "date": today(),
                       "result": res, "locality": loc}, indent=2)
     (args.out / "scale.json").write_text(doc)
     if args.docs:

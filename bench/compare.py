@@ -33,13 +33,9 @@ distribution of the smallest angle per method); ``--docs`` also writes
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
 import json
-import os
-import platform
 import statistics
 import struct
-import subprocess
 import sys
 import tempfile
 import time
@@ -48,10 +44,10 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-if os.environ.get("FAULTMESH_DEV_BUILD") and str(ROOT / "python") not in sys.path:
-    sys.path.insert(0, str(ROOT / "python"))
+from _common import (ROOT, cgal_program as _cgal_program, machine as _machine, run_program, today,
+                     use_dev_build)
 
+use_dev_build()
 import faultmesh  # noqa: E402
 from faultmesh.report import min_angles  # noqa: E402
 
@@ -85,16 +81,7 @@ def paper_key(fault: str, layer: str) -> Tuple[str, str]:
 def cgal_program(name: str = "cgal_gap_cdt") -> Path:
     """Build bench/cgal (Release) into $FAULTMESH_CGAL_BUILD or build/cgal and
     return the path of one program."""
-    build = Path(os.environ.get("FAULTMESH_CGAL_BUILD", ROOT / "build" / "cgal"))
-    gen = ["-G", "Ninja"] if subprocess.run(["which", "ninja"], capture_output=True).returncode == 0 else []
-    subprocess.run(["cmake", "-S", str(ROOT / "bench" / "cgal"), "-B", str(build),
-                    "-DCMAKE_BUILD_TYPE=Release", *gen], check=True, capture_output=True)
-    subprocess.run(["cmake", "--build", str(build), "-j2", "--target", name], check=True,
-                   capture_output=True)
-    exe = build / name
-    if not exe.is_file():
-        raise FileNotFoundError(f"compare: CGAL program {name} was not built in {build}")
-    return exe
+    return _cgal_program(name)
 
 
 def gap_rings(surface, gap) -> List[np.ndarray]:
@@ -135,9 +122,7 @@ def run_cgal(exe: Path, polygons: Sequence[Tuple[np.ndarray, List[np.ndarray]]],
                     f.write(struct.pack("<q", len(r)))
                 for r in rings:
                     f.write(np.ascontiguousarray(V[r, :2], dtype="<f8").tobytes())
-        res = subprocess.run([str(exe), str(src), str(dst), "--repeat", str(repeat)],
-                             check=True, capture_output=True, text=True)
-        info = json.loads(res.stdout)
+        info, _ = run_program([exe, src, dst, "--repeat", repeat])
         data = np.fromfile(dst, dtype="<i8")
     out, pos = [], 0
     for V, rings in polygons:
@@ -375,16 +360,7 @@ def compare(ds=None, *, repeat: int = 5, cgal_exe: Optional[Path] = None,
 # Output
 # ----------------------------------------------------------------------------
 def machine() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return (f"{cpu}, {os.cpu_count()} logical CPUs, {platform.system()} {platform.release()}, "
-            f"Python {platform.python_version()}, faultmesh {faultmesh.__version__}")
+    return _machine(faultmesh=True)
 
 
 def _n(row, key):
@@ -419,7 +395,7 @@ def markdown(res: Dict[str, Any], command: str, png_name: str) -> str:
     L = ["## Method comparison: faultmesh vs CGAL CDT vs surface cutting (paper Tables 1 and 2)", "",
          f"- Machine: {machine()}",
          f"- Command: `{command}`",
-         f"- Date: {_dt.date.today().isoformat()}",
+         f"- Date: {today()}",
          f"- Dataset: `faultmesh.datasets.{res['dataset']}(0)` (the paper's study area re-created "
          "from a ground truth; its numbers are not the paper's, which are shown for reference).",
          "- Methods: **paper order** = `build_model(ds, stitch_order=\"plain\", refine=False)`; "
@@ -557,7 +533,7 @@ def main(argv=None) -> int:
     plot(res, args.out / png)
     md = markdown(res, command, png)
     (args.out / "compare.md").write_text(md)
-    doc = json.dumps({"machine": machine(), "command": command, "date": _dt.date.today().isoformat(),
+    doc = json.dumps({"machine": machine(), "command": command, "date": today(),
                       **_jsonable(res)}, indent=2)
     (args.out / "compare.json").write_text(doc)
     if args.docs:
