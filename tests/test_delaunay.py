@@ -2,7 +2,6 @@
 canonical, and the Python contract (shapes, dtypes, errors, GIL)."""
 from __future__ import annotations
 
-import csv
 import subprocess
 import threading
 import tempfile
@@ -14,17 +13,9 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import faultmesh as fm
+from helpers import claudius_horizons, tri_set
 
 # ----------------------------------------------------------------- helpers
-
-
-def tri_set(t) -> set[tuple[int, int, int]]:
-    """Triangles as a set, each rotated so that its smallest index is first."""
-    t = np.asarray(t, dtype=np.int64).reshape(-1, 3)
-    k = np.argmin(t, axis=1)
-    rows = np.arange(len(t))
-    r = np.stack([t[rows, (k + i) % 3] for i in range(3)], axis=1)
-    return set(map(tuple, r.tolist()))
 
 
 def cgal_triangles(cgal_bin, xy: np.ndarray, tmp_path, tag="pts") -> np.ndarray:
@@ -112,15 +103,6 @@ def convex_hull_area(p: np.ndarray) -> float:
     ring = np.array(lower[:-1] + upper[:-1])
     x, y = ring[:, 0], ring[:, 1]
     return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
-
-
-def claudius_horizons(data_dir) -> dict[str, np.ndarray]:
-    rows: dict[str, list] = {}
-    with open(data_dir / "claudius" / "claudius.csv", newline="") as f:
-        for r in csv.DictReader(f):
-            if r["val"]:
-                rows.setdefault(r["val"], []).append((float(r["X"]), float(r["Y"])))
-    return {k: np.array(v) for k, v in rows.items()}
 
 
 # ------------------------------------------------------- CGAL comparisons

@@ -2,7 +2,6 @@
 batched locate / interpolate, the workflow's layer operations, contract."""
 from __future__ import annotations
 
-import csv
 import threading
 
 import numpy as np
@@ -10,14 +9,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import faultmesh as fm
-
-
-def tri_set(t) -> set[tuple[int, int, int]]:
-    t = np.asarray(t, dtype=np.int64).reshape(-1, 3)
-    k = np.argmin(t, axis=1)
-    rows = np.arange(len(t))
-    r = np.stack([t[rows, (k + i) % 3] for i in range(3)], axis=1)
-    return set(map(tuple, r.tolist()))
+from helpers import claudius_horizons, tri_set
 
 
 def plane(xy):
@@ -27,15 +19,6 @@ def plane(xy):
 
 def with_z(xy, f=plane):
     return np.c_[xy, f(xy)]
-
-
-def claudius(data_dir) -> dict[str, np.ndarray]:
-    rows: dict[str, list] = {}
-    with open(data_dir / "claudius" / "claudius.csv", newline="") as f:
-        for r in csv.DictReader(f):
-            if r["val"]:
-                rows.setdefault(r["val"], []).append((float(r["X"]), float(r["Y"]), float(r["Z"])))
-    return {k: np.array(v) for k, v in rows.items()}
 
 
 def check_tin(tin: fm.Tin) -> None:
@@ -81,7 +64,7 @@ def test_insert_equals_rebuild_on_degenerate_integer_sets(pts, data):
 
 
 def test_claudius_horizon_grown_equals_rebuilt(data_dir):
-    h = claudius(data_dir)["60.0"]
+    h = claudius_horizons(data_dir, z=True)["60.0"]
     rng = np.random.default_rng(0)
     h = h[rng.permutation(len(h))]
     tin = fm.Tin(h[:500])
@@ -175,7 +158,7 @@ def test_interpolate_matches_scipy_linear_interpolation():
 
 
 def test_interpolate_at_vertices_is_exact_and_nan_queries_give_nan(data_dir):
-    h = claudius(data_dir)["250.0"]
+    h = claudius_horizons(data_dir, z=True)["250.0"]
     tin = fm.Tin(h)
     z = tin.interpolate(tin.vertices[:, :2])
     assert np.array_equal(z, tin.vertices[:, 2])
@@ -184,11 +167,11 @@ def test_interpolate_at_vertices_is_exact_and_nan_queries_give_nan(data_dir):
     assert np.array_equal(tin.locate(q), [-1, -1])
 
 
-def test_workflow_layer_operations_on_claudius(data_dir):
+def test_workflow_layer_operations_on_claudius_horizons(data_dir, z=True):
     """The layer-TIN steps of the workflow: build from points, insert the
     study-area corners (z interpolated from the nearest data), interpolate one
     layer at another's vertices, insert midpoints of crossing edges."""
-    layers = claudius(data_dir)
+    layers = claudius_horizons(data_dir, z=True)
     # The lower horizon raised by 400 m so that it pierces the upper one in
     # part of the area: the input of the layer-crossing repair.
     upper, lower = fm.Tin(layers["60.0"]), fm.Tin(layers["250.0"] + [0.0, 0.0, 400.0])
@@ -222,7 +205,7 @@ def test_workflow_layer_operations_on_claudius(data_dir):
 
 def test_set_z_rule_one_of_the_crossing_repair(data_dir):
     """Rule 1: lower vertices above the upper surface take its elevation."""
-    layers = claudius(data_dir)
+    layers = claudius_horizons(data_dir, z=True)
     upper, lower = fm.Tin(layers["60.0"]), fm.Tin(layers["250.0"] + [0.0, 0.0, 400.0])
     tri = lower.triangles
     z_up = upper.interpolate(lower.vertices[:, :2])

@@ -16,21 +16,13 @@
 #include <string>
 #include <vector>
 
+#include "test_support.hpp"
+
 namespace fm = faultmesh;
 
 namespace {
 
-using Tri = std::array<std::int64_t, 3>;
-
-std::set<Tri> tri_set(const std::vector<std::int64_t>& t) {
-    std::set<Tri> s;
-    for (std::size_t i = 0; i + 2 < t.size(); i += 3) {
-        Tri a{t[i], t[i + 1], t[i + 2]};
-        while (a[0] > a[1] || a[0] > a[2]) a = {a[1], a[2], a[0]};
-        s.insert(a);
-    }
-    return s;
-}
+using fm::test::tri_set;
 
 // Triangles as sets of vertex coordinates: comparable between Tins whose
 // vertex numbering differs.

@@ -1,0 +1,29 @@
+"""Helpers shared by test modules (imported as a sibling: ``from helpers import
+...``; pytest puts tests/ on sys.path)."""
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+
+
+def tri_set(t) -> set[tuple[int, int, int]]:
+    """Triangles as a set, each rotated so that its smallest index is first
+    (orientation kept)."""
+    t = np.asarray(t, dtype=np.int64).reshape(-1, 3)
+    k = np.argmin(t, axis=1)
+    rows = np.arange(len(t))
+    r = np.stack([t[rows, (k + i) % 3] for i in range(3)], axis=1)
+    return set(map(tuple, r.tolist()))
+
+
+def claudius_horizons(data_dir, z: bool = False) -> dict[str, np.ndarray]:
+    """The Claudius horizons of tests/data/claudius/claudius.csv by their "val"
+    label: (n, 2) XY, or (n, 3) XYZ with ``z=True``."""
+    cols = ("X", "Y", "Z") if z else ("X", "Y")
+    rows: dict[str, list] = {}
+    with open(data_dir / "claudius" / "claudius.csv", newline="") as f:
+        for r in csv.DictReader(f):
+            if r["val"]:
+                rows.setdefault(r["val"], []).append(tuple(float(r[c]) for c in cols))
+    return {k: np.array(v) for k, v in rows.items()}
