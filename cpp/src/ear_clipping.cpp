@@ -686,8 +686,28 @@ private:
             }
         }
         if (!done) {
-            poly_.skipped.push_back(hole);
-            return;
+            // No visible bridge: the hole crosses the outer list or another
+            // hole (invalid input). Leaving it out would count its whole area
+            // as inside; bridging it anyway to Eberly's candidate (or the
+            // nearest outer-list vertex) lets the clipper's fallbacks cut most
+            // of it out, as earcut's test suite expects.
+            int c = eberly_candidate(m);
+            if (c < 0 || same_point(P(N[c]), P(N[m]))) {
+                c = -1;
+                double bd = std::numeric_limits<double>::infinity();
+                int p = poly_.start;
+                do {
+                    const double dx = N[p].x - N[m].x, dy = N[p].y - N[m].y;
+                    const double d = dx * dx + dy * dy;
+                    if (d > 0 && d < bd) { bd = d; c = p; }
+                    p = N[p].next;
+                } while (p != poly_.start);
+            }
+            if (c < 0) {
+                poly_.skipped.push_back(hole);
+                return;
+            }
+            splice(c, m);
         }
         merged_[hole] = 1;
         // Update the outer list's extremes with the hole's.
@@ -727,15 +747,38 @@ public:
             ymin = std::min(ymin, n.y); ymax = std::max(ymax, n.y);
         }
         build_grid(reflex, xmin, ymin, xmax, ymax);
-        if (order == EarOrder::quality) clip_quality(live);
-        else clip_plain();
-        // Last triangle.
-        if (remaining_ == 3) {
-            const Node& b = N_[cur_];
-            const Node &a = N_[b.prev], &c = N_[b.next];
-            if (orient2d(P(a), P(b), P(c)) > 0.0) emit(a, b, c);
+        bbox_ = {xmin, ymin, xmax, ymax};
+        // Loops still to clip: the joined polygon, plus the pieces split off
+        // by the fallback for invalid input (split_by_diagonal).
+        pending_.push_back(poly_.start);
+        while (!pending_.empty()) {
+            const int s = pending_.back();
+            pending_.pop_back();
+            std::size_t cnt = 0;
+            int p = s;
+            do {
+                ++cnt;
+                p = N_[p].next;
+            } while (p != s);
+            remaining_ = cnt;
+            cur_ = s;
+            if (cnt < 3) continue;
+            // A loop of zero area (a hole identical to the outer ring, a
+            // piece with every edge doubled) holds no region. A valid input
+            // never has one; checking costs one pass, only with holes.
+            if (check_empty_ && remnant_is_empty(s)) continue;
+            if (order == EarOrder::quality) clip_quality(s);
+            else clip_plain(s);
+            // Last triangle.
+            if (remaining_ == 3) {
+                const Node& b = N_[cur_];
+                const Node &a = N_[b.prev], &c = N_[b.next];
+                if (orient2d(P(a), P(b), P(c)) > 0.0) emit(a, b, c);
+            }
         }
     }
+
+    bool check_empty_ = false;
 
 private:
     Polygon& poly_;
@@ -743,6 +786,9 @@ private:
     std::vector<I64>& out_;
     std::size_t remaining_ = 0;
     int cur_ = -1;
+    std::vector<int> pending_;
+    std::array<double, 4> bbox_{};
+    bool resplit_ = false;  // a split happened: the quality heap must be rebuilt
     // Reflex grid (CSR).
     double gx0_ = 0, gy0_ = 0, gcw_ = 1, gch_ = 1;
     int gnx_ = 1, gny_ = 1;
@@ -954,8 +1000,158 @@ private:
         } while (p != from);
         // Each term is exact to ~1e-16 relative; 1e-12 of their absolute sum
         // separates rounding from any real area left.
-        return std::fabs(static_cast<double>(s)) <= 1e-12 * static_cast<double>(scale);
+        if (std::fabs(static_cast<double>(s)) > 1e-12 * static_cast<double>(scale)) return false;
+        // Near zero: decide exactly. A loop holds no region iff its edges
+        // cancel in pairs (every edge u -> v matched by an edge v -> u), as
+        // for a hole identical to the outer ring. A thin sliver of tiny but
+        // non-zero area is kept.
+        struct E {
+            double x0, y0, x1, y1;
+            int dir;
+        };
+        std::vector<E> es;
+        p = from;
+        do {
+            const Node &a = N_[p], &b = N_[a.next];
+            const bool fwd = a.x < b.x || (a.x == b.x && a.y < b.y);
+            es.push_back(fwd ? E{a.x, a.y, b.x, b.y, 1} : E{b.x, b.y, a.x, a.y, -1});
+            p = a.next;
+        } while (p != from);
+        std::sort(es.begin(), es.end(), [](const E& u, const E& v) {
+            if (u.x0 != v.x0) return u.x0 < v.x0;
+            if (u.y0 != v.y0) return u.y0 < v.y0;
+            if (u.x1 != v.x1) return u.x1 < v.x1;
+            return u.y1 < v.y1;
+        });
+        for (std::size_t i = 0; i < es.size();) {
+            std::size_t j = i;
+            int sum = 0;
+            while (j < es.size() && es[j].x0 == es[i].x0 && es[j].y0 == es[i].y0 && es[j].x1 == es[i].x1 &&
+                   es[j].y1 == es[i].y1)
+                sum += es[j++].dir;
+            if (sum != 0) return false;
+            i = j;
+        }
+        return true;
     }
+    // Drop vertices that bound no area: a vertex at the same position as
+    // its successor, or collinear with its neighbours (a straight-through
+    // vertex or the tip of a zero-width spike). Returns whether any was
+    // dropped. Only used once no ear is left (invalid or degenerate input).
+    bool filter_flat(int from) {
+        bool any = false;
+        int p = from, stop = from;
+        while (remaining_ > 3) {
+            const Node& b = N_[p];
+            const int nx = b.next;
+            if (same_point(P(b), P(N_[nx])) || orient2d(P(N_[b.prev]), P(b), P(N_[nx])) == 0.0) {
+                remove(p, false);
+                any = true;
+                p = stop = cur_;
+                continue;
+            }
+            p = nx;
+            if (p == stop) break;
+        }
+        cur_ = p;
+        return any;
+    }
+
+    // Is the direction from node ia to point q strictly inside the region's
+    // angle at ia (the region is on the left of the counter-clockwise loop)?
+    bool locally_inside(int ia, const double* q) const {
+        const Node& a = N_[ia];
+        const double* pp = P(N_[a.prev]);
+        const double* pn = P(N_[a.next]);
+        const double l1 = orient2d(pp, P(a), q), l2 = orient2d(P(a), pn, q);
+        if (orient2d(pp, P(a), pn) > 0.0) return l1 > 0.0 && l2 > 0.0;
+        return l1 > 0.0 || l2 > 0.0;
+    }
+    // Even-odd test of point q against the loop through `from`.
+    bool inside_loop(int from, const double* q) const {
+        bool in = false;
+        int p = from;
+        do {
+            const Node &u = N_[p], &v = N_[u.next];
+            if ((u.y > q[1]) != (v.y > q[1])) {
+                // Edge crosses the horizontal line through q: is q left of it?
+                const double o = orient2d(P(u), P(v), q);
+                if ((o > 0.0) == (v.y > u.y)) in = !in;
+            }
+            p = u.next;
+        } while (p != from);
+        return in;
+    }
+    // Does the open segment between nodes ia and ib avoid every loop edge?
+    bool diagonal_clear(int from, int ia, int ib) const {
+        const double* pa = P(N_[ia]);
+        const double* pb = P(N_[ib]);
+        int p = from;
+        do {
+            const Node& u = N_[p];
+            const int iv = u.next;
+            if (p != ia && p != ib && iv != ia && iv != ib && segments_conflict(pa, pb, P(u), P(N_[iv])))
+                return false;
+            p = iv;
+        } while (p != from);
+        return true;
+    }
+
+    // Split the loop through `from` in two along a diagonal that lies inside
+    // it (locally inside at both ends, crossing no edge, its midpoint inside),
+    // as a simple polygon always has one. The first piece continues in this
+    // loop (cur_, remaining_), the second is queued. Returns false if no such
+    // diagonal exists.
+    bool split_by_diagonal(int from) {
+        int ia = from;
+        do {
+            const Node& a = N_[ia];
+            for (int ib = N_[a.next].next; ib != a.prev; ib = N_[ib].next) {
+                const Node& b = N_[ib];
+                if (same_point(P(a), P(b))) continue;
+                if (!locally_inside(ia, P(b)) || !locally_inside(ib, P(a))) continue;
+                if (!diagonal_clear(from, ia, ib)) continue;
+                const double mid[2] = {0.5 * a.x + 0.5 * b.x, 0.5 * a.y + 0.5 * b.y};
+                if (!inside_loop(from, mid)) continue;
+                cut(ia, ib);
+                return true;
+            }
+            ia = a.next;
+        } while (ia != from);
+        return false;
+    }
+    void cut(int ia, int ib) {
+        const int a2 = poly_.copy_node(ia), b2 = poly_.copy_node(ib);
+        const int an = N_[ia].next, bp = N_[ib].prev;
+        N_[ia].next = ib; N_[ib].prev = ia;
+        N_[a2].next = an; N_[an].prev = a2;
+        N_[b2].next = a2; N_[a2].prev = b2;
+        N_[bp].next = b2; N_[b2].prev = bp;
+        for (int i : {ia, ib, a2, b2}) {
+            Node& n = N_[i];
+            n.reflex = orient2d(P(N_[n.prev]), P(n), P(N_[n.next])) <= 0.0;
+        }
+        // The copies are new nodes: rebuild the reflex grid over every live node.
+        std::vector<int> reflex;
+        for (std::size_t i = 0; i < N_.size(); ++i)
+            if (!N_[i].removed && N_[i].reflex) reflex.push_back(static_cast<int>(i));
+        build_grid(reflex, bbox_[0], bbox_[1], bbox_[2], bbox_[3]);
+        std::size_t cnt = 0;
+        int p = ia;
+        do {
+            ++cnt;
+            p = N_[p].next;
+        } while (p != ia);
+        pending_.push_back(a2);
+        remaining_ = cnt;
+        cur_ = ia;
+        resplit_ = true;
+    }
+
+    // No ear left (invalid or degenerate input). In order: drop a loop of
+    // zero area; drop vertices that bound no area; cut off a local twist of
+    // a self-crossing ring; split the loop along an inside diagonal; and
+    // only then remove one vertex anyway so that the loop terminates.
     void force_one(int from) {
         if (remnant_is_empty(from)) {
             // Drop every remaining vertex without triangles.
@@ -968,7 +1164,9 @@ private:
             }
             return;
         }
+        if (filter_flat(from)) return;
         if (cure_local_crossing(from)) return;
+        if (split_by_diagonal(from)) return;
         const int v = forced_vertex(from);
         const Node& b = N_[v];
         const bool positive = orient2d(P(N_[b.prev]), P(b), P(N_[b.next])) > 0.0;
@@ -976,8 +1174,8 @@ private:
     }
 
     // Eberly's order: walk the ring and clip each ear as it is found.
-    void clip_plain() {
-        int p = poly_.start;
+    void clip_plain(int start) {
+        int p = start;
         int stop = p;
         cur_ = p;
         while (remaining_ > 3) {
@@ -1004,29 +1202,41 @@ private:
     };
 
     // Quality order: always clip the ear with the largest minimum angle.
-    void clip_quality(const std::vector<int>& live) {
+    void clip_quality(int start) {
         std::priority_queue<Entry> heap;
         auto consider = [&](int i) {
             Node& n = N_[i];
             ++n.stamp;
             if (!n.removed && is_ear(i)) heap.push({ear_key(i), i, n.stamp});
         };
-        for (int i : live) consider(i);
-        cur_ = poly_.start;
+        auto consider_all = [&](int from) {
+            int p = from;
+            do {
+                consider(p);
+                p = N_[p].next;
+            } while (p != from);
+        };
+        consider_all(start);
+        cur_ = start;
         while (remaining_ > 3) {
             if (heap.empty()) {
                 // Ear status of non-adjacent vertices does not change for a
                 // simple polygon; for weakly simple ones it may, so rescan
                 // once before forcing a vertex out.
-                int p = cur_;
-                do {
-                    consider(p);
-                    p = N_[p].next;
-                } while (p != cur_);
+                consider_all(cur_);
                 if (heap.empty()) {
+                    resplit_ = false;
                     force_one(cur_);
-                    consider(N_[cur_].prev);
-                    consider(cur_);
+                    if (remaining_ < 3) break;
+                    if (resplit_) {
+                        // The loop was cut in two: entries may name nodes of
+                        // the queued piece. Start over on this piece.
+                        heap = std::priority_queue<Entry>();
+                        consider_all(cur_);
+                    } else {
+                        consider(N_[cur_].prev);
+                        consider(cur_);
+                    }
                     continue;
                 }
             }
@@ -1220,7 +1430,11 @@ std::vector<I64> triangulate(const char* fn, const double* xy, std::size_t n_poi
     poly.nodes.reserve(total + 2 * poly.rings.size() + 4);
     Joiner(poly, opt.bridge).run();
     std::vector<I64> tris;
-    Clipper(poly, tris).run(opt.order);
+    {
+        Clipper clipper(poly, tris);
+        clipper.check_empty_ = !poly.bridges.empty();
+        clipper.run(opt.order);
+    }
     if (opt.refine && !tris.empty()) {
         std::vector<I64> edges;
         ring_edges(poly, edges);
