@@ -15,6 +15,7 @@ import json
 import os
 import platform
 import re
+import shlex
 import shutil
 import statistics
 import subprocess
@@ -218,16 +219,30 @@ def selected(name: str, only: Optional[Sequence[str]]) -> bool:
     return not only or any(s in name for s in only)
 
 
+def pick(datasets: Sequence[Tuple[str, Callable]],
+         only: Optional[Sequence[str]]) -> List[Tuple[str, Callable]]:
+    """The (name, maker) pairs whose name contains one of the --only substrings
+    (all without --only)."""
+    return [(name, make) for name, make in datasets if selected(name, only)]
+
+
 def command_line(script: str, argv: Optional[Sequence[str]] = None,
                  drop: Sequence[str] = ("--no-write",)) -> str:
     """The command that reproduces a table (without the options that only
     decide where it goes)."""
     argv = sys.argv[1:] if argv is None else argv
-    return f"python bench/{script}" + "".join(f" {a}" for a in argv if a not in drop)
+    return f"python bench/{script}" + "".join(f" {shlex.quote(a)}" for a in argv if a not in drop)
 
 
 def today() -> str:
     return datetime.date.today().isoformat()
+
+
+def table_header(title: str, script: str, machine_line: str) -> List[str]:
+    """First lines of a docs/bench table: its title, the command that
+    reproduces it, the date and the machine."""
+    return [f"## {title}", "", f"Command: `{command_line(script)}`  ", f"Date: {today()}  ",
+            f"Machine: {machine_line}  "]
 
 
 def write_table(text: str, doc: str, args: argparse.Namespace) -> None:

@@ -41,8 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import (ROOT, add_table_args, cgal_program, command_line, machine, parse_table_args,
-                     run_program, selected, today, use_dev_build, write_array, write_table)
+from _common import (ROOT, add_table_args, cgal_program, machine, parse_table_args, pick, run_program,
+                     table_header, use_dev_build, write_array, write_table)
 
 use_dev_build()
 import faultmesh  # noqa: E402
@@ -114,9 +114,7 @@ def main() -> int:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        for name, make in DATASETS:
-            if not selected(name, args.only):
-                continue
+        for name, make in pick(DATASETS, args.only):
             xy, tri, q = make()
             files = [tmp / "v.bin", tmp / "t.bin", tmp / "q.bin"]
             write_array(files[0], xy, "<f8")
@@ -162,13 +160,8 @@ def main() -> int:
                       f"ratio {row['ratio']:.3f}, hits {hits_fm} / {hits_cg}, agree={same}",
                       file=sys.stderr, flush=True)
 
-    cmd = command_line("bench_aabb.py")
-    lines = [
-        "## AABB tree: faultmesh vs CGAL (build + batched box queries)",
-        "",
-        f"Command: `{cmd}`  ",
-        f"Date: {today()}  ",
-        f"Machine: {machine(compiler=True, cgal=True, numpy=True)}  ",
+    lines = table_header("AABB tree: faultmesh vs CGAL (build + batched box queries)", "bench_aabb.py",
+                         machine(compiler=True, cgal=True, numpy=True)) + [
         f"Runs: median of {args.runs} runs per side; sides alternate. Target: faultmesh total at most "
         "0.5x CGAL.",
         "",

@@ -29,8 +29,8 @@ import time
 
 import numpy as np
 
-from _common import (add_table_args, command_line, machine, parse_table_args, selected, today,
-                     use_dev_build, write_table)
+from _common import (add_table_args, machine, parse_table_args, pick, table_header, use_dev_build,
+                     write_table)
 
 use_dev_build()
 import faultmesh  # noqa: E402
@@ -115,9 +115,7 @@ def main() -> int:
     args = parse_table_args(ap)
 
     rows = []
-    for name, make in DATASETS:
-        if not selected(name, args.only):
-            continue
+    for name, make in pick(DATASETS, args.only):
         xy, holes = make()
         tri = holes(faultmesh.delaunay(xy))
         td, tc, te, cd, cc = [], [], [], [], []
@@ -145,13 +143,8 @@ def main() -> int:
         print(f"{name}: delaunay {row['d']:.3f} s, contours {row['c']:.3f} s, ratio {row['ratio']:.3f}, "
               f"checks {'ok' if ok else 'FAILED'}", file=sys.stderr, flush=True)
 
-    cmd = command_line("bench_boundary.py")
-    lines = [
-        "## Boundary contours: extraction + Algorithm 1 sorting vs faultmesh's Delaunay",
-        "",
-        f"Command: `{cmd}`  ",
-        f"Date: {today()}  ",
-        f"Machine: {machine(numpy=True)}  ",
+    lines = table_header("Boundary contours: extraction + Algorithm 1 sorting vs faultmesh's Delaunay", "bench_boundary.py",
+                         machine(numpy=True)) + [
         f"Runs: median of {args.runs} runs, in-process through the Python API, the calls alternating.",
         "Target: `boundary_contours` at most 0.25x `delaunay` of the same points.",
         "",

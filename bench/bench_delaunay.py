@@ -31,9 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import (ROOT, add_table_args, build_delaunay_driver, cgal_program, command_line, machine,
-                     median_time, parse_table_args, run_program, selected, time_runs, today, use_dev_build,
-                     write_array, write_table)
+from _common import (ROOT, add_table_args, build_delaunay_driver, cgal_program, machine, median_time,
+                     parse_table_args, pick, run_program, table_header, time_runs, use_dev_build, write_array,
+                     write_table)
 
 
 # ----------------------------------------------------------------- datasets
@@ -170,9 +170,7 @@ def main() -> int:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        for name, make in DATASETS:
-            if not selected(name, args.only):
-                continue
+        for name, make in pick(DATASETS, args.only):
             xy = make()
             inp = tmp / "points.bin"
             write_array(inp, xy, "<f8")
@@ -205,13 +203,8 @@ def main() -> int:
             print(f"{name}: faultmesh {med_fm:.4f} s, CGAL {med_cg:.4f} s, ratio {row['ratio']:.3f}, "
                   f"identical={same}", file=sys.stderr, flush=True)
 
-    cmd = command_line("bench_delaunay.py")
-    lines = [
-        "## Delaunay triangulation: faultmesh vs CGAL",
-        "",
-        f"Command: `{cmd}`  ",
-        f"Date: {today()}  ",
-        f"Machine: {machine(compiler=True, cgal=True, python=False)}  ",
+    lines = table_header("Delaunay triangulation: faultmesh vs CGAL", "bench_delaunay.py",
+                         machine(compiler=True, cgal=True, python=False)) + [
         f"Runs: {args.runs} fresh processes per side, sides alternating; inputs under 500k points",
         "repeat the call 5 times in each process. Times are medians over all calls.",
         "",
