@@ -171,10 +171,14 @@ def build_cgal(targets: Iterable[str], build_dir: Optional[Path] = None) -> Path
     the build folder. Default folder: $FAULTMESH_CGAL_BUILD or build/cgal."""
     build = Path(build_dir if build_dir is not None else
                  os.environ.get("FAULTMESH_CGAL_BUILD", ROOT / "build" / "cgal"))
-    subprocess.run(["cmake", "-S", str(CGAL_SRC), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release",
-                    *_generator()], check=True, capture_output=True)
-    subprocess.run(["cmake", "--build", str(build), "-j2", "--target", *targets], check=True,
-                   capture_output=True)
+    # An existing build folder keeps its generator (CMake refuses to switch).
+    gen = [] if (build / "CMakeCache.txt").is_file() else _generator()
+    for cmd in (["cmake", "-S", str(CGAL_SRC), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release", *gen],
+                ["cmake", "--build", str(build), "-j2", "--target", *targets]):
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        if r.returncode != 0:
+            raise RuntimeError(f"building bench/cgal failed: {' '.join(cmd)}\n"
+                               f"{r.stdout[-2000:]}{r.stderr[-2000:]}")
     for t in targets:
         if not (build / t).is_file():
             raise FileNotFoundError(f"CGAL program {t} was not built in {build}")
