@@ -25,10 +25,14 @@ def cgal_bin():
     libcgal-dev): a missing CGAL fails here rather than skipping the checks.
     """
     build = Path(os.environ.get("FAULTMESH_CGAL_BUILD", ROOT / "build" / "cgal"))
-    gen = ["-G", "Ninja"] if shutil.which("ninja") else []
-    subprocess.run(["cmake", "-S", str(ROOT / "bench" / "cgal"), "-B", str(build),
-                    "-DCMAKE_BUILD_TYPE=Release", *gen], check=True, capture_output=True)
-    subprocess.run(["cmake", "--build", str(build), "-j2"], check=True, capture_output=True)
+    # Keep the generator of an existing build folder; choose Ninja for a new one.
+    fresh = not (build / "CMakeCache.txt").is_file()
+    gen = ["-G", "Ninja"] if fresh and shutil.which("ninja") else []
+    for cmd in (["cmake", "-S", str(ROOT / "bench" / "cgal"), "-B", str(build),
+                 "-DCMAKE_BUILD_TYPE=Release", *gen],
+                ["cmake", "--build", str(build), "-j2"]):
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        assert r.returncode == 0, f"building the CGAL reference programs failed:\n{r.stdout}\n{r.stderr}"
 
     def lookup(name: str) -> Path:
         exe = build / name
