@@ -9,7 +9,8 @@ For every stitched gap (fault x layer) of ``faultmesh.datasets.paper_like``:
   20 degrees, for four methods:
 
   - **faultmesh, paper order**: ``build_model(..., stitch_order="plain",
-    refine=False)`` -- Eberly's ear order, no refinement (the paper's method);
+    refine=False, clearance=0.0)`` -- the paper's method: only the triangles
+    that overlap the fault patch are removed, Eberly's ear order, no refinement;
   - **faultmesh, quality order + CDT**: ``build_model`` defaults -- quality ear
     order and constrained-Delaunay flips;
   - **CGAL CDT**: the same gap polygon (outer loop + holes, taken from the
@@ -260,7 +261,8 @@ def compare(ds=None, *, repeat: int = 5, cgal_exe: Optional[Path] = None,
 
     ds = ds if ds is not None else faultmesh.datasets.paper_like(0)
     exe = cgal_exe if cgal_exe is not None else cgal_program()
-    paper_model, paper_runs = timed_build(ds, repeat, stitch_order="plain", refine=False)
+    paper_model, paper_runs = timed_build(ds, repeat, stitch_order="plain", refine=False,
+                                          clearance=0.0)
     quality_model, quality_runs = timed_build(ds, repeat)
     paper = gap_table(paper_model, cgal_repeat=repeat, ear_clip={"refine": False, "order": "plain"})
     quality = gap_table(quality_model, with_cgal=exe, cgal_repeat=repeat,
@@ -398,7 +400,8 @@ def markdown(res: Dict[str, Any], command: str, png_name: str) -> str:
          f"- Date: {today()}",
          f"- Dataset: `faultmesh.datasets.{res['dataset']}(0)` (the paper's study area re-created "
          "from a ground truth; its numbers are not the paper's, which are shown for reference).",
-         "- Methods: **paper order** = `build_model(ds, stitch_order=\"plain\", refine=False)`; "
+         "- Methods: **paper order** = `build_model(ds, stitch_order=\"plain\", refine=False, "
+         "clearance=0.0)` (the paper's removal rule, ear order and no refinement); "
          "**quality + CDT** = `build_model(ds)` (defaults); **CGAL** = CGAL 5.5 "
          "`Constrained_Delaunay_triangulation_2` of the same gap polygon (outer loop + holes, "
          "from the boundary loops of the gap's triangles); "
