@@ -7,6 +7,12 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
+
+# Deterministic property tests: the same examples on every run and machine
+# (a failure found once is found again), no example database written.
+settings.register_profile("faultmesh", derandomize=True, database=None, deadline=None)
+settings.load_profile("faultmesh")
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data"
