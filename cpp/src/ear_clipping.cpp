@@ -135,10 +135,14 @@ int ring_orientation(const double* xy, const std::vector<I64>& r) {
 // interpolation, so every cell the exact segment meets is visited.
 struct SegGrid {
     const double* xy = nullptr;
-    double x0 = 0, y0 = 0, cw = 1, ch = 1, margin_x = 0, margin_y = 0;
+    double x0 = 0, y0 = 0, cw = 1, ch = 1, icw = 1, ich = 1, margin_x = 0, margin_y = 0;
     int nx = 1, ny = 1;
-    std::vector<I64> seg;                 // 2 vertex indices per segment
-    std::vector<std::vector<int>> cells;  // segment ids per cell
+    std::vector<I64> seg;  // 2 vertex indices per segment
+    // Segment ids per cell (CSR), built on the first query over the
+    // segments inserted so far; later ones (bridges) are scanned directly.
+    std::vector<int> cstart, citems;
+    std::size_t n_built = 0;
+    bool built = false;
     std::vector<unsigned> mark;
     unsigned epoch = 0;
 
@@ -158,21 +162,30 @@ struct SegGrid {
         }
         cw = w > 0 ? w / nx : 1.0;
         ch = h > 0 ? h / ny : 1.0;
+        icw = 1.0 / cw;
+        ich = 1.0 / ch;
         // Rounding of the interpolated coordinate is a few ulps of the
         // coordinates' magnitude; 1e-6 of a cell plus 64 ulps of the largest
         // magnitude is far above it.
         const double mag = std::max({std::fabs(xmin), std::fabs(xmax), std::fabs(ymin), std::fabs(ymax)});
         margin_x = 1e-6 * cw + 64 * kEpsilon * mag;
         margin_y = 1e-6 * ch + 64 * kEpsilon * mag;
-        cells.assign(static_cast<std::size_t>(nx) * ny, {});
+        built = false;
+        n_built = 0;
+        seg.clear();
+        mark.clear();
+        seg.reserve(2 * n_seg + 16);
     }
     int col(double x) const {
-        const double c = std::floor((x - x0) / cw);
-        return c < 0 ? 0 : (c >= nx ? nx - 1 : static_cast<int>(c));
+        // Monotone in x (all that the traversal's margins need); truncation
+        // is floor here as negatives are clamped first (std::floor is a
+        // library call without SSE4.1).
+        const double c = (x - x0) * icw;
+        return c < 1.0 ? 0 : (c >= nx ? nx - 1 : static_cast<int>(c));
     }
     int row(double y) const {
-        const double r = std::floor((y - y0) / ch);
-        return r < 0 ? 0 : (r >= ny ? ny - 1 : static_cast<int>(r));
+        const double r = (y - y0) * ich;
+        return r < 1.0 ? 0 : (r >= ny ? ny - 1 : static_cast<int>(r));
     }
     template <class F>
     void for_cells(const double* p, const double* q, F&& f) const {
@@ -206,14 +219,40 @@ struct SegGrid {
         }
     }
     void insert(I64 a, I64 b) {
-        const int id = static_cast<int>(seg.size() / 2);
         seg.push_back(a);
         seg.push_back(b);
         mark.push_back(0);
-        for_cells(xy + 2 * a, xy + 2 * b, [&](std::size_t cell) {
-            auto& v = cells[cell];
-            if (v.empty() || v.back() != id) v.push_back(id);
-        });
+    }
+    // Cells of one segment: its bounding box when that is small (a short
+    // ring edge: one to a few cells), else the traversal.
+    template <class F>
+    void seg_cells(const double* p, const double* q, F&& f) const {
+        const int c0 = col(std::min(p[0], q[0]) - margin_x), c1 = col(std::max(p[0], q[0]) + margin_x);
+        const int r0 = row(std::min(p[1], q[1]) - margin_y), r1 = row(std::max(p[1], q[1]) + margin_y);
+        if ((c1 - c0 + 1) * (r1 - r0 + 1) <= 6) {
+            for (int c = c0; c <= c1; ++c)
+                for (int r = r0; r <= r1; ++r) f(static_cast<std::size_t>(c) * ny + r);
+        } else {
+            int last = -1;
+            for_cells(p, q, [&](std::size_t cell) {
+                if (static_cast<int>(cell) != last) f(cell);
+                last = static_cast<int>(cell);
+            });
+        }
+    }
+    void build() {
+        const std::size_t ncell = static_cast<std::size_t>(nx) * ny;
+        n_built = seg.size() / 2;
+        cstart.assign(ncell + 1, 0);
+        for (std::size_t id = 0; id < n_built; ++id)
+            seg_cells(xy + 2 * seg[2 * id], xy + 2 * seg[2 * id + 1], [&](std::size_t cell) { ++cstart[cell + 1]; });
+        for (std::size_t c = 1; c <= ncell; ++c) cstart[c] += cstart[c - 1];
+        citems.resize(static_cast<std::size_t>(cstart[ncell]));
+        std::vector<int> fill(cstart.begin(), cstart.end() - 1);
+        for (std::size_t id = 0; id < n_built; ++id)
+            seg_cells(xy + 2 * seg[2 * id], xy + 2 * seg[2 * id + 1],
+                      [&](std::size_t cell) { citems[fill[cell]++] = static_cast<int>(id); });
+        built = true;
     }
     // Calls f(segment id) once for each segment in a cell met by p-q; stops
     // early when f returns true (and then returns true).
@@ -223,10 +262,14 @@ struct SegGrid {
             std::fill(mark.begin(), mark.end(), 0u);
             epoch = 1;
         }
+        if (!built) build();
+        for (std::size_t id = n_built; id < seg.size() / 2; ++id)
+            if (f(static_cast<int>(id))) return true;
         bool hit = false;
         for_cells(p, q, [&](std::size_t cell) {
             if (hit) return;
-            for (int id : cells[cell]) {
+            for (int k = cstart[cell], e = cstart[cell + 1]; k < e; ++k) {
+                const int id = citems[k];
                 if (mark[id] == epoch) continue;
                 mark[id] = epoch;
                 if (f(id)) { hit = true; return; }
@@ -390,12 +433,11 @@ public:
             else if (!poly_.rings[r].empty()) poly_.skipped.push_back(static_cast<I64>(r));
         if (holes.empty()) return;
 
-        grid_.init(poly_.xy, xmin, ymin, xmax, ymax, n_seg);
-        for (std::size_t r = 0; r < n_rings; ++r) {
-            const auto& ring = poly_.rings[r];
-            if (ring.size() < 3) continue;
-            for (std::size_t k = 0; k < ring.size(); ++k) grid_.insert(ring[k], ring[(k + 1) % ring.size()]);
-        }
+        // The segment grid for the visibility tests is built lazily: a few
+        // bridges (the usual case: each hole's first extreme-point pair is
+        // visible) are cheaper to test against every segment directly.
+        box_ = {xmin, ymin, xmax, ymax};
+        n_seg_ = n_seg;
         // Extremes of the outer list: (max x, min x, max y, min y), lexicographic.
         ext_ = extremes(ring_first_[0]);
         // Eberly: holes in order of decreasing maximum x.
@@ -414,6 +456,9 @@ private:
     Polygon& poly_;
     BridgeMethod method_;
     SegGrid grid_;
+    bool grid_built_ = false;
+    std::size_t n_seg_ = 0, scanned_ = 0;
+    std::array<double, 4> box_{};
     std::vector<int> ring_first_;
     std::vector<char> merged_;
     std::array<int, 4> ext_{};
@@ -478,9 +523,48 @@ private:
         return best_out ? best : -1;
     }
 
+    void build_seg_grid() {
+        grid_.init(poly_.xy, box_[0], box_[1], box_[2], box_[3], n_seg_);
+        for (const auto& ring : poly_.rings) {
+            if (ring.size() < 3) continue;
+            for (std::size_t k = 0; k < ring.size(); ++k) grid_.insert(ring[k], ring[(k + 1) % ring.size()]);
+        }
+        for (std::size_t k = 0; k + 1 < poly_.bridges.size(); k += 2)
+            if (!same_point(poly_.xy + 2 * poly_.bridges[k], poly_.xy + 2 * poly_.bridges[k + 1]))
+                grid_.insert(poly_.bridges[k], poly_.bridges[k + 1]);
+        grid_built_ = true;
+    }
+
     // Does the open segment a-b avoid every ring and bridge segment?
     bool segment_clear(const double* a, const double* b) {
         const double* xy = poly_.xy;
+        if (!grid_built_ && scanned_ < 8 * n_seg_ + 1024) {
+            // Direct scan with a bounding-box reject.
+            const double bx0 = std::min(a[0], b[0]), bx1 = std::max(a[0], b[0]);
+            const double by0 = std::min(a[1], b[1]), by1 = std::max(a[1], b[1]);
+            auto conflict = [&](I64 u, I64 v) {
+                const double* q0 = xy + 2 * u;
+                const double* q1 = xy + 2 * v;
+                if (std::max(q0[0], q1[0]) < bx0 || std::min(q0[0], q1[0]) > bx1 ||
+                    std::max(q0[1], q1[1]) < by0 || std::min(q0[1], q1[1]) > by1)
+                    return false;
+                return segments_conflict(a, b, q0, q1);
+            };
+            for (const auto& ring : poly_.rings) {
+                const std::size_t n = ring.size();
+                if (n < 3) continue;
+                scanned_ += n;
+                if (conflict(ring[n - 1], ring[0])) return false;
+                for (std::size_t k = 0; k + 1 < n; ++k)
+                    if (conflict(ring[k], ring[k + 1])) return false;
+            }
+            for (std::size_t k = 0; k + 1 < poly_.bridges.size(); k += 2)
+                if (!same_point(xy + 2 * poly_.bridges[k], xy + 2 * poly_.bridges[k + 1]) &&
+                    conflict(poly_.bridges[k], poly_.bridges[k + 1]))
+                    return false;
+            return true;
+        }
+        if (!grid_built_) build_seg_grid();
         return !grid_.any(a, b, [&](int id) {
             const double* q0 = xy + 2 * grid_.seg[2 * id];
             const double* q1 = xy + 2 * grid_.seg[2 * id + 1];
@@ -510,7 +594,7 @@ private:
         N[bp].next = b2; N[b2].prev = bp;
         N[b2].next = a2; N[a2].prev = b2;
         N[a2].next = an; N[an].prev = a2;
-        grid_.insert(N[a].v, N[b].v);
+        if (grid_built_) grid_.insert(N[a].v, N[b].v);
         poly_.bridges.push_back(N[a].v);
         poly_.bridges.push_back(N[b].v);
     }
@@ -790,9 +874,14 @@ private:
     std::array<double, 4> bbox_{};
     bool resplit_ = false;  // a split happened: the quality heap must be rebuilt
     // Reflex grid (CSR).
-    double gx0_ = 0, gy0_ = 0, gcw_ = 1, gch_ = 1;
+    double gx0_ = 0, gy0_ = 0, gcw_ = 1, gch_ = 1, gicw_ = 1, gich_ = 1;
     int gnx_ = 1, gny_ = 1;
-    std::vector<int> gstart_, gitems_;
+    struct GItem {
+        double x, y;  // first: &x is a point for the predicates
+        int id;
+    };
+    std::vector<int> gstart_, gend_, gslot_, gcellof_;
+    std::vector<GItem> gitems_;
 
     void build_grid(const std::vector<int>& reflex, double xmin, double ymin, double xmax, double ymax) {
         const double w = xmax - xmin, h = ymax - ymin;
@@ -807,25 +896,45 @@ private:
         gy0_ = ymin;
         gcw_ = w > 0 ? w / gnx_ : 1.0;
         gch_ = h > 0 ? h / gny_ : 1.0;
-        gstart_.assign(static_cast<std::size_t>(gnx_) * gny_ + 1, 0);
-        std::vector<int> cell(reflex.size());
-        for (std::size_t k = 0; k < reflex.size(); ++k) {
-            const Node& n = N_[reflex[k]];
-            cell[k] = gcol(n.x) * gny_ + grow(n.y);
-            ++gstart_[cell[k] + 1];
+        gicw_ = 1.0 / gcw_;
+        gich_ = 1.0 / gch_;
+        const std::size_t ncell = static_cast<std::size_t>(gnx_) * gny_;
+        gstart_.assign(ncell + 1, 0);
+        gslot_.assign(N_.size(), -1);
+        gcellof_.resize(N_.size());
+        for (int i : reflex) {
+            const Node& n = N_[i];
+            const int c = gcol(n.x) * gny_ + grow(n.y);
+            gcellof_[i] = c;
+            ++gstart_[c + 1];
         }
         for (std::size_t c = 1; c < gstart_.size(); ++c) gstart_[c] += gstart_[c - 1];
         gitems_.resize(reflex.size());
-        std::vector<int> fill(gstart_.begin(), gstart_.end() - 1);
-        for (std::size_t k = 0; k < reflex.size(); ++k) gitems_[fill[cell[k]]++] = reflex[k];
+        gend_.assign(gstart_.begin(), gstart_.end() - 1);
+        for (int i : reflex) {
+            const int k = gend_[gcellof_[i]]++;
+            gitems_[k] = {N_[i].x, N_[i].y, i};
+            gslot_[i] = k;
+        }
+    }
+    // A vertex that stops being reflex (or is clipped) leaves the grid:
+    // swap it with the last item of its cell, so scans see live items only.
+    void grid_erase(int i) {
+        const int k = gslot_[i];
+        if (k < 0) return;
+        const int last = --gend_[gcellof_[i]];
+        gitems_[k] = gitems_[last];
+        gslot_[gitems_[k].id] = k;
+        gslot_[i] = -1;
     }
     int gcol(double x) const {
-        const double c = std::floor((x - gx0_) / gcw_);
-        return c < 0 ? 0 : (c >= gnx_ ? gnx_ - 1 : static_cast<int>(c));
+        // Monotone in x, the same function for items and queries.
+        const double c = (x - gx0_) * gicw_;
+        return c < 1.0 ? 0 : (c >= gnx_ ? gnx_ - 1 : static_cast<int>(c));
     }
     int grow(double y) const {
-        const double r = std::floor((y - gy0_) / gch_);
-        return r < 0 ? 0 : (r >= gny_ ? gny_ - 1 : static_cast<int>(r));
+        const double r = (y - gy0_) * gich_;
+        return r < 1.0 ? 0 : (r >= gny_ ? gny_ - 1 : static_cast<int>(r));
     }
 
     void emit(const Node& a, const Node& b, const Node& c) {
@@ -864,7 +973,7 @@ private:
     // Is node ib an ear tip? Strictly convex, and no other vertex in the
     // closed triangle (only non-convex vertices need testing: if a vertex is
     // inside, a reflex one is).
-    bool is_ear(int ib) const {
+    __attribute__((flatten)) bool is_ear(int ib) const {
         const Node& b = N_[ib];
         const int ia = b.prev, ic = b.next;
         const Node &a = N_[ia], &c = N_[ic];
@@ -876,16 +985,20 @@ private:
         const double miny = std::min({a.y, b.y, c.y}), maxy = std::max({a.y, b.y, c.y});
         const int c0 = gcol(minx), c1 = gcol(maxx), r0 = grow(miny), r1 = grow(maxy);
         for (int cx = c0; cx <= c1; ++cx) {
-            const int base = cx * gny_;
-            for (int k = gstart_[base + r0], e = gstart_[base + r1 + 1]; k < e; ++k) {
-                const int ir = gitems_[k];
-                const Node& r = N_[ir];
-                if (r.removed || !r.reflex || ir == ia || ir == ib || ir == ic) continue;
-                if (r.x < minx || r.x > maxx || r.y < miny || r.y > maxy) continue;
-                if (same_point(P(r), P(a)) || same_point(P(r), P(b)) || same_point(P(r), P(c))) continue;
-                if (orient2d(P(a), P(b), P(r)) >= 0.0 && orient2d(P(b), P(c), P(r)) >= 0.0 &&
-                    orient2d(P(c), P(a), P(r)) >= 0.0)
-                    return false;
+            for (int cell = cx * gny_ + r0, ce = cx * gny_ + r1; cell <= ce; ++cell) {
+                for (int k = gstart_[cell], e = gend_[cell]; k < e; ++k) {
+                    const GItem& r = gitems_[k];
+                    // One well-predicted branch instead of four (most items
+                    // of a cell are outside the ear's box).
+                    const bool in_box = (r.x >= minx) & (r.x <= maxx) & (r.y >= miny) & (r.y <= maxy);
+                    if (!in_box) continue;
+                    if (r.id == ia || r.id == ib || r.id == ic) continue;
+                    const double* q = &r.x;
+                    if (same_point(q, P(a)) || same_point(q, P(b)) || same_point(q, P(c))) continue;
+                    if (orient2d(P(a), P(b), q) >= 0.0 && orient2d(P(b), P(c), q) >= 0.0 &&
+                        orient2d(P(c), P(a), q) >= 0.0)
+                        return false;
+                }
             }
         }
         return true;
@@ -908,7 +1021,10 @@ private:
 
     void update_reflex(int i) {
         Node& n = N_[i];
-        if (n.reflex) n.reflex = orient2d(P(N_[n.prev]), P(n), P(N_[n.next])) <= 0.0;
+        if (n.reflex && orient2d(P(N_[n.prev]), P(n), P(N_[n.next])) > 0.0) {
+            n.reflex = false;
+            grid_erase(i);
+        }
     }
 
     void remove(int ib, bool emit_triangle) {
@@ -918,6 +1034,7 @@ private:
         a.next = b.next;
         c.prev = b.prev;
         b.removed = true;
+        if (b.reflex) grid_erase(ib);
         --remaining_;
         update_reflex(b.prev);
         update_reflex(b.next);
@@ -1159,6 +1276,7 @@ private:
             while (remaining_ > 0) {
                 const int nx = N_[p].next;
                 N_[p].removed = true;
+                if (N_[p].reflex) grid_erase(p);
                 --remaining_;
                 p = nx;
             }
