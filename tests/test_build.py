@@ -290,6 +290,86 @@ def _xtrace(c, along, kind="normal"):
     return Trace(None, plane, {"L": {"foot": pts[:3], "hanging": pts[3:]}})
 
 
+def _hole_rings(surface, gap):
+    """Boundary loops of a gap's triangles that are holes (clockwise in XY)."""
+    loops = faultmesh.boundary_loops(surface.triangles[gap.triangles], strict=False,
+                                     n_vertices=surface.n_vertices)
+    xy = surface.vertices[:, :2]
+    out = []
+    for l in loops:
+        p = xy[np.asarray(l)] - xy[np.asarray(l)].mean(axis=0)
+        if np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]) < 0:
+            out.append(p + xy[np.asarray(l)].mean(axis=0))
+    return out
+
+
+def _ring_distance(a, b):
+    """Smallest XY distance between the closed polylines a and b (no crossings)."""
+    from faultmesh.faults import _point_segment_dist
+    best = np.inf
+    for p, q in ((a, b), (b, a)):
+        s0, s1 = q, np.roll(q, -1, axis=0)
+        d = _point_segment_dist(p[:, None, :], s0[None, :, :], s1[None, :, :])
+        best = min(best, float(d.min()))
+    return best
+
+
+def test_crossing_group_gap_has_no_rounding_sliver(paper_model):
+    # Regression: 4F2's end trace is carried onto 2F1's outline (a T-crossing),
+    # so its end vertices lie ON that outline up to rounding. The exact clip
+    # removed the triangles of those that rounded inside and kept one that
+    # rounded 2e-10 m outside: the gap of 2F1-4F2 in "coal 8" then had two
+    # holes 2e-10 m apart, joined by a triangle of 3e-11 degrees in XY.
+    from faultmesh.report import min_angles
+    gaps = [g for g in paper_model.gaps if g.fault == "2F1-4F2"]
+    assert gaps
+    for g in gaps:
+        s = paper_model.surfaces[g.layer]
+        holes = _hole_rings(s, g)
+        for i in range(len(holes)):
+            for j in range(i + 1, len(holes)):
+                # The clipped 4F2 ends one trace short of 2F1 (hundreds of m).
+                assert _ring_distance(holes[i], holes[j]) > 1.0, (g.layer, i, j)
+    for g in paper_model.gaps:
+        s = paper_model.surfaces[g.layer]
+        xy0 = np.c_[s.vertices[:, :2], np.zeros(s.n_vertices)]
+        a = min_angles(xy0, s.triangles[g.triangles])
+        # A rounding sliver is ~1e-11 degrees. Without Steiner points the
+        # worst legitimate triangle is a 1.7 m fault-strip edge of the clipped
+        # 4F2 facing the nearest 2F1 outline vertex 565 m away:
+        # atan(1.7 / 565) = 0.17 degrees (0.147 measured).
+        assert a.min() > 0.05, (g.fault, g.layer, float(a.min()))
+
+
+def test_clip_patch_removes_triangles_that_round_just_outside_the_outline():
+    from faultmesh.faults import clip_patch
+    x0, y0 = 514000.0, 3927000.0        # paper-like coordinates: 1 ulp ~ 5e-10 m
+    ring = np.array([[x0, y0], [x0 + 1000, y0], [x0 + 1000, y0 + 1000], [x0, y0 + 1000]])
+    e = x0 + 1000
+    # A strip right of the ring's east edge; its west vertices lie ON that
+    # edge up to rounding: one 1e-10 m inside, one 2e-10 m outside (what
+    # carrying a trace onto a partner's outline gives), then a far column.
+    V = np.array([[np.nextafter(e, 0), y0 + 100, 0], [e + 2e-10, y0 + 600, 0],
+                  [e + 300, y0 + 100, 0], [e + 300, y0 + 600, 0], [e + 300, y0 + 900, 0],
+                  [e + 600, y0 + 100, 0], [e + 600, y0 + 600, 0], [e + 600, y0 + 900, 0]])
+    assert V[1, 0] > e                   # really outside after rounding
+    T = np.array([[0, 2, 3], [1, 3, 4], [2, 5, 6], [2, 6, 3], [3, 6, 7], [3, 7, 4]])
+    # Exact test alone: only the triangle at the vertex inside goes; the one
+    # at the vertex 2e-10 m outside survives.
+    V0, T0 = clip_patch(V, T, [ring], tol=0.0)
+    assert len(T0) == 5
+    assert 0 < V0[:, 0].min() - e < 1e-9
+    # With the rounding tolerance (default) both go; the far columns stay.
+    V1, T1 = clip_patch(V, T, [ring])
+    assert len(T1) == 4 and V1[:, 0].min() == e + 300
+    # Something really apart (1 mm) is kept.
+    V2 = V.copy()
+    V2[1, 0] = e + 1e-3
+    assert len(clip_patch(V2, T, [ring])[1]) == 5
+    with pytest.raises(ValueError, match="tol"):
+        clip_patch(V, T, [ring], tol=-1.0)
+
+
 def test_x_crossing_faults_modelled_as_one_patch():
     ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], float)
     bh = _grid_boreholes({"L": lambda x, y: -100.0 - 0.001 * x})
