@@ -463,3 +463,35 @@ def test_saved_files_are_world_readable(tmp_path):
     finally:
         os.umask(old)
     assert (p.stat().st_mode & 0o777) == 0o644
+
+
+# ---------------------------------------------------------------------------
+# data from `points` alone (seismic picks): a header-only boreholes file
+# ---------------------------------------------------------------------------
+def _points_only(small_copy, with_boundary=True):
+    d = small_copy.parent
+    (d / "boreholes.csv").write_text("hole_id,x,y,layer,z\n")
+    rng = np.random.default_rng(3)
+    xy = rng.random((40, 2)) * [1000, 800]
+    for k, layer in enumerate(["top", "seam_a", "seam_b"]):
+        np.savetxt(d / f"pts_{layer}.csv", np.c_[xy, -100.0 * k + 0.01 * xy[:, 0]],
+                   delimiter=",", header="x,y,z", comments="", fmt="%.17g")
+
+    def fn(doc):
+        doc["points"] = {layer: f"pts_{layer}.csv" for layer in ["top", "seam_a", "seam_b"]}
+        doc["faults"] = []
+        if not with_boundary:
+            doc.pop("boundary")
+    return edit_json(small_copy, fn)
+
+
+def test_header_only_boreholes_with_points_and_boundary(small_copy):
+    ds = fm.load_dataset(_points_only(small_copy))
+    assert len(ds.boreholes.z) == 0
+    for layer in ds.layers:
+        assert ds.layer_points(layer).shape == (40, 3)
+
+
+def test_header_only_boreholes_need_a_boundary(small_copy):
+    expect_error(_points_only(small_copy, with_boundary=False), "boundary",
+                 "no borehole rows")

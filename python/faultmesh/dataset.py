@@ -554,7 +554,10 @@ def _load_boreholes(file: Path, layers: List[str], ctx: _Ctx) -> Boreholes:
     idx = {c: header.index(c) for c in _BOREHOLE_COLUMNS}
     body, bl = rows[1:], lines[1:]
     if not body:
-        raise DatasetError(f"{file}: no borehole rows after the header")
+        # Allowed: data may come from `points` alone (seismic picks, DEMs);
+        # the boundary must then be given (checked by the caller).
+        return Boreholes(np.zeros(0, dtype=str), np.zeros((0, 2)), np.zeros(0, dtype=str),
+                         np.zeros(0))
     for r, ln in zip(body, bl):
         if len(r) != len(header):
             raise DatasetError(f"{file}, row {ln}: expected {len(header)} fields, got {len(r)}")
@@ -701,6 +704,9 @@ def load_dataset(path) -> Dataset:
         if why:
             raise ctx.err("boundary", why)
     else:
+        if len(boreholes.z) == 0:
+            raise ctx.err("boundary", "not given, and there are no borehole rows to take the "
+                          "default (the boreholes' bounding box) from")
         lo = boreholes.xy.min(axis=0)
         hi = boreholes.xy.max(axis=0)
         if not np.all(hi > lo):
