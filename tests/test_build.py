@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, event, given, settings, strategies as st
 
 import faultmesh
 from faultmesh import datasets
-from faultmesh.build import LayerTin, fault_accuracy, gap_quality, repair_crossings, surface_z
+from faultmesh.build import LayerTin, gap_quality, repair_crossings, surface_z
 from faultmesh.dataset import Boreholes, Dataset, Fault, Trace
 from faultmesh.invariants import check_surface
 from faultmesh.model import Surface

@@ -109,6 +109,28 @@ def _outline(ax, surf, ve: float, color, z) -> None:
                                          linewidths=1.6, zorder=z))
 
 
+def _frame_3d(fig, ax, lo, hi, zbot, ve, elev, azim):
+    """Limits, aspect, view and labelled ticks of a 3D panel whose z axis is
+    exaggerated by ``ve``: tick labels show true elevations."""
+    from matplotlib.ticker import FuncFormatter, MaxNLocator
+
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(zbot * ve, hi[2] * ve)
+    ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], max((hi[2] - zbot) * ve, 1e-9)))
+    fig.subplots_adjust(left=0.0, right=0.97, bottom=0.02, top=0.95)
+    ax.view_init(elev=elev, azim=azim)
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_locator(MaxNLocator(5))
+        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.0f}"))
+    ax.zaxis.set_major_locator(MaxNLocator(5))
+    ax.zaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v / ve:.0f}"))
+    ax.set_xlabel("x (m)", labelpad=10)
+    ax.set_ylabel("y (m)", labelpad=10)
+    ax.set_zlabel("elevation (m)", labelpad=6)
+    ax.tick_params(labelsize=7)
+
+
 def plot_model_3d(model, path=None, *, vertical_exaggeration: Optional[float] = None,
                   elev: float = 30.0, azim: float = -60.0, title: Optional[str] = None,
                   show_faults: bool = True, upper_alpha: float = 0.55, figsize=(11, 8.5)):
@@ -124,7 +146,6 @@ def plot_model_3d(model, path=None, *, vertical_exaggeration: Optional[float] = 
     automatic by default). Returns the figure."""
     plt = _plt()
     from matplotlib.patches import Patch
-    from matplotlib.ticker import FuncFormatter, MaxNLocator
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
     layers = list(model.surfaces.values())
@@ -167,22 +188,7 @@ def plot_model_3d(model, path=None, *, vertical_exaggeration: Optional[float] = 
             for f in faults:     # just above the deepest layer: seen through the others
                 add(f, FAULT_COLOR, 0.95, z, edge=(0.35, 0.05, 0.05, 0.6))
                 z += 1
-    ax.set_xlim(lo[0], hi[0])
-    ax.set_ylim(lo[1], hi[1])
-    ax.set_zlim(lo[2] * ve, hi[2] * ve)
-    ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], max((hi[2] - lo[2]) * ve, 1e-9)))
-    fig.subplots_adjust(left=0.0, right=0.97, bottom=0.02, top=0.95)
-    ax.view_init(elev=elev, azim=azim)
-    for axis in (ax.xaxis, ax.yaxis):
-        axis.set_major_locator(MaxNLocator(5))
-        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.0f}"))
-    ax.zaxis.set_major_locator(MaxNLocator(5))
-    # Tick labels show true elevations although the axis is exaggerated.
-    ax.zaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v / ve:.0f}"))
-    ax.set_xlabel("x (m)", labelpad=10)
-    ax.set_ylabel("y (m)", labelpad=10)
-    ax.set_zlabel("elevation (m)", labelpad=6)
-    ax.tick_params(labelsize=7)
+    _frame_3d(fig, ax, lo, hi, lo[2], ve, elev, azim)
     handles = [Patch(facecolor=layer_color(i), edgecolor="0.3", label=name)
                for i, name in enumerate(model.surfaces)]
     if faults:
@@ -297,7 +303,6 @@ def plot_fence_3d(model, sections, path=None, *, vertical_exaggeration: Optional
     plt = _plt()
     from matplotlib.colors import to_rgb
     from matplotlib.patches import Patch
-    from matplotlib.ticker import FuncFormatter, MaxNLocator
     from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
     sections = [sec for sec in sections if sec.lines]
@@ -414,21 +419,7 @@ def plot_fence_3d(model, sections, path=None, *, vertical_exaggeration: Optional
         smax = max(float(ln.s.max()) for ln in sec.lines)
         p = sec.origin + smax * sec.direction
         ax.text(p[0], p[1], hi[2] * ve, f" {sec.name}", fontsize=9, fontweight="bold", zorder=4)
-    ax.set_xlim(lo[0], hi[0])
-    ax.set_ylim(lo[1], hi[1])
-    ax.set_zlim(zbot * ve, hi[2] * ve)
-    ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], max((hi[2] - zbot) * ve, 1e-9)))
-    fig.subplots_adjust(left=0.0, right=0.97, bottom=0.02, top=0.95)
-    ax.view_init(elev=elev, azim=azim)
-    for axis in (ax.xaxis, ax.yaxis):
-        axis.set_major_locator(MaxNLocator(5))
-        axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.0f}"))
-    ax.zaxis.set_major_locator(MaxNLocator(5))
-    ax.zaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v / ve:.0f}"))
-    ax.set_xlabel("x (m)", labelpad=10)
-    ax.set_ylabel("y (m)", labelpad=10)
-    ax.set_zlabel("elevation (m)", labelpad=6)
-    ax.tick_params(labelsize=7)
+    _frame_3d(fig, ax, lo, hi, zbot, ve, elev, azim)
     handles = [Patch(facecolor=layer_color(i + first_layer), edgecolor="0.3", label=n)
                for i, n in enumerate(layers)]
     handles.append(Patch(facecolor=FAULT_COLOR, edgecolor="0.3", alpha=0.7, label="faults"))
