@@ -229,7 +229,7 @@ struct SegGrid {
     void seg_cells(const double* p, const double* q, F&& f) const {
         const int c0 = col(std::min(p[0], q[0]) - margin_x), c1 = col(std::max(p[0], q[0]) + margin_x);
         const int r0 = row(std::min(p[1], q[1]) - margin_y), r1 = row(std::max(p[1], q[1]) + margin_y);
-        if ((c1 - c0 + 1) * (r1 - r0 + 1) <= 6) {
+        if ((c1 - c0 + 1) * (r1 - r0 + 1) <= 12) {
             for (int c = c0; c <= c1; ++c)
                 for (int r = r0; r <= r1; ++r) f(static_cast<std::size_t>(c) * ny + r);
         } else {
@@ -336,6 +336,7 @@ struct Polygon {
     std::vector<I64> bridges;          // 2 per bridge
     std::vector<I64> skipped;          // rings not joined
     std::vector<std::vector<I64>> rings;  // cleaned, oriented rings (outer CCW, holes CW)
+    bool touching = false;                // two ring vertices share a position
 
     int add_node(I64 v, int ring) {
         Node n;
@@ -383,6 +384,7 @@ void link_twins(Polygon& poly) {
             if (j < 0) { table[s] = static_cast<int>(i); break; }
             Node& o = poly.nodes[j];
             if (o.x == nd.x && o.y == nd.y) {
+                poly.touching = true;
                 nd.twin = o.twin;
                 o.twin = static_cast<int>(i);
                 break;
@@ -834,7 +836,8 @@ public:
         bbox_ = {xmin, ymin, xmax, ymax};
         // Loops still to clip: the joined polygon, plus the pieces split off
         // by the fallback for invalid input (split_by_diagonal).
-        pending_.push_back(poly_.start);
+        if (poly_.touching) cancel_doubled_edges(poly_.start);
+        else pending_.push_back(poly_.start);
         while (!pending_.empty()) {
             const int s = pending_.back();
             pending_.pop_back();
@@ -863,6 +866,97 @@ public:
     }
 
     bool check_empty_ = false;
+
+    // Rings that touch along edges (a hole sharing edges with the outer
+    // ring, a ring running back over itself) leave pairs of opposite edges
+    // u -> v, v -> u in the joined loop. The region lies on both sides of
+    // neither, so such a pair is cut out, splitting the loop in two, if
+    // both pieces keep a non-negative area (a bridge to a hole would leave
+    // the clockwise hole on its own and is kept). The pieces are queued.
+    // Only run when some ring vertices coincide (never for valid input).
+    void cancel_doubled_edges(int start) {
+        struct E {
+            double ux, uy, vx, vy;
+            int node;
+            bool operator<(const E& o) const {
+                if (ux != o.ux) return ux < o.ux;
+                if (uy != o.uy) return uy < o.uy;
+                if (vx != o.vx) return vx < o.vx;
+                return vy < o.vy;
+            }
+        };
+        std::vector<E> es;
+        std::vector<int> loop;
+        int p = start;
+        do {
+            const Node &a = N_[p], &b = N_[a.next];
+            es.push_back({a.x, a.y, b.x, b.y, p});
+            loop.push_back(p);
+            p = a.next;
+        } while (p != start);
+        std::sort(es.begin(), es.end());
+        auto loop_area = [&](int from, int to_excl_next) {
+            // Shoelace of the loop from `from` along next up to node
+            // `to_excl_next`, closed back to `from`.
+            // NaN if `to_excl_next` is not on the loop of `from` (an
+            // earlier cut separated them).
+            const double x0 = N_[from].x, y0 = N_[from].y;
+            double s2 = 0;
+            int q = from;
+            std::size_t steps = 0;
+            while (q != to_excl_next) {
+                if (++steps > loop.size()) return std::numeric_limits<double>::quiet_NaN();
+                const Node &a = N_[q], &b = N_[a.next];
+                s2 += (a.x - x0) * (b.y - y0) - (b.x - x0) * (a.y - y0);
+                q = a.next;
+            }
+            return s2;
+        };
+        for (int pi : loop) {
+            if (N_[pi].removed) continue;
+            const int p1 = N_[pi].next;
+            E key{N_[p1].x, N_[p1].y, N_[pi].x, N_[pi].y, 0};
+            for (auto it = std::lower_bound(es.begin(), es.end(), key);
+                 it != es.end() && !(key < *it); ++it) {
+                const int q = it->node;
+                if (N_[q].removed || q == pi) continue;
+                const int q1 = N_[q].next;
+                if (!same_point(P(N_[q]), P(N_[p1])) || !same_point(P(N_[q1]), P(N_[pi]))) continue;
+                if (p1 == q) {
+                    // u -> v -> u: a zero-width spike; drop its tip.
+                    if (remaining_ <= 3) break;
+                    remove(p1, false);
+                    break;
+                }
+                // Pieces: p1 ... q.prev (closing at v) and q1 ... pi.prev (closing at u).
+                const double a1 = loop_area(p1, q), a2 = loop_area(q1, pi);
+                if (!(a1 >= 0) || !(a2 >= 0)) continue;
+                const int qp = N_[q].prev, pp = N_[pi].prev;
+                N_[qp].next = p1; N_[p1].prev = qp;
+                N_[pp].next = q1; N_[q1].prev = pp;
+                N_[pi].removed = N_[q].removed = true;
+                for (int i : {qp, p1, pp, q1}) {
+                    Node& n = N_[i];
+                    n.reflex = orient2d(P(N_[n.prev]), P(n), P(N_[n.next])) <= 0.0;
+                }
+                break;
+            }
+        }
+        // Queue every piece left (reflex flags changed: rebuild the grid).
+        std::vector<int> reflex;
+        std::vector<char> seen(N_.size(), 0);
+        for (int i : loop) {
+            if (N_[i].removed || seen[i]) continue;
+            int q = i;
+            do {
+                seen[q] = 1;
+                if (N_[q].reflex) reflex.push_back(q);
+                q = N_[q].next;
+            } while (q != i);
+            pending_.push_back(i);
+        }
+        build_grid(reflex, bbox_[0], bbox_[1], bbox_[2], bbox_[3]);
+    }
 
 private:
     Polygon& poly_;
@@ -994,9 +1088,9 @@ private:
                     if (!in_box) continue;
                     if (r.id == ia || r.id == ib || r.id == ic) continue;
                     const double* q = &r.x;
-                    if (same_point(q, P(a)) || same_point(q, P(b)) || same_point(q, P(c))) continue;
                     if (orient2d(P(a), P(b), q) >= 0.0 && orient2d(P(b), P(c), q) >= 0.0 &&
-                        orient2d(P(c), P(a), q) >= 0.0)
+                        orient2d(P(c), P(a), q) >= 0.0 && !same_point(q, P(a)) && !same_point(q, P(b)) &&
+                        !same_point(q, P(c)))
                         return false;
                 }
             }
