@@ -567,9 +567,14 @@ private:
             return true;
         }
         if (!grid_built_) build_seg_grid();
+        const double bx0 = std::min(a[0], b[0]), bx1 = std::max(a[0], b[0]);
+        const double by0 = std::min(a[1], b[1]), by1 = std::max(a[1], b[1]);
         return !grid_.any(a, b, [&](int id) {
             const double* q0 = xy + 2 * grid_.seg[2 * id];
             const double* q1 = xy + 2 * grid_.seg[2 * id + 1];
+            if (std::max(q0[0], q1[0]) < bx0 || std::min(q0[0], q1[0]) > bx1 || std::max(q0[1], q1[1]) < by0 ||
+                std::min(q0[1], q1[1]) > by1)
+                return false;
             return segments_conflict(a, b, q0, q1);
         });
     }
@@ -895,6 +900,12 @@ public:
             p = a.next;
         } while (p != start);
         std::sort(es.begin(), es.end());
+        // Bridges are opposite edge pairs by construction: never cut them.
+        std::vector<std::pair<I64, I64>> bridge_set;
+        for (std::size_t k = 0; k + 1 < poly_.bridges.size(); k += 2)
+            bridge_set.push_back({std::min(poly_.bridges[k], poly_.bridges[k + 1]),
+                                  std::max(poly_.bridges[k], poly_.bridges[k + 1])});
+        std::sort(bridge_set.begin(), bridge_set.end());
         auto loop_area = [&](int from, int to_excl_next) {
             // Shoelace of the loop from `from` along next up to node
             // `to_excl_next`, closed back to `from`.
@@ -915,6 +926,8 @@ public:
         for (int pi : loop) {
             if (N_[pi].removed) continue;
             const int p1 = N_[pi].next;
+            const std::pair<I64, I64> e{std::min(N_[pi].v, N_[p1].v), std::max(N_[pi].v, N_[p1].v)};
+            if (std::binary_search(bridge_set.begin(), bridge_set.end(), e)) continue;
             E key{N_[p1].x, N_[p1].y, N_[pi].x, N_[pi].y, 0};
             for (auto it = std::lower_bound(es.begin(), es.end(), key);
                  it != es.end() && !(key < *it); ++it) {
