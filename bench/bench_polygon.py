@@ -107,6 +107,35 @@ def median_time(fn, runs: int):
     return float(np.median(ts)), out
 
 
+def interleaved(fns: dict, runs: int) -> dict:
+    """Median seconds and last output of each callable, runs interleaved."""
+    outs = {name: fn() for name, fn in fns.items()}  # warm-up
+    ts = {name: [] for name in fns}
+    for _ in range(runs):
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            outs[name] = fn()
+            ts[name].append(time.perf_counter() - t0)
+    return {name: (float(np.median(ts[name])), outs[name]) for name in fns}
+
+
+def deviation(rings, pts, tris) -> float:
+    """earcut's area deviation (its test suite's earcut.deviation): |sum of
+    |triangle areas| - (|outer| - sum |holes|)| / (|outer| - sum |holes|)."""
+    def ring_area(r):
+        x, y = r[:, 0], r[:, 1]
+        return abs(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)) / 2
+    pa = ring_area(rings[0]) - sum(ring_area(r) for r in rings[1:])
+    if len(tris):
+        a, b, c = pts[tris[:, 0]], pts[tris[:, 1]], pts[tris[:, 2]]
+        ta = float(np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])).sum() / 2)
+    else:
+        ta = 0.0
+    if pa == 0 and ta == 0:
+        return 0.0
+    return abs(ta - pa) / pa if pa != 0 else float("inf")
+
+
 def cgal_exe() -> Path | None:
     build = Path(os.environ.get("FAULTMESH_CGAL_BUILD", ROOT / "build" / "cgal"))
     gen = ["-G", "Ninja"]
@@ -158,19 +187,30 @@ def measure(rings, runs: int, exe):
         # angles are taken over the triangles on input vertices only.
         tris = tris[(tris < len(pts)).all(axis=1)]
         ma = min_angles(pts, tris)
-        rows[name] = dict(seconds=seconds, triangles=int(count),
+        rows[name] = dict(seconds=seconds, triangles=int(count), _tris=tris,
                           lt10=float((ma < 10).mean()) if len(ma) else 0.0,
                           lt20=float((ma < 20).mean()) if len(ma) else 0.0)
 
+    # faultmesh and mapbox_earcut are timed interleaved (one run of each in
+    # turn, then the medians), so that load changes on the shared machine hit
+    # both sides alike.
+    fns = {}
     for name, kw in [("fm plain", dict(refine=False, order="plain")),
                      ("fm quality", dict(refine=False, order="quality")),
                      ("fm quality+refine", dict(refine=True, order="quality"))]:
-        add(name, *median_time(lambda kw=kw: fm.triangulate_polygon(rings, **kw), runs))
-    if exe is not None:
-        add("CGAL CDT", *run_cgal(exe, rings, runs))
+        fns[name] = lambda kw=kw: fm.triangulate_polygon(rings, **kw)
     if mapbox_earcut is not None:
         ends = np.cumsum([len(r) for r in rings]).astype(np.uint32)
-        add("mapbox_earcut", *median_time(lambda: mapbox_earcut.triangulate_float64(pts, ends), runs))
+        fns["mapbox_earcut"] = lambda: mapbox_earcut.triangulate_float64(pts, ends)
+    for name, (sec, out) in interleaved(fns, runs).items():
+        add(name, sec, out)
+    for name in ("fm plain", "fm quality", "mapbox_earcut"):
+        if name in rows:
+            rows[name]["dev"] = deviation(rings, pts, np.asarray(rows[name].pop("_tris")).reshape(-1, 3))
+    if exe is not None:
+        add("CGAL CDT", *run_cgal(exe, rings, runs))
+    for r in rows.values():
+        r.pop("_tris", None)
     # Triangle crashes the interpreter on PSLGs with duplicate vertices
     # (touching rings): it is run only when all vertices are distinct.
     if triangle is not None and len(np.unique(pts, axis=0)) == len(pts):
@@ -188,9 +228,11 @@ def measure(rings, runs: int, exe):
         add("triangle", s, res["triangles"] if len(tv) == len(pts) else np.zeros((0, 3), np.int64))
         if len(tv) != len(pts):
             rows["triangle"]["triangles"] = len(res["triangles"])
+        rows["triangle"].pop("_tris", None)
     return len(pts), len(rings) - 1, rows
 
 
+EXPECTED_ERRORS = json.loads((ROOT / "tests" / "data" / "earcut" / "expected.json").read_text())["errors"]
 COLS = ["fm plain", "fm quality", "fm quality+refine", "CGAL CDT", "mapbox_earcut", "triangle"]
 
 
@@ -241,7 +283,12 @@ def main():
     lines.append("`valid`: faultmesh.check_polygon (strictly simple, disjoint rings). "
                  "Columns per library: median ms / triangles / % of triangles with minimum angle < 10° / < 20°. "
                  "triangle is not run on polygons with duplicate vertices (it crashes on them): —.\n")
-    head = "| polygon | n | holes | valid | " + " | ".join(COLS) + " | plain/earcut | refine/CGAL |"
+    lines.append("Area deviation (earcut's test-suite measure, |sum of |triangle areas| - polygon area| / polygon "
+                 "area, polygon area = |outer| - sum |holes|, in floating point on the cleaned rings): `dev` "
+                 "= fm plain / fm quality / mapbox_earcut / the error tests/data/earcut/expected.json lists "
+                 "for the fixture (0 when absent).\n")
+    head = ("| polygon | n | holes | valid | " + " | ".join(COLS) +
+            " | plain/earcut | refine/CGAL | dev |")
     lines.append(head)
     lines.append("|" + "---|" * (head.count("|") - 1))
     for name, n, h, valid, rows in results:
@@ -254,10 +301,21 @@ def main():
                   if "mapbox_earcut" in rows and rows["mapbox_earcut"]["seconds"] > 0 else float("nan"))
         ratio2 = (rows["fm quality+refine"]["seconds"] / rows["CGAL CDT"]["seconds"]
                   if "CGAL CDT" in rows and rows["CGAL CDT"]["seconds"] > 0 else float("nan"))
+        devs = " / ".join("—" if k not in rows else f"{rows[k]['dev']:.2g}"
+                          for k in ("fm plain", "fm quality", "mapbox_earcut"))
+        listed = EXPECTED_ERRORS.get(name, 0.0) if not name.startswith("bench-") else 0.0
         lines.append(f"| {name} | {n} | {h} | {'yes' if valid else 'no'} | " + " | ".join(cells) +
-                     f" | {ratio1:.2f} | {ratio2:.2f} |")
+                     f" | {ratio1:.2f} | {ratio2:.2f} | {devs} / {listed:.2g} |")
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text("\n".join(l for l in lines if l is not None) + "\n")
+    # Keep the hand-written sections (from the first "## " heading) of an
+    # existing file.
+    tail = ""
+    if Path(args.out).is_file():
+        old = Path(args.out).read_text()
+        k = old.find("\n## ")
+        if k >= 0:
+            tail = old[k:]
+    Path(args.out).write_text("\n".join(l for l in lines if l is not None) + "\n" + tail)
     print("wrote", args.out)
 
 

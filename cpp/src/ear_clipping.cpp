@@ -100,24 +100,24 @@ Rings read_rings(const char* fn, const double* xy, std::size_t n_points, const I
 int ring_orientation(const double* xy, const std::vector<I64>& r) {
     const std::size_t n = r.size();
     if (n < 3) return 0;
-    long double s = 0, mag = 0;
+    double s = 0, mag = 0;
     const double x0 = xy[2 * r[0]], y0 = xy[2 * r[0] + 1];
     std::size_t m = 0;
     for (std::size_t k = 0; k < n; ++k) {
         const double* p = xy + 2 * r[k];
-        const double* q = xy + 2 * r[(k + 1) % n];
-        const long double t = static_cast<long double>(p[0] - x0) * (q[1] - y0) -
-                              static_cast<long double>(q[0] - x0) * (p[1] - y0);
+        const double* q = xy + 2 * r[k + 1 == n ? 0 : k + 1];
+        const double t = (p[0] - x0) * (q[1] - y0) - (q[0] - x0) * (p[1] - y0);
         s += t;
-        mag += t < 0 ? -t : t;
+        mag += std::fabs(t);
         const double* b = xy + 2 * r[m];
         if (p[0] < b[0] || (p[0] == b[0] && p[1] < b[1])) m = k;
     }
-    // Each term carries a relative error of a few 1e-16 (the differences
-    // to the first point are rounded); 1e-9 of the magnitude is far above
-    // the accumulated error for any ring below a million vertices.
-    if (s > 1e-9L * mag) return 1;
-    if (s < -1e-9L * mag) return -1;
+    // Each term carries a relative error of a few 1e-16 of the magnitude
+    // (the differences to the first point are rounded), and summing n terms
+    // adds at most n * 1.1e-16 of it: 1e-9 of the magnitude is far above the
+    // accumulated error for any ring below a million vertices.
+    if (s > 1e-9 * mag) return 1;
+    if (s < -1e-9 * mag) return -1;
     const double* a = xy + 2 * r[(m + n - 1) % n];
     const double* b = xy + 2 * r[m];
     const double* c = xy + 2 * r[(m + 1) % n];
