@@ -298,3 +298,54 @@ TEST(PolygonCdt, ConstrainedEdgeIsNeverFlipped) {
     EXPECT_EQ(fm::flip_to_constrained_delaunay(xy, 4, tris, nullptr, 0), 1u);
     EXPECT_THROW(fm::flip_to_constrained_delaunay(xy, 3, tris, nullptr, 0), std::invalid_argument);
 }
+
+// Fallbacks for invalid input (ear_clipping.hpp): the area earcut's test
+// suite measures (|outer| - sum |holes|) is what the triangles cover.
+
+TEST(EarClipping, HoleIdenticalToOuterGivesNoTriangles) {
+    Poly p;
+    p.ring({{0, 0}, {10, 0}, {10, 10}, {0, 10}});
+    p.ring({{0, 0}, {10, 0}, {10, 10}, {0, 10}});
+    for (auto order : {fm::EarOrder::plain, fm::EarOrder::quality})
+        for (bool refine : {false, true}) {
+            fm::EarClipOptions o;
+            o.order = order;
+            o.refine = refine;
+            EXPECT_TRUE(fm::triangulate_polygon(p.xy.data(), p.off.data(), p.n_rings(), o).empty());
+        }
+}
+
+TEST(EarClipping, HoleSharingEdgesWithOuterLeavesTheNotch) {
+    // The hole runs along three edges of the outer square and cuts a notch
+    // into the fourth: the polygon is the notch triangle (4,0) (6,0) (5,3).
+    Poly p;
+    p.ring({{0, 0}, {10, 0}, {10, 10}, {0, 10}});
+    p.ring({{0, 0}, {0, 10}, {10, 10}, {10, 0}, {6, 0}, {5, 3}, {4, 0}});
+    for (auto order : {fm::EarOrder::plain, fm::EarOrder::quality}) {
+        fm::EarClipOptions o;
+        o.order = order;
+        o.refine = false;
+        const auto t = fm::triangulate_polygon(p.xy.data(), p.off.data(), p.n_rings(), o);
+        expect_ccw(p, t);
+        EXPECT_EQ(twice_area_rings(p), 6.0L);
+        EXPECT_EQ(twice_area_tris(p, t), 6.0L);
+    }
+}
+
+TEST(EarClipping, SelfCrossingFixturesKeepEarcutsDeviation) {
+    // earcut lists no error for these (0): self-crossing outer rings and
+    // holes crossing the outer ring, covered by splitting along inside
+    // diagonals when no ear is left.
+    for (const char* name : {"water2", "water3", "water3b", "water4", "issue111", "collinear-diagonal"}) {
+        const Poly p = load_fixture(name);
+        for (auto order : {fm::EarOrder::plain, fm::EarOrder::quality}) {
+            fm::EarClipOptions o;
+            o.order = order;
+            o.refine = false;
+            const auto t = fm::triangulate_polygon(p.xy.data(), p.off.data(), p.n_rings(), o);
+            expect_ccw(p, t);
+            const long double pa = twice_area_rings(p);
+            EXPECT_LE(std::fabs(twice_area_tris(p, t) - pa), 1e-12L * std::fabs(pa)) << name;
+        }
+    }
+}
