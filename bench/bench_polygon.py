@@ -279,7 +279,9 @@ def main():
     lines.append("What is timed: see the docstring of bench/bench_polygon.py (faultmesh, mapbox_earcut and "
                  "triangle: the Python call in this process, C++ with the GIL released; CGAL: the program's "
                  "own timer around CDT construction and inside marking, Epick). Median of "
-                 f"{args.runs} runs after one warm-up call.\n")
+                 f"{args.runs} runs after one warm-up call; faultmesh's three modes and mapbox_earcut run "
+                 "interleaved (one call of each in turn) so that load changes on the shared machine hit both "
+                 "alike.\n")
     lines.append("`valid`: faultmesh.check_polygon (strictly simple, disjoint rings). "
                  "Columns per library: median ms / triangles / % of triangles with minimum angle < 10° / < 20°. "
                  "triangle is not run on polygons with duplicate vertices (it crashes on them): —.\n")
