@@ -4,8 +4,10 @@
 #include <faultmesh/tin.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 
@@ -24,6 +26,32 @@ struct TinImpl {
     std::size_t n_dups = 0;
     std::vector<std::int32_t> compact;         // engine slot -> triangle index or -1
     std::size_t m = 0;
+
+    // The compact triangle numbering (and the jump-and-walk samples) costs
+    // O(triangles) to rebuild, so an insert only marks it stale and the next
+    // reader rebuilds it: inserting points one call at a time stays O(walk)
+    // per point, as the paper's point-by-point insertion needs. Readers may
+    // run concurrently (the Python binding shares a reader lock), so the
+    // rebuild is guarded by its own mutex (double-checked flag).
+    struct Lazy {
+        std::mutex mu;
+        std::atomic<bool> valid{false};
+        Lazy() = default;
+        Lazy(const Lazy& o) : valid(o.valid.load()) {}
+        Lazy& operator=(const Lazy& o) {
+            valid.store(o.valid.load());
+            return *this;
+        }
+    } lazy;
+
+    void ensure_compact() {
+        if (lazy.valid.load(std::memory_order_acquire)) return;
+        std::lock_guard<std::mutex> guard(lazy.mu);
+        if (lazy.valid.load(std::memory_order_relaxed)) return;
+        m = compact_slots(core, compact);
+        build_samples();
+        lazy.valid.store(true, std::memory_order_release);
+    }
 
     // Assigns Tin vertices to the engine ids [first, first + n) just inserted
     // from the n rows `rows` (input_of_id[id - first] = row, dup_of[id - first]
@@ -64,8 +92,7 @@ struct TinImpl {
                 tin_of_id[id] = tin_of_id[static_cast<std::size_t>(dup_of[id - first])];
             z_of_id[id] = xyz[3 * static_cast<std::size_t>(tin_of_id[id]) + 2];
         }
-        m = compact_slots(core, compact);
-        build_samples();
+        lazy.valid.store(false, std::memory_order_release);
         return out;
     }
 
@@ -186,24 +213,30 @@ void Tin::set_z(const std::int64_t* vertices, const double* z, std::size_t n) {
 }
 
 std::size_t Tin::n_vertices() const { return impl_->xyz.size() / 3; }
-std::size_t Tin::n_triangles() const { return impl_->m; }
+std::size_t Tin::n_triangles() const {
+    impl_->ensure_compact();
+    return impl_->m;
+}
 const std::vector<std::int64_t>& Tin::vertex_of_input() const { return impl_->vertex_of_input; }
 std::size_t Tin::n_duplicates() const { return impl_->n_dups; }
 std::vector<double> Tin::vertices() const { return impl_->xyz; }
 
 std::vector<std::int64_t> Tin::triangles() const {
+    impl_->ensure_compact();
     std::vector<std::int64_t> t;
     detail::export_mesh(impl_->core, impl_->compact, impl_->m, impl_->tin_of_id.data(), &t, nullptr);
     return t;
 }
 
 std::vector<std::int64_t> Tin::halfedges() const {
+    impl_->ensure_compact();
     std::vector<std::int64_t> h;
     detail::export_mesh(impl_->core, impl_->compact, impl_->m, impl_->tin_of_id.data(), nullptr, &h);
     return h;
 }
 
 std::int64_t Tin::locate(double x, double y) const {
+    impl_->ensure_compact();
     const double q[2] = {x, y};
     std::int64_t out = -1;
     impl_->for_each_located(q, 1, [&](std::size_t, const double*, std::int32_t s) { out = s < 0 ? -1 : impl_->compact[s]; });
@@ -211,6 +244,7 @@ std::int64_t Tin::locate(double x, double y) const {
 }
 
 std::vector<std::int64_t> Tin::locate(const double* xy, std::size_t n) const {
+    impl_->ensure_compact();
     std::vector<std::int64_t> out(n);
     const detail::TinImpl& T = *impl_;
     T.for_each_located(xy, n, [&](std::size_t i, const double*, std::int32_t s) { out[i] = s < 0 ? -1 : T.compact[s]; });
@@ -218,6 +252,7 @@ std::vector<std::int64_t> Tin::locate(const double* xy, std::size_t n) const {
 }
 
 std::vector<double> Tin::interpolate(const double* xy, std::size_t n) const {
+    impl_->ensure_compact();
     const detail::TinImpl& T = *impl_;
     std::vector<double> out(n, std::numeric_limits<double>::quiet_NaN());
     T.for_each_located(xy, n, [&](std::size_t i, const double* p, std::int32_t s) {

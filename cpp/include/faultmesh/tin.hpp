@@ -17,13 +17,14 @@
 // Only x and y must be finite; z may be NaN (a layer without a value there).
 //
 // Triangle indices (triangles(), halfedges(), locate()) refer to the compacted
-// list of finite triangles and are valid until the next insert(). Each
-// insert() call costs O(triangles) on top of the insertions (the compacted
-// index is rebuilt), so insert points in batches where possible.
+// list of finite triangles and are valid until the next insert(). insert()
+// only marks that numbering stale; the first reader after it rebuilds it
+// (O(triangles) once), so inserting point by point costs a walk and a cavity
+// per point, however large the TIN.
 //
-// Thread safety: const member functions keep no mutable state and may run
-// concurrently; insert() must not run concurrently with anything else on the
-// same Tin.
+// Thread safety: const member functions may run concurrently (the lazy
+// rebuild is internally synchronised); insert() and set_z() must not run
+// concurrently with anything else on the same Tin.
 #pragma once
 
 #include <cstddef>
