@@ -324,6 +324,7 @@ struct Node {
     int ring;     // input ring
     int stamp;    // version for the ear priority queue
     bool removed, reflex;
+    bool not_ear = false;  // plain order: known not to be an ear since its neighbours last changed
 };
 
 inline const double* P(const Node& n) { return &n.x; }
@@ -444,7 +445,13 @@ public:
         ext_ = extremes(ring_first_[0]);
         // Eberly: holes in order of decreasing maximum x.
         std::vector<std::pair<int, int>> order;  // (max-x node, ring)
-        for (int r : holes) order.push_back({extremes(ring_first_[r])[0], r});
+        // Each hole's own extremes, taken before it is joined (walking the
+        // joined list later would cost the whole list per hole).
+        hole_ext_.assign(n_rings, {});
+        for (int r : holes) {
+            hole_ext_[r] = extremes(ring_first_[r]);
+            order.push_back({hole_ext_[r][0], r});
+        }
         std::sort(order.begin(), order.end(), [&](const auto& a, const auto& b) {
             const Node &p = N[a.first], &q = N[b.first];
             if (p.x != q.x) return p.x > q.x;
@@ -460,10 +467,13 @@ private:
     SegGrid grid_;
     bool grid_built_ = false;
     std::size_t n_seg_ = 0, scanned_ = 0;
+    std::array<I64, 2> blocker_{-1, -1};  // the last segment that blocked a candidate bridge
+    std::size_t blocker_ring_ = 0;        // the ring it belongs to (direct scans)
     std::array<double, 4> box_{};
     std::vector<int> ring_first_;
     std::vector<char> merged_;
     std::array<int, 4> ext_{};
+    std::vector<std::array<int, 4>> hole_ext_;
 
     static bool lex_gt(const Node& a, const Node& b, bool y_first) {
         if (y_first) return a.y > b.y || (a.y == b.y && a.x > b.x);
@@ -537,28 +547,76 @@ private:
         grid_built_ = true;
     }
 
-    // Does the open segment a-b avoid every ring and bridge segment?
-    bool segment_clear(const double* a, const double* b) {
+    // Does the open segment between nodes na and nb avoid every ring and
+    // bridge segment?
+    bool segment_clear(int na, int nb) {
+        const auto& N = poly_.nodes;
+        const double* a = P(N[na]);
+        const double* b = P(N[nb]);
         const double* xy = poly_.xy;
-        if (!grid_built_ && scanned_ < 8 * n_seg_ + 1024) {
-            // Direct scan with a bounding-box reject.
+        // On a jagged ring a blocked candidate is nearly always blocked by an
+        // edge near one of its ends: test the list edges around both ends
+        // first (every list edge is a ring or bridge segment, so a conflict
+        // found here is one the full test below would find).
+        {
             const double bx0 = std::min(a[0], b[0]), bx1 = std::max(a[0], b[0]);
             const double by0 = std::min(a[1], b[1]), by1 = std::max(a[1], b[1]);
-            auto conflict = [&](I64 u, I64 v) {
-                const double* q0 = xy + 2 * u;
-                const double* q1 = xy + 2 * v;
+            auto near_conflict = [&](int u) {
+                const double* q0 = P(N[u]);
+                const double* q1 = P(N[N[u].next]);
                 if (std::max(q0[0], q1[0]) < bx0 || std::min(q0[0], q1[0]) > bx1 ||
-                    std::max(q0[1], q1[1]) < by0 || std::min(q0[1], q1[1]) > by1)
+                    std::max(q0[1], q1[1]) < by0 || std::min(q0[1], q1[1]) > by1 || same_point(q0, q1))
                     return false;
                 return segments_conflict(a, b, q0, q1);
             };
-            for (const auto& ring : poly_.rings) {
+            for (int end : {na, nb}) {
+                int f = end, r = N[end].prev;
+                for (int k = 0; k < 16; ++k) {
+                    if (near_conflict(f) || near_conflict(r)) return false;
+                    f = N[f].next;
+                    r = N[r].prev;
+                }
+            }
+        }
+        const double bx0 = std::min(a[0], b[0]), bx1 = std::max(a[0], b[0]);
+        const double by0 = std::min(a[1], b[1]), by1 = std::max(a[1], b[1]);
+        auto conflict = [&](I64 u, I64 v) {
+            const double* q0 = xy + 2 * u;
+            const double* q1 = xy + 2 * v;
+            if (std::max(q0[0], q1[0]) < bx0 || std::min(q0[0], q1[0]) > bx1 ||
+                std::max(q0[1], q1[1]) < by0 || std::min(q0[1], q1[1]) > by1)
+                return false;
+            if (!segments_conflict(a, b, q0, q1)) return false;
+            blocker_ = {u, v};
+            return true;
+        };
+        // The extreme-point search slides both ends a vertex or two at a
+        // time, so the segment that blocked the previous candidate often
+        // blocks the next one too (it is one of the tested segments).
+        if (blocker_[0] >= 0 && conflict(blocker_[0], blocker_[1])) return false;
+        if (!grid_built_ && scanned_ < 8 * n_seg_ + 1024) {
+            // Direct scan with a bounding-box reject. Count what is actually
+            // scanned: a scan that stops early at a blocker is cheap.
+            // The ring of the last blocker first (an unjoined hole in the
+            // way tends to block several candidates in a row).
+            const std::size_t n_rings = poly_.rings.size();
+            for (std::size_t i = 0; i < n_rings; ++i) {
+                const std::size_t r = (i + blocker_ring_) % n_rings;
+                const auto& ring = poly_.rings[r];
                 const std::size_t n = ring.size();
                 if (n < 3) continue;
+                bool hit = conflict(ring[n - 1], ring[0]);
+                for (std::size_t k = 0; !hit && k + 1 < n; ++k) {
+                    if (conflict(ring[k], ring[k + 1])) {
+                        scanned_ += k;
+                        hit = true;
+                    }
+                }
+                if (hit) {
+                    blocker_ring_ = r;
+                    return false;
+                }
                 scanned_ += n;
-                if (conflict(ring[n - 1], ring[0])) return false;
-                for (std::size_t k = 0; k + 1 < n; ++k)
-                    if (conflict(ring[k], ring[k + 1])) return false;
             }
             for (std::size_t k = 0; k + 1 < poly_.bridges.size(); k += 2)
                 if (!same_point(xy + 2 * poly_.bridges[k], xy + 2 * poly_.bridges[k + 1]) &&
@@ -567,16 +625,7 @@ private:
             return true;
         }
         if (!grid_built_) build_seg_grid();
-        const double bx0 = std::min(a[0], b[0]), bx1 = std::max(a[0], b[0]);
-        const double by0 = std::min(a[1], b[1]), by1 = std::max(a[1], b[1]);
-        return !grid_.any(a, b, [&](int id) {
-            const double* q0 = xy + 2 * grid_.seg[2 * id];
-            const double* q1 = xy + 2 * grid_.seg[2 * id + 1];
-            if (std::max(q0[0], q1[0]) < bx0 || std::min(q0[0], q1[0]) > bx1 || std::max(q0[1], q1[1]) < by0 ||
-                std::min(q0[1], q1[1]) > by1)
-                return false;
-            return segments_conflict(a, b, q0, q1);
-        });
+        return !grid_.any(a, b, [&](int id) { return conflict(grid_.seg[2 * id], grid_.seg[2 * id + 1]); });
     }
 
     // Validate and make the bridge between outer-list node at `o` and hole
@@ -588,7 +637,7 @@ private:
         if (a < 0 || !merged_[N[a].ring]) return false;
         const int b = sector_node(h, P(N[a]));
         if (b < 0 || N[b].ring != hole) return false;
-        if (!segment_clear(P(N[a]), P(N[b]))) return false;
+        if (!segment_clear(a, b)) return false;
         splice(a, b);
         return true;
     }
@@ -672,7 +721,7 @@ private:
         // vertices; if a pair is not mutually visible slide one or two
         // vertices along either ring (both directions) around it.
         const auto& N = poly_.nodes;
-        const std::array<int, 4> he = extremes(ring_first_[hole]);
+        const std::array<int, 4>& he = hole_ext_[hole];
         static const int offsets[] = {0, 1, -1, 2, -2};
         auto walk = [&](int n, int k) {
             for (; k > 0; --k) n = N[n].next;
@@ -801,8 +850,9 @@ private:
             splice(c, m);
         }
         merged_[hole] = 1;
-        // Update the outer list's extremes with the hole's.
-        const std::array<int, 4> he = extremes(ring_first_[hole]);
+        // Update the outer list's extremes with the hole's (its own nodes:
+        // of coincident copies made by a bridge, the original is kept).
+        const std::array<int, 4>& he = hole_ext_[hole];
         if (lex_gt(N[he[0]], N[ext_[0]], false)) ext_[0] = he[0];
         if (lex_gt(N[ext_[1]], N[he[1]], false)) ext_[1] = he[1];
         if (lex_gt(N[he[2]], N[ext_[2]], true)) ext_[2] = he[2];
@@ -1140,6 +1190,15 @@ private:
         if (emit_triangle) emit(a, b, c);
         a.next = b.next;
         c.prev = b.prev;
+        a.not_ear = c.not_ear = false;  // their triangles changed
+        // Nodes coincident with a, b or c see their edges in twins_block: a
+        // triangle with a corner at such a position may have changed status.
+        for (int x : {b.prev, ib, b.next}) {
+            for (int t = N_[x].twin; t != x; t = N_[t].twin) {
+                Node& tn = N_[t];
+                tn.not_ear = N_[tn.prev].not_ear = N_[tn.next].not_ear = false;
+            }
+        }
         b.removed = true;
         if (b.reflex) grid_erase(ib);
         --remaining_;
@@ -1354,6 +1413,7 @@ private:
         for (int i : {ia, ib, a2, b2}) {
             Node& n = N_[i];
             n.reflex = orient2d(P(N_[n.prev]), P(n), P(N_[n.next])) <= 0.0;
+            n.not_ear = false;
         }
         // The copies are new nodes: rebuild the reflex grid over every live node.
         std::vector<int> reflex;
@@ -1399,19 +1459,45 @@ private:
     }
 
     // Eberly's order: walk the ring and clip each ear as it is found.
+    //
+    // Clipping an ear changes the ear status of its two neighbours only (for
+    // a simple polygon: a vertex u inside the triangle of a non-ear v, with
+    // its neighbours outside it, would make u's edges cross the diagonal of
+    // v twice, so u is reflex, not an ear). So a vertex found not to be an
+    // ear is skipped until one of its neighbours is clipped (Node::not_ear,
+    // cleared in remove()): the same ears in the same order, with fewer
+    // tests. For invalid input the lemma may fail, so a lap that skipped
+    // cached vertices and found no ear is repeated without the cache before
+    // falling back to force_one.
     void clip_plain(int start) {
         int p = start;
         int stop = p;
         cur_ = p;
+        bool skipped = false;
         while (remaining_ > 3) {
-            if (is_ear(p)) {
+            Node& n = N_[p];
+            if (n.not_ear) {
+                skipped = true;
+            } else if (is_ear(p)) {
                 remove(p, true);
                 p = cur_;
                 stop = p;
+                skipped = false;
                 continue;
+            } else {
+                n.not_ear = true;
             }
-            p = N_[p].next;
+            p = n.next;
             if (p == stop) {
+                if (skipped) {
+                    int q = p;
+                    do {
+                        N_[q].not_ear = false;
+                        q = N_[q].next;
+                    } while (q != p);
+                    skipped = false;
+                    continue;
+                }
                 force_one(p);
                 p = cur_;
                 stop = p;
