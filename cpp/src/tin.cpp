@@ -49,7 +49,6 @@ struct TinImpl {
         std::lock_guard<std::mutex> guard(lazy.mu);
         if (lazy.valid.load(std::memory_order_relaxed)) return;
         m = compact_slots(core, compact);
-        build_samples();
         lazy.valid.store(true, std::memory_order_release);
     }
 
@@ -92,6 +91,7 @@ struct TinImpl {
                 tin_of_id[id] = tin_of_id[static_cast<std::size_t>(dup_of[id - first])];
             z_of_id[id] = xyz[3 * static_cast<std::size_t>(tin_of_id[id]) + 2];
         }
+        build_samples();
         lazy.valid.store(false, std::memory_order_release);
         return out;
     }
@@ -101,13 +101,21 @@ struct TinImpl {
     // O(n^(1/3)) steps instead of O(n^(1/2)) from an arbitrary triangle.
     std::vector<std::int32_t> samples;
 
+    bool finite_slot(std::int32_t t) const {
+        const std::int32_t* v = &core.tv[3 * static_cast<std::size_t>(t)];
+        return v[0] != kInf && v[1] != kInf && v[2] != kInf;
+    }
+
+    // O(samples): strided engine slots, rebuilt after every insert. A slot
+    // stays a live triangle when later inserts rewrite it (cavities reuse
+    // their slots), but it may become a ghost, so users skip non-finite ones.
     void build_samples() {
         samples.clear();
-        const std::size_t want = std::max<std::size_t>(1, static_cast<std::size_t>(std::cbrt(double(m))) * 2);
         const std::size_t ns = core.n_slots();
+        const std::size_t want = std::max<std::size_t>(1, static_cast<std::size_t>(std::cbrt(double(ns))) * 2);
         const std::size_t stride = std::max<std::size_t>(1, ns / want);
         for (std::size_t t = 0; t < ns; t += stride)
-            if (compact[t] >= 0) samples.push_back(static_cast<std::int32_t>(t));
+            if (finite_slot(static_cast<std::int32_t>(t))) samples.push_back(static_cast<std::int32_t>(t));
         if (samples.empty()) samples.push_back(core.hint);
     }
 
@@ -115,6 +123,7 @@ struct TinImpl {
         std::int32_t best = core.hint;
         double best_d = INFINITY;
         for (const std::int32_t t : samples) {
+            if (!finite_slot(t)) continue;
             const double* a = core.pt(core.tv[3 * static_cast<std::size_t>(t)]);
             const double d = (a[0] - x) * (a[0] - x) + (a[1] - y) * (a[1] - y);
             if (d < best_d) {
@@ -195,6 +204,9 @@ std::vector<std::int64_t> Tin::insert(const double* xyz, std::size_t n) {
     const std::size_t first = T.core.xy.size() / 2;
     std::vector<std::uint32_t> input_of_id;
     std::vector<std::int32_t> dup_of;
+    // Start the walk near the new data (jump-and-walk): a scattered single
+    // point would otherwise walk O(sqrt(n)) triangles from the last insertion.
+    T.core.hint = T.nearest_sample(xyz[0], xyz[1]);
     detail::insert_batch(T.core, xyz, 3, n, input_of_id, dup_of);
     return T.assign(xyz, n, first, input_of_id, dup_of);
 }
