@@ -68,6 +68,28 @@ TEST(Tin, InsertEqualsRebuild) {
     EXPECT_EQ(grown.vertices(), whole.vertices());
 }
 
+// Inserts leave the compact numbering stale; readers in between (locate,
+// interpolate, triangles) must rebuild it and see the current mesh. Regression
+// for the lazy rebuild and for single inserts starting at stale samples.
+TEST(Tin, OneByOneInsertsInterleavedWithReadsEqualRebuild) {
+    const auto all = random_xyz(2000, 7, 0, 100);
+    fm::Tin whole(all.data(), 2000);
+    fm::Tin grown(all.data(), 100);
+    for (std::size_t i = 100; i < 2000; ++i) {
+        grown.insert(all.data() + 3 * i, 1);
+        if (i % 97 == 0) {
+            const double q[2] = {all[3 * i], all[3 * i + 1]};
+            const std::int64_t t = grown.locate(q[0], q[1]);
+            ASSERT_GE(t, 0);
+            ASSERT_LT(static_cast<std::size_t>(t), grown.n_triangles());
+            EXPECT_DOUBLE_EQ(grown.interpolate(q, 1)[0], all[3 * i + 2]);
+            EXPECT_EQ(grown.triangles().size(), 3 * grown.n_triangles());
+        }
+    }
+    EXPECT_EQ(tri_set(grown.triangles()), tri_set(whole.triangles()));
+    EXPECT_EQ(grown.halfedges().size(), whole.halfedges().size());
+}
+
 TEST(Tin, InsertOnGridAndOutsideTheHullEqualsRebuild) {
     // A layer TIN on a grid, then study-area corners outside it and edge
     // midpoints (exactly cocircular configurations), as the workflow does.
