@@ -30,6 +30,19 @@ using I64 = std::int64_t;
 
 inline int sgn(double v) { return (v > 0.0) - (v < 0.0); }
 
+// orient2d with one well-predicted branch on the common path: Shewchuk's
+// error bound A holds for |detleft| + |detright| whatever their signs, so a
+// determinant beyond it has the exact sign; otherwise the full exact
+// predicate decides. Same sign as orient2d always.
+inline double orient2d_quick(const double* pa, const double* pb, const double* pc) {
+    const double detleft = (pa[0] - pc[0]) * (pb[1] - pc[1]);
+    const double detright = (pa[1] - pc[1]) * (pb[0] - pc[0]);
+    const double det = detleft - detright;
+    const double err = kCcwErrBoundA * (std::fabs(detleft) + std::fabs(detright));
+    if (std::fabs(det) > err) return det;
+    return orient2d(pa, pb, pc);
+}
+
 // ----------------------------------------------------------------- input
 
 struct Rings {
@@ -1134,31 +1147,43 @@ private:
         const Node& b = N_[ib];
         const int ia = b.prev, ic = b.next;
         const Node &a = N_[ia], &c = N_[ic];
-        if (orient2d(P(a), P(b), P(c)) <= 0.0) return false;
+        if (orient2d_quick(P(a), P(b), P(c)) <= 0.0) return false;
         if (a.twin != ia && twins_block(ia, P(b), P(c), false)) return false;
         if (b.twin != ib && twins_block(ib, P(c), P(a), true)) return false;
         if (c.twin != ic && twins_block(ic, P(a), P(b), false)) return false;
         const double minx = std::min({a.x, b.x, c.x}), maxx = std::max({a.x, b.x, c.x});
         const double miny = std::min({a.y, b.y, c.y}), maxy = std::max({a.y, b.y, c.y});
         const int c0 = gcol(minx), c1 = gcol(maxx), r0 = grow(miny), r1 = grow(maxy);
+        // Items are first filtered by the ear's box without a branch (about
+        // a quarter pass; a branch per item would mispredict often) into a
+        // small buffer, whose entries then get the exact tests.
+        int cand[64];
+        int m = 0;
+        // Exact tests of the candidates collected so far; false if one is in the ear.
+        auto clear = [&]() {
+            for (int j = 0; j < m; ++j) {
+                const GItem& r = gitems_[cand[j]];
+                if (r.id == ia || r.id == ib || r.id == ic) continue;
+                const double* q = &r.x;
+                if (orient2d_quick(P(a), P(b), q) >= 0.0 && orient2d_quick(P(b), P(c), q) >= 0.0 &&
+                    orient2d_quick(P(c), P(a), q) >= 0.0 && !same_point(q, P(a)) && !same_point(q, P(b)) &&
+                    !same_point(q, P(c)))
+                    return false;
+            }
+            m = 0;
+            return true;
+        };
         for (int cx = c0; cx <= c1; ++cx) {
             for (int cell = cx * gny_ + r0, ce = cx * gny_ + r1; cell <= ce; ++cell) {
                 for (int k = gstart_[cell], e = gend_[cell]; k < e; ++k) {
                     const GItem& r = gitems_[k];
-                    // One well-predicted branch instead of four (most items
-                    // of a cell are outside the ear's box).
-                    const bool in_box = (r.x >= minx) & (r.x <= maxx) & (r.y >= miny) & (r.y <= maxy);
-                    if (!in_box) continue;
-                    if (r.id == ia || r.id == ib || r.id == ic) continue;
-                    const double* q = &r.x;
-                    if (orient2d(P(a), P(b), q) >= 0.0 && orient2d(P(b), P(c), q) >= 0.0 &&
-                        orient2d(P(c), P(a), q) >= 0.0 && !same_point(q, P(a)) && !same_point(q, P(b)) &&
-                        !same_point(q, P(c)))
-                        return false;
+                    cand[m] = k;
+                    m += (r.x >= minx) & (r.x <= maxx) & (r.y >= miny) & (r.y <= maxy);
+                    if (m == 64 && !clear()) return false;
                 }
             }
         }
-        return true;
+        return clear();
     }
 
     // Minimum-angle proxy of triangle (prev, b, next): sin^2 of the smallest
@@ -1178,7 +1203,7 @@ private:
 
     void update_reflex(int i) {
         Node& n = N_[i];
-        if (n.reflex && orient2d(P(N_[n.prev]), P(n), P(N_[n.next])) > 0.0) {
+        if (n.reflex && orient2d_quick(P(N_[n.prev]), P(n), P(N_[n.next])) > 0.0) {
             n.reflex = false;
             grid_erase(i);
         }
