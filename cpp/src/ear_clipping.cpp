@@ -380,7 +380,7 @@ struct Polygon {
 void link_twins(Polygon& poly) {
     const std::size_t n = poly.nodes.size();
     std::size_t cap = 16;
-    while (cap < 2 * n) cap <<= 1;
+    while (cap < n + n / 2) cap <<= 1;  // load at most 2/3
     std::vector<int> table(cap, -1);
     auto bits = [](double d) {
         if (d == 0.0) d = 0.0;
@@ -482,6 +482,36 @@ private:
     std::size_t n_seg_ = 0, scanned_ = 0;
     std::array<I64, 2> blocker_{-1, -1};  // the last segment that blocked a candidate bridge
     std::size_t blocker_ring_ = 0;        // the ring it belongs to (direct scans)
+    // Ring edges in chunks of kChunk consecutive edges with their bounding
+    // boxes (direct visibility scans); chunk_first_[r] is ring r's first.
+    static constexpr std::size_t kChunk = 32;
+    struct Chunk {
+        double x0, y0, x1, y1;
+    };
+    std::vector<Chunk> chunks_;
+    std::vector<std::size_t> chunk_first_;
+    void build_chunks() {
+        const double* xy = poly_.xy;
+        const std::size_t n_rings = poly_.rings.size();
+        chunk_first_.assign(n_rings + 1, 0);
+        for (std::size_t r = 0; r < n_rings; ++r) {
+            const auto& ring = poly_.rings[r];
+            const std::size_t n = ring.size();
+            chunk_first_[r] = chunks_.size();
+            if (n < 3) continue;
+            for (std::size_t k0 = 0; k0 < n; k0 += kChunk) {
+                const std::size_t k1 = std::min(n, k0 + kChunk);  // edges k0 .. k1-1, points k0 .. k1 (mod n)
+                Chunk ch{xy[2 * ring[k0]], xy[2 * ring[k0] + 1], xy[2 * ring[k0]], xy[2 * ring[k0] + 1]};
+                for (std::size_t k = k0 + 1; k <= k1; ++k) {
+                    const double* q = xy + 2 * ring[k < n ? k : 0];
+                    ch.x0 = std::min(ch.x0, q[0]); ch.x1 = std::max(ch.x1, q[0]);
+                    ch.y0 = std::min(ch.y0, q[1]); ch.y1 = std::max(ch.y1, q[1]);
+                }
+                chunks_.push_back(ch);
+            }
+        }
+        chunk_first_[n_rings] = chunks_.size();
+    }
     std::array<double, 4> box_{};
     std::vector<int> ring_first_;
     std::vector<char> merged_;
@@ -612,24 +642,29 @@ private:
             // scanned: a scan that stops early at a blocker is cheap.
             // The ring of the last blocker first (an unjoined hole in the
             // way tends to block several candidates in a row).
+            // Each ring is scanned in chunks of kChunk edges with a
+            // precomputed bounding box: a chunk whose box misses the
+            // segment's box is skipped whole.
+            if (chunks_.empty()) build_chunks();
             const std::size_t n_rings = poly_.rings.size();
             for (std::size_t i = 0; i < n_rings; ++i) {
                 const std::size_t r = (i + blocker_ring_) % n_rings;
                 const auto& ring = poly_.rings[r];
                 const std::size_t n = ring.size();
                 if (n < 3) continue;
-                bool hit = conflict(ring[n - 1], ring[0]);
-                for (std::size_t k = 0; !hit && k + 1 < n; ++k) {
-                    if (conflict(ring[k], ring[k + 1])) {
-                        scanned_ += k;
-                        hit = true;
+                for (std::size_t c = chunk_first_[r]; c < chunk_first_[r + 1]; ++c) {
+                    const Chunk& ch = chunks_[c];
+                    ++scanned_;
+                    if (ch.x1 < bx0 || ch.x0 > bx1 || ch.y1 < by0 || ch.y0 > by1) continue;
+                    const std::size_t k0 = (c - chunk_first_[r]) * kChunk, k1 = std::min(n, k0 + kChunk);
+                    scanned_ += k1 - k0;
+                    for (std::size_t k = k0; k < k1; ++k) {
+                        if (conflict(ring[k], ring[k + 1 < n ? k + 1 : 0])) {
+                            blocker_ring_ = r;
+                            return false;
+                        }
                     }
                 }
-                if (hit) {
-                    blocker_ring_ = r;
-                    return false;
-                }
-                scanned_ += n;
             }
             for (std::size_t k = 0; k + 1 < poly_.bridges.size(); k += 2)
                 if (!same_point(xy + 2 * poly_.bridges[k], xy + 2 * poly_.bridges[k + 1]) &&
@@ -881,27 +916,29 @@ public:
 
     void run(EarOrder order) {
         if (poly_.start < 0) return;
-        // Collect the live list.
-        std::vector<int> live;
-        live.reserve(N_.size());
+        // Count the live list, classify its vertices, take its box (no
+        // copy of the list: fresh memory costs page faults at this size).
+        std::size_t cnt = 0;
         int p = poly_.start;
         do {
-            live.push_back(p);
+            ++cnt;
             p = N_[p].next;
         } while (p != poly_.start);
-        remaining_ = live.size();
+        remaining_ = cnt;
         if (remaining_ < 3) return;
         out_.reserve(out_.size() + 3 * (remaining_ - 2));
         double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
         std::vector<int> reflex;
-        reflex.reserve(live.size());
-        for (int i : live) {
-            Node& n = N_[i];
+        reflex.reserve(cnt / 2 + 16);
+        p = poly_.start;
+        do {
+            Node& n = N_[p];
             n.reflex = orient2d_quick(P(N_[n.prev]), P(n), P(N_[n.next])) <= 0.0;
-            if (n.reflex) reflex.push_back(i);
+            if (n.reflex) reflex.push_back(p);
             xmin = std::min(xmin, n.x); xmax = std::max(xmax, n.x);
             ymin = std::min(ymin, n.y); ymax = std::max(ymax, n.y);
-        }
+            p = n.next;
+        } while (p != poly_.start);
         build_grid(reflex, xmin, ymin, xmax, ymax);
         bbox_ = {xmin, ymin, xmax, ymax};
         // Loops still to clip: the joined polygon, plus the pieces split off
