@@ -1346,8 +1346,29 @@ private:
     // area is zero up to rounding holds no region (all its edges doubled, as
     // after the real ears of a pinched ring are gone) and is dropped whole.
     bool remnant_is_empty(int from) const {
-        long double s = 0, scale = 0;
         const double x0 = N_[from].x, y0 = N_[from].y;
+        {
+            // Quick pass in double: the long double sums below differ from
+            // these by at most err (n + 8 roundings of 2^-53 of every product
+            // magnitude, doubled for both computations), so this answers
+            // exactly as they would whenever it answers.
+            double sd = 0, scd = 0, mag = 0;
+            std::size_t n = 0;
+            int q = from;
+            do {
+                const Node &a = N_[q], &b = N_[a.next];
+                const double p1 = (a.x - x0) * (b.y - y0), p2 = (b.x - x0) * (a.y - y0);
+                const double t = p1 - p2;
+                sd += t;
+                scd += std::fabs(t);
+                mag += std::fabs(p1) + std::fabs(p2);
+                ++n;
+                q = a.next;
+            } while (q != from);
+            const double err = 2.0 * (static_cast<double>(n) + 8.0) * kEpsilon * mag * (1.0 + 1e-6);
+            if (std::fabs(sd) - err > 1e-12 * (scd + err) * (1.0 + 1e-6)) return false;
+        }
+        long double s = 0, scale = 0;
         int p = from;
         do {
             const Node &a = N_[p], &b = N_[a.next];
