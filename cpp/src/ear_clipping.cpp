@@ -390,8 +390,14 @@ void link_twins(Polygon& poly) {
     };
     for (std::size_t i = 0; i < n; ++i) {
         Node& nd = poly.nodes[i];
-        std::uint64_t h = bits(nd.x) * 0x9E3779B97F4A7C15ull ^ (bits(nd.y) + 0x632BE59BD9B4E019ull) * 0xC2B2AE3D27D4EB4Full;
-        h ^= h >> 29;
+        // Full avalanche (splitmix64's finalizer): coordinates with zero
+        // low mantissa bits (integers) must not crowd into a few slots.
+        std::uint64_t h = bits(nd.x) ^ (bits(nd.y) * 0x9E3779B97F4A7C15ull + 0x632BE59BD9B4E019ull);
+        h ^= h >> 33;
+        h *= 0xFF51AFD7ED558CCDull;
+        h ^= h >> 33;
+        h *= 0xC4CEB9FE1A85EC53ull;
+        h ^= h >> 33;
         std::size_t s = h & (cap - 1);
         while (true) {
             const int j = table[s];
@@ -654,10 +660,12 @@ private:
                 if (n < 3) continue;
                 for (std::size_t c = chunk_first_[r]; c < chunk_first_[r + 1]; ++c) {
                     const Chunk& ch = chunks_[c];
-                    ++scanned_;
+                    // Counted as if every edge were scanned, as before the
+                    // chunks: many queries (invalid input tries many
+                    // candidates) should move on to the grid just as soon.
+                    scanned_ += kChunk;
                     if (ch.x1 < bx0 || ch.x0 > bx1 || ch.y1 < by0 || ch.y0 > by1) continue;
                     const std::size_t k0 = (c - chunk_first_[r]) * kChunk, k1 = std::min(n, k0 + kChunk);
-                    scanned_ += k1 - k0;
                     for (std::size_t k = k0; k < k1; ++k) {
                         if (conflict(ring[k], ring[k + 1 < n ? k + 1 : 0])) {
                             blocker_ring_ = r;

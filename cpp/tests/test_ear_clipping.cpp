@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <random>
@@ -347,5 +348,72 @@ TEST(EarClipping, SelfCrossingFixturesKeepEarcutsDeviation) {
             const long double pa = twice_area_rings(p);
             EXPECT_LE(std::fabs(twice_area_tris(p, t) - pa), 1e-12L * std::fabs(pa)) << name;
         }
+    }
+}
+
+TEST(EarClipping, JaggedRingWithManyHolesBridgesAreClear) {
+    // A jagged star (thin spike ears, extreme-point pairs often blocked by
+    // the ring itself or by holes not yet joined) with a 7 x 7 lattice of
+    // small holes: exercises the bridge search's local and blocker-first
+    // tests, the chunked scan and the segment grid it falls back to, and the
+    // plain order's cache of non-ears. Every bridge must cross no ring edge,
+    // and both orders must give n + 2h - 2 counter-clockwise triangles
+    // covering the polygon's area.
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    const int n_outer = 2000;
+    std::vector<double> ang(n_outer);
+    for (auto& a : ang) a = U(rng) * 2 * M_PI;
+    std::sort(ang.begin(), ang.end());
+    Poly p;
+    std::vector<std::pair<double, double>> outer;
+    for (double a : ang) {
+        const double r = 1.0 + 0.25 * std::sin(7 * a) + 0.1 * (U(rng) - 0.5);
+        outer.push_back({r * std::cos(a), r * std::sin(a)});
+    }
+    p.ring(outer);
+    int holes = 0;
+    for (int i = -3; i <= 3; ++i)
+        for (int j = -3; j <= 3; ++j) {
+            const double cx = 0.14 * i + 0.01 * U(rng), cy = 0.14 * j + 0.01 * U(rng), s = 0.03;
+            p.ring({{cx - s, cy - s}, {cx + s, cy - s}, {cx + s, cy + s}, {cx - s, cy + s}});
+            ++holes;
+        }
+    const std::size_t n_pts = p.xy.size() / 2;
+    const auto chk = fm::check_polygon(p.xy.data(), n_pts, nullptr, p.off.data(), p.n_rings());
+    ASSERT_TRUE(chk.valid) << chk.message;
+    const auto edges = ring_edges(p);
+    std::vector<std::int64_t> rv(n_pts);
+    for (std::size_t i = 0; i < n_pts; ++i) rv[i] = static_cast<std::int64_t>(i);
+    for (auto method : {fm::BridgeMethod::extreme_point, fm::BridgeMethod::eberly}) {
+        const auto jp = fm::join_holes(p.xy.data(), n_pts, rv.data(), p.off.data(), p.n_rings(), method);
+        EXPECT_TRUE(jp.skipped_rings.empty());
+        ASSERT_EQ(jp.bridges.size(), 2u * holes);
+        for (std::size_t k = 0; k < jp.bridges.size(); k += 2) {
+            const double* a = &p.xy[2 * jp.bridges[k]];
+            const double* b = &p.xy[2 * jp.bridges[k + 1]];
+            for (std::size_t e = 0; e < edges.size(); e += 2) {
+                if (edges[e] == jp.bridges[k] || edges[e] == jp.bridges[k + 1] || edges[e + 1] == jp.bridges[k] ||
+                    edges[e + 1] == jp.bridges[k + 1])
+                    continue;
+                const double* u = &p.xy[2 * edges[e]];
+                const double* v = &p.xy[2 * edges[e + 1]];
+                const int o1 = fm::orient2d_sign(a, b, u), o2 = fm::orient2d_sign(a, b, v);
+                const int o3 = fm::orient2d_sign(u, v, a), o4 = fm::orient2d_sign(u, v, b);
+                // In a valid polygon no three of these points are collinear
+                // here, so meeting means a proper crossing.
+                EXPECT_FALSE(o1 * o2 <= 0 && o3 * o4 <= 0) << "bridge " << k / 2 << " meets edge " << e / 2;
+            }
+        }
+    }
+    const long double pa = twice_area_rings(p);
+    for (auto order : {fm::EarOrder::plain, fm::EarOrder::quality}) {
+        fm::EarClipOptions o;
+        o.order = order;
+        o.refine = false;
+        const auto t = fm::triangulate_polygon(p.xy.data(), p.off.data(), p.n_rings(), o);
+        EXPECT_EQ(t.size() / 3, n_pts + 2 * holes - 2);
+        expect_ccw(p, t);
+        EXPECT_LE(std::fabs(twice_area_tris(p, t) - pa), 1e-12L * std::fabs(pa));
     }
 }
