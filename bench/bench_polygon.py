@@ -263,7 +263,7 @@ def main():
               flush=True)
 
     lines = []
-    lines.append("# Polygon triangulation benchmark\n")
+    lines.append("## Polygon triangulation benchmark\n")
     lines.append(f"Command: `python bench/bench_polygon.py --runs {args.runs}`  ")
     lines.append(f"Date: {datetime.date.today().isoformat()}  ")
     cpu = platform.processor() or platform.machine()
