@@ -309,12 +309,12 @@ def main():
         lines.append(f"| {name} | {n} | {h} | {'yes' if valid else 'no'} | " + " | ".join(cells) +
                      f" | {ratio1:.2f} | {ratio2:.2f} | {devs} / {listed:.2g} |")
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    # Keep the hand-written sections (from the first "## " heading) of an
+    # Keep the hand-written sections (from the first "### " heading) of an
     # existing file.
     tail = ""
     if Path(args.out).is_file():
         old = Path(args.out).read_text()
-        k = old.find("\n## ")
+        k = old.find("\n### ")
         if k >= 0:
             tail = old[k:]
     Path(args.out).write_text("\n".join(l for l in lines if l is not None) + "\n" + tail)
