@@ -8,9 +8,7 @@ brute-force O(n^2) segment test on the smaller fixtures.
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import tempfile
+import sys
 from concurrent.futures import ThreadPoolExecutor
 from fractions import Fraction
 from pathlib import Path
@@ -20,6 +18,10 @@ import pytest
 from hypothesis import given, settings, strategies as st, HealthCheck
 
 import faultmesh as fm
+from helpers import tri_set
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
+import bench_polygon  # noqa: E402
 
 DATA = Path(__file__).resolve().parent / "data" / "earcut"
 EXPECTED = json.loads((DATA / "expected.json").read_text())
@@ -278,27 +280,9 @@ def test_refined_is_constrained_delaunay(name):
     assert tri_set(flipped) == tri_set(tris)
 
 
-def tri_set(tris):
-    out = set()
-    for a, b, c in np.asarray(tris).reshape(-1, 3):
-        m = min(a, b, c)
-        out.add((a, b, c) if m == a else (b, c, a) if m == b else (c, a, b))
-    return out
-
-
 def run_cgal(exe, rings):
-    with tempfile.TemporaryDirectory() as d:
-        inp, out = os.path.join(d, "in.txt"), os.path.join(d, "out.txt")
-        with open(inp, "w") as f:
-            f.write(f"{len(rings)}\n")
-            for r in rings:
-                f.write(f"{len(r)}\n")
-                np.savetxt(f, r, fmt="%.17g")
-        res = subprocess.run([str(exe), inp, out], capture_output=True, text=True, check=True)
-        info = json.loads(res.stdout)
-        tris = np.loadtxt(out, dtype=np.int64, ndmin=2).reshape(-1, 3)
-    assert info["triangles"] == len(tris)
-    return tris
+    """CGAL's constrained Delaunay triangulation of the polygon (the bench's runner)."""
+    return bench_polygon.run_cgal(exe, rings, runs=1)[1]
 
 
 def test_refined_equals_cgal_cdt(cgal_bin):
