@@ -1492,11 +1492,21 @@ private:
     bool diagonal_clear(int from, int ia, int ib) const {
         const double* pa = P(N_[ia]);
         const double* pb = P(N_[ib]);
+        // Segments with disjoint boxes share no point: skip them before the
+        // exact test (this runs for every ear in the fallback phase).
+        const double x0 = std::min(pa[0], pb[0]), x1 = std::max(pa[0], pb[0]);
+        const double y0 = std::min(pa[1], pb[1]), y1 = std::max(pa[1], pb[1]);
         int p = from;
         do {
             const Node& u = N_[p];
             const int iv = u.next;
-            if (p != ia && p != ib && iv != ia && iv != ib && segments_conflict(pa, pb, P(u), P(N_[iv])))
+            const Node& v = N_[iv];
+            if ((u.x < x0 && v.x < x0) || (u.x > x1 && v.x > x1) || (u.y < y0 && v.y < y0) ||
+                (u.y > y1 && v.y > y1)) {
+                p = iv;
+                continue;
+            }
+            if (p != ia && p != ib && iv != ia && iv != ib && segments_conflict(pa, pb, P(u), P(v)))
                 return false;
             p = iv;
         } while (p != from);
