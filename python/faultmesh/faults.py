@@ -209,20 +209,28 @@ def _shift_z(pts_old: np.ndarray, xy_new: np.ndarray, surface_z) -> np.ndarray:
     return np.where(np.isfinite(dz), z + dz, z)
 
 
-def _layer_tip(fault, traces_with, layer: str, end: int, tip: np.ndarray, direction: np.ndarray,
-               ring: np.ndarray, surface_z) -> np.ndarray:
-    """The tip (x, y, z) of ``layer`` at fault end ``end`` (see module doc)."""
-    tr = traces_with[0] if end == 0 else traces_with[-1]
-    mid_l = _cut_mid(tr, layer)
-    # Reference layer: the one whose cutoff line (through its cutoff midpoint
-    # along the strike direction) passes closest to the given tip.
-    best, ref = np.inf, mid_l
+def _reference_cutoff(tr, tip: np.ndarray, direction: np.ndarray) -> Optional[np.ndarray]:
+    """The cutoff midpoint of the trace's reference layer: the layer whose
+    cutoff line (through its cutoff midpoint along the strike direction)
+    passes closest to ``tip``; None for a trace without layers."""
+    best, ref = np.inf, None
     for lay in tr.layers:
         m = _cut_mid(tr, lay)
         off = tip - m[:2]
         dist = abs(direction[0] * off[1] - direction[1] * off[0])
         if dist < best:
             best, ref = dist, m
+    return ref
+
+
+def _layer_tip(fault, traces_with, layer: str, end: int, tip: np.ndarray, direction: np.ndarray,
+               ring: np.ndarray, surface_z) -> np.ndarray:
+    """The tip (x, y, z) of ``layer`` at fault end ``end`` (see module doc)."""
+    tr = traces_with[0] if end == 0 else traces_with[-1]
+    mid_l = _cut_mid(tr, layer)
+    ref = _reference_cutoff(tr, tip, direction)
+    if ref is None:
+        ref = mid_l
     v = tip - ref[:2]
     xy = mid_l[:2] + v
     # Keep the tip inside the study area (a deep layer's shifted tip can
@@ -359,14 +367,7 @@ def fault_surface(fault, ends: FaultEnds, ring: np.ndarray, loft_method: str = "
         tip = ends.tips[end]
         moved = None
         if tip is not None:
-            d = ends.directions[end]
-            best, ref = np.inf, None
-            for lay in tr.layers:
-                m = _cut_mid(tr, lay)
-                off = tip - m[:2]
-                dist = abs(d[0] * off[1] - d[1] * off[0])
-                if dist < best:
-                    best, ref = dist, m
+            ref = _reference_cutoff(tr, tip, ends.directions[end])
             if ref is None:
                 ref = plane[len(plane) // 2]
             moved = plane.copy()
