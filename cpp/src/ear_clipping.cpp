@@ -333,11 +333,10 @@ bool segments_conflict(const double* p0, const double* p1, const double* q0, con
 
 struct Node {
     double x, y;  // first: &x is a (x, y) point for the predicates
-    I64 v;        // vertex index into the caller's points
+    int v;        // vertex index into the caller's points (fewer than 2^31, checked)
     int prev, next;
     int twin;     // next node with identical coordinates (circular; self if none)
     int ring;     // input ring
-    int stamp;    // version for the ear priority queue
     bool removed, reflex;
     bool not_ear = false;  // plain order: known not to be an ear since its neighbours last changed
 };
@@ -360,10 +359,9 @@ struct Polygon {
         Node n;
         n.x = xy[2 * v];
         n.y = xy[2 * v + 1];
-        n.v = v;
+        n.v = static_cast<int>(v);
         n.prev = n.next = n.twin = static_cast<int>(nodes.size());
         n.ring = ring;
-        n.stamp = 0;
         n.removed = false;
         n.reflex = false;
         nodes.push_back(n);
@@ -381,19 +379,21 @@ struct Polygon {
 
 // Link coincident nodes into twin rings with an open-addressing hash on the
 // coordinates' bit patterns (exact equality; -0.0 and 0.0 are merged).
+//
+// Most polygons have no coincident vertices, so a bitmap of 16 bits per node
+// (in L1/L2, unlike the hash table) first finds the hash values that occur
+// more than once; only the nodes with such a value go into the table (about
+// n/32 of them when nothing coincides). The table links the same nodes in
+// the same order as inserting every node would.
 void link_twins(Polygon& poly) {
     const std::size_t n = poly.nodes.size();
-    std::size_t cap = 16;
-    while (cap < n + n / 2) cap <<= 1;  // load at most 2/3
-    std::vector<int> table(cap, -1);
     auto bits = [](double d) {
         if (d == 0.0) d = 0.0;
         std::uint64_t u;
         std::memcpy(&u, &d, sizeof u);
         return u;
     };
-    for (std::size_t i = 0; i < n; ++i) {
-        Node& nd = poly.nodes[i];
+    auto hash = [&](const Node& nd) {
         // Full avalanche (splitmix64's finalizer): coordinates with zero
         // low mantissa bits (integers) must not crowd into a few slots.
         std::uint64_t h = bits(nd.x) ^ (bits(nd.y) * 0x9E3779B97F4A7C15ull + 0x632BE59BD9B4E019ull);
@@ -402,15 +402,43 @@ void link_twins(Polygon& poly) {
         h ^= h >> 33;
         h *= 0xC4CEB9FE1A85EC53ull;
         h ^= h >> 33;
-        std::size_t s = h & (cap - 1);
+        return h;
+    };
+    int shift = 64 - 6;  // bitmap of 2^(64 - shift) bits, at least 16 per node
+    while ((std::size_t(1) << (64 - shift)) < 16 * n && shift > 20) --shift;
+    const std::size_t words = (std::size_t(1) << (64 - shift)) / 64;
+    std::vector<std::uint64_t> seen(words, 0), repeated(words, 0);
+    bool any = false;
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::uint64_t b = hash(poly.nodes[i]) >> shift;
+        const std::uint64_t bit = std::uint64_t(1) << (b & 63);
+        std::uint64_t& w = seen[b >> 6];
+        if (w & bit) {
+            repeated[b >> 6] |= bit;
+            any = true;
+        }
+        w |= bit;
+    }
+    if (!any) return;
+    std::vector<int> members;
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::uint64_t b = hash(poly.nodes[i]) >> shift;
+        if (repeated[b >> 6] & (std::uint64_t(1) << (b & 63))) members.push_back(static_cast<int>(i));
+    }
+    std::size_t cap = 16;
+    while (cap < members.size() + members.size() / 2) cap <<= 1;  // load at most 2/3
+    std::vector<int> table(cap, -1);
+    for (const int i : members) {
+        Node& nd = poly.nodes[i];
+        std::size_t s = hash(nd) & (cap - 1);
         while (true) {
             const int j = table[s];
-            if (j < 0) { table[s] = static_cast<int>(i); break; }
+            if (j < 0) { table[s] = i; break; }
             Node& o = poly.nodes[j];
             if (o.x == nd.x && o.y == nd.y) {
                 poly.touching = true;
                 nd.twin = o.twin;
-                o.twin = static_cast<int>(i);
+                o.twin = i;
                 break;
             }
             s = (s + 1) & (cap - 1);
@@ -932,48 +960,49 @@ public:
         // Count the live list, classify its vertices, take its box (no
         // copy of the list: fresh memory costs page faults at this size).
         std::size_t cnt = 0;
-        int p = poly_.start;
-        do {
-            ++cnt;
-            p = N_[p].next;
-        } while (p != poly_.start);
-        remaining_ = cnt;
-        if (remaining_ < 3) return;
-        out_.reserve(out_.size() + 3 * (remaining_ - 2));
         double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
         std::vector<int> reflex;
-        reflex.reserve(cnt / 2 + 16);
-        p = poly_.start;
+        reflex.reserve(N_.size() / 2 + 16);
+        int p = poly_.start;
         do {
             Node& n = N_[p];
             n.reflex = orient2d_quick(P(N_[n.prev]), P(n), P(N_[n.next])) <= 0.0;
             if (n.reflex) reflex.push_back(p);
             xmin = std::min(xmin, n.x); xmax = std::max(xmax, n.x);
             ymin = std::min(ymin, n.y); ymax = std::max(ymax, n.y);
+            ++cnt;
             p = n.next;
         } while (p != poly_.start);
+        remaining_ = cnt;
+        if (remaining_ < 3) return;
+        out_.reserve(out_.size() + 3 * (remaining_ - 2));
         build_grid(reflex, xmin, ymin, xmax, ymax);
         bbox_ = {xmin, ymin, xmax, ymax};
         // Loops still to clip: the joined polygon, plus the pieces split off
         // by the fallback for invalid input (split_by_diagonal).
         if (poly_.touching) cancel_doubled_edges(poly_.start);
         else pending_.push_back(poly_.start);
+        const std::size_t start_count = remaining_;
         while (!pending_.empty()) {
             const int s = pending_.back();
             pending_.pop_back();
             std::size_t cnt = 0;
-            int p = s;
-            do {
-                ++cnt;
-                p = N_[p].next;
-            } while (p != s);
+            if (s == poly_.start && !poly_.touching) {
+                cnt = start_count;  // counted above
+            } else {
+                int p = s;
+                do {
+                    ++cnt;
+                    p = N_[p].next;
+                } while (p != s);
+            }
             remaining_ = cnt;
             cur_ = s;
             if (cnt < 3) continue;
             // A loop of zero area (a hole identical to the outer ring, a
             // piece with every edge doubled) holds no region. A valid input
             // never has one; checking costs one pass, only with holes.
-            if (check_empty_ && remnant_is_empty(s)) continue;
+            if (check_empty_ && !(s == poly_.start && joined_area_nonzero()) && remnant_is_empty(s)) continue;
             if (order == EarOrder::quality) clip_quality(s);
             else clip_plain(s);
             // Last triangle.
@@ -986,6 +1015,14 @@ public:
     }
 
     bool check_empty_ = false;
+    // The joined loop (every ring joined, no touching rings) has the rings'
+    // net area, known from orient_rings: if that is far from zero relative
+    // to its rounding (below n eps of the terms' magnitude), the loop holds
+    // a region and needs no emptiness pass.
+    bool joined_area_nonzero() const {
+        return !poly_.touching && poly_.skipped.empty() &&
+               std::fabs(poly_.net_area2) > 1e-6 * poly_.area_mag2;
+    }
     double tri_area2_ = 0;  // twice the area of the triangles emitted
     // Set once a loop needed a fallback (invalid input): from then on the
     // plain order also rejects an ear whose diagonal crosses or overlaps a
@@ -1237,13 +1274,13 @@ private:
         // Exact tests of the candidates collected so far; false if one is in the ear.
         auto clear = [&]() {
             for (int j = 0; j < m; ++j) {
-                const GItem& r = gitems_[cand[j]];
-                const int id = gids_[cand[j]];
-                if (id == ia || id == ib || id == ic) continue;
-                const double* q = &r.x;
+                // A point at a corner's position never blocks (the corners
+                // themselves, mostly reflex on a jagged ring, are items too);
+                // comparing coordinates avoids loading the item's node id.
+                const double* q = &gitems_[cand[j]].x;
+                if (same_point(q, P(a)) || same_point(q, P(c)) || same_point(q, P(b))) continue;
                 if (orient2d_quick(P(a), P(b), q) >= 0.0 && orient2d_quick(P(b), P(c), q) >= 0.0 &&
-                    orient2d_quick(P(c), P(a), q) >= 0.0 && !same_point(q, P(a)) && !same_point(q, P(b)) &&
-                    !same_point(q, P(c)))
+                    orient2d_quick(P(c), P(a), q) >= 0.0)
                     return false;
             }
             m = 0;
@@ -1658,10 +1695,13 @@ private:
     // Quality order: always clip the ear with the largest minimum angle.
     void clip_quality(int start) {
         std::priority_queue<Entry> heap;
+        // Version of each node's heap entry (a split adds nodes: grow).
+        std::vector<int> stamp(N_.size(), 0);
         auto consider = [&](int i) {
             Node& n = N_[i];
-            ++n.stamp;
-            if (!n.removed && is_ear(i)) heap.push({ear_key(i), i, n.stamp});
+            if (static_cast<std::size_t>(i) >= stamp.size()) stamp.resize(N_.size(), 0);
+            ++stamp[i];
+            if (!n.removed && is_ear(i)) heap.push({ear_key(i), i, stamp[i]});
         };
         auto consider_all = [&](int from) {
             int p = from;
@@ -1697,7 +1737,7 @@ private:
             const Entry e = heap.top();
             heap.pop();
             const Node& n = N_[e.node];
-            if (n.removed || n.stamp != e.stamp) continue;
+            if (n.removed || stamp[e.node] != e.stamp) continue;
             const int a = n.prev, c = n.next;
             remove(e.node, true);
             consider(a);
