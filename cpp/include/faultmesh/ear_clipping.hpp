@@ -37,7 +37,9 @@
 // triangulation without crash -- every triangle has vertices of the input,
 // the loop always terminates, but the triangles may not cover the region
 // exactly. The fallbacks (none of which runs on valid input): a hole that no
-// visible bridge reaches is bridged anyway to Eberly's candidate; opposite
+// visible bridge reaches is left out if it lies wholly outside the region
+// (e.g. inside another hole), else bridged anyway to Eberly's candidate, and
+// the ear order then defers ears whose diagonal crosses an edge; opposite
 // coincident edge pairs (rings touching along edges) are cut out; a loop of
 // zero area (edges cancelling in pairs, exact test) is dropped; and when no
 // ear is left: vertices bounding no area are dropped, a local twist of a
