@@ -452,6 +452,20 @@ public:
         poly_.start = ring_first_[0];
         merged_[0] = 1;
         link_twins(poly_);
+        if (poly_.touching) {
+            // Invalid input only (some ring vertices coincide): cut the
+            // zero-width spikes out of the rings before anything is joined.
+            for (std::size_t r = 0; r < n_rings; ++r) {
+                if (ring_first_[r] < 0) continue;
+                ring_first_[r] = drop_spikes(ring_first_[r], poly_.rings[r].size());
+                if (ring_first_[r] < 0 && r > 0) poly_.skipped.push_back(static_cast<I64>(r));
+            }
+            if (ring_first_[0] < 0) {
+                poly_.start = -1;  // the outer ring bounds no area
+                return;
+            }
+            poly_.start = ring_first_[0];
+        }
 
         std::vector<int> holes;
         for (std::size_t r = 1; r < n_rings; ++r)
@@ -544,6 +558,49 @@ private:
             p = N[p].next;
         } while (p != first);
         return e;
+    }
+
+    // A ring that runs out along a line and straight back (issue149: the
+    // outer ring's edges 10 -> 0 -> 1 go out and back over the same
+    // segment, and 9 -> 10 -> 2 goes down and back up over edge 9 -> 2)
+    // has a spike of zero width. Its tip has no region sector that
+    // sector_node could decide (both edges leave in the same direction:
+    // the tie makes it look inside, and issue149 got its bridge from such a
+    // tip, outside the region). The spike bounds no area, so its tip is
+    // dropped: a vertex whose neighbours are collinear with it on one side
+    // (or coincide), and then a vertex at the same position as its
+    // successor; repeated until none is left. Straight-through vertices are
+    // kept. Returns the ring's new first node, -1 if fewer than 3 are left
+    // (the dropped nodes are marked removed; twin lists skip them).
+    int drop_spikes(int first, std::size_t n) {
+        auto& N = poly_.nodes;
+        // Each drop re-checks the node before it; `clean` counts checks in a
+        // row without a drop, so the walk ends after one clean lap.
+        std::size_t clean = 0;
+        int p = first;
+        while (n >= 3 && clean < n) {
+            Node& b = N[p];
+            const int ia = b.prev, ic = b.next;
+            const double* a = P(N[ia]);
+            const double* c = P(N[ic]);
+            const bool drop =
+                same_point(P(b), c) || (orient2d_quick(a, P(b), c) == 0.0 && !strictly_between(a, c, P(b)));
+            if (!drop) {
+                ++clean;
+                p = ic;
+                continue;
+            }
+            N[ia].next = ic;
+            N[ic].prev = ia;
+            b.removed = true;
+            --n;
+            clean = 0;
+            if (p == first) first = ic;
+            p = ia;
+        }
+        if (n >= 3) return first;
+        for (int k = 0, q = first; k < static_cast<int>(n); ++k, q = N[q].next) N[q].removed = true;
+        return -1;
     }
 
     // Among all nodes at the position of node `at` (its twins), the edges
