@@ -1120,17 +1120,18 @@ public:
         }
     }
 
+    // Invalid input: the quality order defers an ear whose diagonal
+    // crosses a live edge (see clip_quality). Set only when no visible
+    // bridge reached a hole (Polygon::forced_bridge: the test is a pass
+    // over the loop per ear, and touching rings alone do not need it on
+    // earcut's fixtures). water-huge2: deviation 0.019 -> 0.0026.
+    bool strict_quality_ = false;
     bool check_empty_ = false;
     double tri_area2_ = 0;  // twice the area of the triangles emitted
     // Set once a loop needed a fallback (invalid input): from then on the
     // plain order also rejects an ear whose diagonal crosses or overlaps a
     // live edge, while an ear without such a crossing is left.
     bool strict_ears_ = false;
-    // The same for the quality order, set only when no visible bridge
-    // reached a hole (Polygon::forced_bridge; the test costs a pass over
-    // the loop per ear, and touching rings alone do not need it on
-    // earcut's fixtures). water-huge2: deviation 0.019 -> 0.0026.
-    bool strict_quality_ = false;
     bool ear_diagonal_clear(int ib, int& loose) const {
         const int ia = N_[ib].prev, ic = N_[ib].next;
         if (diagonal_clear(ic, ia, ic)) return true;
@@ -1838,6 +1839,7 @@ private:
             heap.pop();
             const Node& n = N_[e.node];
             if (n.removed || n.stamp != e.stamp) continue;
+            const int a = n.prev, c = n.next;
             int loose = -1;
             if (strict_quality_ && e.key >= 0.0 && !ear_diagonal_clear(e.node, loose)) {
                 // Invalid input: an ear whose diagonal crosses a live edge
@@ -1848,7 +1850,6 @@ private:
                 heap.push({e.key - 2.0, e.node, e.stamp});
                 continue;
             }
-            const int a = n.prev, c = n.next;
             remove(e.node, true);
             consider(a);
             consider(c);
