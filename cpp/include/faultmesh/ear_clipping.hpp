@@ -36,15 +36,19 @@
 // overlapping each other, degenerate rings): by default a best-effort
 // triangulation without crash -- every triangle has vertices of the input,
 // the loop always terminates, but the triangles may not cover the region
-// exactly. The fallbacks (none of which runs on valid input): a hole that no
-// visible bridge reaches is bridged anyway to Eberly's candidate; opposite
+// exactly. The fallbacks (none of which runs on valid input): when ring
+// vertices coincide, the tips of zero-width spikes (a ring running out and
+// straight back) are dropped before holes are joined; a hole that no
+// visible bridge reaches is left out if it lies wholly outside the region
+// (e.g. inside another hole), else bridged anyway to Eberly's candidate, and
+// the ear order then defers ears whose diagonal crosses an edge; opposite
 // coincident edge pairs (rings touching along edges) are cut out; a loop of
 // zero area (edges cancelling in pairs, exact test) is dropped; and when no
 // ear is left: vertices bounding no area are dropped, a local twist of a
 // self-crossing ring is cut off, the loop is split along an inside diagonal,
 // and only then a vertex is removed anyway. On mapbox/earcut's test fixtures
-// this keeps the area deviation within earcut's own listed errors on all but
-// a few (see docs/bench/polygon.md). With EarClipOptions::strict = true the input is
+// this keeps the area deviation within earcut's own listed errors (all
+// three modes). With EarClipOptions::strict = true the input is
 // checked first (check_polygon) and a GeometryError names the ring and vertex
 // of the first defect found. Malformed arguments (negative or decreasing
 // offsets, indices out of range, non-finite coordinates) always throw
