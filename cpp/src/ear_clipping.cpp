@@ -1151,9 +1151,9 @@ public:
 
     // Invalid input: the quality order defers an ear whose diagonal
     // crosses a live edge (see clip_quality). Set only when no visible
-    // bridge reached a hole (Polygon::forced_bridge: the test is a pass
-    // over the loop per ear, and touching rings alone do not need it on
-    // earcut's fixtures). water-huge2: deviation 0.019 -> 0.0026.
+    // bridge reached a hole (Polygon::forced_bridge; touching rings alone
+    // do not need it on earcut's fixtures). water-huge2: deviation 0.019 ->
+    // 0.0026.
     bool strict_quality_ = false;
     bool check_empty_ = false;
     // The joined loop (every ring joined, no touching rings) has the rings'
@@ -1989,7 +1989,7 @@ private:
                 // goes back below every other ear (keys are in [0, 3/4]),
                 // so it is clipped only when no clean ear is left, as in the
                 // plain order's fallback phase. Tested when popped, not when
-                // pushed: the test walks the whole loop.
+                // pushed (fewer tests: many pushed entries go stale).
                 int loose = -1;
                 if (e.key >= 0.0 && !ear_diagonal_clear(e.node, loose)) {
                     heap.push({e.key - 2.0, e.node, e.stamp});
