@@ -148,10 +148,44 @@ int ring_orientation(const double* xy, const std::vector<I64>& r, double* area2 
 // walks the cells along a segment in its major direction; the minor-direction
 // range of each column is widened by a margin that covers the rounding of the
 // interpolation, so every cell the exact segment meets is visited.
-struct SegGrid {
-    const double* xy = nullptr;
-    double x0 = 0, y0 = 0, cw = 1, ch = 1, icw = 1, ich = 1, margin_x = 0, margin_y = 0;
+// Frame of a uniform grid over a box: about `target` cells shaped like the
+// box (at most max_side per side), and the cell of a coordinate, monotone
+// (all that conservative traversals need; negatives are clamped before the
+// truncation, as std::floor is a library call without SSE4.1). Shared by the
+// segment grid, the clipper's reflex grid and its live-edge grid.
+struct GridFrame {
+    double x0 = 0, y0 = 0, cw = 1, ch = 1, icw = 1, ich = 1;
     int nx = 1, ny = 1;
+    void shape(double xmin, double ymin, double xmax, double ymax, double target, double max_side) {
+        x0 = xmin;
+        y0 = ymin;
+        const double w = std::max(xmax - xmin, 0.0), h = std::max(ymax - ymin, 0.0);
+        target = std::max(1.0, target);
+        if (w > 0 && h > 0) {
+            nx = static_cast<int>(std::clamp(std::sqrt(target * w / h), 1.0, max_side));
+            ny = static_cast<int>(std::clamp(std::sqrt(target * h / w), 1.0, max_side));
+        } else {
+            nx = w > 0 ? static_cast<int>(std::clamp(target, 1.0, max_side)) : 1;
+            ny = h > 0 ? static_cast<int>(std::clamp(target, 1.0, max_side)) : 1;
+        }
+        cw = w > 0 ? w / nx : 1.0;
+        ch = h > 0 ? h / ny : 1.0;
+        icw = 1.0 / cw;
+        ich = 1.0 / ch;
+    }
+    int col(double x) const {
+        const double c = (x - x0) * icw;
+        return c < 1.0 ? 0 : (c >= nx ? nx - 1 : static_cast<int>(c));
+    }
+    int row(double y) const {
+        const double r = (y - y0) * ich;
+        return r < 1.0 ? 0 : (r >= ny ? ny - 1 : static_cast<int>(r));
+    }
+};
+
+struct SegGrid : GridFrame {
+    const double* xy = nullptr;
+    double margin_x = 0, margin_y = 0;
     std::vector<I64> seg;  // 2 vertex indices per segment
     // Segment ids per cell (CSR), built on the first query over the
     // segments inserted so far; later ones (bridges) are scanned directly.
@@ -163,22 +197,8 @@ struct SegGrid {
 
     void init(const double* pts, double xmin, double ymin, double xmax, double ymax, std::size_t n_seg) {
         xy = pts;
-        x0 = xmin;
-        y0 = ymin;
-        const double w = std::max(xmax - xmin, 0.0), h = std::max(ymax - ymin, 0.0);
         // About one cell per segment, shaped like the bounding box.
-        const double target = std::max<double>(1.0, static_cast<double>(n_seg));
-        if (w > 0 && h > 0) {
-            nx = static_cast<int>(std::clamp(std::sqrt(target * w / h), 1.0, 4096.0));
-            ny = static_cast<int>(std::clamp(std::sqrt(target * h / w), 1.0, 4096.0));
-        } else {
-            nx = w > 0 ? static_cast<int>(std::clamp(target, 1.0, 4096.0)) : 1;
-            ny = h > 0 ? static_cast<int>(std::clamp(target, 1.0, 4096.0)) : 1;
-        }
-        cw = w > 0 ? w / nx : 1.0;
-        ch = h > 0 ? h / ny : 1.0;
-        icw = 1.0 / cw;
-        ich = 1.0 / ch;
+        shape(xmin, ymin, xmax, ymax, static_cast<double>(n_seg), 4096.0);
         // Rounding of the interpolated coordinate is a few ulps of the
         // coordinates' magnitude; 1e-6 of a cell plus 64 ulps of the largest
         // magnitude is far above it.
@@ -190,17 +210,6 @@ struct SegGrid {
         seg.clear();
         mark.clear();
         seg.reserve(2 * n_seg + 16);
-    }
-    int col(double x) const {
-        // Monotone in x (all that the traversal's margins need); truncation
-        // is floor here as negatives are clamped first (std::floor is a
-        // library call without SSE4.1).
-        const double c = (x - x0) * icw;
-        return c < 1.0 ? 0 : (c >= nx ? nx - 1 : static_cast<int>(c));
-    }
-    int row(double y) const {
-        const double r = (y - y0) * ich;
-        return r < 1.0 ? 0 : (r >= ny ? ny - 1 : static_cast<int>(r));
     }
     template <class F>
     void for_cells(const double* p, const double* q, F&& f) const {
@@ -1287,8 +1296,7 @@ private:
     std::array<double, 4> bbox_{};
     bool resplit_ = false;  // a split happened: the quality heap must be rebuilt
     // Reflex grid (CSR).
-    double gx0_ = 0, gy0_ = 0, gcw_ = 1, gch_ = 1, gicw_ = 1, gich_ = 1;
-    int gnx_ = 1, gny_ = 1;
+    GridFrame rg_;
     // Items are bare points (16 bytes: the scan reads 4 per cache line),
     // their nodes in a parallel array read only for box survivors. A cell's
     // live range [begin, end) is one 8-byte pair (one load per cell).
@@ -1303,27 +1311,14 @@ private:
     std::vector<GItem> gitems_;
 
     void build_grid(const std::vector<int>& reflex, double xmin, double ymin, double xmax, double ymax) {
-        const double w = xmax - xmin, h = ymax - ymin;
-        const double target = std::max<double>(1.0, 0.5 * static_cast<double>(reflex.size()));
-        if (w > 0 && h > 0) {
-            gnx_ = static_cast<int>(std::clamp(std::sqrt(target * w / h), 1.0, 2048.0));
-            gny_ = static_cast<int>(std::clamp(std::sqrt(target * h / w), 1.0, 2048.0));
-        } else {
-            gnx_ = gny_ = 1;
-        }
-        gx0_ = xmin;
-        gy0_ = ymin;
-        gcw_ = w > 0 ? w / gnx_ : 1.0;
-        gch_ = h > 0 ? h / gny_ : 1.0;
-        gicw_ = 1.0 / gcw_;
-        gich_ = 1.0 / gch_;
-        const std::size_t ncell = static_cast<std::size_t>(gnx_) * gny_;
+        rg_.shape(xmin, ymin, xmax, ymax, 0.5 * static_cast<double>(reflex.size()), 2048.0);
+        const std::size_t ncell = static_cast<std::size_t>(rg_.nx) * rg_.ny;
         gstart_.assign(ncell + 1, 0);
         gslot_.assign(N_.size(), -1);
         gcellof_.resize(N_.size());
         for (int i : reflex) {
             const Node& n = N_[i];
-            const int c = gcol(n.x) * gny_ + grow(n.y);
+            const int c = rg_.col(n.x) * rg_.ny + rg_.row(n.y);
             gcellof_[i] = c;
             ++gstart_[c + 1];
         }
@@ -1350,16 +1345,6 @@ private:
         gslot_[gids_[k]] = k;
         gslot_[i] = -1;
     }
-    int gcol(double x) const {
-        // Monotone in x, the same function for items and queries.
-        const double c = (x - gx0_) * gicw_;
-        return c < 1.0 ? 0 : (c >= gnx_ ? gnx_ - 1 : static_cast<int>(c));
-    }
-    int grow(double y) const {
-        const double r = (y - gy0_) * gich_;
-        return r < 1.0 ? 0 : (r >= gny_ ? gny_ - 1 : static_cast<int>(r));
-    }
-
     void emit(const Node& a, const Node& b, const Node& c) {
         // Twice the covered area, for the invalid-input check in triangulate().
         tri_area2_ += std::fabs((b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x));
@@ -1408,7 +1393,7 @@ private:
         if (c.twin != ic && twins_block(ic, P(a), P(b), false)) return false;
         const double minx = std::min({a.x, b.x, c.x}), maxx = std::max({a.x, b.x, c.x});
         const double miny = std::min({a.y, b.y, c.y}), maxy = std::max({a.y, b.y, c.y});
-        const int c0 = gcol(minx), c1 = gcol(maxx), r0 = grow(miny), r1 = grow(maxy);
+        const int c0 = rg_.col(minx), c1 = rg_.col(maxx), r0 = rg_.row(miny), r1 = rg_.row(maxy);
         // Items are first filtered by the ear's box without a branch (about
         // a quarter pass; a branch per item would mispredict often) into a
         // small buffer, whose entries then get the exact tests.
@@ -1430,7 +1415,7 @@ private:
             return true;
         };
         for (int cx = c0; cx <= c1; ++cx) {
-            for (int cell = cx * gny_ + r0, ce = cx * gny_ + r1; cell <= ce; ++cell) {
+            for (int cell = cx * rg_.ny + r0, ce = cx * rg_.ny + r1; cell <= ce; ++cell) {
                 const GCell ce_range = gcells_[cell];
                 for (int k = ce_range.begin, e = ce_range.end; k < e; ++k) {
                     const GItem& r = gitems_[k];
@@ -1655,30 +1640,21 @@ private:
         int u, v, next;
     };
     bool eg_built_ = false;
-    double egx0_ = 0, egy0_ = 0, egicw_ = 1, egich_ = 1;
-    int egnx_ = 1, egny_ = 1;
+    GridFrame eg_;
     std::vector<int> eg_head_;
     std::vector<EdgeEntry> eg_pool_;
     void eg_cells(const double* p, const double* q, int& c0, int& c1, int& r0, int& r1) const {
-        auto col = [&](double x) {
-            const double c = (x - egx0_) * egicw_;
-            return c < 1.0 ? 0 : (c >= egnx_ ? egnx_ - 1 : static_cast<int>(c));
-        };
-        auto row = [&](double y) {
-            const double r = (y - egy0_) * egich_;
-            return r < 1.0 ? 0 : (r >= egny_ ? egny_ - 1 : static_cast<int>(r));
-        };
-        c0 = col(std::min(p[0], q[0]));
-        c1 = col(std::max(p[0], q[0]));
-        r0 = row(std::min(p[1], q[1]));
-        r1 = row(std::max(p[1], q[1]));
+        c0 = eg_.col(std::min(p[0], q[0]));
+        c1 = eg_.col(std::max(p[0], q[0]));
+        r0 = eg_.row(std::min(p[1], q[1]));
+        r1 = eg_.row(std::max(p[1], q[1]));
     }
     void eg_insert(int u, int v) {
         int c0, c1, r0, r1;
         eg_cells(P(N_[u]), P(N_[v]), c0, c1, r0, r1);
         for (int cx = c0; cx <= c1; ++cx)
             for (int cy = r0; cy <= r1; ++cy) {
-                int& head = eg_head_[static_cast<std::size_t>(cx) * egny_ + cy];
+                int& head = eg_head_[static_cast<std::size_t>(cx) * eg_.ny + cy];
                 eg_pool_.push_back({u, v, head});
                 head = static_cast<int>(eg_pool_.size()) - 1;
             }
@@ -1689,19 +1665,8 @@ private:
     void eg_build() {
         std::size_t live = 0;
         for (const Node& n : N_) live += !n.removed;
-        const double w = bbox_[2] - bbox_[0], h = bbox_[3] - bbox_[1];
-        const double target = std::max<double>(1.0, static_cast<double>(live));
-        if (w > 0 && h > 0) {
-            egnx_ = static_cast<int>(std::clamp(std::sqrt(target * w / h), 1.0, 2048.0));
-            egny_ = static_cast<int>(std::clamp(std::sqrt(target * h / w), 1.0, 2048.0));
-        } else {
-            egnx_ = egny_ = 1;
-        }
-        egx0_ = bbox_[0];
-        egy0_ = bbox_[1];
-        egicw_ = w > 0 ? egnx_ / w : 1.0;
-        egich_ = h > 0 ? egny_ / h : 1.0;
-        eg_head_.assign(static_cast<std::size_t>(egnx_) * egny_, -1);
+        eg_.shape(bbox_[0], bbox_[1], bbox_[2], bbox_[3], static_cast<double>(live), 2048.0);
+        eg_head_.assign(static_cast<std::size_t>(eg_.nx) * eg_.ny, -1);
         eg_pool_.clear();
         eg_pool_.reserve(2 * live + 16);
         for (std::size_t i = 0; i < N_.size(); ++i)
@@ -1720,7 +1685,7 @@ private:
         eg_cells(pa, pb, c0, c1, r0, r1);
         for (int cx = c0; cx <= c1; ++cx)
             for (int cy = r0; cy <= r1; ++cy)
-                for (int e = eg_head_[static_cast<std::size_t>(cx) * egny_ + cy]; e >= 0; e = eg_pool_[e].next) {
+                for (int e = eg_head_[static_cast<std::size_t>(cx) * eg_.ny + cy]; e >= 0; e = eg_pool_[e].next) {
                     const EdgeEntry& en = eg_pool_[e];
                     const Node& u = N_[en.u];
                     if (u.removed || u.next != en.v) continue;  // edge gone
