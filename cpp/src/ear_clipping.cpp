@@ -384,6 +384,20 @@ struct Polygon {
         nodes[i].twin = k;
         return k;
     }
+    // Connect node a to node b by the diagonal a -> b and its copy b2 -> a2
+    // (a2, b2: new nodes coincident with a and b): a -> b ... b.prev -> b2 ->
+    // a2 -> a.next. On two loops this joins them through a bridge (hole
+    // joining); on one loop it splits it in two (the clipper's fallback).
+    // Returns {a2, b2}.
+    std::pair<int, int> connect(int a, int b) {
+        const int a2 = copy_node(a), b2 = copy_node(b);
+        const int an = nodes[a].next, bp = nodes[b].prev;
+        nodes[a].next = b; nodes[b].prev = a;
+        nodes[bp].next = b2; nodes[b2].prev = bp;
+        nodes[b2].next = a2; nodes[a2].prev = b2;
+        nodes[a2].next = an; nodes[an].prev = a2;
+        return {a2, b2};
+    }
 };
 
 // Link coincident nodes into twin rings with an open-addressing hash on the
@@ -798,12 +812,7 @@ private:
 
     void splice(int a, int b) {
         auto& N = poly_.nodes;
-        const int a2 = poly_.copy_node(a), b2 = poly_.copy_node(b);
-        const int an = N[a].next, bp = N[b].prev;
-        N[a].next = b; N[b].prev = a;
-        N[bp].next = b2; N[b2].prev = bp;
-        N[b2].next = a2; N[a2].prev = b2;
-        N[a2].next = an; N[an].prev = a2;
+        poly_.connect(a, b);
         if (grid_built_) grid_.insert(N[a].v, N[b].v);
         poly_.bridges.push_back(N[a].v);
         poly_.bridges.push_back(N[b].v);
@@ -1773,12 +1782,8 @@ private:
         return false;
     }
     void cut(int ia, int ib) {
-        const int a2 = poly_.copy_node(ia), b2 = poly_.copy_node(ib);
-        const int an = N_[ia].next, bp = N_[ib].prev;
-        N_[ia].next = ib; N_[ib].prev = ia;
-        N_[a2].next = an; N_[an].prev = a2;
-        N_[b2].next = a2; N_[a2].prev = b2;
-        N_[bp].next = b2; N_[b2].prev = bp;
+        const int bp = N_[ib].prev;
+        const auto [a2, b2] = poly_.connect(ia, ib);
         for (int u : {ia, a2, b2, bp}) eg_link(u, N_[u].next);
         for (int i : {ia, ib, a2, b2}) {
             Node& n = N_[i];
