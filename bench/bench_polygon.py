@@ -11,7 +11,11 @@ convex holes, 1k/10k/100k vertices in total) and every earcut fixture
 What is timed (median over --runs runs, all in this process unless noted):
   faultmesh plain / quality / quality+refine: the Python call
       faultmesh.triangulate_polygon(rings, ...), i.e. the C++ call with the GIL
-      released plus the binding's copy of the rings into one array.
+      released plus the binding's copy of the rings into one array. Plain
+      order splits a joined loop of >= 4096 vertices in two along an inside
+      diagonal and clips the halves on two threads (default threads=0);
+      "fm plain, 1 thread" is the same call with threads=1 (both halves on
+      the calling thread; the same triangles).
   mapbox_earcut: the Python call triangulate_float64(vertices, ring_ends)
       (earcut.hpp's C++ plus its binding's conversion); the vertices array is
       concatenated beforehand, outside the timing.
@@ -196,6 +200,7 @@ def measure(rings, runs: int, exe):
     # both sides alike.
     fns = {}
     for name, kw in [("fm plain", dict(refine=False, order="plain")),
+                     ("fm plain, 1 thread", dict(refine=False, order="plain", threads=1)),
                      ("fm quality", dict(refine=False, order="quality")),
                      ("fm quality+refine", dict(refine=True, order="quality"))]:
         fns[name] = lambda kw=kw: fm.triangulate_polygon(rings, **kw)
@@ -204,7 +209,7 @@ def measure(rings, runs: int, exe):
         fns["mapbox_earcut"] = lambda: mapbox_earcut.triangulate_float64(pts, ends)
     for name, (sec, out) in interleaved(fns, runs).items():
         add(name, sec, out)
-    for name in ("fm plain", "fm quality", "mapbox_earcut"):
+    for name in ("fm plain", "fm plain, 1 thread", "fm quality", "mapbox_earcut"):
         if name in rows:
             rows[name]["dev"] = deviation(rings, pts, np.asarray(rows[name].pop("_tris")).reshape(-1, 3))
     if exe is not None:
@@ -233,7 +238,8 @@ def measure(rings, runs: int, exe):
 
 
 EXPECTED_ERRORS = json.loads((ROOT / "tests" / "data" / "earcut" / "expected.json").read_text())["errors"]
-COLS = ["fm plain", "fm quality", "fm quality+refine", "CGAL CDT", "mapbox_earcut", "triangle"]
+COLS = ["fm plain", "fm plain, 1 thread", "fm quality", "fm quality+refine", "CGAL CDT", "mapbox_earcut",
+        "triangle"]
 
 
 def main():
@@ -290,7 +296,7 @@ def main():
                  "= fm plain / fm quality / mapbox_earcut / the error tests/data/earcut/expected.json lists "
                  "for the fixture (0 when absent).\n")
     head = ("| polygon | n | holes | valid | " + " | ".join(COLS) +
-            " | plain/earcut | refine/CGAL | dev |")
+            " | plain/earcut | plain 1 thread/earcut | refine/CGAL | dev |")
     lines.append(head)
     lines.append("|" + "---|" * (head.count("|") - 1))
     for name, n, h, valid, rows in results:
@@ -301,13 +307,15 @@ def main():
                          f"{r['seconds'] * 1e3:.3g} / {r['triangles']} / {100 * r['lt10']:.1f} / {100 * r['lt20']:.1f}")
         ratio1 = (rows["fm plain"]["seconds"] / rows["mapbox_earcut"]["seconds"]
                   if "mapbox_earcut" in rows and rows["mapbox_earcut"]["seconds"] > 0 else float("nan"))
+        ratio1t = (rows["fm plain, 1 thread"]["seconds"] / rows["mapbox_earcut"]["seconds"]
+                   if "mapbox_earcut" in rows and rows["mapbox_earcut"]["seconds"] > 0 else float("nan"))
         ratio2 = (rows["fm quality+refine"]["seconds"] / rows["CGAL CDT"]["seconds"]
                   if "CGAL CDT" in rows and rows["CGAL CDT"]["seconds"] > 0 else float("nan"))
         devs = " / ".join("—" if k not in rows else f"{rows[k]['dev']:.2g}"
                           for k in ("fm plain", "fm quality", "mapbox_earcut"))
         listed = EXPECTED_ERRORS.get(name, 0.0) if not name.startswith("bench-") else 0.0
         lines.append(f"| {name} | {n} | {h} | {'yes' if valid else 'no'} | " + " | ".join(cells) +
-                     f" | {ratio1:.2f} | {ratio2:.2f} | {devs} / {listed:.2g} |")
+                     f" | {ratio1:.2f} | {ratio1t:.2f} | {ratio2:.2f} | {devs} / {listed:.2g} |")
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     # Keep the hand-written sections (from the first "### " heading) of an
     # existing file.

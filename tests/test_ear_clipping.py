@@ -364,6 +364,81 @@ def test_property_random_polygon(rings, order, refine, bridge):
         assert non_delaunay_edges(pts, tris, ring_edge_set(rings)) == 0
 
 
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(polygons(), st.sampled_from([0, 1]), st.booleans())
+def test_property_split_halves(rings, threads, refine):
+    """Plain order with split_min=4: every loop is split along an inside
+    diagonal (when one is found) and the halves are clipped, concurrently
+    with threads=0. The same invariants hold, and the triangles do not
+    depend on the thread count."""
+    valid = fm.check_polygon(rings)[0]
+    pts = np.concatenate(rings)
+    tris = fm.triangulate_polygon(rings, refine=refine, order="plain", split_min=4, threads=threads)
+    other = fm.triangulate_polygon(rings, refine=refine, order="plain", split_min=4, threads=1 - threads)
+    assert np.array_equal(tris, other)
+    if not valid:
+        return
+    assert len(tris) == expected_count(rings)
+    assert (orient(pts, tris) > 0).all()
+    assert exact_twice_area_tris(pts, tris) == exact_twice_area_rings(rings)
+    assert centroids_inside(rings, tris, pts).all()
+    assert polygon_edges_present(rings, tris)
+    if refine:
+        # The CDT is unique (ties broken by the same perturbation): the split
+        # changes the ears, not the refined triangulation.
+        assert non_delaunay_edges(pts, tris, ring_edge_set(rings)) == 0
+        assert tri_set(tris) == tri_set(fm.triangulate_polygon(rings, refine=True, order="plain", split_min=0))
+
+
+def jagged_star(rng, n_outer, n_hole):
+    """The bench polygon's shape: radius 1000 +- 25% (7-fold wave) +- 5% noise
+    per vertex, four round holes."""
+    ang = np.sort(rng.uniform(0, 2 * np.pi, n_outer))
+    rad = 1000.0 * (1.0 + 0.25 * np.sin(7 * ang) + rng.uniform(-0.05, 0.05, n_outer))
+    rings = [np.c_[rad * np.cos(ang), rad * np.sin(ang)]]
+    for h in range(4):
+        c = 350.0 * np.array([np.cos(np.pi / 2 * h + 0.3), np.sin(np.pi / 2 * h + 0.3)])
+        a = np.linspace(0, 2 * np.pi, n_hole, endpoint=False)[::-1]
+        rings.append(c + 120.0 * np.c_[np.cos(a), np.sin(a)])
+    return rings
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_large_plain_polygon_is_split(seed):
+    """At the default split_min (4096) a 10k-vertex polygon is split: the
+    triangles differ from the unsplit clipping, do not depend on threads,
+    and keep every invariant (exact area, count, orientation, ring edges)."""
+    rings = jagged_star(np.random.default_rng(seed), 9000, 250)
+    assert fm.check_polygon(rings)[0]
+    pts = np.concatenate(rings)
+    tris = fm.triangulate_polygon(rings, refine=False, order="plain")
+    assert np.array_equal(tris, fm.triangulate_polygon(rings, refine=False, order="plain", threads=1))
+    assert not np.array_equal(tris, fm.triangulate_polygon(rings, refine=False, order="plain", split_min=0))
+    assert len(tris) == expected_count(rings)
+    assert (orient(pts, tris) > 0).all()
+    assert exact_twice_area_tris(pts, tris) == exact_twice_area_rings(rings)
+    assert polygon_edges_present(rings, tris)
+
+
+def test_split_half_needing_fallbacks_clips_whole():
+    """water3 (invalid: crossing rings that neither touch nor block a bridge)
+    looks valid to the joiner; with split_min=4 a half meets a case for the
+    fallbacks, which the halves cannot run, so the polygon is clipped whole:
+    the same triangles as without the split."""
+    rings = load("water3")
+    for threads in (0, 1):
+        split = fm.triangulate_polygon(rings, refine=False, order="plain", split_min=4, threads=threads)
+        assert np.array_equal(split, fm.triangulate_polygon(rings, refine=False, order="plain", split_min=0))
+
+
+def test_split_options_are_checked():
+    sq = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+    with pytest.raises(ValueError, match="threads"):
+        fm.triangulate_polygon([sq], threads=2)
+    with pytest.raises(ValueError, match="split_min"):
+        fm.triangulate_polygon([sq], split_min=-1)
+
+
 @settings(max_examples=30, deadline=None)
 @given(polygons())
 def test_metamorphic_translate_rotate_duplicate(rings):

@@ -50,7 +50,7 @@ void bind_ear_clipping(py::module_& m) {
     m.def(
         "triangulate_polygon",
         [](const py::handle& rings, bool refine, const std::string& order, const std::string& bridge,
-           bool strict) {
+           bool strict, int threads, py::ssize_t split_min) {
             const char* fn = "triangulate_polygon";
             std::vector<double> xy;
             std::vector<std::int64_t> offsets;
@@ -60,6 +60,14 @@ void bind_ear_clipping(py::module_& m) {
             opt.order = parse_order(order, fn);
             opt.bridge = parse_bridge(bridge, fn);
             opt.strict = strict;
+            if (threads != 0 && threads != 1)
+                throw std::invalid_argument(std::string(fn) + ": threads must be 0 (automatic) or 1, got " +
+                                            std::to_string(threads));
+            if (split_min < 0)
+                throw std::invalid_argument(std::string(fn) + ": split_min must be >= 0, got " +
+                                            std::to_string(split_min));
+            opt.threads = threads;
+            opt.split_min = static_cast<std::size_t>(split_min);
             std::vector<std::int64_t> tris;
             {
                 py::gil_scoped_release release;
@@ -68,7 +76,8 @@ void bind_ear_clipping(py::module_& m) {
             return to_numpy(std::move(tris), 3);
         },
         py::arg("rings"), py::arg("refine") = true, py::arg("order") = "quality",
-        py::arg("bridge") = "extreme", py::arg("strict") = false,
+        py::arg("bridge") = "extreme", py::arg("strict") = false, py::arg("threads") = 0,
+        py::arg("split_min") = 4096,
         "Triangulate a polygon with holes by ear clipping.\n\n"
         "rings: list of (k, 2) arrays, the outer ring first, then the holes (any orientation;\n"
         "a closing point equal to the first and consecutive duplicates are ignored).\n"
@@ -78,7 +87,11 @@ void bind_ear_clipping(py::module_& m) {
         "order: 'quality' (clip the ear with the largest minimum angle first) or 'plain'\n"
         "(Eberly's order). bridge: 'extreme' (paper's extreme-point preference, Eberly as\n"
         "fallback) or 'eberly'. strict: raise GeometryError naming the ring and vertex of an\n"
-        "invalid polygon instead of a best-effort triangulation.");
+        "invalid polygon instead of a best-effort triangulation.\n"
+        "split_min: plain order on valid-looking input: a joined loop of at least this many\n"
+        "vertices is split along an inside diagonal into two parts of 40-60%, clipped\n"
+        "concurrently (0: never). threads: 0 = the second part on another thread if the machine\n"
+        "has more than one core, 1 = the calling thread only; the triangles are the same.");
     m.def(
         "join_holes",
         [](const py::handle& rings, const std::string& bridge) {

@@ -17,7 +17,11 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <atomic>
+#include <exception>
 #include <queue>
+#include <system_error>
+#include <thread>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -1108,15 +1112,20 @@ class Clipper {
 public:
     Clipper(Polygon& p, std::vector<I64>& out) : poly_(p), N_(p.nodes), out_(out) {}
 
-    void run(EarOrder order) {
-        if (poly_.start < 0) return;
+    // Clip the loop through `start` (default: the joined polygon's).
+    void run(EarOrder order, int start = -1) {
+        if (start < 0) start = poly_.start;
+        if (start < 0) return;
+        if (may_split_ && order == EarOrder::plain && !poly_.touching && split_min_ >= 4 && clip_halves(start))
+            return;
         // Count the live list, classify its vertices, take its box (no
         // copy of the list: fresh memory costs page faults at this size).
         std::size_t cnt = 0;
         double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
-        std::vector<int> reflex;
+        std::vector<int>& reflex = reflex_;
+        reflex.clear();
         reflex.reserve(N_.size() / 2 + 16);
-        int p = poly_.start;
+        int p = start;
         do {
             Node& n = N_[p];
             n.reflex = orient2d_quick(P(N_[n.prev]), P(n), P(N_[n.next])) <= 0.0;
@@ -1125,7 +1134,7 @@ public:
             ymin = std::min(ymin, n.y); ymax = std::max(ymax, n.y);
             ++cnt;
             p = n.next;
-        } while (p != poly_.start);
+        } while (p != start);
         remaining_ = cnt;
         if (remaining_ < 3) return;
         out_.reserve(out_.size() + 3 * (remaining_ - 2));
@@ -1133,14 +1142,14 @@ public:
         bbox_ = {xmin, ymin, xmax, ymax};
         // Loops still to clip: the joined polygon, plus the pieces split off
         // by the fallback for invalid input (split_by_diagonal).
-        if (poly_.touching) cancel_doubled_edges(poly_.start);
-        else pending_.push_back(poly_.start);
+        if (poly_.touching) cancel_doubled_edges(start);
+        else pending_.push_back(start);
         const std::size_t start_count = remaining_;
         while (!pending_.empty()) {
             const int s = pending_.back();
             pending_.pop_back();
             std::size_t cnt = 0;
-            if (s == poly_.start && !poly_.touching) {
+            if (s == start && !poly_.touching) {
                 cnt = start_count;  // counted above
             } else {
                 int p = s;
@@ -1158,6 +1167,7 @@ public:
             if (check_empty_ && !(s == poly_.start && joined_area_nonzero()) && remnant_is_empty(s)) continue;
             if (order == EarOrder::quality) clip_quality(s);
             else clip_plain(s);
+            if (bailed_) return;
             // Last triangle.
             if (remaining_ == 3) {
                 const Node& b = N_[cur_];
@@ -1187,6 +1197,17 @@ public:
     // plain order also rejects an ear whose diagonal crosses or overlaps a
     // live edge, while an ear without such a crossing is left.
     bool strict_ears_ = false;
+    // Plain order on input that looks valid: a loop of at least split_min_
+    // vertices is cut in two along an inside diagonal and the halves are
+    // clipped concurrently (clip_halves). The triangles do not depend on
+    // whether a second thread ran: threads_ == 1 clips both halves here.
+    bool may_split_ = false;
+    std::size_t split_min_ = 0;
+    int threads_ = 0;
+    // A half met a case that needs the fallbacks (degenerate or invalid
+    // input; they may add nodes, which the halves cannot do concurrently):
+    // the caller clips the whole polygon again without splitting.
+    bool bailed_ = false;
     bool ear_diagonal_clear(int ib, int& loose) {
         const int ia = N_[ib].prev, ic = N_[ib].next;
         if (edge_grid_clear(ia, ic)) return true;
@@ -1296,12 +1317,200 @@ public:
     }
 
 private:
+    bool half_ = false;  // this clipper clips one half of a split loop
+
+    // The angle at node ia strictly contains the direction to q (not along
+    // either edge at ia).
+    bool strictly_inside_angle(int ia, const double* q) const {
+        const Node& a = N_[ia];
+        const double* pp = P(N_[a.prev]);
+        const double* pn = P(N_[a.next]);
+        const double l1 = orient2d(pp, P(a), q), l2 = orient2d(P(a), pn, q);
+        if (l1 == 0.0 || l2 == 0.0) return false;
+        if (orient2d(pp, P(a), pn) > 0.0) return l1 > 0.0 && l2 > 0.0;
+        return l1 > 0.0 || l2 > 0.0;
+    }
+    // A diagonal that splits the loop (its nodes in order) into two parts
+    // of 40-60% each. Candidates: from nodes spread along the loop, to the
+    // nearest node 40-60% further on; then each end moves to the node
+    // nearest the other end among its 32 neighbours on either side (on a
+    // jagged ring a random vertex is hidden between its neighbours; the one
+    // reaching furthest towards the other end is usually exposed; n / 16
+    // on either side for loops under 512 nodes). The
+    // first candidate inside the polygon is taken: strictly inside the
+    // angle at both ends and meeting no edge or vertex (then, the polygon
+    // being simple, its open segment is interior). Nodes with a coincident
+    // twin (bridge ends) are not used. At most four exact full scans; false
+    // if none of the candidates qualifies.
+    bool find_split(const std::vector<int>& loop, std::size_t& ia, std::size_t& ib) const {
+        const std::size_t n = loop.size();
+        // Loop position nearest to node t among positions [from, from + len) (mod n); n if none.
+        const auto nearest = [&](std::size_t from, std::size_t len, int t) {
+            const Node& nt = N_[t];
+            std::size_t best = n;
+            double bd = std::numeric_limits<double>::infinity();
+            for (std::size_t s = 0; s < len; ++s) {
+                const std::size_t i = (from + s) % n;
+                const Node& nb = N_[loop[i]];
+                const double dx = nb.x - nt.x, dy = nb.y - nt.y;
+                const double d = dx * dx + dy * dy;
+                if (d < bd && nb.twin == loop[i]) {
+                    bd = d;
+                    best = i;
+                }
+            }
+            return best;
+        };
+        const std::size_t around = std::min<std::size_t>(32, n / 16);
+        int scans = 0;
+        for (std::size_t k = 0; k < 16 && scans < 4; ++k) {
+            // Start positions 0, n/2, n/4, 3n/4, n/8, ... (spread first).
+            const std::size_t r = ((k & 1) << 3) | ((k & 2) << 1) | ((k & 4) >> 1) | ((k & 8) >> 3);
+            std::size_t i = r * n / 16;
+            std::size_t j = nearest(i + 9 * n / 20, n / 10 + 1, loop[i]);
+            if (j == n) continue;
+            i = nearest(i + n - around, 2 * around + 1, loop[j]);
+            if (i == n) continue;
+            j = nearest(j + n - around, 2 * around + 1, loop[i]);
+            if (j == n) continue;
+            const std::size_t gap = (j + n - i) % n;  // nodes from i to j along the loop
+            if (gap < n / 3 || gap > n - n / 3) continue;
+            const int a = loop[i], b = loop[j];
+            if (same_point(P(N_[a]), P(N_[b]))) continue;
+            if (!strictly_inside_angle(a, P(N_[b])) || !strictly_inside_angle(b, P(N_[a]))) continue;
+            ++scans;
+            if (!diagonal_clear(a, a, b)) continue;
+            ia = i;
+            ib = j;
+            return true;
+        }
+        return false;
+    }
+    // Split the loop through `start` along find_split's diagonal and clip
+    // the two halves: the first here, the second on another thread when the
+    // machine has a second core. Each half has its own reflex grid; they
+    // share only the node array (disjoint nodes, none added: a half that
+    // would need the fallbacks stops and sets bailed_). Whoever comes first
+    // claims the second half: if the worker has not started by the time
+    // the first half is done, it is clipped here as well. The worker
+    // allocates nothing (its buffers are reserved here), and the triangles
+    // are the first half's, then the second's, whoever clipped them. False
+    // (nothing changed) if the loop has fewer than split_min_ nodes or no
+    // diagonal was found.
+    bool clip_halves(int start) {
+        std::vector<int> loop;
+        loop.reserve(N_.size());
+        int p = start;
+        do {
+            loop.push_back(p);
+            p = N_[p].next;
+        } while (p != start);
+        const std::size_t cnt = loop.size();
+        if (cnt < split_min_) return false;
+        std::size_t i = 0, j = 0;
+        if (!find_split(loop, i, j)) return false;
+        const int ia = loop[i], ib = loop[j];
+        const std::size_t cnt_second = (j + cnt - i) % cnt + 1;  // a2, ia.next ... ib.prev, b2
+        out_.reserve(out_.size() + 3 * (cnt - 2));
+        const auto [a2, b2] = poly_.connect(ia, ib);
+        for (int k : {ia, ib, a2, b2}) {
+            Node& nd = N_[k];
+            nd.twin = k;  // the copy is in the other half: no link across
+            nd.reflex = orient2d(P(N_[nd.prev]), P(nd), P(N_[nd.next])) <= 0.0;
+        }
+        const auto make_half = [&](Clipper& c) {
+            c.half_ = true;
+            c.check_empty_ = false;
+        };
+        // The worker's half, with every buffer it will use reserved here.
+        std::vector<I64> out_w;
+        Clipper away(poly_, out_w);
+        make_half(away);
+        std::atomic<int> claim{0};  // 1: the worker clips the second half, 2: this thread does
+        std::exception_ptr err_away;
+        std::thread worker;
+        if (threads_ != 1 && hardware_threads() > 1) {
+            away.reserve_for(cnt_second);
+            try {
+                worker = std::thread([&]() {
+                    int expected = 0;
+                    if (!claim.compare_exchange_strong(expected, 1)) return;
+                    try {
+                        away.run(EarOrder::plain, a2);
+                    } catch (...) {
+                        err_away = std::current_exception();
+                    }
+                });
+            } catch (const std::system_error&) {
+                // No thread to be had: both halves are clipped here.
+            }
+        }
+        // Joins the worker on every path out (an exception included).
+        struct JoinOnExit {
+            std::thread& t;
+            ~JoinOnExit() {
+                if (t.joinable()) t.join();
+            }
+        } join_worker{worker};
+        Clipper first(poly_, out_);
+        make_half(first);
+        first.run(EarOrder::plain, ia);
+        tri_area2_ = first.tri_area2_;
+        bailed_ = first.bailed_;
+        int expected = 0;
+        if (claim.compare_exchange_strong(expected, 2)) {
+            Clipper second(poly_, out_);  // straight after the first half's triangles
+            make_half(second);
+            second.adopt_buffers(first);
+            if (!bailed_) second.run(EarOrder::plain, a2);
+            tri_area2_ += second.tri_area2_;
+            bailed_ = bailed_ || second.bailed_;
+            return true;
+        }
+        worker.join();
+        if (err_away) std::rethrow_exception(err_away);
+        tri_area2_ += away.tri_area2_;
+        bailed_ = bailed_ || away.bailed_;
+        out_.insert(out_.end(), out_w.begin(), out_w.end());
+        return true;
+    }
+    // Reserve every buffer run() fills for a loop of cnt nodes (plain
+    // order, no fallbacks), so that it allocates nothing.
+    void reserve_for(std::size_t cnt) {
+        reflex_.reserve(cnt);
+        pending_.reserve(4);
+        out_.reserve(out_.size() + 3 * cnt);
+        // The reflex grid: at most max(cnt / 2, 2048) cells (GridFrame::shape).
+        const std::size_t cells = std::max<std::size_t>(cnt / 2 + 1, 2048) + 2;
+        gstart_.reserve(cells + 1);
+        gcells_.reserve(cells);
+        gslot_.reserve(N_.size());
+        gcellof_.reserve(N_.size());
+        gitems_.reserve(cnt);
+        gids_.reserve(cnt);
+    }
+    // Take over another clipper's buffers (their memory, not their content).
+    void adopt_buffers(Clipper& o) {
+        reflex_.swap(o.reflex_);
+        gstart_.swap(o.gstart_);
+        gcells_.swap(o.gcells_);
+        gslot_.swap(o.gslot_);
+        gcellof_.swap(o.gcellof_);
+        gitems_.swap(o.gitems_);
+        gids_.swap(o.gids_);
+    }
+    static unsigned hardware_threads() {
+        static const unsigned n = std::thread::hardware_concurrency();
+        return n;
+    }
+
     Polygon& poly_;
     std::vector<Node>& N_;
     std::vector<I64>& out_;
     std::size_t remaining_ = 0;
     int cur_ = -1;
     std::vector<int> pending_;
+    std::vector<int> reflex_;  // run(): the loop's reflex nodes
     std::array<double, 4> bbox_{};
     bool resplit_ = false;  // a split happened: the quality heap must be rebuilt
     // Reflex grid (CSR).
@@ -1881,6 +2090,10 @@ private:
                     remove(loose, true);
                     loose = -1;
                 } else {
+                    if (half_) {
+                        bailed_ = true;
+                        return;
+                    }
                     force_one(p);
                     strict_ears_ = true;
                 }
@@ -2153,17 +2366,41 @@ std::vector<I64> triangulate(const char* fn, const double* xy, std::size_t n_poi
     poly.nodes.reserve(total + 2 * poly.rings.size() + 4);
     Joiner(poly, opt.bridge).run();
     std::vector<I64> tris;
-    // A copy for a second pass (only made when the first pass shows the
-    // input is invalid; the joiner and clipper consume the node list).
-    const auto clip = [&](Polygon& pg, bool strict) {
+    // The joiner and clipper consume the node list: a second pass needs the
+    // polygon joined again (only on degenerate or invalid input).
+    const auto rejoin = [&]() {
+        Polygon again;
+        again.xy = xy;
+        again.n_points = n_points;
+        again.rings = poly.rings;
+        again.skipped = poly.skipped;
+        again.net_area2 = poly.net_area2;
+        again.area_mag2 = poly.area_mag2;
+        again.nodes.reserve(total + 2 * again.rings.size() + 4);
+        Joiner(again, opt.bridge).run();
+        poly = std::move(again);
+        tris.clear();
+    };
+    bool bailed = false;
+    const auto clip = [&](Polygon& pg, bool strict, bool split) {
         Clipper clipper(pg, tris);
         clipper.check_empty_ = !pg.bridges.empty();
         clipper.strict_ears_ = strict;
         clipper.strict_quality_ = pg.forced_bridge;
+        clipper.may_split_ = split;
+        clipper.threads_ = opt.threads;
+        clipper.split_min_ = opt.split_min;
         clipper.run(opt.order);
+        bailed = clipper.bailed_;
         return clipper.tri_area2_;
     };
-    const double covered2 = clip(poly, poly.forced_bridge || poly.touching);
+    const bool looks_valid = !(poly.forced_bridge || poly.touching);
+    double covered2 = clip(poly, !looks_valid, looks_valid && opt.order == EarOrder::plain);
+    if (bailed) {
+        // A half of the split loop needed the fallbacks: clip it whole.
+        rejoin();
+        covered2 = clip(poly, false, false);
+    }
     // For a valid polygon the triangles cover exactly the rings' net area,
     // so the two sums differ by rounding only (relative 1e-16 per term): a
     // 1e-7 relative mismatch is far above that and far below the gaps and
@@ -2177,18 +2414,8 @@ std::vector<I64> triangulate(const char* fn, const double* xy, std::size_t n_poi
         // rejects ears whose diagonal crosses an edge while others are left
         // (bad-hole: deviation 0.036 -> 0.013). For a simple polygon it
         // accepts the same ears, so the result is unchanged either way.
-        Polygon again;
-        again.xy = xy;
-        again.n_points = n_points;
-        again.rings = poly.rings;
-        again.skipped = poly.skipped;
-        again.net_area2 = poly.net_area2;
-        again.area_mag2 = poly.area_mag2;
-        again.nodes.reserve(total + 2 * again.rings.size() + 4);
-        Joiner(again, opt.bridge).run();
-        tris.clear();
-        clip(again, true);
-        poly = std::move(again);
+        rejoin();
+        clip(poly, true, false);
     }
     if (opt.refine && !tris.empty()) {
         std::vector<I64> edges;

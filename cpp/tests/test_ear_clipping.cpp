@@ -417,3 +417,107 @@ TEST(EarClipping, JaggedRingWithManyHolesBridgesAreClear) {
         EXPECT_LE(std::fabs(twice_area_tris(p, t) - pa), 1e-12L * std::fabs(pa));
     }
 }
+
+namespace {
+
+// A jagged star (radius 1000 +- 250 with a 7-fold wave, +-50 noise per
+// vertex) with four round holes: the bench polygon's shape.
+Poly jagged_star(int n_outer, int n_hole, unsigned seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    std::vector<double> ang(n_outer);
+    for (auto& a : ang) a = U(rng) * 2 * M_PI;
+    std::sort(ang.begin(), ang.end());
+    Poly p;
+    std::vector<std::pair<double, double>> outer;
+    for (double a : ang) {
+        const double r = 1000.0 * (1.0 + 0.25 * std::sin(7 * a) + 0.1 * (U(rng) - 0.5));
+        outer.push_back({r * std::cos(a), r * std::sin(a)});
+    }
+    p.ring(outer);
+    for (int h = 0; h < 4; ++h) {
+        const double cx = 350 * std::cos(M_PI / 2 * h + 0.3), cy = 350 * std::sin(M_PI / 2 * h + 0.3);
+        std::vector<std::pair<double, double>> hole;
+        for (int k = n_hole - 1; k >= 0; --k) {
+            const double a = 2 * M_PI * k / n_hole;
+            hole.push_back({cx + 120 * std::cos(a), cy + 120 * std::sin(a)});
+        }
+        p.ring(hole);
+    }
+    return p;
+}
+
+}  // namespace
+
+// A large polygon in plain order is split along an inside diagonal and the
+// halves are clipped (concurrently by default): the triangles are the same
+// with and without the second thread, differ from the unsplit clipping,
+// and keep every invariant.
+TEST(EarClipping, SplitHalvesKeepInvariantsAndDoNotDependOnThreads) {
+    for (unsigned seed : {1u, 2u, 3u}) {
+        const Poly p = jagged_star(9000, 250, seed);
+        fm::EarClipOptions o;
+        o.refine = false;
+        o.order = fm::EarOrder::plain;
+        const auto t = fm::triangulate_polygon(p.xy.data(), p.off.data(), p.n_rings(), o);
+        o.threads = 1;
+        EXPECT_EQ(fm::triangulate_polygon(p.xy.data(), p.off.data(), p.n_rings(), o), t) << seed;
+        o.split_min = 0;
+        EXPECT_NE(fm::triangulate_polygon(p.xy.data(), p.off.data(), p.n_rings(), o), t)
+            << "seed " << seed << ": the polygon was not split";
+        ASSERT_TRUE(fm::check_polygon(p.xy.data(), p.xy.size() / 2, nullptr, p.off.data(), p.n_rings()).valid);
+        EXPECT_EQ(t.size() / 3, static_cast<std::size_t>(9000 + 4 * 250 + 2 * 4 - 2));
+        expect_ccw(p, t);
+        const long double a = twice_area_rings(p), b = twice_area_tris(p, t);
+        EXPECT_LE(std::fabs(static_cast<double>((a - b) / a)), 1e-12);
+        // Every ring edge is a triangle edge; refined, it is the CDT.
+        std::set<std::pair<std::int64_t, std::int64_t>> tri_edges;
+        for (std::size_t i = 0; i < t.size(); i += 3)
+            for (int k = 0; k < 3; ++k) {
+                const auto u = t[i + k], v = t[i + (k + 1) % 3];
+                tri_edges.insert({std::min(u, v), std::max(u, v)});
+            }
+        const auto e = ring_edges(p);
+        for (std::size_t k = 0; k < e.size(); k += 2)
+            ASSERT_TRUE(tri_edges.count({std::min(e[k], e[k + 1]), std::max(e[k], e[k + 1])})) << "edge " << k / 2;
+        auto r = t;
+        fm::flip_to_constrained_delaunay(p.xy.data(), p.xy.size() / 2, r, e.data(), e.size() / 2);
+        EXPECT_EQ(fm::count_non_delaunay_edges(p.xy.data(), p.xy.size() / 2, r, e.data(), e.size() / 2), 0u);
+    }
+}
+
+// Small split thresholds exercise the split on every random star polygon.
+TEST(EarClipping, SplitOnSmallPolygonsKeepsCounts) {
+    std::mt19937_64 rng(777);
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    int split = 0, valid = 0;
+    for (int trial = 0; trial < 60; ++trial) {
+        const int n = 8 + static_cast<int>(U(rng) * 300);
+        std::vector<double> ang(n);
+        for (auto& a : ang) a = U(rng) * 2 * M_PI;
+        std::sort(ang.begin(), ang.end());
+        Poly p;
+        std::vector<std::pair<double, double>> outer;
+        for (double a : ang) {
+            const double r = 0.6 + 0.4 * U(rng);
+            outer.push_back({r * std::cos(a), r * std::sin(a)});
+        }
+        p.ring(outer);
+        if (!fm::check_polygon(p.xy.data(), p.xy.size() / 2, nullptr, p.off.data(), p.n_rings()).valid) continue;
+        ++valid;
+        fm::EarClipOptions o;
+        o.refine = false;
+        o.order = fm::EarOrder::plain;
+        o.split_min = 4;
+        o.threads = trial % 2;
+        const auto t = fm::triangulate_polygon(p.xy.data(), p.off.data(), p.n_rings(), o);
+        EXPECT_EQ(t.size() / 3, static_cast<std::size_t>(n - 2));
+        expect_ccw(p, t);
+        const long double a = twice_area_rings(p), b = twice_area_tris(p, t);
+        EXPECT_LE(std::fabs(static_cast<double>((a - b) / a)), 1e-12);
+        o.split_min = 0;
+        split += fm::triangulate_polygon(p.xy.data(), p.off.data(), p.n_rings(), o) != t;
+    }
+    EXPECT_GE(valid, 50);
+    EXPECT_GE(split, valid * 3 / 4);  // a split diagonal is found on most of them
+}

@@ -77,6 +77,17 @@ struct EarClipOptions {
     EarOrder order = EarOrder::quality;
     BridgeMethod bridge = BridgeMethod::extreme_point;
     bool strict = false;  // check validity first; GeometryError on invalid input
+    // Plain order only: on input that looks valid (no coincident ring
+    // vertices, every hole bridged), a joined loop of at least split_min
+    // vertices is split along a diagonal inside the polygon into two parts
+    // of 40-60% each, clipped concurrently (0, or below 4: never split).
+    // If no such diagonal is found among a few candidates, or a part needs
+    // the fallbacks of invalid input, the loop is clipped whole.
+    std::size_t split_min = 4096;
+    // 0: the second part on another thread when the machine has more than
+    // one core; 1: both parts on the calling thread. The triangles are the
+    // same either way.
+    int threads = 0;
 };
 
 // Triangulate a polygon with holes given as coordinates.
