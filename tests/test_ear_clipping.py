@@ -543,10 +543,14 @@ def test_errors_name_the_problem():
     assert fm.triangulate_polygon([]).shape == (0, 3)
 
 
-def test_threads_give_identical_results():
+@pytest.mark.parametrize("order", ["quality", "plain"])
+def test_threads_give_identical_results(order):
+    """Concurrent calls from Python threads (the GIL is released); in plain
+    order each call also splits the polygon and runs a worker thread."""
     rings = star_polygon(np.random.default_rng(7), 20000, 4)
-    ref = fm.triangulate_polygon(rings)
+    kw = dict() if order == "quality" else dict(order="plain", refine=False)
+    ref = fm.triangulate_polygon(rings, **kw)
     with ThreadPoolExecutor(2) as ex:
-        outs = list(ex.map(lambda _: fm.triangulate_polygon(rings), range(4)))
+        outs = list(ex.map(lambda _: fm.triangulate_polygon(rings, **kw), range(4)))
     for o in outs:
         assert np.array_equal(o, ref)
