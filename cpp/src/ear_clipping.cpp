@@ -1415,9 +1415,30 @@ private:
         const auto [a2, b2] = poly_.connect(ia, ib);
         for (int k : {ia, ib, a2, b2}) {
             Node& nd = N_[k];
-            nd.twin = k;  // the copy is in the other half: no link across
             nd.reflex = orient2d(P(N_[nd.prev]), P(nd), P(N_[nd.next])) <= 0.0;
         }
+        // Coincident nodes (the split's and the bridges' copies) are linked
+        // in twin rings that the ear test and remove() walk: keep only the
+        // links within a half, so that neither half reads or writes the
+        // other's nodes (each half is a polygon of its own).
+        std::vector<char> side(N_.size(), 0);
+        std::vector<int> twinned;
+        for (const auto& [from, tag] : {std::pair<int, char>{ia, 1}, std::pair<int, char>{a2, 2}}) {
+            int q = from;
+            do {
+                side[q] = tag;
+                if (N_[q].twin != q) twinned.push_back(q);
+                q = N_[q].next;
+            } while (q != from);
+        }
+        std::vector<int> new_twin(twinned.size());
+        for (std::size_t k = 0; k < twinned.size(); ++k) {
+            const int q = twinned[k];
+            int t = N_[q].twin;
+            while (t != q && side[t] != side[q]) t = N_[t].twin;
+            new_twin[k] = t;
+        }
+        for (std::size_t k = 0; k < twinned.size(); ++k) N_[twinned[k]].twin = new_twin[k];
         const auto make_half = [&](Clipper& c) {
             c.half_ = true;
             c.check_empty_ = false;
