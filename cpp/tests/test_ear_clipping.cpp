@@ -93,6 +93,27 @@ long double twice_area_tris(const Poly& p, const std::vector<std::int64_t>& t) {
     return s;
 }
 
+// Outer ring of a random star: n vertices at sorted random angles, radius
+// uniform in [r_lo, 1].
+std::vector<std::pair<double, double>> random_star_ring(std::mt19937_64& rng, int n, double r_lo) {
+    std::uniform_real_distribution<double> U(0.0, 1.0);
+    std::vector<double> ang(n);
+    for (auto& a : ang) a = U(rng) * 2 * M_PI;
+    std::sort(ang.begin(), ang.end());
+    std::vector<std::pair<double, double>> outer;
+    for (double a : ang) {
+        const double r = r_lo + (1.0 - r_lo) * U(rng);
+        outer.push_back({r * std::cos(a), r * std::sin(a)});
+    }
+    return outer;
+}
+
+// The triangles cover the rings' net area (long double sums, relative 1e-12).
+void expect_area_kept(const Poly& p, const std::vector<std::int64_t>& t) {
+    const long double a = twice_area_rings(p), b = twice_area_tris(p, t);
+    EXPECT_LE(std::fabs(static_cast<double>((a - b) / a)), 1e-12);
+}
+
 void expect_ccw(const Poly& p, const std::vector<std::int64_t>& t) {
     for (std::size_t i = 0; i < t.size(); i += 3)
         ASSERT_GT(fm::orient2d(&p.xy[2 * t[i]], &p.xy[2 * t[i + 1]], &p.xy[2 * t[i + 2]]), 0.0) << "triangle " << i / 3;
@@ -237,16 +258,8 @@ TEST(EarClipping, RandomStarPolygonsMatchInvariants) {
     std::uniform_real_distribution<double> U(0.0, 1.0);
     for (int trial = 0; trial < 40; ++trial) {
         const int n = 3 + static_cast<int>(U(rng) * 200);
-        std::vector<double> ang(n);
-        for (auto& a : ang) a = U(rng) * 2 * M_PI;
-        std::sort(ang.begin(), ang.end());
         Poly p;
-        std::vector<std::pair<double, double>> outer;
-        for (double a : ang) {
-            const double r = 0.6 + 0.4 * U(rng);
-            outer.push_back({r * std::cos(a), r * std::sin(a)});
-        }
-        p.ring(outer);
+        p.ring(random_star_ring(rng, n, 0.6));
         const int holes = trial % 4;
         for (int h = 0; h < holes; ++h) {
             const double cx = 0.3 * std::cos(2 * M_PI * h / holes), cy = 0.3 * std::sin(2 * M_PI * h / holes);
@@ -259,8 +272,7 @@ TEST(EarClipping, RandomStarPolygonsMatchInvariants) {
         if (!chk.valid) continue;  // random angles can coincide to within rounding
         EXPECT_EQ(t.size() / 3, static_cast<std::size_t>(n + 3 * holes + 2 * holes - 2));
         expect_ccw(p, t);
-        const long double a = twice_area_rings(p), b = twice_area_tris(p, t);
-        EXPECT_LE(std::fabs(static_cast<double>((a - b) / a)), 1e-12);
+        expect_area_kept(p, t);
         const auto e = ring_edges(p);
         EXPECT_EQ(fm::count_non_delaunay_edges(p.xy.data(), p.xy.size() / 2, t, e.data(), e.size() / 2), 0u);
     }
@@ -468,8 +480,7 @@ TEST(EarClipping, SplitHalvesKeepInvariantsAndDoNotDependOnThreads) {
         ASSERT_TRUE(fm::check_polygon(p.xy.data(), p.xy.size() / 2, nullptr, p.off.data(), p.n_rings()).valid);
         EXPECT_EQ(t.size() / 3, static_cast<std::size_t>(9000 + 4 * 250 + 2 * 4 - 2));
         expect_ccw(p, t);
-        const long double a = twice_area_rings(p), b = twice_area_tris(p, t);
-        EXPECT_LE(std::fabs(static_cast<double>((a - b) / a)), 1e-12);
+        expect_area_kept(p, t);
         // Every ring edge is a triangle edge; refined, it is the CDT.
         std::set<std::pair<std::int64_t, std::int64_t>> tri_edges;
         for (std::size_t i = 0; i < t.size(); i += 3)
@@ -493,16 +504,8 @@ TEST(EarClipping, SplitOnSmallPolygonsKeepsCounts) {
     int split = 0, valid = 0;
     for (int trial = 0; trial < 60; ++trial) {
         const int n = 8 + static_cast<int>(U(rng) * 300);
-        std::vector<double> ang(n);
-        for (auto& a : ang) a = U(rng) * 2 * M_PI;
-        std::sort(ang.begin(), ang.end());
         Poly p;
-        std::vector<std::pair<double, double>> outer;
-        for (double a : ang) {
-            const double r = 0.6 + 0.4 * U(rng);
-            outer.push_back({r * std::cos(a), r * std::sin(a)});
-        }
-        p.ring(outer);
+        p.ring(random_star_ring(rng, n, 0.6));
         if (!fm::check_polygon(p.xy.data(), p.xy.size() / 2, nullptr, p.off.data(), p.n_rings()).valid) continue;
         ++valid;
         fm::EarClipOptions o;
@@ -513,8 +516,7 @@ TEST(EarClipping, SplitOnSmallPolygonsKeepsCounts) {
         const auto t = fm::triangulate_polygon(p.xy.data(), p.off.data(), p.n_rings(), o);
         EXPECT_EQ(t.size() / 3, static_cast<std::size_t>(n - 2));
         expect_ccw(p, t);
-        const long double a = twice_area_rings(p), b = twice_area_tris(p, t);
-        EXPECT_LE(std::fabs(static_cast<double>((a - b) / a)), 1e-12);
+        expect_area_kept(p, t);
         o.split_min = 0;
         split += fm::triangulate_polygon(p.xy.data(), p.off.data(), p.n_rings(), o) != t;
     }
