@@ -1319,17 +1319,6 @@ public:
 private:
     bool half_ = false;  // this clipper clips one half of a split loop
 
-    // The angle at node ia strictly contains the direction to q (not along
-    // either edge at ia).
-    bool strictly_inside_angle(int ia, const double* q) const {
-        const Node& a = N_[ia];
-        const double* pp = P(N_[a.prev]);
-        const double* pn = P(N_[a.next]);
-        const double l1 = orient2d(pp, P(a), q), l2 = orient2d(P(a), pn, q);
-        if (l1 == 0.0 || l2 == 0.0) return false;
-        if (orient2d(pp, P(a), pn) > 0.0) return l1 > 0.0 && l2 > 0.0;
-        return l1 > 0.0 || l2 > 0.0;
-    }
     // A diagonal that splits the loop (its nodes in order) into two parts
     // of 40-60% each. Candidates: from nodes spread along the loop, to the
     // nearest node 40-60% further on; then each end moves to the node
@@ -1377,7 +1366,7 @@ private:
             if (gap < n / 3 || gap > n - n / 3) continue;
             const int a = loop[i], b = loop[j];
             if (same_point(P(N_[a]), P(N_[b]))) continue;
-            if (!strictly_inside_angle(a, P(N_[b])) || !strictly_inside_angle(b, P(N_[a]))) continue;
+            if (!locally_inside(a, P(N_[b]), true) || !locally_inside(b, P(N_[a]), true)) continue;
             ++scans;
             if (!diagonal_clear(a, a, b)) continue;
             ia = i;
@@ -1940,11 +1929,13 @@ private:
 
     // Is the direction from node ia to point q strictly inside the region's
     // angle at ia (the region is on the left of the counter-clockwise loop)?
-    bool locally_inside(int ia, const double* q) const {
+    // not_along_edges: also false if q lies on the line of either edge at ia.
+    bool locally_inside(int ia, const double* q, bool not_along_edges = false) const {
         const Node& a = N_[ia];
         const double* pp = P(N_[a.prev]);
         const double* pn = P(N_[a.next]);
         const double l1 = orient2d(pp, P(a), q), l2 = orient2d(P(a), pn, q);
+        if (not_along_edges && (l1 == 0.0 || l2 == 0.0)) return false;
         if (orient2d(pp, P(a), pn) > 0.0) return l1 > 0.0 && l2 > 0.0;
         return l1 > 0.0 || l2 > 0.0;
     }
