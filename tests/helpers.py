@@ -27,3 +27,25 @@ def claudius_horizons(data_dir, z: bool = False) -> dict[str, np.ndarray]:
             if r["val"]:
                 rows.setdefault(r["val"], []).append(tuple(float(r[c]) for c in cols))
     return {k: np.array(v) for k, v in rows.items()}
+
+
+def fuzz_settings(examples: int = 200, **kwargs):
+    """Hypothesis settings for a fuzz target (tests marked ``@pytest.mark.fuzz``).
+
+    In CI a target runs ``examples`` derandomized examples (bounded time, the
+    same inputs on every run). ``bench/fuzz.py`` sets ``FAULTMESH_FUZZ_EXAMPLES``
+    (examples per target) and ``FAULTMESH_FUZZ_SEED`` (a fresh random seed,
+    printed so a failure can be replayed) to run the same targets for longer.
+    """
+    import os
+
+    from hypothesis import HealthCheck, settings
+
+    n = int(os.environ.get("FAULTMESH_FUZZ_EXAMPLES", examples))
+    long_run = "FAULTMESH_FUZZ_EXAMPLES" in os.environ
+    base = dict(max_examples=n, deadline=None, database=None,
+                derandomize=not long_run,
+                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
+                                       HealthCheck.filter_too_much])
+    base.update(kwargs)
+    return settings(**base)
