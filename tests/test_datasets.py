@@ -418,3 +418,87 @@ def test_synthetic_mixed_kinds_and_determinism():
 def test_synthetic_rejects_bad_parameters(kw, match):
     with pytest.raises(ValueError, match=match):
         fm.datasets.synthetic(0, **kw)
+
+
+# ---------------------------------------------------------------------------
+# the enumeration shortcuts of Geology (faults that cannot decide a point)
+# ---------------------------------------------------------------------------
+def brute_force_sheets(geo, layer, x, y):
+    """Every side assignment of every relevant fault, as Geology did before
+    the shortcuts (the reference the shortcuts must reproduce bit for bit)."""
+    import itertools
+    X, Y = geo.local(np.ravel(x), np.ravel(y))
+    rel = geo._relevant(layer)
+    surf = geo.surfaces[layer]
+    vals = []
+    for bits in itertools.product((0, 1), repeat=len(rel)):
+        side = dict(zip(rel, bits))
+        active, ok = {}, True
+        for i in rel:
+            f = geo.faults[i]
+            act = True
+            if f.abuts is not None:
+                act = side[geo._index[f.abuts[0]]] == (0 if f.abuts[1] == "foot" else 1)
+            if not act and side[i] == 1:
+                ok = False
+            active[i] = act
+        if not ok:
+            continue
+        Xc, Yc, dz = X, Y, np.zeros_like(X)
+        for i in reversed(rel):
+            if side[i] == 1 and active[i]:
+                Xc, Yc, s = geo.faults[i].backward(layer, Xc, Yc)
+                dz = dz + s
+        z = np.asarray(surf(Xc, Yc), dtype=np.float64) * np.ones_like(X) - dz
+        valid = np.ones(X.shape, dtype=bool)
+        for i in rel:
+            if active[i]:
+                pz = geo.faults[i].plane_z(X, Y)
+                valid &= (z > pz) if side[i] == 1 else (z <= pz)
+        if valid.any():
+            vals.append(np.where(valid, z, np.nan))
+    A = -np.sort(-np.column_stack(vals), axis=1)
+    m = max(1, int(np.max(np.sum(~np.isnan(A), axis=1))))
+    return A[:, :m]
+
+
+@pytest.mark.parametrize("make", [
+    lambda: fm.datasets.paper_like(0),   # 4 faults, a T-crossing (abuts), no slope bounds
+    lambda: fm.datasets.synthetic(5, n_faults=3, n_layers=4, kind="mixed", area=(6000.0, 5000.0)),
+    lambda: fm.datasets.synthetic(2, n_faults=4, n_layers=3, kind="reverse", dip=45.0,
+                                  area=(6000.0, 5000.0)),
+], ids=["paper_like", "synthetic-3-mixed", "synthetic-4-reverse"])
+def test_geology_shortcuts_give_the_brute_force_sheets(make):
+    """Geology skips faults whose throw is exactly zero around a point and,
+    with slope bounds, faults whose surface lies provably above or below every
+    candidate elevation; the sheets must equal the full enumeration's, bit for
+    bit, on a grid and along the faults (where the shortcuts do not apply)."""
+    ds = make()
+    geo = ds.geology
+    lo, hi = ds.boundary.min(axis=0), ds.boundary.max(axis=0)
+    X, Y = np.meshgrid(np.linspace(lo[0], hi[0], 45), np.linspace(lo[1], hi[1], 45))
+    pts = [np.column_stack([X.ravel(), Y.ravel()])]
+    for f in ds.faults:  # dense across every trace: bands, cutoffs, far ends
+        for t in f.traces:
+            for sides in t.layers.values():
+                a, b = sides["foot"][0, :2], sides["hanging"][-1, :2]
+                s = np.linspace(-0.5, 1.5, 80)[:, None]
+                pts.append(a[None, :] + s * (b - a)[None, :])
+    P = np.vstack(pts)
+    for lay in ds.layers:
+        np.testing.assert_array_equal(geo.sheets(lay, P[:, 0], P[:, 1]),
+                                      brute_force_sheets(geo, lay, P[:, 0], P[:, 1]))
+
+
+def test_smooth_field_slope_bound_holds():
+    rng = np.random.default_rng(3)
+    f = fm.geology.smooth_field(base=-20.0, gradient=(0.02, -0.01),
+                                waves=[(12.0, 0.004, -0.002, 0.3), (3.0, -0.01, 0.006, 1.0)],
+                                bumps=[(-40.0, 300.0, 200.0, 150.0), (25.0, -100.0, 800.0, 300.0)])
+    P = rng.uniform(-1000.0, 2000.0, size=(20000, 2))
+    h = 1e-3
+    gx = (f(P[:, 0] + h, P[:, 1]) - f(P[:, 0] - h, P[:, 1])) / (2 * h)
+    gy = (f(P[:, 0], P[:, 1] + h) - f(P[:, 0], P[:, 1] - h)) / (2 * h)
+    g = np.hypot(gx, gy)
+    assert g.max() <= f.max_slope
+    assert g.max() > 0.5 * f.max_slope  # and not absurdly loose

@@ -44,49 +44,104 @@ MIN_TRACE_THROW = 3.0
 
 
 # ---------------------------------------------------------------------------
-# Root finding along a line
+# Root finding along lines (vectorised over many roots)
 # ---------------------------------------------------------------------------
-def _illinois(f, a: float, b: float, fa: float, fb: float, tol: float = 1e-9) -> float:
-    """Root of ``f`` in [a, b] with f(a), f(b) of opposite signs (Illinois
-    variant of regula falsi: superlinear on smooth functions, never leaves the
-    bracket)."""
-    side = 0
+def _illinois(f, a, b, fa, fb, tol: float = 1e-9) -> np.ndarray:
+    """Roots of k functions at once, root r of ``f(r_idx, c)`` in [a[r], b[r]]
+    with fa[r], fb[r] of opposite signs (Illinois variant of regula falsi:
+    superlinear on smooth functions, never leaves the bracket).
+
+    ``f(idx, c)`` evaluates the functions of the roots ``idx`` (int array) at
+    ``c`` (same length). Each root follows exactly the arithmetic of a scalar
+    Illinois iteration and stops on its own (``|f| < tol`` or a bracket
+    narrower than ``tol``); only the evaluations are batched."""
+    a = np.array(a, dtype=np.float64, ndmin=1)
+    b = np.array(b, dtype=np.float64, ndmin=1)
+    fa = np.array(fa, dtype=np.float64, ndmin=1)
+    fb = np.array(fb, dtype=np.float64, ndmin=1)
+    n = len(a)
+    out = np.full(n, np.nan)
+    side = np.zeros(n, dtype=np.int8)
+    last = np.full(n, np.nan)
+    act = np.arange(n)
     for _ in range(100):
-        c = (a * fb - b * fa) / (fb - fa)
-        fc = float(f(np.array([c]))[0])
-        if not np.isfinite(fc):  # pragma: no cover - brackets are finite on both ends
-            c = 0.5 * (a + b)
-            fc = float(f(np.array([c]))[0])
-        if abs(fc) < tol or abs(b - a) < tol:
-            return c
-        if (fc > 0) == (fb > 0):
-            b, fb = c, fc
-            if side == -1:
-                fa *= 0.5
-            side = -1
-        else:
-            a, fa = c, fc
-            if side == 1:
-                fb *= 0.5
-            side = 1
-    return c  # pragma: no cover
+        if len(act) == 0:
+            break
+        aa, bb, ffa, ffb = a[act], b[act], fa[act], fb[act]
+        c = (aa * ffb - bb * ffa) / (ffb - ffa)
+        fc = np.array(f(act, c), dtype=np.float64).reshape(-1)
+        bad = ~np.isfinite(fc)
+        if bad.any():  # pragma: no cover - brackets are finite on both ends
+            c[bad] = 0.5 * (aa[bad] + bb[bad])
+            fc[bad] = np.array(f(act[bad], c[bad]), dtype=np.float64).reshape(-1)
+        last[act] = c
+        done = (np.abs(fc) < tol) | (np.abs(bb - aa) < tol)
+        out[act[done]] = c[done]
+        keep = ~done
+        act, c, fc = act[keep], c[keep], fc[keep]
+        same = (fc > 0) == (fb[act] > 0)
+        r = act[same]                      # b <- c
+        b[r] = c[same]
+        fb[r] = fc[same]
+        fa[r[side[r] == -1]] *= 0.5
+        side[r] = -1
+        r = act[~same]                     # a <- c
+        a[r] = c[~same]
+        fa[r] = fc[~same]
+        fb[r[side[r] == 1]] *= 0.5
+        side[r] = 1
+    out[act] = last[act]  # pragma: no cover - not converged in 100 steps
+    return out
 
 
-def _crossings(s: np.ndarray, v: np.ndarray) -> List[int]:
-    """Indices i where v changes sign between s[i] and s[i+1] (both finite)."""
-    ok = np.isfinite(v[:-1]) & np.isfinite(v[1:])
-    return list(np.flatnonzero(ok & ((v[:-1] > 0) != (v[1:] > 0))))
+def _roots_near(g, origins: np.ndarray, dirs: np.ndarray, s0, lo, hi,
+                step: float = 2.0) -> np.ndarray:
+    """For each row r: the root of ``g(xy)`` along the line
+    ``origins[r] + s dirs[r]``, s in [lo[r], hi[r]], closest to s0[r] (NaN if
+    g does not change sign there). g is sampled every ``step`` along each line
+    (all lines in one call), the sign change closest to s0 (the first of
+    equally close ones) is refined by :func:`_illinois`. ``g`` maps points
+    (k, 2) to values (k,)."""
+    origins = np.asarray(origins, dtype=np.float64).reshape(-1, 2)
+    dirs = np.asarray(dirs, dtype=np.float64).reshape(-1, 2)
+    n = len(origins)
+    s0 = np.broadcast_to(np.asarray(s0, dtype=np.float64), (n,))
+    lo = np.broadcast_to(np.asarray(lo, dtype=np.float64), (n,))
+    hi = np.broadcast_to(np.asarray(hi, dtype=np.float64), (n,))
+    out = np.full(n, np.nan)
+    if n == 0:
+        return out
+    grids = [np.arange(l, h + 0.5 * step, step) for l, h in zip(lo, hi)]
+    lens = np.array([len(x) for x in grids])
+    S = np.concatenate(grids)
+    row = np.repeat(np.arange(n), lens)
+    V = np.asarray(g(origins[row] + S[:, None] * dirs[row]), dtype=np.float64).reshape(-1)
+    ok = (row[:-1] == row[1:]) & np.isfinite(V[:-1]) & np.isfinite(V[1:]) & \
+        ((V[:-1] > 0) != (V[1:] > 0))
+    i = np.flatnonzero(ok)
+    if len(i) == 0:
+        return out
+    r = row[i]
+    dist = np.abs(0.5 * (S[i] + S[i + 1]) - s0[r])
+    # Per row the closest crossing; among equals the first (lexsort is stable).
+    order = np.lexsort((dist, r))
+    first = np.r_[True, r[order][1:] != r[order][:-1]]
+    pick = i[order[first]]
+    rows = row[pick]
+
+    def f(k, c):
+        rr = rows[k]
+        return g(origins[rr] + c[:, None] * dirs[rr])
+
+    out[rows] = _illinois(f, S[pick], S[pick + 1], V[pick], V[pick + 1])
+    return out
 
 
 def _root_near(f, s0: float, lo: float, hi: float, step: float = 2.0) -> Optional[float]:
-    """The root of ``f`` along [lo, hi] closest to s0, or None."""
-    s = np.arange(lo, hi + 0.5 * step, step)
-    v = f(s)
-    idx = _crossings(s, v)
-    if not idx:
-        return None
-    i = min(idx, key=lambda i: abs(0.5 * (s[i] + s[i + 1]) - s0))
-    return _illinois(f, s[i], s[i + 1], v[i], v[i + 1])
+    """The root of the scalar function ``f`` (vectorised over s) along
+    [lo, hi] closest to s0, or None."""
+    r = _roots_near(lambda xy: f(xy[:, 0]), [[0.0, 0.0]], [[1.0, 0.0]], s0, lo, hi, step)[0]
+    return None if np.isnan(r) else float(r)
 
 
 def _line_extent(origin: np.ndarray, direction: np.ndarray, ring: np.ndarray) -> Tuple[float, float]:
@@ -113,125 +168,229 @@ def _line_extent(origin: np.ndarray, direction: np.ndarray, ring: np.ndarray) ->
 # ---------------------------------------------------------------------------
 def _fault_traces(geo: Geology, fm: FaultModel, sections: Sequence[Section], ring: np.ndarray,
                   rng: np.random.Generator, zero_throw_ok: bool = False,
-                  far: Tuple[float, float] = (60.0, 100.0)) -> List[Trace]:
-    """Traces of fault ``fm`` on every section that crosses it with throw."""
-    out = []  # (u, Trace)
+                  far: Tuple[float, float] = (60.0, 100.0), npts: Tuple[int, int] = (4, 6),
+                  inside=None) -> List[Trace]:
+    """Traces of fault ``fm`` on every section that crosses it with throw.
+
+    Per section: where the section crosses the fault's reference trace (its
+    along-strike position must lie within the fault and carry at least
+    ``MIN_TRACE_THROW`` of throw), per displaced layer the footwall and the
+    hanging-wall cutoff (roots of side value minus fault surface within 500 m),
+    a polyline on each side from the cutoff to a far end ``far`` metres away
+    (``rng.uniform(*far)``, ``rng.integers(*npts)`` points; shortened by 0.7
+    up to 7 times until every point has a value and lies inside), and the
+    fault-plane trace through all cutoffs. ``inside(xy) -> bool`` decides
+    "inside" (default: the exact test on ``ring``).
+
+    All roots and all evaluations of the truth are batched over the sections
+    (and over the layers' polylines); the random draws happen in the order of
+    a section-by-section loop (section, layer, foot then hanging wall; a
+    layer whose footwall polyline fails draws nothing for its hanging wall),
+    so a given ``rng`` state gives the same traces as that loop."""
+    if inside is None:
+        def inside(xy):
+            return points_in_polygon(xy, ring)
     gx, gy = geo.origin
     displaced = [lay for lay in geo.layers if fm.layers.get(lay, 0.0) > 0.0]
-    for sec in sections:
-        s_in, s_out = _line_extent(sec.origin, sec.direction, ring)
+    secs = list(sections)
+    if not secs or not displaced:
+        return []
+    O = np.array([sec.origin for sec in secs])
+    D = np.array([sec.direction for sec in secs])
+    ext = np.array([_line_extent(sec.origin, sec.direction, ring) for sec in secs])
+    s_in, s_out = ext[:, 0], ext[:, 1]
 
-        def dfun(s):
-            xy = sec.to_xy(s)
-            return fm.d(xy[:, 0] - gx, xy[:, 1] - gy)
+    def to_xy(k, s):
+        return O[k] + s[:, None] * D[k]
 
-        s_c = _root_near(dfun, 0.5 * (s_in + s_out), s_in, s_out, step=5.0)
-        if s_c is None:
+    # Where each section crosses the fault's reference trace.
+    s_c_all = _roots_near(lambda xy: fm.d(xy[:, 0] - gx, xy[:, 1] - gy), O, D,
+                          0.5 * (s_in + s_out), s_in, s_out, step=5.0)
+    fmax = fm.throw * max(fm.layers[lay] for lay in displaced)
+    kept = []  # (section index, s_c, u_c, zero)
+    for k in range(len(secs)):
+        s_c = s_c_all[k]
+        if np.isnan(s_c):
             continue
-        xc = sec.to_xy([s_c])[0]
+        xc = secs[k].to_xy([s_c])[0]
         u_c = float(fm.uw(xc[0] - gx, xc[1] - gy)[0])
         # 1e-6 m of slack: a zero-throw end section crosses at u_range[0 or 1]
         # up to rounding.
         if not (fm.u_range[0] - 1e-6 <= u_c <= fm.u_range[1] + 1e-6):
             continue
-        tmax = fm.throw * max(fm.layers[lay] for lay in displaced) * float(fm.taper(u_c))
+        tmax = fmax * float(fm.taper(u_c))
         zero = tmax < 1e-6
         if tmax < MIN_TRACE_THROW and not (zero and zero_throw_ok):
             continue
-        # Along s, the footwall lies where d decreases.
-        sgn_fw = -1.0 if float(np.dot(sec.direction, fm.ndir)) > 0 else 1.0
+        kept.append((k, float(s_c), u_c, zero))
+    if not kept:
+        return []
+    K = np.array([k for k, _, _, _ in kept])
+    SC = np.array([s for _, s, _, _ in kept])
+    LO = np.maximum(s_in[K], SC - 500.0)
+    HI = np.minimum(s_out[K], SC + 500.0)
 
-        def plane_s(s):
-            xy = sec.to_xy(s)
-            return geo.plane_z(fm.name, xy[:, 0], xy[:, 1])
+    def plane_at(xy):
+        return geo.plane_z(fm.name, xy[:, 0], xy[:, 1])
 
-        layers: Dict[str, Dict[str, np.ndarray]] = {}
-        cut_z = []
-        lo, hi = max(s_in, s_c - 500.0), min(s_out, s_c + 500.0)
+    # Cutoffs of every displaced layer on every kept section.
+    cuts: Dict[str, Tuple[np.ndarray, np.ndarray]] = {}
+    for lay in displaced:
+        r = []
+        for side in ("foot", "hanging"):
+            def g(xy, lay=lay, side=side):
+                return geo.side_value(lay, fm.name, side, xy[:, 0], xy[:, 1]) - plane_at(xy)
+            r.append(_roots_near(g, O[K], D[K], SC, LO, HI, step=2.0))
+        cuts[lay] = (r[0], r[1])
+
+    # Far-end polylines: the draws in loop order, the evaluations batched.
+    items = []  # (kept index, layer, s_f, s_h)
+    for j, (k, s_c, u_c, zero) in enumerate(kept):
         for lay in displaced:
-            def gf(s, lay=lay):
-                xy = sec.to_xy(s)
-                return geo.side_value(lay, fm.name, "foot", xy[:, 0], xy[:, 1]) - plane_s(s)
-
-            def gh(s, lay=lay):
-                xy = sec.to_xy(s)
-                return geo.side_value(lay, fm.name, "hanging", xy[:, 0], xy[:, 1]) - plane_s(s)
-
-            s_f = _root_near(gf, s_c, lo, hi)
-            s_h = _root_near(gh, s_c, lo, hi)
-            if s_f is None or s_h is None:
+            s_f, s_h = cuts[lay][0][j], cuts[lay][1][j]
+            if np.isnan(s_f) or np.isnan(s_h):
                 continue
             if zero:
                 s_h = s_f = 0.5 * (s_f + s_h)  # zero throw: the cutoffs coincide exactly
-            sides = {}
-            for side, s_cut, sgn in (("foot", s_f, sgn_fw), ("hanging", s_h, -sgn_fw)):
-                dist = float(rng.uniform(*far))
-                npts = int(rng.integers(4, 6))
-                for _ in range(8):  # shorten until every point is valid and inside
-                    far_s = s_cut + sgn * dist
-                    ss = (np.linspace(far_s, s_cut, npts) if side == "foot"
-                          else np.linspace(s_cut, far_s, npts))
-                    xy = sec.to_xy(ss)
-                    z = geo.side_value(lay, fm.name, side, xy[:, 0], xy[:, 1])
-                    # The cutoff point itself lies on the fault surface.
-                    icut = len(ss) - 1 if side == "foot" else 0
-                    z[icut] = geo.plane_z(fm.name, xy[icut, 0], xy[icut, 1])
-                    if np.all(np.isfinite(z)) and np.all(points_in_polygon(xy, ring)):
-                        break
-                    dist *= 0.7
-                else:
-                    sides = {}
-                    break
-                sides[side] = np.column_stack([xy, z])
-            if len(sides) == 2:
-                if zero:
-                    sides["hanging"][0] = sides["foot"][-1]
-                layers[lay] = sides
-                cut_z += [sides["foot"][-1, 2], sides["hanging"][0, 2]]
-        if not layers:
+            items.append((j, lay, float(s_f), float(s_h)))
+    sgn_fw = {j: (-1.0 if float(np.dot(D[k], fm.ndir)) > 0 else 1.0)
+              for j, (k, _, _, _) in enumerate(kept)}
+    state = rng.bit_generator.state
+    skip: set = set()
+    while True:
+        rng.bit_generator.state = state
+        draws = []  # per item: [(dist, n) foot, (dist, n) hanging or None]
+        for i in range(len(items)):
+            d = [(float(rng.uniform(*far)), int(rng.integers(*npts)))]
+            d.append(None if i in skip else (float(rng.uniform(*far)), int(rng.integers(*npts))))
+            draws.append(d)
+        polys = _far_polylines(geo, fm, kept, items, draws, sgn_fw, to_xy, inside)
+        fail = [i for i in range(len(items)) if polys[i][0] is None and i not in skip]
+        if not fail:
+            break
+        skip.add(fail[0])  # it drew nothing for its hanging wall: redraw after it
+
+    layers_of: Dict[int, Dict[str, Dict[str, np.ndarray]]] = {j: {} for j in range(len(kept))}
+    cutz_of: Dict[int, List[float]] = {j: [] for j in range(len(kept))}
+    for i, (j, lay, _, _) in enumerate(items):
+        foot, hang = polys[i]
+        if foot is None or hang is None:
             continue
-        # Plane trace: from above the highest to below the lowest cutoff, but
-        # stopping short of layers this fault does not displace.
-        xyc = sec.to_xy([s_c])
+        if kept[j][3]:
+            hang[0] = foot[-1]
+        layers_of[j][lay] = {"foot": foot, "hanging": hang}
+        cutz_of[j] += [foot[-1, 2], hang[0, 2]]
+    J = [j for j in range(len(kept)) if layers_of[j]]
+    if not J:
+        return []
+
+    # Plane traces: from above the highest to below the lowest cutoff, but
+    # stopping short of layers this fault does not displace.
+    xyc = np.array([secs[kept[j][0]].to_xy([kept[j][1]])[0] for j in J])
+    zl_other = {lay: geo.truth(lay, xyc[:, 0], xyc[:, 1]) for lay in geo.layers if lay not in displaced}
+    zs_of = []
+    for t, j in enumerate(J):
+        cut_z = cutz_of[j]
         m_top = m_bot = 50.0
         top_cut, bot_cut = max(cut_z), min(cut_z)
         for lay in geo.layers:
             if lay in displaced:
                 continue
-            zl = float(geo.truth(lay, xyc[:, 0], xyc[:, 1])[0])
+            zl = float(zl_other[lay][t])
             if zl > top_cut:
                 m_top = min(m_top, 0.5 * (zl - top_cut))
             elif zl < bot_cut:
                 m_bot = min(m_bot, 0.5 * (bot_cut - zl))
         zs = np.linspace(top_cut + m_top, bot_cut - m_bot, 6)
         zs = zs[np.min(np.abs(zs[:, None] - np.array(cut_z)[None, :]), axis=1) > 1.0]
-        zs = np.unique(np.concatenate([zs, cut_z]))[::-1]
-        # Solve plane(s) = z for all targets at once (bisection; plane is monotone in s).
-        a = np.full(zs.shape, s_c - 1500.0)
-        b = np.full(zs.shape, s_c + 1500.0)
-        fa = plane_s(a) - zs
-        for _ in range(80):
-            m = 0.5 * (a + b)
-            fm_ = plane_s(m) - zs
-            left = (fm_ > 0) == (fa > 0)
-            a = np.where(left, m, a)
-            fa = np.where(left, fm_, fa)
-            b = np.where(left, b, m)
-        sp = 0.5 * (a + b)
-        plane = np.column_stack([sec.to_xy(sp), zs])
+        zs_of.append(np.unique(np.concatenate([zs, cut_z]))[::-1])
+    # Solve plane(s) = z for all targets of all sections at once (bisection;
+    # the plane is monotone in s along a section).
+    row = np.concatenate([np.full(len(z), kept[j][0]) for j, z in zip(J, zs_of)])
+    sc = np.concatenate([np.full(len(z), kept[j][1]) for j, z in zip(J, zs_of)])
+    ZS = np.concatenate(zs_of)
+    a = sc - 1500.0
+    b = sc + 1500.0
+    fa = plane_at(to_xy(row, a)) - ZS
+    for _ in range(80):
+        m = 0.5 * (a + b)
+        fm_ = plane_at(to_xy(row, m)) - ZS
+        left = (fm_ > 0) == (fa > 0)
+        a = np.where(left, m, a)
+        fa = np.where(left, fm_, fa)
+        b = np.where(left, b, m)
+    SP = 0.5 * (a + b)
+    out = []  # (u, Trace)
+    off = 0
+    for j, zs in zip(J, zs_of):
+        k, s_c, u_c, _ = kept[j]
+        sp = SP[off:off + len(zs)]
+        off += len(zs)
+        plane = np.column_stack([secs[k].to_xy(sp), zs])
         # Cutoff points are exactly on the plane trace.
-        for lay, sides in layers.items():
+        for lay, sides in layers_of[j].items():
             for q in (sides["foot"][-1], sides["hanging"][0]):
-                j = int(np.argmin(np.abs(plane[:, 2] - q[2])))
-                if abs(plane[j, 2] - q[2]) < 1e-6:
-                    plane[j] = q
-        keep = points_in_polygon(plane[:, :2], ring)
-        plane = plane[keep]
+                i = int(np.argmin(np.abs(plane[:, 2] - q[2])))
+                if abs(plane[i, 2] - q[2]) < 1e-6:
+                    plane[i] = q
+        plane = plane[inside(plane[:, :2])]
         if len(plane) < 2:
             continue
-        out.append((u_c, Trace(sec.name, plane, layers)))
+        out.append((u_c, Trace(secs[k].name, plane, layers_of[j])))
     out.sort(key=lambda t: t[0])
     return [t for _, t in out]
+
+
+def _far_polylines(geo, fm, kept, items, draws, sgn_fw, to_xy, inside):
+    """The footwall and hanging-wall polylines of every item (see
+    :func:`_fault_traces`): per item [foot or None, hanging or None]. Up to
+    eight tries, the far distance shortened by 0.7 after a failed one; the
+    tries of all items and sides are evaluated together per (layer, side)."""
+    res = [[None, None] for _ in items]
+    pend = []  # (item, side index, side, s_cut, sgn, dist, n)
+    for i, (j, lay, s_f, s_h) in enumerate(items):
+        for si, (side, s_cut, sgn) in enumerate((("foot", s_f, sgn_fw[j]), ("hanging", s_h, -sgn_fw[j]))):
+            if draws[i][si] is not None:
+                pend.append([i, si, side, s_cut, sgn, draws[i][si][0], draws[i][si][1]])
+    for _ in range(8):  # shorten until every point is valid and inside
+        if not pend:
+            break
+        ss_of, xy_of = [], []
+        for i, si, side, s_cut, sgn, dist, n in pend:
+            far_s = s_cut + sgn * dist
+            ss = np.linspace(far_s, s_cut, n) if side == "foot" else np.linspace(s_cut, far_s, n)
+            ss_of.append(ss)
+            xy_of.append(to_xy(np.full(n, kept[items[i][0]][0]), ss))
+        z_of: List[Optional[np.ndarray]] = [None] * len(pend)
+        groups: Dict[Tuple[str, str], List[int]] = {}
+        for q, (i, si, side, *_r) in enumerate(pend):
+            groups.setdefault((items[i][1], side), []).append(q)
+        for (lay, side), qs in groups.items():
+            xy = np.vstack([xy_of[q] for q in qs])
+            z = geo.side_value(lay, fm.name, side, xy[:, 0], xy[:, 1])
+            o = 0
+            for q in qs:
+                z_of[q] = z[o:o + len(xy_of[q])].copy()
+                o += len(xy_of[q])
+        # The cutoff point itself lies on the fault surface.
+        icut = [len(ss_of[q]) - 1 if pend[q][2] == "foot" else 0 for q in range(len(pend))]
+        pc = np.array([xy_of[q][icut[q]] for q in range(len(pend))])
+        zc = geo.plane_z(fm.name, pc[:, 0], pc[:, 1])
+        allxy = np.vstack(xy_of)
+        ins = inside(allxy)
+        nxt, o = [], 0
+        for q, e in enumerate(pend):
+            z = z_of[q]
+            z[icut[q]] = zc[q]
+            n = len(z)
+            if np.all(np.isfinite(z)) and np.all(ins[o:o + n]):
+                res[e[0]][e[1]] = np.column_stack([xy_of[q], z])
+            else:
+                e[5] *= 0.7
+                nxt.append(e)
+            o += n
+        pend = nxt
+    return res
 
 
 def _tip_xy(geo: Geology, fm: FaultModel, u: float, layer: str) -> np.ndarray:
@@ -264,26 +423,31 @@ def _fault_from_model(geo: Geology, fm: FaultModel, sections, ring, rng, tip_lay
 def _boreholes(geo: Geology, holes: List[Tuple[str, float, float, str]]) -> Boreholes:
     """Rows for holes (id, x, y, deepest layer reached): every sheet of every
     layer down to the deepest one, top down (two rows for a layer repeated by a
-    reverse fault, none where a normal fault cut it out)."""
-    ids, xs, ys, ls, zs = [], [], [], [], []
-    x = np.array([h[1] for h in holes])
-    y = np.array([h[2] for h in holes])
-    depth = [geo.layers.index(h[3]) for h in holes]
-    sheets = {lay: geo.sheets(lay, x, y) for lay in geo.layers}
-    for i, (hid, hx, hy, _) in enumerate(holes):
-        rows = []
-        for li, lay in enumerate(geo.layers[:depth[i] + 1]):
-            for z in sheets[lay][i]:
-                if np.isfinite(z):
-                    rows.append((z, lay))
-        rows.sort(key=lambda r: -r[0])
-        for z, lay in rows:
-            ids.append(hid)
-            xs.append(hx)
-            ys.append(hy)
-            ls.append(lay)
-            zs.append(z)
-    return Boreholes(np.array(ids), np.column_stack([xs, ys]), np.array(ls), np.array(zs))
+    reverse fault, none where a normal fault cut it out); equal elevations keep
+    the layer order."""
+    x = np.array([h[1] for h in holes], dtype=np.float64)
+    y = np.array([h[2] for h in holes], dtype=np.float64)
+    depth = np.array([geo.layers.index(h[3]) for h in holes], dtype=np.int64)
+    hole_i, lay_i, zs = [], [], []
+    for li, lay in enumerate(geo.layers):
+        S = geo.sheets(lay, x, y)
+        ok = np.isfinite(S) & (depth >= li)[:, None]
+        r, _ = np.nonzero(ok)  # row-major: per hole, its sheets top down
+        hole_i.append(r)
+        lay_i.append(np.full(len(r), li))
+        zs.append(S[ok])
+    hole_i = np.concatenate(hole_i)
+    lay_i = np.concatenate(lay_i)
+    zs = np.concatenate(zs)
+    # Per hole, top down; ties in z keep (layer, sheet) order as a stable sort would.
+    seq = np.lexsort((np.arange(len(zs)), hole_i))  # (hole, layer, sheet) order
+    hole_i, lay_i, zs = hole_i[seq], lay_i[seq], zs[seq]
+    order = np.lexsort((np.arange(len(zs)), -zs, hole_i))
+    hole_i, lay_i, zs = hole_i[order], lay_i[order], zs[order]
+    ids = np.array([h[0] for h in holes])
+    return Boreholes(ids[hole_i] if len(holes) else np.zeros(0, dtype=str),
+                     np.column_stack([x[hole_i], y[hole_i]]) if len(holes) else np.zeros((0, 2)),
+                     np.array(geo.layers)[lay_i] if len(holes) else np.zeros(0, dtype=str), zs)
 
 
 def _band_point(geo: Geology, fm: FaultModel, u: float, layer: str) -> Optional[np.ndarray]:
@@ -555,6 +719,7 @@ def synthetic(seed: int = 0, *, n_layers: int = 3, strike: float = 60.0, dip: fl
             for t in thick[:i]:
                 z = z - t(X, Y)
             return z
+        f.max_slope = top.max_slope + sum(t.max_slope for t in thick[:i])
         return f
 
     surfaces = {names[i]: make(i) for i in range(n_layers)}

@@ -65,7 +65,9 @@ def smooth_field(base: float = 0.0, gradient: Sequence[float] = (0.0, 0.0),
     """A smooth, non-planar scalar field of local coordinates (X, Y):
     ``base + gx X + gy Y + sum amp sin(kx X + ky Y + phase)
     + sum amp exp(-r^2 / (2 sigma^2))`` with ``waves`` rows (amp, kx, ky, phase)
-    (k in radians per metre) and ``bumps`` rows (amp, cx, cy, sigma)."""
+    (k in radians per metre) and ``bumps`` rows (amp, cx, cy, sigma). The
+    returned function carries ``max_slope``, an upper bound of its gradient's
+    length (see :class:`Geology`)."""
     waves_a = np.asarray(waves, dtype=np.float64).reshape(-1, 4)
     bumps_a = np.asarray(bumps, dtype=np.float64).reshape(-1, 4)
     g = np.asarray(gradient, dtype=np.float64).reshape(2)
@@ -80,6 +82,12 @@ def smooth_field(base: float = 0.0, gradient: Sequence[float] = (0.0, 0.0),
             z = z + a * np.exp(-((X - cx) ** 2 + (Y - cy) ** 2) / (2.0 * s * s))
         return z
 
+    # An upper bound of |grad f| everywhere (Geology uses it to skip faults
+    # that provably cannot act at a point): |g| + sum |amp| |k| over the waves
+    # + sum |amp| / sigma * exp(-1/2) over the bumps (the largest slope of a
+    # Gaussian, at r = sigma).
+    f.max_slope = float(np.hypot(*g) + np.sum(np.abs(waves_a[:, 0]) * np.hypot(waves_a[:, 1], waves_a[:, 2]))
+                        + np.sum(np.abs(bumps_a[:, 0]) / np.abs(bumps_a[:, 3])) * np.exp(-0.5))
     return f
 
 
@@ -192,6 +200,12 @@ class Geology:
     surfaces: Dict[str, Callable[[np.ndarray, np.ndarray], np.ndarray]]
     faults: List[FaultModel] = field(default_factory=list)
     origin: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    #: Upper bound of the slope |grad z0| of each layer's unfaulted top (None:
+    #: taken from the surface functions' ``max_slope`` attribute, which
+    #: :func:`smooth_field` sets, where there is one). Only used to skip work:
+    #: with a bound, faults that provably cannot decide a point's sheets are
+    #: left out of the enumeration (same results, see ``_states``).
+    slopes: Optional[Dict[str, Optional[float]]] = None
 
     def __post_init__(self) -> None:
         self.origin = np.asarray(self.origin, dtype=np.float64).reshape(2)
@@ -213,6 +227,13 @@ class Geology:
         missing = [lay for lay in self.layers if lay not in self.surfaces]
         if missing:
             raise ValueError(f"Geology: no surface for layers {missing}")
+        given = dict(self.slopes or {})
+        self.slopes = {}
+        for lay in self.layers:
+            v = given.get(lay, getattr(self.surfaces[lay], "max_slope", None))
+            if v is not None and not (np.isfinite(v) and v >= 0.0):
+                raise ValueError(f"Geology: slope bound of layer {lay!r} must be finite and >= 0, got {v}")
+            self.slopes[lay] = None if v is None else float(v)
 
     # -- helpers ------------------------------------------------------------
     def fault(self, name: str) -> FaultModel:
@@ -254,46 +275,158 @@ class Geology:
                     rel.add(self._index[f.abuts[0]])
         return sorted(rel)
 
+    def _max_heave(self, i: int, layer: str) -> float:
+        """Largest horizontal distance (m) by which fault ``i`` moves a point
+        of ``layer`` (its heave where taper and decay are 1)."""
+        f = self.faults[i]
+        return f.throw * float(f.layers.get(layer, 0.0)) / f.tan_dip
+
+    # States of a fault at a point (``_states``).
+    _DROP, _HANGING, _FREE = 0, 1, 2
+
+    def _states(self, layer: str, rel: List[int], X: np.ndarray, Y: np.ndarray,
+                exclude: Optional[int]) -> np.ndarray:
+        """(len(rel), n) int8: how fault rel[j] enters the enumeration at each
+        point: ``_FREE`` (both sides tried), ``_HANGING`` (only its hanging
+        wall can be valid) or ``_DROP`` (only its footwall can be valid and its
+        slip does not change the elevation). Both shortcuts give the same valid
+        elevations as trying both sides, bit for bit:
+
+        * zero throw: a fault undoes its slip at the position left by undoing
+          the younger faults, within R (the sum of their largest heaves) of
+          the final point. Where its throw is exactly zero on that whole disk
+          (outside the taper's along-strike range, or beyond flat + decay into
+          the hanging wall, where ``taper`` and ``decay_factor`` return exact
+          zeros), its backward step is the identity (x - 0.0 = x), so both
+          side assignments give the same elevation and exactly one passes its
+          side test: drop it.
+        * far from its surface (layers with a slope bound S): every candidate
+          elevation lies within S * R_all + T_all of the unfaulted top at the
+          point (R_all: the sum of all relevant faults' largest heaves, the
+          farthest a pre-image can be; T_all: the sum of their largest
+          throws). A fault surface above that range makes every hanging-wall
+          candidate invalid and every footwall candidate valid (drop); below
+          it, the reverse (hanging wall only; not for a fault that abuts
+          another, whose activity depends on its parent's side).
+
+        The excluded fault (``side_value``) and every older fault that a
+        non-dropped fault abuts (its side decides whether the younger one
+        acts) stay free."""
+        st = np.full((len(rel), X.size), self._FREE, dtype=np.int8)
+        pos = {i: j for j, i in enumerate(rel)}
+        S = self.slopes.get(layer)
+        if S is not None:
+            R_all = sum(self._max_heave(i, layer) for i in rel)
+            T_all = sum(self.faults[i].throw * float(self.faults[i].layers.get(layer, 0.0)) for i in rel)
+            z0 = np.asarray(self.surfaces[layer](X, Y), dtype=np.float64) * np.ones_like(X)
+            # 1e-6 m plus 1e-12 relative: far above the rounding of these sums.
+            B = S * R_all + T_all + 1e-6 + 1e-12 * (np.abs(z0) + S * R_all + T_all)
+        younger = 0.0
+        for j in range(len(rel) - 1, -1, -1):
+            i = rel[j]
+            f = self.faults[i]
+            R = younger
+            younger += self._max_heave(i, layer)
+            if i == exclude:
+                continue
+            if R == 0.0:
+                # The fault's own position is its pre-image: the exact test.
+                dead = f.throw_at(layer, X, Y) == 0.0
+            else:
+                # Bounds over the disk of radius R (plus 1e-6 m for the
+                # rounding of u, w at these magnitudes).
+                u, w = f.uw(X, Y)
+                off = np.abs(u - f.um)
+                dead = off >= f.hl + R + 1e-6
+                dc = abs(f.bend) / (f.hl * f.hl) * R * (2.0 * off + R)
+                d = w - f.bend_offset(u)
+                dead |= d - R - dc >= f.flat + f.decay + 1e-6
+            if S is not None:
+                pz = f.plane_z(X, Y)
+                dead |= pz >= z0 + B
+                if f.abuts is None:
+                    st[j][(pz < z0 - B) & ~dead] = self._HANGING
+            st[j][dead] = self._DROP
+        for j in range(len(rel) - 1, -1, -1):
+            f = self.faults[rel[j]]
+            if f.abuts is not None:
+                p = self._index[f.abuts[0]]
+                if p in pos:
+                    st[pos[p]][st[j] != self._DROP] = self._FREE
+        return st
+
     def _combos(self, layer: str, X: np.ndarray, Y: np.ndarray, exclude: Optional[int] = None):
-        """Yield (sides, z, valid) for every assignment of a side (0 foot, 1
-        hanging wall) to the relevant faults. ``valid`` says where the point
-        (X, Y, z) really lies on the assigned sides; the own-side test of fault
-        ``exclude`` is skipped (used to extend one side up to its cutoff)."""
+        """Yield (sides, z, valid, idx) for every assignment of a side (0 foot,
+        1 hanging wall) to the relevant faults, at the points ``idx``: ``z``
+        and ``valid`` are given for those points only. ``valid`` says where the
+        point (X, Y, z) really lies on the assigned sides; the own-side test of
+        fault ``exclude`` is skipped (used to extend one side up to its
+        cutoff). Points are grouped by the faults' states there (``_states``):
+        only free faults are branched on, so faults far away (the usual case
+        with many independent faults) do not multiply the work; ``sides``
+        holds the free and hanging-wall-only faults."""
         rel = self._relevant(layer)
         surf = self.surfaces[layer]
-        planes = {i: self.faults[i].plane_z(X, Y) for i in rel}
-        for bits in itertools.product((0, 1), repeat=len(rel)):
-            side = dict(zip(rel, bits))
-            # A fault that abuts an older one acts only on its allowed side of it.
-            active = {}
-            ok = True
-            for i in rel:
-                f = self.faults[i]
-                act = True
-                if f.abuts is not None:
-                    p = self._index[f.abuts[0]]
-                    want = 0 if f.abuts[1] == "foot" else 1
-                    act = side[p] == want
-                if not act and side[i] == 1:
-                    ok = False
-                active[i] = act
-            if not ok:
-                continue
-            Xc, Yc = X, Y
-            dz = np.zeros_like(X)
-            for i in reversed(rel):  # undo the youngest fault first
-                if side[i] == 1 and active[i]:
-                    Xc, Yc, s = self.faults[i].backward(layer, Xc, Yc)
-                    dz = dz + s
-            z = np.asarray(surf(Xc, Yc), dtype=np.float64) * np.ones_like(X) - dz
-            valid = np.ones(X.shape, dtype=bool)
-            for i in rel:
-                if i == exclude or not active[i]:
+        n = X.size
+        if not rel:
+            z = np.asarray(surf(X, Y), dtype=np.float64) * np.ones_like(X)
+            yield {}, z, np.ones(n, dtype=bool), np.arange(n)
+            return
+        st = self._states(layer, rel, X, Y, exclude)
+        code = np.zeros(n, dtype=np.int64)
+        for j in range(len(rel)):
+            code = code * 3 + st[j]
+        pats, first, inv = np.unique(code, return_index=True, return_inverse=True)
+        inv = inv.reshape(-1)
+        for pi in range(len(pats)):
+            idx = np.flatnonzero(inv == pi)
+            col = st[:, first[pi]]
+            lrel = [i for j, i in enumerate(rel) if col[j] == self._FREE]
+            hang = [i for j, i in enumerate(rel) if col[j] == self._HANGING]
+            used = [i for j, i in enumerate(rel) if col[j] != self._DROP]
+            Xs, Ys = X[idx], Y[idx]
+            planes = {i: self.faults[i].plane_z(Xs, Ys) for i in used}
+            base = None
+            for bits in itertools.product((0, 1), repeat=len(lrel)):
+                side = dict(zip(lrel, bits))
+                side.update({i: 1 for i in hang})
+                # A fault that abuts an older one acts only on its allowed side of it.
+                active = {}
+                ok = True
+                for i in used:
+                    f = self.faults[i]
+                    act = True
+                    if f.abuts is not None:
+                        p = self._index[f.abuts[0]]
+                        want = 0 if f.abuts[1] == "foot" else 1
+                        act = side[p] == want  # _states keeps the parent free
+                    if not act and side[i] == 1:
+                        ok = False
+                    active[i] = act
+                if not ok:
                     continue
-                # Hanging wall strictly above the surface, footwall on or below:
-                # with zero throw exactly one side is valid.
-                valid &= (z > planes[i]) if side[i] == 1 else (z <= planes[i])
-            yield side, z, valid
+                Xc, Yc = Xs, Ys
+                dz = np.zeros_like(Xs)
+                moved = False
+                for i in reversed(used):  # undo the youngest fault first
+                    if side[i] == 1 and active[i]:
+                        Xc, Yc, s = self.faults[i].backward(layer, Xc, Yc)
+                        dz = dz + s
+                        moved = True
+                if moved:
+                    z = np.asarray(surf(Xc, Yc), dtype=np.float64) * np.ones_like(Xs) - dz
+                else:
+                    if base is None:
+                        base = np.asarray(surf(Xs, Ys), dtype=np.float64) * np.ones_like(Xs) - dz
+                    z = base
+                valid = np.ones(Xs.shape, dtype=bool)
+                for i in used:
+                    if i == exclude or not active[i]:
+                        continue
+                    # Hanging wall strictly above the surface, footwall on or below:
+                    # with zero throw exactly one side is valid.
+                    valid &= (z > planes[i]) if side[i] == 1 else (z <= planes[i])
+                yield side, z, valid, idx
 
     # -- sheets and truth -----------------------------------------------------
     def sheets(self, layer: str, x, y) -> np.ndarray:
@@ -302,16 +435,26 @@ class Geology:
         reverse-fault overlap band, a row of NaN in a normal-fault gap)."""
         self._check_layer(layer)
         X, Y = self.local(np.ravel(x), np.ravel(y))
-        vals = []
-        for _, z, valid in self._combos(layer, X, Y):
-            if valid.any():
-                vals.append(np.where(valid, z, np.nan))
-        if not vals:
-            return np.full((X.size, 1), np.nan)
-        A = np.column_stack(vals)
+        n = X.size
+        cols: List[np.ndarray] = []       # NaN-padded value columns
+        count = np.zeros(n, dtype=np.int64)
+        for _, z, valid, idx in self._combos(layer, X, Y):
+            if not valid.any():
+                continue
+            rows = idx[valid]
+            slot = count[rows]
+            while len(cols) <= int(slot.max()):
+                cols.append(np.full(n, np.nan))
+            for k in np.unique(slot):
+                sel = slot == k
+                cols[int(k)][rows[sel]] = z[valid][sel]
+            count[rows] += 1
+        if not cols:
+            return np.full((n, 1), np.nan)
+        A = np.column_stack(cols)
         # NaN sorts last; negate for top-down order.
         A = -np.sort(-A, axis=1)
-        m = max(1, int(np.max(np.sum(~np.isnan(A), axis=1))))
+        m = max(1, int(np.max(count)))
         return A[:, :m]
 
     def n_sheets(self, layer: str, x, y) -> np.ndarray:
@@ -333,10 +476,11 @@ class Geology:
             if want == 1:
                 return out
             return np.ravel(self.truth(layer, x, y))
-        for sides, z, valid in self._combos(layer, X, Y, exclude=k):
+        for sides, z, valid, idx in self._combos(layer, X, Y, exclude=k):
             if sides[k] != want:
                 continue
-            out = np.where(valid & ~(out >= z), z, out)
+            o = out[idx]
+            out[idx] = np.where(valid & ~(o >= z), z, o)
         return out
 
     def truth(self, layer: str, x, y) -> np.ndarray:
