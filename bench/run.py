@@ -2,8 +2,8 @@
 
     python bench/run.py [NAME ...] [--runs N] [--quick] [--build-dir DIR] [--dry-run]
 
-NAME: any of delaunay, polygon, aabb, boundary, compare, scale (default: all,
-in that order). Each benchmark is its own script (bench/bench_<name>.py,
+NAME: any of delaunay, polygon, aabb, boundary, compare, scale, sweep (default:
+all, in that order). Each benchmark is its own script (bench/bench_<name>.py,
 bench/compare.py), run here as a subprocess with the same Python and
 environment (set FAULTMESH_DEV_BUILD=$PWD/build/<dir> to bench a development
 build); see bench/README.md for what each one measures.
@@ -52,6 +52,9 @@ BENCHMARKS: Dict[str, Tuple[str, str, List[str], List[str]]] = {
     # 200 faults stitched into a 1M-point layer, and the locality check.
     "scale": ("bench_scale.py", "--repeat", ["--locality", "--docs"],
               ["--points", "100000", "--faults", "20", "--out", str(QUICK_OUT / "scale")]),
+    # Random grounds: >= 500 seeds built and checked, failures classified
+    # (--runs does not apply: each seed runs once; --quick: 8 seeds).
+    "sweep": ("sweep.py", "", [], ["--quick"]),
 }
 
 
@@ -85,7 +88,8 @@ def main(argv=None) -> int:
     failed = []
     for name in names:
         script, runs_flag, full, quick = BENCHMARKS[name]
-        cmd = [sys.executable, str(BENCH / script), *([runs_flag, str(runs)] if runs is not None else []),
+        cmd = [sys.executable, str(BENCH / script),
+               *([runs_flag, str(runs)] if runs is not None and runs_flag else []),
                *(quick if args.quick else full), *build.get(name, [])]
         print(f"== {name}: {' '.join(cmd[1:])}", file=sys.stderr, flush=True)
         if args.dry_run:

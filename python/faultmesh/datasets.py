@@ -35,7 +35,7 @@ import numpy as np
 from .dataset import Boreholes, Dataset, Fault, Section, Trace, points_in_polygon
 from .geology import FaultModel, Geology, smooth_field
 
-__all__ = ["paper_like", "paper_like_path", "synthetic", "MIN_TRACE_THROW"]
+__all__ = ["paper_like", "paper_like_path", "synthetic", "random_ground", "MIN_TRACE_THROW"]
 
 #: Sections crossing a fault where every layer's throw is smaller than this
 #: (metres) get no trace: such a small offset would not be interpreted on a
@@ -835,3 +835,7 @@ def _write_shipped() -> Path:  # pragma: no cover - maintenance entry point
 
 if __name__ == "__main__":  # pragma: no cover
     print(_write_shipped())
+
+
+# Random grounds (faultmesh/grounds.py): re-exported here beside synthetic.
+from .grounds import random_ground  # noqa: E402

@@ -1,0 +1,299 @@
+"""How often faultmesh holds on grounds it was not written for.
+
+    python bench/sweep.py [--seeds N] [--start S] [--jobs J] [--timeout SEC] [--quick]
+                          [--out DIR] [--no-write]
+
+Runs ``faultmesh.grounds.evaluate_ground`` for seeds S .. S+N-1 (default 0 ..
+499): each seed draws a random ground (study area, layers, faults, sections,
+boreholes, rounding; see faultmesh/grounds.py), writes and reads its dataset,
+builds the model, checks it, and measures it (error near the faults vs the
+plain TIN, repetition of layers across reverse faults). Every seed runs in its
+own forked process with a time limit (--timeout, default 300 s) and a memory
+limit (--memory-gb, default 3), so a hang or a crash is recorded as such and
+never stops the sweep; --jobs processes run at once (default 2).
+
+Writes docs/bench/sweep.md (the table: shares, failure classes with counts and
+three example seeds each, the same shares split by kind, median times) and
+docs/bench/sweep.json (every seed's spec and outcome). --quick: 8 seeds, the
+table to stdout and bench/results/quick/sweep.{md,json}; --no-write: stdout
+only. Progress (one line per seed) goes to stderr; the per-seed outcomes are
+also appended to <out>/sweep.jsonl as they come, so an interrupted sweep
+leaves what it did.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import json
+import multiprocessing as mp
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any, Dict, List
+
+from _common import ROOT, command_line, machine, table_header, today, use_dev_build
+
+use_dev_build()
+
+QUICK_OUT = ROOT / "bench" / "results" / "quick"
+
+
+def _child(seed: int, conn, mem_gb: float) -> None:
+    try:
+        import resource
+        lim = int(mem_gb * 2 ** 30)
+        resource.setrlimit(resource.RLIMIT_AS, (lim, lim))
+    except (ImportError, ValueError, OSError):  # pragma: no cover - not on Linux
+        pass
+    import warnings
+    warnings.simplefilter("ignore")
+    from faultmesh.grounds import evaluate_ground
+    try:
+        out = evaluate_ground(seed)
+    except BaseException as e:  # evaluate_ground records failures; this is its own defect
+        out = {"seed": seed, "ok": False, "stage": "crash", "error_type": type(e).__name__,
+               "error": str(e)[:2000], "pattern": str(e)[:160]}
+    conn.send(json.dumps(out, default=float))
+    conn.close()
+
+
+def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl: Path = None) -> List[Dict]:
+    """Outcomes of the seeds, each in its own forked process."""
+    ctx = mp.get_context("fork")
+    pending = list(seeds)
+    running: Dict[int, tuple] = {}
+    results: Dict[int, Dict] = {}
+    fh = open(jsonl, "w") if jsonl else None
+    t_start = time.perf_counter()
+    try:
+        while pending or running:
+            while pending and len(running) < jobs:
+                s = pending.pop(0)
+                r, w = ctx.Pipe(duplex=False)
+                p = ctx.Process(target=_child, args=(s, w, mem_gb), daemon=True)
+                p.start()
+                w.close()
+                running[s] = (p, r, time.perf_counter())
+            time.sleep(0.05)
+            for s in list(running):
+                p, r, t0 = running[s]
+                out = None
+                if r.poll():
+                    try:
+                        out = json.loads(r.recv())
+                    except EOFError:
+                        out = None
+                    p.join(5.0)
+                elif not p.is_alive():
+                    p.join()
+                    out = {"seed": s, "ok": False, "stage": "crash", "error_type": f"exit {p.exitcode}",
+                           "error": f"the process ended with exit code {p.exitcode} (a negative code is "
+                                    "the signal: -11 segmentation fault, -9 killed)",
+                           "pattern": f"process ended with exit code {p.exitcode}"}
+                elif time.perf_counter() - t0 > timeout:
+                    p.kill()
+                    p.join()
+                    out = {"seed": s, "ok": False, "stage": "timeout", "error_type": "",
+                           "error": f"no result after {timeout:.0f} s", "pattern": f"no result after {timeout:.0f} s"}
+                else:
+                    continue
+                if out is None:
+                    out = {"seed": s, "ok": False, "stage": "crash", "error_type": "",
+                           "error": "no result", "pattern": "no result"}
+                out["wall_seconds"] = time.perf_counter() - t0
+                r.close()
+                del running[s]
+                results[s] = out
+                if fh:
+                    fh.write(json.dumps(out, default=float) + "\n")
+                    fh.flush()
+                done = len(results)
+                el = time.perf_counter() - t_start
+                print(f"[{done}/{len(seeds)} {el:.0f}s] seed {s}: {out.get('stage')} "
+                      f"{(out.get('pattern') or '')[:90]}", file=sys.stderr, flush=True)
+    finally:
+        for p, r, _ in running.values():
+            p.kill()
+        if fh:
+            fh.close()
+    return [results[s] for s in seeds]
+
+
+# ----------------------------------------------------------------- the table
+def _pct(k: int, n: int) -> str:
+    return f"{k} / {n} ({100.0 * k / n:.1f} %)" if n else "-"
+
+
+def _flags(o: Dict) -> Dict[str, Any]:
+    spec = o.get("spec") or {}
+    reject = spec.get("expect") == "reject"
+    cov = o.get("coverage_min")
+    return {"reject": reject, "loaded": o.get("stage") not in ("generate", "load", "timeout", "crash") or
+            o.get("stage") == "rejected",
+            "built": bool(o.get("built")), "checked": bool(o.get("checked")),
+            "beats": bool((o.get("accuracy") or {}).get("beats")),
+            "has_rev": cov is not None, "repeats": cov is not None and cov >= o.get("threshold", 0.95),
+            "ok": bool(o.get("ok"))}
+
+
+def summary_rows(outs: List[Dict]) -> List[tuple]:
+    """(label, text) rows of the overall shares."""
+    F = [_flags(o) for o in outs]
+    build = [f for f in F if not f["reject"]]
+    rej = [f for f in F if f["reject"]]
+    nb = len(build)
+    rev = [f for f in build if f["checked"] and f["has_rev"]]
+    rows = [("seeds", str(len(outs))),
+            ("**pass** (built, check() passed, beats the TIN, repeats reverse-fault layers; "
+             "or rejected naming the too-close pair)", _pct(sum(f["ok"] for f in F), len(F))),
+            ("datasets that must build", str(nb)),
+            ("- loaded", _pct(sum(f["loaded"] for f in build), nb)),
+            ("- built", _pct(sum(f["built"] for f in build), nb)),
+            ("- built and `check()` passed", _pct(sum(f["checked"] for f in build), nb)),
+            ("- beats the plain TIN near the faults (mean \\|dz\\|)",
+             _pct(sum(f["beats"] and f["checked"] for f in build), nb)),
+            ("- with reverse-fault bands in the data: repeats them (share_data >= 95 %)",
+             _pct(sum(f["repeats"] for f in rev), len(rev))),
+            ("- all of the above", _pct(sum(f["ok"] for f in build), nb)),
+            ("datasets that must be rejected (two faults of different groups, zones overlapping)", str(len(rej))),
+            ("- rejected with a DatasetError naming both", _pct(sum(f["ok"] for f in rej), len(rej)))]
+    return rows
+
+
+def failure_classes(outs: List[Dict]):
+    cls: Dict[tuple, List[Dict]] = collections.defaultdict(list)
+    for o in outs:
+        if o.get("ok"):
+            continue
+        key = (o.get("stage") or "?", o.get("error_type") or "", o.get("pattern") or "")
+        cls[key].append(o)
+    return sorted(cls.items(), key=lambda kv: (-len(kv[1]), kv[0]))
+
+
+def split_rows(outs: List[Dict]) -> Dict[str, List[tuple]]:
+    from faultmesh.grounds import KINDS
+    by: Dict[str, Dict[str, List[Dict]]] = {k: collections.defaultdict(list) for k in KINDS}
+    for o in outs:
+        for cat, vals in (o.get("tags") or {}).items():
+            for v in vals:
+                if cat in by:
+                    by[cat][v].append(o)
+    out = {}
+    for cat, values in KINDS.items():
+        rows = []
+        for v in values:
+            os_ = by[cat].get(v, [])
+            F = [_flags(o) for o in os_]
+            b = [f for f in F if not f["reject"]]
+            rev = [f for f in b if f["checked"] and f["has_rev"]]
+            rows.append((v, len(os_), _pct(sum(f["ok"] for f in F), len(F)),
+                         _pct(sum(f["built"] for f in b), len(b)), _pct(sum(f["checked"] for f in b), len(b)),
+                         _pct(sum(f["beats"] and f["checked"] for f in b), len(b)),
+                         _pct(sum(f["repeats"] for f in rev), len(rev))))
+        out[cat] = rows
+    return out
+
+
+def render(outs: List[Dict], args, elapsed: float) -> str:
+    L = table_header("Random grounds: how often faultmesh holds", "sweep.py",
+                     machine(numpy=True, faultmesh=True))
+    seeds = [o["seed"] for o in outs]
+    L += [f"Seeds: {min(seeds)}-{max(seeds)} ({len(seeds)}), {args.jobs} processes, "
+          f"time limit {args.timeout:.0f} s and {args.memory_gb:g} GiB per seed; "
+          f"wall time {elapsed / 60.0:.1f} min.  ", ""]
+    L += ["Each seed is a ground truth drawn by `faultmesh.grounds.random_ground(seed)` (study area, layers, "
+          "faults, sections, boreholes, survey rounding), written with `Dataset.save` and read back with "
+          "`load_dataset`, built with `build_model` (default options), checked with `Model.check()`, then "
+          "measured: mean \\|dz\\| near the faults against the truth, stitched model vs the plain "
+          "continuous TIN (`metadata[\"accuracy\"]`), and per reverse fault and layer the share of the "
+          "truth's repetition band where the model's layer folds (footwall, strip, hanging wall): "
+          "`share_data` over the band the data give (between consecutive traces, inside the "
+          "quadrilateral of their cutoffs; threshold 95 %) and `share` over the whole truth band "
+          "(reported only). `python -c \"import faultmesh.grounds as g; print(g.evaluate_ground(SEED))\"` "
+          "reruns one seed.", ""]
+    L += ["| | seeds |", "|---|---:|"] + [f"| {a} | {b} |" for a, b in summary_rows(outs)] + [""]
+    gen = [o["seconds"]["generate"] for o in outs if (o.get("seconds") or {}).get("generate") is not None]
+    bld = [o["seconds"]["build"] for o in outs if (o.get("seconds") or {}).get("build") is not None]
+    cov_t = [o["coverage_truth_min"] for o in outs if o.get("coverage_truth_min") is not None]
+    cov_d = [o["coverage_min"] for o in outs if o.get("coverage_min") is not None]
+    L += [f"Median build time (`build_model`, with its evaluation): "
+          f"{statistics.median(bld):.2f} s (max {max(bld):.1f} s, {len(bld)} builds); median generation "
+          f"time {statistics.median(gen):.2f} s (max {max(gen):.1f} s)." if bld and gen else "", ""]
+    if cov_d:
+        L += [f"Repetition of reverse-fault layers, smallest share per seed (seeds with a band): "
+              f"`share_data` median {100 * statistics.median(cov_d):.0f} %, "
+              f"`share` (whole truth band) median {100 * statistics.median(cov_t):.0f} %.", ""]
+    L += ["### Failure classes", "",
+          "Stage: where the seed stopped (`load`, `build:<step>` with the step `build_model` was in, "
+          "`check`: the invariant named, `accuracy`, `repetition`, `not rejected`, `timeout`, `crash`). "
+          "Pattern: the message with names ('S') and numbers (N) replaced.", "",
+          "| # | stage | exception | pattern | seeds | examples |", "|---:|---|---|---|---:|---|"]
+    for i, ((stage, et, pat), os_) in enumerate(failure_classes(outs), 1):
+        ex = "<br>".join(f"{o.get('describe') or ('seed %d' % o['seed'])}"
+                         + (f" -- {o['error'][:160]}" if o.get("error") else "") for o in os_[:3])
+        pat_md = pat.replace("|", "\\|")
+        ex = ex.replace("|", "\\|")
+        L.append(f"| {i} | {stage} | {et} | {pat_md} | {len(os_)} | {ex} |")
+    L += ["", "### By kind", "",
+          "A seed counts under every value it has (one per fault or fault end). built / check / beats: "
+          "of the seeds of that kind that must build; repeats: of those that passed `check()` and have "
+          "reverse-fault bands in their data.", ""]
+    titles = {"coords": "coordinates", "area": "study area", "n_faults": "number of faults",
+              "pair": "fault pair", "fault": "fault kind (gentle_reverse: reverse, dip <= 45 deg)",
+              "extent": "fault extent", "boundary_end": "fault end on the boundary (on_boundary: end trace "
+              "on the boundary side; extended: the builder extends the last trace)",
+              "sections": "sections", "trace_format": "trace points written as"}
+    for cat, rows in split_rows(outs).items():
+        L += [f"**{titles.get(cat, cat)}**", "",
+              "| kind | seeds | pass | built | check | beats TIN | repeats |",
+              "|---|---:|---:|---:|---:|---:|---:|"]
+        L += [f"| {v} | {n} | {a} | {b} | {c} | {d} | {e} |" for v, n, a, b, c, d, e in rows]
+        L.append("")
+    return "\n".join(L).rstrip() + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--seeds", type=int, default=500, help="number of seeds (default 500)")
+    ap.add_argument("--start", type=int, default=0, help="first seed (default 0)")
+    ap.add_argument("--jobs", type=int, default=2, help="processes at once (default 2)")
+    ap.add_argument("--timeout", type=float, default=300.0, help="seconds per seed (default 300)")
+    ap.add_argument("--memory-gb", type=float, default=3.0, help="address-space limit per seed (GiB)")
+    ap.add_argument("--quick", action="store_true", help="8 seeds; results under bench/results/quick/")
+    ap.add_argument("--out", type=Path, default=None, help="folder for sweep.md / sweep.json")
+    ap.add_argument("--no-write", action="store_true", help="print the table only")
+    args = ap.parse_args(argv)
+    if args.quick:
+        args.seeds = min(args.seeds, 8)
+    if args.seeds < 1 or args.jobs < 1 or args.timeout <= 0:
+        ap.error("--seeds, --jobs and --timeout must be positive")
+    out_dir = args.out or (QUICK_OUT if args.quick else ROOT / "docs" / "bench")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    seeds = list(range(args.start, args.start + args.seeds))
+    t0 = time.perf_counter()
+    outs = run_seeds(seeds, args.jobs, args.timeout, args.memory_gb,
+                     jsonl=None if args.no_write else out_dir / "sweep.jsonl")
+    elapsed = time.perf_counter() - t0
+    text = render(outs, args, elapsed)
+    print(text)
+    if not args.no_write:
+        (out_dir / "sweep.md").write_text(text)
+        slim = []
+        for o in outs:
+            o = {k: v for k, v in o.items() if k != "traceback"}
+            slim.append(o)
+        doc = {"command": command_line("sweep.py"), "date": today(), "machine": machine(numpy=True),
+               "seeds": slim}
+        (out_dir / "sweep.json").write_text(json.dumps(doc, default=float, separators=(",", ":")) + "\n")
+        try:
+            (out_dir / "sweep.jsonl").unlink()
+        except OSError:
+            pass
+        print(f"wrote {out_dir / 'sweep.md'} and sweep.json", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

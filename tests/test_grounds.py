@@ -1,0 +1,267 @@
+"""Random grounds (faultmesh.grounds): the generator's own properties, its
+measures, a fixed set of seeds covering every kind of ground, and the four
+datasets of the robustness issue (tests/data/repro/)."""
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import faultmesh as fm
+from faultmesh import grounds as gr
+from faultmesh.dataset import DatasetError, points_in_polygon
+
+DATA = Path(__file__).resolve().parent / "data" / "repro"
+
+
+@pytest.fixture(scope="module")
+def made(tmp_path_factory):
+    """Grounds written once per module: seed -> (spec, geology, json path)."""
+    cache = {}
+
+    def get(seed, **ov):
+        key = (seed, tuple(sorted(ov.items())))
+        if key not in cache:
+            d = tmp_path_factory.mktemp(f"ground{seed}")
+            cache[key] = gr.make_ground(seed, d, **ov)
+        return cache[key]
+
+    return get
+
+
+def load(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the generator writes no unknown keys
+        return fm.load_dataset(path)
+
+
+# ---------------------------------------------------------------------------
+# the generator
+# ---------------------------------------------------------------------------
+def test_plan_draws_every_kind():
+    """Over 300 seeds, every value of every category is drawn (the plan is
+    what the seed fixes first; the geometry is drawn after it)."""
+    seen = {k: set() for k in gr.KINDS}
+    for seed in range(300):
+        p = gr.draw_plan(np.random.default_rng(seed))
+        seen["coords"].add(p["coords"])
+        seen["area"].add(p["area"])
+        seen["n_faults"].add(str(p["n_faults"]))
+        seen["pair"].add(p["pair"])
+        seen["sections"].add(p["sections"])
+        seen["trace_format"].add(p["trace_format"])
+        for k, d, e, b in zip(p["kinds"], p["dips"], p["extents"], p["boundary_ends"]):
+            seen["fault"].add(k)
+            if k == "reverse" and d <= 45.0:
+                seen["fault"].add("gentle_reverse")
+            seen["extent"].add(e)
+            seen["boundary_end"].add(b)
+        assert 1500.0 <= p["size"] <= 6000.0
+        assert all(30.0 <= d <= 85.0 for d in p["dips"])
+    for k, values in gr.KINDS.items():
+        assert seen[k] == set(values), k
+
+
+def test_overrides_are_checked():
+    with pytest.raises(ValueError, match="unknown override"):
+        gr.draw_plan(np.random.default_rng(0), colour="red")
+    with pytest.raises(ValueError, match="pair 'T' needs n_faults >= 2"):
+        gr.draw_plan(np.random.default_rng(0), n_faults=1, pair="T")
+    with pytest.raises(ValueError, match="dips must be in"):
+        gr.draw_plan(np.random.default_rng(0), n_faults=1, dips=[20.0])
+    p = gr.draw_plan(np.random.default_rng(0), area="U", coords="utm", n_faults=2, pair="X")
+    assert (p["area"], p["coords"], p["n_faults"], p["pair"]) == ("U", "utm", 2, "X")
+
+
+def test_deterministic_per_seed(tmp_path):
+    a = gr.make_ground(11, tmp_path / "a")
+    b = gr.make_ground(11, tmp_path / "b")
+    for name in ("dataset.json", "boreholes.csv", "spec.json"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes(), name
+    assert a[0] == b[0]
+    c = gr.make_ground(12, tmp_path / "c")
+    assert (tmp_path / "c" / "dataset.json").read_bytes() != (tmp_path / "a" / "dataset.json").read_bytes()
+    assert c[0].seed == 12
+
+
+@pytest.mark.parametrize("seed", [1, 3])
+def test_round_trip_through_save_and_load(made, tmp_path, seed):
+    spec, geo, path = made(seed)
+    ds = load(path)
+    assert ds.name == f"ground-{seed}" and ds.layers == spec.layers
+    assert [f.name for f in ds.faults] == [f["name"] for f in spec.faults]
+    back = load(ds.save(tmp_path / "again"))
+    assert back == ds
+    assert gr.GroundSpec.from_dict(json.loads((path.parent / "spec.json").read_text())) == spec
+
+
+def _tolerances(spec):
+    """Rounding of what was written: (z of boreholes, trace xy / z)."""
+    r = spec.rounding
+    return 0.5 * 10.0 ** -r["z"], 0.5 * 10.0 ** -r["traces"]
+
+
+# Seeds whose grounds have reverse faults with boreholes in their bands,
+# normal faults, an sz trace format, UTM and local coordinates, T and X
+# pairs (checked below that they do).
+TRUTH_SEEDS = [1, 3, 5, 8]
+
+
+@pytest.mark.parametrize("seed", TRUTH_SEEDS)
+def test_truth_is_what_the_data_say(made, seed):
+    spec, geo, path = made(seed)
+    ds = load(path)
+    zt, tt = _tolerances(spec)
+    b = ds.boreholes
+    # Every borehole top is a sheet of the truth at the (written) collar, and
+    # every hole lists every sheet of every layer down to where it stops.
+    for lay in ds.layers:
+        sel = b.layer == lay
+        S = geo.sheets(lay, b.xy[sel, 0], b.xy[sel, 1])
+        assert np.all(np.nanmin(np.abs(S - b.z[sel][:, None]), axis=1) <= zt * (1 + 1e-9)), lay
+    holes, first, hi = np.unique(b.hole_id, return_index=True, return_inverse=True)
+    li = np.array([ds.layers.index(l) for l in b.layer])
+    deepest = np.full(len(holes), -1)
+    np.maximum.at(deepest, hi, li)
+    for k, lay in enumerate(ds.layers):
+        n_truth = geo.n_sheets(lay, b.xy[first, 0], b.xy[first, 1])
+        n_rows = np.bincount(hi[li == k], minlength=len(holes))
+        reach = deepest >= k
+        np.testing.assert_array_equal(n_rows[reach], n_truth[reach], err_msg=lay)
+    for k in range(len(holes)):
+        assert np.all(np.diff(b.z[hi == k]) <= 0), holes[k]  # top down
+    # Traces: cutoffs on the truth's fault surface, polylines on the truth's
+    # sides, plane points on the surface, all up to the written rounding
+    # (a horizontal rounding of tt moves a point up to tan(dip) * tt * sqrt 2
+    # across a surface; layers dip far less than the faults).
+    for f in ds.faults:
+        fmod = geo.fault(f.name)
+        tol = tt * (1.0 + math.sqrt(2.0) * fmod.tan_dip) + 1e-9
+        assert f.kind == fmod.kind and f.group == fmod.group
+        for t in f.traces:
+            pz = geo.plane_z(f.name, t.plane[:, 0], t.plane[:, 1])
+            assert np.all(np.abs(pz - t.plane[:, 2]) <= tol), (f.name, t.section)
+            for lay, sides in t.layers.items():
+                for side, arr in sides.items():
+                    cut = arr[-1] if side == "foot" else arr[0]
+                    assert abs(geo.plane_z(f.name, cut[0], cut[1]) - cut[2]) <= tol
+                    rest = arr[:-1] if side == "foot" else arr[1:]
+                    zs = geo.side_value(lay, f.name, side, rest[:, 0], rest[:, 1])
+                    assert np.all(np.abs(zs - rest[:, 2]) <= tt * 3.0 + 1e-9), (f.name, lay, side)
+                throw = sides["hanging"][0, 2] - sides["foot"][-1, 2]
+                assert (throw > 0) if f.kind == "reverse" else (throw < 0)
+            assert np.all(points_in_polygon(t.plane[:, :2], ds.boundary)) or \
+                any(e == "on_boundary" for e in spec.faults[[g["name"] for g in spec.faults].index(f.name)]["ends"])
+        # Tips: where the cutoff of the fault's top displaced layer meets the
+        # fault at the end of the taper.
+        top = next(l for l in geo.layers if fmod.layers.get(l, 0) > 0)
+        for q in f.tips:
+            d = geo.unfaulted(top, q[0], q[1]) - geo.plane_z(f.name, q[0], q[1])
+            assert abs(d) <= tol, (f.name, q)
+
+
+def test_truth_seeds_cover_what_they_should(made):
+    tags = {}
+    for s in TRUTH_SEEDS:
+        spec, geo, path = made(s)
+        for k, v in spec.tags().items():
+            tags.setdefault(k, set()).update(v)
+        ds = load(path)
+        if spec.n_band_holes:
+            b = ds.boreholes
+            ids, layers = b.hole_id, b.layer
+            assert any(np.sum((ids == h) & (layers == l)) == 2 for h in np.unique(ids) for l in ds.layers)
+    assert {"normal", "reverse", "gentle_reverse"} <= tags["fault"]
+    assert {"local", "utm"} <= tags["coords"]
+    assert {"T", "X"} <= tags["pair"]
+    assert "sz" in tags["trace_format"]
+
+
+def test_too_close_pairs_really_overlap(made):
+    spec, geo, path = made(2, n_faults=2, pair="too_close")
+    assert spec.expect == "reject" and spec.pair["relation"] == "too_close"
+    a, b = spec.pair["faults"]
+    assert geo.fault(a).group is None and geo.fault(b).group is None
+    lo, hi = geo.origin - 2000.0, geo.origin + 8000.0
+    X, Y = np.meshgrid(np.linspace(lo[0], hi[0], 200), np.linspace(lo[1], hi[1], 200))
+    with pytest.raises(ValueError, match=f"'{a}' and '{b}' overlap"):
+        geo.check_disjoint(X, Y)
+
+
+def test_T_and_X_pairs_are_groups(made):
+    spec, geo, _ = made(4, n_faults=2, pair="T")
+    a, b = spec.pair["faults"]
+    assert geo.fault(b).abuts[0] == a and geo.fault(a).group == geo.fault(b).group is not None
+    spec, geo, _ = made(4, n_faults=2, pair="X")
+    a, b = spec.pair["faults"]
+    assert geo.fault(b).abuts is None and geo.fault(a).group == geo.fault(b).group is not None
+
+
+# ---------------------------------------------------------------------------
+# measures
+# ---------------------------------------------------------------------------
+def test_folded_counts_points_under_clockwise_triangles():
+    # A strip folding back: footwall (ccw), strip (cw), hanging wall (ccw).
+    V = np.array([[0, 0, 0], [10, 0, 0], [10, 10, 0], [0, 10, 0],      # footwall to x = 10
+                  [6, 0, -5], [6, 10, -5],                              # hanging-wall cutoff at x = 6
+                  [16, 0, -5], [16, 10, -5]], dtype=np.float64)
+    T = np.array([[0, 1, 2], [0, 2, 3],            # footwall
+                  [1, 4, 5], [1, 5, 2],            # strip from x = 10 back to x = 6 (clockwise)
+                  [4, 6, 7], [4, 7, 5]])           # hanging wall
+    xy = np.array([[8.0, 5.0], [3.0, 5.0], [12.0, 5.0], [6.0, 5.0], [10.0, 5.0]])
+    np.testing.assert_array_equal(gr._folded(V, T, xy), [True, False, False, True, True])
+
+
+def test_repetition_coverage_sees_a_fold_and_its_absence():
+    """A steep reverse fault with dense sections: the model folds over the
+    band the data give; the continuous TIN (no fault) never does."""
+    ds = fm.datasets.synthetic(7, kind="reverse", n_faults=1, throw=40.0, dip=60.0,
+                               area=(3000.0, 2500.0), n_sections=9)
+    model = fm.build_model(ds)
+    cov = gr.repetition_coverage(model, ds.geology, dataset=ds)
+    for lay, v in cov["F1"].items():
+        assert v["points"] > 100 and v["points_data"] > 50
+        assert 0.0 <= v["share"] <= 1.0
+    plain = fm.Model(name="plain", surfaces={lay: fm.Surface(lay, *fm.build.LayerTin(
+        lay, ds.layer_points(lay), ds.boundary).mesh(), kind="layer") for lay in ds.layers},
+        faults={}, boundary=ds.boundary)
+    cov0 = gr.repetition_coverage(plain, ds.geology, dataset=ds)
+    assert all(v["covered"] == 0 and v["share"] == 0.0 for v in cov0["F1"].values())
+    best = max(v["share_data"] for v in cov["F1"].values())
+    assert best > 0.5
+
+
+def test_normalise_message():
+    m = ("/tmp/x/dataset.json: fault 'F3': trace 12 plane point 4 (3663525.160, -5.2e-10) lies "
+         "outside the study-area boundary (19 point(s) outside)")
+    assert gr.normalise_message(m) == ("PATH: fault 'S': trace N plane point N (N, N) lies outside "
+                                       "the study-area boundary (N point(s) outside)")
+
+
+# ---------------------------------------------------------------------------
+# fixed seeds through the whole pipeline
+# ---------------------------------------------------------------------------
+def run_pipeline(seed, tmp_path):
+    """(outcome of evaluate_ground) for one seed, written under tmp_path."""
+    return gr.evaluate_ground(seed, tmp_path)
+
+
+def assert_holds(out):
+    """Built, check() passed, better than the plain TIN near the faults, and
+    every reverse fault repeats its layers over at least
+    COVERAGE_THRESHOLD (95 %) of the band the data give; or, for a too-close
+    pair, rejected with a DatasetError naming both faults."""
+    what = f"{out['describe']}: {out['stage']} {out.get('error_type') or ''} {(out.get('error') or '')[:300]}"
+    if (out.get("spec") or {}).get("expect") == "reject":
+        assert out["rejected_ok"], what
+        return
+    assert out["built"], what
+    assert out["checked"], what
+    assert out["accuracy"]["beats"], what
+    if out["coverage_min"] is not None:
+        assert out["coverage_min"] >= gr.COVERAGE_THRESHOLD, what
+    assert out["ok"], what
