@@ -266,7 +266,7 @@ def draw_plan(rng: np.random.Generator, **overrides) -> Dict[str, Any]:
     if not 1 <= int(p["n_layers"]) <= 6:
         raise ValueError(f"random_ground: n_layers must be 1..6, got {p['n_layers']}")
     # Room for the faults: a larger area for more (independent) faults.
-    lo = {1: 1500.0, 2: 2200.0, 3: 3000.0, 4: 3800.0}[n]
+    lo = {1: 1500.0, 2: 2200.0, 3: 3200.0, 4: 4200.0}[n]
     if "size" not in overrides:
         p["size"] = lo + size_u * (6000.0 - lo)
     if not 1500.0 <= float(p["size"]) <= 6000.0:
@@ -448,7 +448,7 @@ def _cutoff_d(surf, anchor, sdir, ndir, bend_fn, z_ref, tan_dip, us) -> np.ndarr
     iteration; converges because layer slopes are well below tan(dip))."""
     d = np.zeros_like(us)
     c = bend_fn(us)
-    for _ in range(8):
+    for _ in range(5):
         p = anchor[None, :] + us[:, None] * sdir[None, :] + (c + d)[:, None] * ndir[None, :]
         d = (z_ref - surf(p[:, 0], p[:, 1])) / tan_dip
     return d
@@ -475,7 +475,9 @@ def _make_fault(name: str, kind: str, dip: float, strike: float, anchor: np.ndar
         return bend * ((u - um) / hl) ** 2
 
     lo_u, hi_u = u_eval if u_eval is not None else u_range
-    us = np.linspace(lo_u, hi_u, 60)
+    # 25 samples along strike: the layers' folds are 0.4 x the area or longer
+    # (the 20 m added to flat covers what falls between samples).
+    us = np.linspace(lo_u, hi_u, 25)
     ds = np.concatenate([_cutoff_d(surfaces[l], anchor, sdir, ndir, bend_fn, z_ref, tan_d, us)
                          for l in block])
     fmax = max((factors or {l: 1.0 for l in block}).values())
@@ -530,17 +532,11 @@ def _fast_inside(P: np.ndarray, ring: np.ndarray) -> np.ndarray:
     return (np.sum(cond & (px < xs), axis=1) % 2) == 1
 
 
-def _inside_point(rng: np.random.Generator, ring: np.ndarray, shrink: float = 1.0,
-                  allowed: Optional[np.ndarray] = None) -> np.ndarray:
+def _inside_point(rng: np.random.Generator, ring: np.ndarray, shrink: float = 1.0) -> np.ndarray:
     """A uniform random point of the area shrunk towards its centroid by
-    ``shrink`` (among the ``allowed`` points (k, 2) if given)."""
+    ``shrink``."""
     c = ring.mean(axis=0)
     R = c + shrink * (ring - c)
-    if allowed is not None:
-        ok = allowed[_fast_inside(allowed, R)]
-        if len(ok) == 0:
-            raise _Retry("no free point")
-        return ok[int(rng.integers(0, len(ok)))] + rng.uniform(-1.0, 1.0, 2)
     lo, hi = R.min(axis=0), R.max(axis=0)
     for _ in range(100):
         P = rng.uniform(lo, hi, size=(32, 2))
@@ -569,11 +565,16 @@ class _Placer:
         z = np.array([surfaces[n](*gi) for n in names])
         # Thinnest interval between consecutive layers over the area.
         self.min_thick = [float(np.min(z[i] - z[i + 1])) for i in range(len(names) - 1)]
+        c = ring.mean(axis=0)
+        # Grid points of the area shrunk to 80 % about its centroid (anchors).
+        self.core = _fast_inside(np.column_stack([self.GX.ravel(), self.GY.ravel()]),
+                                 c + 0.8 * (ring - c)).reshape(self.GX.shape)
         self.taken = np.zeros(self.GX.shape, dtype=bool)  # independent faults' footprints
         self.slope = max(surfaces[n].max_slope for n in names)
         self.relax = 0  # raised after failed attempts: narrower zones
         self.attempt = 0
         self.strikes: List[float] = []  # of the faults placed so far
+        self.trend = float(rng.uniform(0.0, 180.0))  # of the region's fault set
 
     def throw_decay(self) -> Tuple[float, float]:
         """A throw (m) and a decay length (m); smaller ones (narrower zones)
@@ -603,24 +604,23 @@ class _Placer:
                 k1 += 1
             else:
                 k2 -= 1
+        # The margin allows for the heave along which the block slides (the
+        # layers' slope times it) plus 10 m; computed with the drawn throw,
+        # which only gets smaller here.
         heave = throw / math.tan(math.radians(dip))
         margin = 10.0 + self.slope * heave
-        while True:
-            if kind == "reverse" and k1 > 0 and self.min_thick[k1 - 1] < throw + margin:
-                t = self.min_thick[k1 - 1] - margin
-                if t >= 6.0:
-                    throw = t
-                else:
-                    k1 -= 1
-                continue
-            if kind == "normal" and k2 < n - 1 and self.min_thick[k2] < throw + margin:
-                t = self.min_thick[k2] - margin
-                if t >= 6.0:
-                    throw = t
-                else:
-                    k2 += 1
-                continue
-            break
+        if kind == "reverse":
+            while k1 > 0 and self.min_thick[k1 - 1] < throw + margin:
+                if self.min_thick[k1 - 1] - margin >= 6.0:
+                    throw = self.min_thick[k1 - 1] - margin
+                    break
+                k1 -= 1  # the layer above moves with the block
+        else:
+            while k2 < n - 1 and self.min_thick[k2] < throw + margin:
+                if self.min_thick[k2] - margin >= 6.0:
+                    throw = self.min_thick[k2] - margin
+                    break
+                k2 += 1  # the layer below moves with the block
         return self.names[k1:k2 + 1], throw
 
     def runs(self, anchor, strike, d_lo, d_hi):
@@ -654,17 +654,27 @@ class _Placer:
         must contain (an X-crossing point at u = 0)."""
         rng = self.rng
         if strike is None:
-            strike = float(rng.uniform(0.0, 360.0))
-            # Faults that span the area cross each other unless they are
-            # about parallel: after failed attempts, draw near an existing
-            # independent fault's strike (either dip direction).
+            # Faults of a region often share a trend (a fault set); most
+            # independent faults strike within 20 degrees of it, either dip
+            # direction. Faults that span the area cross each other unless
+            # they are about parallel: after failed attempts, draw near an
+            # existing fault's strike.
+            if rng.random() < 0.7:
+                strike = (self.trend + float(rng.uniform(-20.0, 20.0)) + float(rng.choice([0.0, 180.0]))) % 360.0
+            else:
+                strike = float(rng.uniform(0.0, 360.0))
             if self.strikes and rng.random() < min(0.9, self.attempt / 40.0):
                 strike = (float(rng.choice(self.strikes)) + float(rng.uniform(-25.0, 25.0))
                           + float(rng.choice([0.0, 180.0]))) % 360.0
         if anchor is None:
-            free = ~_footprint_pad(self.taken)
-            anchor = _inside_point(rng, self.ring, 0.8,
-                                   np.column_stack([self.GX[free], self.GY[free]]) if self.taken.any() else None)
+            if self.taken.any():
+                free = self.core & ~_footprint_pad(self.taken)
+                cand = np.column_stack([self.GX[free], self.GY[free]])
+                if len(cand) == 0:
+                    raise _Retry("no free point")
+                anchor = cand[int(rng.integers(0, len(cand)))] + rng.uniform(-1.0, 1.0, 2)
+            else:
+                anchor = _inside_point(rng, self.ring, 0.8)
         throw, decay = self.throw_decay()
         block, throw = self.block(dip, kind, throw, whole)
         bend = float(rng.uniform(-1.0, 1.0)) * min(60.0, 0.03 * self.size)
@@ -674,8 +684,11 @@ class _Placer:
         r0 = _single_run(anchor, sdir, self.ring)
         if r0 is None:
             raise _Retry("fault line leaves and re-enters the area")
-        _, d_lo, d_hi = _make_fault(name, kind, dip, strike, anchor, (r0[0] - 10.0, r0[1] + 10.0),
-                                    block, self.surfaces, throw, 0.0, decay, ())
+        fm0, d_lo, d_hi = _make_fault(name, kind, dip, strike, anchor, (r0[0] - 10.0, r0[1] + 10.0),
+                                      block, self.surfaces, throw, 0.0, decay, ())
+        if extent == "crossing" and group is None and not self.free(fm0, d_lo, d_hi):
+            # Across the whole area it already meets an independent fault.
+            raise _Retry("meets another fault")
         (A_in, B_in), (A_out, B_out) = self.runs(anchor, strike, d_lo, d_hi)
         m = 100.0
         if extent == "inside":
@@ -1130,6 +1143,7 @@ def _realise(seed: int, plan: Dict[str, Any], rng: np.random.Generator, folder: 
                 sp = (ub - ua) / n_sec
             us = ua + (np.arange(n_sec) + 0.5) * sp
             through = fm.xy(us, fm.bend_offset(us)) + origin
+            through = through[_fast_inside(through, ring_g)]  # a concave area's notch
             az = (fm.strike + 90.0 + float(rng.uniform(-25.0, 25.0))) % 360.0
             fam = _line_sections(f"{fm.name}-", az, through, ring_g, rng)
             secs_of[fm.name] = fam
@@ -1156,6 +1170,12 @@ def _realise(seed: int, plan: Dict[str, Any], rng: np.random.Generator, folder: 
         fm = p.model
         own = list(secs_of[fm.name]) + [edge[(fm.name, e)] for e in (0, 1) if (fm.name, e) in edge]
         traces = _fault_traces(geo, fm, own, ring_g, rng, far=far, npts=npts, inside=inside)
+        # Near the other fault of a pair both move the layers, and the offset
+        # seen across this fault on a section can take the other fault's
+        # sense; nobody would draw that trace as this fault's: leave it out.
+        sense = 1.0 if fm.kind == "reverse" else -1.0
+        traces = [t for t in traces
+                  if all(sense * (sd["hanging"][0, 2] - sd["foot"][-1, 2]) > 0 for sd in t.layers.values())]
         for e in (0, 1):
             s = edge.get((fm.name, e))
             if s is None:
