@@ -14,7 +14,8 @@ never stops the sweep; --jobs processes run at once (default 2).
 
 Writes docs/bench/sweep.md (the table: shares, failure classes with counts and
 three example seeds each, the same shares split by kind, median times) and
-docs/bench/sweep.json (every seed's spec and outcome). --quick: 8 seeds, the
+docs/bench/sweep.json (every seed's spec and outcome). --render JSON renders
+the table again from a sweep.json without running anything. --quick: 8 seeds, the
 table to stdout and bench/results/quick/sweep.{md,json}; --no-write: stdout
 only. Progress (one line per seed) goes to stderr; the per-seed outcomes are
 also appended to <out>/sweep.jsonl as they come, so an interrupted sweep
@@ -27,26 +28,31 @@ import collections
 import json
 import multiprocessing as mp
 import os
+import re
 import statistics
 import sys
 import time
 from pathlib import Path
 from typing import Any, Dict, List
 
-from _common import ROOT, command_line, machine, table_header, today, use_dev_build
+from _common import ROOT, command_line, machine, today, use_dev_build
 
 use_dev_build()
 
 QUICK_OUT = ROOT / "bench" / "results" / "quick"
 
 
-def _child(seed: int, conn, mem_gb: float) -> None:
+def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float) -> None:
     try:
         import resource
         lim = int(mem_gb * 2 ** 30)
         resource.setrlimit(resource.RLIMIT_AS, (lim, lim))
     except (ImportError, ValueError, OSError):  # pragma: no cover - not on Linux
         pass
+    # Where a seed hangs: the stack shortly before the parent kills it.
+    import faulthandler
+    tb_file = open(tb_path, "w")
+    faulthandler.dump_traceback_later(tb_after, exit=False, file=tb_file)
     import warnings
     warnings.simplefilter("ignore")
     from faultmesh.grounds import evaluate_ground
@@ -61,7 +67,9 @@ def _child(seed: int, conn, mem_gb: float) -> None:
 
 def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl: Path = None) -> List[Dict]:
     """Outcomes of the seeds, each in its own forked process."""
+    import tempfile
     ctx = mp.get_context("fork")
+    tb_dir = tempfile.mkdtemp(prefix="sweep-tb-")
     pending = list(seeds)
     running: Dict[int, tuple] = {}
     results: Dict[int, Dict] = {}
@@ -72,7 +80,8 @@ def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl:
             while pending and len(running) < jobs:
                 s = pending.pop(0)
                 r, w = ctx.Pipe(duplex=False)
-                p = ctx.Process(target=_child, args=(s, w, mem_gb), daemon=True)
+                tb = os.path.join(tb_dir, f"seed{s}.txt")
+                p = ctx.Process(target=_child, args=(s, w, mem_gb, tb, 0.95 * timeout), daemon=True)
                 p.start()
                 w.close()
                 running[s] = (p, r, time.perf_counter())
@@ -95,8 +104,10 @@ def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl:
                 elif time.perf_counter() - t0 > timeout:
                     p.kill()
                     p.join()
+                    where = _hang_site(os.path.join(tb_dir, f"seed{s}.txt"))
                     out = {"seed": s, "ok": False, "stage": "timeout", "error_type": "",
-                           "error": f"no result after {timeout:.0f} s", "pattern": f"no result after {timeout:.0f} s"}
+                           "error": f"no result after {timeout:.0f} s; stack: {where}",
+                           "pattern": f"no result after {timeout:.0f} s, in {where.split(' <- ')[0]}"}
                 else:
                     continue
                 if out is None:
@@ -119,6 +130,21 @@ def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl:
         if fh:
             fh.close()
     return [results[s] for s in seeds]
+
+
+def _hang_site(path: str) -> str:
+    """The innermost faultmesh frames of a faulthandler dump: "func
+    (file:line) <- caller (file:line) <- ..." (up to 4)."""
+    try:
+        lines = open(path).read().splitlines()
+    except OSError:
+        return "?"
+    frames = []
+    for ln in lines:
+        m = re.match(r'\s*File "([^"]+)", line (\d+) in (\S+)', ln)
+        if m and "faultmesh" in m.group(1) and not m.group(3).startswith("<"):
+            frames.append(f"{m.group(3)} ({os.path.basename(m.group(1))}:{m.group(2)})")
+    return " <- ".join(frames[:6]) if frames else "?"
 
 
 # ----------------------------------------------------------------- the table
@@ -196,13 +222,58 @@ def split_rows(outs: List[Dict]) -> Dict[str, List[tuple]]:
     return out
 
 
-def render(outs: List[Dict], args, elapsed: float) -> str:
-    L = table_header("Random grounds: how often faultmesh holds", "sweep.py",
-                     machine(numpy=True, faultmesh=True))
+def renormalise(outs: List[Dict]) -> None:
+    """Recompute the message patterns from the stored messages (a table
+    rendered again from sweep.json uses the current normalisation)."""
+    from faultmesh.grounds import normalise_message
+    for o in outs:
+        if o.get("error_type") and o.get("error") and o.get("stage") not in ("timeout", "crash"):
+            o["pattern"] = normalise_message(o["error"])
+        if str(o.get("stage")).endswith("timeout") and "stack: " in (o.get("error") or ""):
+            # One hang, wherever in its loop the stack was caught: named by
+            # the step of build_model it is in (the frame below build_model).
+            frames = [re.sub(r" \((\S+?):\d+\)", r" (\1)", f)
+                      for f in o["error"].split("stack: ", 1)[1].split(" <- ") if not f.startswith("<")]
+            names = [f.split(" ")[0] for f in frames]
+            k = names.index("build_model") - 1 if "build_model" in names else len(frames) - 1
+            o["pattern"] = o["pattern"].split(", in ")[0] + f", in {frames[max(k, 0)]}"
+
+
+def fill_specs(outs: List[Dict]) -> None:
+    """Seeds that ended without an outcome (timeout, crash) get their spec by
+    drawing the ground again (deterministic per seed)."""
+    import tempfile
+    import warnings
+    from faultmesh.grounds import make_ground
+    for o in outs:
+        if o.get("spec"):
+            continue
+        with tempfile.TemporaryDirectory() as d, warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                spec, _, _ = make_ground(o["seed"], d)
+            except Exception:  # pragma: no cover - the generator failed in the child too
+                continue
+        o["spec"], o["describe"], o["tags"] = spec.to_dict(), spec.describe(), spec.tags()
+
+
+def mark_rejects(outs: List[Dict]) -> None:
+    """A seed that had to be rejected (a too-close pair) and was not gets its
+    stage prefixed with "must reject:" (e.g. a GeometryError at the stitching
+    step names the pair, but it is not the DatasetError before any work)."""
+    for o in outs:
+        if (o.get("spec") or {}).get("expect") == "reject" and not o.get("ok") and \
+                not str(o.get("stage", "")).startswith("must reject"):
+            o["stage"] = f"must reject: {o.get('stage')}"
+
+
+def render(outs: List[Dict], meta: Dict[str, Any]) -> str:
+    L = [f"## Random grounds: how often faultmesh holds", "", f"Command: `{meta['command']}`  ",
+         f"Date: {meta['date']}  ", f"Machine: {meta['machine']}  "]
     seeds = [o["seed"] for o in outs]
-    L += [f"Seeds: {min(seeds)}-{max(seeds)} ({len(seeds)}), {args.jobs} processes, "
-          f"time limit {args.timeout:.0f} s and {args.memory_gb:g} GiB per seed; "
-          f"wall time {elapsed / 60.0:.1f} min.  ", ""]
+    L += [f"Seeds: {min(seeds)}-{max(seeds)} ({len(seeds)}), {meta['jobs']} processes, "
+          f"time limit {meta['timeout']:.0f} s and {meta['memory_gb']:g} GiB per seed; "
+          f"wall time {meta['elapsed'] / 60.0:.1f} min.  ", ""]
     L += ["Each seed is a ground truth drawn by `faultmesh.grounds.random_ground(seed)` (study area, layers, "
           "faults, sections, boreholes, survey rounding), written with `Dataset.save` and read back with "
           "`load_dataset`, built with `build_model` (default options), checked with `Model.check()`, then "
@@ -264,7 +335,22 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="8 seeds; results under bench/results/quick/")
     ap.add_argument("--out", type=Path, default=None, help="folder for sweep.md / sweep.json")
     ap.add_argument("--no-write", action="store_true", help="print the table only")
+    ap.add_argument("--render", type=Path, default=None, metavar="JSON",
+                    help="no sweep: render the table again from a sweep.json (into --out or its folder)")
     args = ap.parse_args(argv)
+    if args.render is not None:
+        doc = json.loads(args.render.read_text())
+        outs = doc["seeds"]
+        renormalise(outs)
+        fill_specs(outs)
+        mark_rejects(outs)
+        text = render(outs, doc["meta"])
+        print(text)
+        if not args.no_write:
+            out = (args.out or args.render.parent) / "sweep.md"
+            out.write_text(text)
+            print(f"wrote {out}", file=sys.stderr)
+        return 0
     if args.quick:
         args.seeds = min(args.seeds, 8)
     if args.seeds < 1 or args.jobs < 1 or args.timeout <= 0:
@@ -276,7 +362,12 @@ def main(argv=None) -> int:
     outs = run_seeds(seeds, args.jobs, args.timeout, args.memory_gb,
                      jsonl=None if args.no_write else out_dir / "sweep.jsonl")
     elapsed = time.perf_counter() - t0
-    text = render(outs, args, elapsed)
+    fill_specs(outs)
+    mark_rejects(outs)
+    meta = {"command": command_line("sweep.py"), "date": today(),
+            "machine": machine(numpy=True, faultmesh=True), "jobs": args.jobs, "timeout": args.timeout,
+            "memory_gb": args.memory_gb, "elapsed": elapsed}
+    text = render(outs, meta)
     print(text)
     if not args.no_write:
         (out_dir / "sweep.md").write_text(text)
@@ -284,8 +375,7 @@ def main(argv=None) -> int:
         for o in outs:
             o = {k: v for k, v in o.items() if k != "traceback"}
             slim.append(o)
-        doc = {"command": command_line("sweep.py"), "date": today(), "machine": machine(numpy=True),
-               "seeds": slim}
+        doc = {"meta": meta, "seeds": slim}
         (out_dir / "sweep.json").write_text(json.dumps(doc, default=float, separators=(",", ":")) + "\n")
         try:
             (out_dir / "sweep.jsonl").unlink()

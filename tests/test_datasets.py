@@ -502,3 +502,46 @@ def test_smooth_field_slope_bound_holds():
     g = np.hypot(gx, gy)
     assert g.max() <= f.max_slope
     assert g.max() > 0.5 * f.max_slope  # and not absurdly loose
+
+
+@pytest.mark.parametrize("fail_foot, fail_hang", [((), ()), ((0,), ()), ((2, 3, 7), (1, 4)),
+                                                  ((9,), (9,)), (tuple(range(10)), ())])
+def test_far_polyline_draws_follow_the_section_loop(monkeypatch, fail_foot, fail_hang):
+    """_draw_far_polylines batches the polylines of all sections and layers
+    but must consume random numbers as the old loop did: per item (section,
+    layer) the footwall's draws, then -- only if the footwall polyline could
+    be built -- the hanging wall's. Polylines faked: a footwall of an item in
+    fail_foot (a hanging wall in fail_hang) cannot be built; otherwise the
+    polyline records its draws."""
+    from faultmesh import datasets as D
+
+    def fake(geo, fm_, kept, items, draws, sgn_fw, to_xy, inside):
+        out = []
+        for (j, _, _, _), (df, dh) in zip(items, draws):
+            foot = None if j in fail_foot else np.array([[df[0], df[1], 0.0]])
+            hang = None if (j in fail_hang or dh is None) else np.array([[dh[0], dh[1], 0.0]])
+            out.append([foot, hang])
+        return out
+
+    monkeypatch.setattr(D, "_far_polylines", fake)
+    items = [(j, "L", 0.0, 0.0) for j in range(10)]
+    far, npts = (60.0, 100.0), (4, 6)
+    rng = np.random.default_rng(42)
+    got = D._draw_far_polylines(None, None, None, items, None, None, None, rng, far, npts, True)
+    # The loop, one item after the other.
+    ref_rng = np.random.default_rng(42)
+    want = []
+    for j in range(10):
+        df = (float(ref_rng.uniform(*far)), int(ref_rng.integers(*npts)))
+        if j in fail_foot:
+            want.append((None, None))
+            continue
+        dh = (float(ref_rng.uniform(*far)), int(ref_rng.integers(*npts)))
+        want.append((df, None if j in fail_hang else dh))
+    for (foot, hang), (wf, wh) in zip(got, want):
+        assert (foot is None) == (wf is None) and (hang is None) == (wh is None)
+        if wf is not None:
+            assert (foot[0, 0], int(foot[0, 1])) == wf
+        if wh is not None:
+            assert (hang[0, 0], int(hang[0, 1])) == wh
+    assert rng.random() == ref_rng.random()  # the same numbers left for what follows

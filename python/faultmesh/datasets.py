@@ -9,6 +9,11 @@
   ``faultmesh/data/paper_like/`` (:func:`paper_like_path`).
 * :func:`synthetic` — random but valid datasets with other strikes, dips,
   throws, layer counts and study areas, for workflow tests.
+* :func:`random_ground` (implemented in :mod:`faultmesh.grounds`) — grounds
+  the code was not written for: random study-area shapes, coordinates,
+  layer stacks, one to four faults of every kind and extent, T/X-crossing
+  and too-close pairs, survey rounding; written and read back through the
+  loader; ``dataset.spec`` says what was drawn.
 
 Every generated :class:`~faultmesh.Dataset` carries ``truth(layer, x, y)`` and
 ``geology`` (a :class:`faultmesh.geology.Geology`; see there what the truth
@@ -28,7 +33,7 @@ Regenerate the shipped files with ``python -m faultmesh.datasets``.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -169,13 +174,14 @@ def _line_extent(origin: np.ndarray, direction: np.ndarray, ring: np.ndarray) ->
 def _fault_traces(geo: Geology, fm: FaultModel, sections: Sequence[Section], ring: np.ndarray,
                   rng: np.random.Generator, zero_throw_ok: bool = False,
                   far: Tuple[float, float] = (60.0, 100.0), npts: Tuple[int, int] = (4, 6),
-                  inside=None) -> List[Trace]:
+                  inside=None, legacy_draws: bool = True, cut_step: float = 2.0) -> List[Trace]:
     """Traces of fault ``fm`` on every section that crosses it with throw.
 
     Per section: where the section crosses the fault's reference trace (its
     along-strike position must lie within the fault and carry at least
     ``MIN_TRACE_THROW`` of throw), per displaced layer the footwall and the
-    hanging-wall cutoff (roots of side value minus fault surface within 500 m),
+    hanging-wall cutoff (roots of side value minus fault surface within 500 m,
+    bracketed on a ``cut_step`` metre scan),
     a polyline on each side from the cutoff to a far end ``far`` metres away
     (``rng.uniform(*far)``, ``rng.integers(*npts)`` points; shortened by 0.7
     up to 7 times until every point has a value and lies inside), and the
@@ -183,10 +189,12 @@ def _fault_traces(geo: Geology, fm: FaultModel, sections: Sequence[Section], rin
     "inside" (default: the exact test on ``ring``).
 
     All roots and all evaluations of the truth are batched over the sections
-    (and over the layers' polylines); the random draws happen in the order of
-    a section-by-section loop (section, layer, foot then hanging wall; a
-    layer whose footwall polyline fails draws nothing for its hanging wall),
-    so a given ``rng`` state gives the same traces as that loop."""
+    (and over the layers' polylines). With ``legacy_draws`` the random draws
+    happen in the order of a section-by-section loop (section, layer, foot
+    then hanging wall; a layer whose footwall polyline fails draws nothing
+    for its hanging wall), so a given ``rng`` state gives the same traces as
+    that loop (synthetic, paper_like); without, every layer draws for both
+    sides and one batch suffices (random_ground)."""
     if inside is None:
         def inside(xy):
             return points_in_polygon(xy, ring)
@@ -240,7 +248,7 @@ def _fault_traces(geo: Geology, fm: FaultModel, sections: Sequence[Section], rin
         for side in ("foot", "hanging"):
             def g(xy, lay=lay, side=side):
                 return geo.side_value(lay, fm.name, side, xy[:, 0], xy[:, 1]) - plane_at(xy)
-            r.append(_roots_near(g, O[K], D[K], SC, LO, HI, step=2.0))
+            r.append(_roots_near(g, O[K], D[K], SC, LO, HI, step=cut_step))
         cuts[lay] = (r[0], r[1])
 
     # Far-end polylines: the draws in loop order, the evaluations batched.
@@ -255,20 +263,7 @@ def _fault_traces(geo: Geology, fm: FaultModel, sections: Sequence[Section], rin
             items.append((j, lay, float(s_f), float(s_h)))
     sgn_fw = {j: (-1.0 if float(np.dot(D[k], fm.ndir)) > 0 else 1.0)
               for j, (k, _, _, _) in enumerate(kept)}
-    state = rng.bit_generator.state
-    skip: set = set()
-    while True:
-        rng.bit_generator.state = state
-        draws = []  # per item: [(dist, n) foot, (dist, n) hanging or None]
-        for i in range(len(items)):
-            d = [(float(rng.uniform(*far)), int(rng.integers(*npts)))]
-            d.append(None if i in skip else (float(rng.uniform(*far)), int(rng.integers(*npts))))
-            draws.append(d)
-        polys = _far_polylines(geo, fm, kept, items, draws, sgn_fw, to_xy, inside)
-        fail = [i for i in range(len(items)) if polys[i][0] is None and i not in skip]
-        if not fail:
-            break
-        skip.add(fail[0])  # it drew nothing for its hanging wall: redraw after it
+    polys = _draw_far_polylines(geo, fm, kept, items, sgn_fw, to_xy, inside, rng, far, npts, legacy_draws)
 
     layers_of: Dict[int, Dict[str, Dict[str, np.ndarray]]] = {j: {} for j in range(len(kept))}
     cutz_of: Dict[int, List[float]] = {j: [] for j in range(len(kept))}
@@ -339,6 +334,43 @@ def _fault_traces(geo: Geology, fm: FaultModel, sections: Sequence[Section], rin
         out.append((u_c, Trace(secs[k].name, plane, layers_of[j])))
     out.sort(key=lambda t: t[0])
     return [t for _, t in out]
+
+
+def _draw_far_polylines(geo, fm, kept, items, sgn_fw, to_xy, inside, rng, far, npts, legacy_draws):
+    """Draw the far distance and point count of every item's footwall and
+    hanging-wall polyline and build them (:func:`_far_polylines`). With
+    ``legacy_draws``, in the order of the old section-by-section loop: an
+    item whose footwall polyline fails draws nothing for its hanging wall, so
+    every later item's draws move; the items from the first such failure on
+    are drawn and built again (until none is left)."""
+    n_items = len(items)
+    draws: List[List[Optional[Tuple[float, int]]]] = [[None, None] for _ in range(n_items)]
+    polys: List[List[Optional[np.ndarray]]] = [[None, None] for _ in range(n_items)]
+    states: List[Any] = [None] * (n_items + 1)
+    states[0] = rng.bit_generator.state
+    skip: set = set()
+    start = 0
+    while True:
+        # Draw from item `start` on (the state before its draws is known).
+        rng.bit_generator.state = states[start]
+        for i in range(start, n_items):
+            states[i] = rng.bit_generator.state
+            d_f = (float(rng.uniform(*far)), int(rng.integers(*npts)))
+            d_h = None if (legacy_draws and i in skip) else (float(rng.uniform(*far)),
+                                                             int(rng.integers(*npts)))
+            draws[i] = [d_f, d_h]
+        states[n_items] = rng.bit_generator.state
+        polys[start:] = _far_polylines(geo, fm, kept, items[start:], draws[start:], sgn_fw, to_xy, inside)
+        fail = [i for i in range(start, n_items) if polys[i][0] is None and i not in skip]
+        if not legacy_draws or not fail:
+            break
+        skip.add(fail[0])
+        start = fail[0]
+    rng.bit_generator.state = states[n_items]
+    if legacy_draws:
+        for i in skip:  # the loop stopped at the failed footwall
+            polys[i][1] = None
+    return polys
 
 
 def _far_polylines(geo, fm, kept, items, draws, sgn_fw, to_xy, inside):

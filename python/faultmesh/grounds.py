@@ -267,6 +267,8 @@ def draw_plan(rng: np.random.Generator, **overrides) -> Dict[str, Any]:
         raise ValueError(f"random_ground: n_layers must be 1..6, got {p['n_layers']}")
     # Room for the faults: a larger area for more (independent) faults.
     lo = {1: 1500.0, 2: 2200.0, 3: 3200.0, 4: 4200.0}[n]
+    if p["area"] in ("L", "U"):
+        lo = min(6000.0, lo + 500.0)  # a notch takes room the faults need
     if "size" not in overrides:
         p["size"] = lo + size_u * (6000.0 - lo)
     if not 1500.0 <= float(p["size"]) <= 6000.0:
@@ -502,12 +504,6 @@ def _footprint_ok_inside(fm: FaultModel, d_lo, d_hi, u_lo, u_hi, ring_local, ste
     return bool(_fast_inside(P, ring_local).all())
 
 
-def _footprint_pad(mask: np.ndarray, cells: int = 3) -> np.ndarray:
-    """The mask grown by a few grid cells (anchors well clear of it)."""
-    from scipy.ndimage import binary_dilation
-    return binary_dilation(mask, iterations=cells) if mask.any() else mask
-
-
 def _footprint_mask(fm: FaultModel, d_lo, d_hi, GX, GY, margin: float) -> np.ndarray:
     u, w = fm.uw(GX, GY)
     d = w - fm.bend_offset(u)
@@ -644,7 +640,10 @@ class _Placer:
         return not np.any(m & self.taken)
 
     def take(self, fm, d_lo, d_hi) -> None:
+        from scipy.ndimage import distance_transform_edt
         self.taken |= _footprint_mask(fm, d_lo, d_hi, self.GX, self.GY, 100.0)
+        # Distance (in cells) of every grid point from the taken footprints.
+        self.clear = distance_transform_edt(~self.taken)
 
     # -- one fault -----------------------------------------------------------
     def place(self, name, kind, dip, extent, style, whole=False, strike=None, anchor=None,
@@ -663,12 +662,14 @@ class _Placer:
                 strike = (self.trend + float(rng.uniform(-20.0, 20.0)) + float(rng.choice([0.0, 180.0]))) % 360.0
             else:
                 strike = float(rng.uniform(0.0, 360.0))
-            if self.strikes and rng.random() < min(0.9, self.attempt / 40.0):
+            if self.strikes and rng.random() < min(0.9, self.attempt / 25.0):
                 strike = (float(rng.choice(self.strikes)) + float(rng.uniform(-25.0, 25.0))
                           + float(rng.choice([0.0, 180.0]))) % 360.0
         if anchor is None:
             if self.taken.any():
-                free = self.core & ~_footprint_pad(self.taken)
+                # Anchors in the larger free spaces: at least half the largest
+                # distance from the faults placed so far.
+                free = self.core & (self.clear >= 0.5 * self.clear[self.core].max()) & (self.clear > 0)
                 cand = np.column_stack([self.GX[free], self.GY[free]])
                 if len(cand) == 0:
                     raise _Retry("no free point")
@@ -691,10 +692,22 @@ class _Placer:
             raise _Retry("meets another fault")
         (A_in, B_in), (A_out, B_out) = self.runs(anchor, strike, d_lo, d_hi)
         m = 100.0
+        # Along strike, where the band meets an independent fault already
+        # placed (cells of its footprint, padded by 250 m: the masks' 100 m
+        # margin, a grid cell and the bend): a tip end stays clear of them.
+        blocked = np.zeros(0)
+        if group is None and self.taken.any():
+            mk = _footprint_mask(fm0, d_lo, d_hi, self.GX, self.GY, 100.0) & self.taken
+            blocked = np.sort(fm0.uw(self.GX[mk], self.GY[mk])[0])
         if extent == "inside":
+            # The free stretch (of [A_in + m, B_in - m]) the fault goes in.
+            cuts = np.concatenate([[A_in + m - 250.0], blocked, [B_in - m + 250.0]])
+            gaps = [(a + 250.0, b - 250.0) for a, b in zip(cuts[:-1], cuts[1:]) if b - a - 500.0 >= 700.0]
+            if not gaps:
+                raise _Retry("meets another fault" if len(blocked) else "no room for an inside fault")
+            A_in, B_in = gaps[int(rng.integers(0, len(gaps)))]
+            A_in, B_in = A_in - m, B_in + m
             room = B_in - A_in - 2 * m
-            if room < 700.0:
-                raise _Retry("no room for an inside fault")
             L = float(rng.uniform(700.0, min(room, 0.9 * self.size)))
             lo1, hi1 = A_in + m, B_in - m - L
             if u_fix is not None:  # the crossing point 300 m inside both ends
@@ -718,14 +731,24 @@ class _Placer:
             start = rng.random() < 0.5
             if u_fix is not None:  # the crossing point 300 m inside the tip end
                 start = u_fix[0] - 300.0 >= A_in + m
+            # The tip end between what the band meets and the boundary the
+            # other end runs through (if the band meets an independent fault).
+            lo_tip, hi_tip = A_in + m, B_in - m
+            if len(blocked):
+                if blocked[-1] + 250.0 <= B_in - m - 600.0:
+                    start, lo_tip = True, max(lo_tip, blocked[-1] + 250.0)
+                elif blocked[0] - 250.0 >= A_in + m + 600.0:
+                    start, hi_tip = False, min(hi_tip, blocked[0] - 250.0)
+                else:
+                    raise _Retry("meets another fault")
             if start:
-                hi1 = B_in - m - 600.0 if u_fix is None else min(B_in - m - 600.0, u_fix[0] - 300.0)
-                u1 = float(rng.uniform(A_in + m, hi1)) if hi1 > A_in + m else A_in + m
+                hi1 = hi_tip - 600.0 if u_fix is None else min(hi_tip - 600.0, u_fix[0] - 300.0)
+                u1 = float(rng.uniform(lo_tip, hi1)) if hi1 > lo_tip else lo_tip
                 u_range = (u1, B_out + float(rng.uniform(0.15, 0.6)) * span)
                 tips = ("start",)
             else:
-                lo2 = A_in + m + 600.0 if u_fix is None else max(A_in + m + 600.0, u_fix[1] + 300.0)
-                u2 = float(rng.uniform(lo2, B_in - m)) if B_in - m > lo2 else B_in - m
+                lo2 = lo_tip + 600.0 if u_fix is None else max(lo_tip + 600.0, u_fix[1] + 300.0)
+                u2 = float(rng.uniform(lo2, hi_tip)) if hi_tip > lo2 else hi_tip
                 u_range = (A_out - float(rng.uniform(0.15, 0.6)) * span, u2)
                 tips = ("end",)
         if u_fix is not None and not (u_range[0] + 300.0 <= u_fix[0] and u_fix[1] <= u_range[1] - 300.0):
@@ -857,8 +880,8 @@ def _place_faults_once(rng, plan, ring, names, surfaces, size):
     pair = None
     for i in range(n):
         name = f"F{i + 1}"
-        for attempt in range(160):
-            P.relax = attempt // 40
+        for attempt in range(100):
+            P.relax = attempt // 25
             P.attempt = attempt
             try:
                 if rel != "none" and i == 1:
@@ -1169,7 +1192,10 @@ def _realise(seed: int, plan: Dict[str, Any], rng: np.random.Generator, folder: 
     for p in placed:
         fm = p.model
         own = list(secs_of[fm.name]) + [edge[(fm.name, e)] for e in (0, 1) if (fm.name, e) in edge]
-        traces = _fault_traces(geo, fm, own, ring_g, rng, far=far, npts=npts, inside=inside)
+        # A 5 m scan brackets each side's cutoff (each difference changes
+        # sign once near the fault); Illinois then refines it to 1e-9 m.
+        traces = _fault_traces(geo, fm, own, ring_g, rng, far=far, npts=npts, inside=inside,
+                               legacy_draws=False, cut_step=5.0)
         # Near the other fault of a pair both move the layers, and the offset
         # seen across this fault on a section can take the other fault's
         # sense; nobody would draw that trace as this fault's: leave it out.
@@ -1500,13 +1526,21 @@ _QUOTED = re.compile(r"'[^']*'|\"[^\"]*\"")
 
 
 def normalise_message(msg: str) -> str:
-    """An error message with names and numbers replaced (names in quotes ->
-    'S', numbers -> N, file paths -> PATH), so that messages of one defect
-    compare equal across seeds."""
+    """An error message cut at its first "; " with names and numbers replaced
+    (names in quotes -> 'S', numbers -> N, file paths -> PATH; invariant
+    names kept), so that messages of one defect compare equal across seeds."""
     m = str(msg).splitlines()[0] if msg else ""
+    # What follows a "; " is an example or a hint (which triangles, what to
+    # do), not the kind of failure.
+    m = m.split("; ")[0]
     m = re.sub(r"/\S*?(dataset\.json|\.csv)", "PATH", m)
+    # Invariant names say what is wrong: keep them.
+    keep = re.findall(r"invariant '([^']+)'", m)
     m = _QUOTED.sub("'S'", m)
+    for k in keep:
+        m = m.replace("invariant 'S'", f"invariant <{k}>", 1)
     m = _NUM.sub("N", m)
+    m = re.sub(r"invariant <([^>]+)>", r"invariant '\1'", m)
     m = re.sub(r"\(N( point\(s\) outside)\)", r"(N\1)", m)
     return m[:160]
 
