@@ -245,9 +245,14 @@ def test_normalise_message():
 # ---------------------------------------------------------------------------
 # fixed seeds through the whole pipeline
 # ---------------------------------------------------------------------------
-def run_pipeline(seed, tmp_path):
-    """(outcome of evaluate_ground) for one seed, written under tmp_path."""
-    return gr.evaluate_ground(seed, tmp_path)
+_OUTCOMES = {}
+
+
+def outcome(seed, tmp_path_factory):
+    """evaluate_ground(seed), once per test session."""
+    if seed not in _OUTCOMES:
+        _OUTCOMES[seed] = gr.evaluate_ground(seed, tmp_path_factory.mktemp(f"run{seed}"))
+    return _OUTCOMES[seed]
 
 
 def assert_holds(out):
