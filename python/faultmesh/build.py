@@ -44,7 +44,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from ._core import AabbTree, GeometryError, Stitcher, Tin
+from ._core import AabbTree, GeometryError, Stitcher, StudyArea, Tin
 from .dataset import points_in_polygon
 from .model import Gap, Model, Surface
 
@@ -766,6 +766,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     if not layers:
         raise ValueError(f"build_model: dataset {dataset.name!r} has no layer")
     ring = _ccw_ring(dataset.boundary)
+    area = StudyArea(ring)
     meta: Dict[str, Any] = {"options": {"loft_method": loft_method, "refine": refine,
                                         "stitch_order": stitch_order, "bridge": bridge,
                                         "repair": repair}}
@@ -807,7 +808,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         prog("fault models", gi, len(groups))
         for lay in layers:
             zf = tins[lay].interpolate
-            core = {f.name: fm.layer_patch(f, lay, ends[f.name], ring, zf, loft_method)
+            core = {f.name: fm.layer_patch(f, lay, ends[f.name], area, zf, loft_method)
                     for f in group}
             core = {k: v for k, v in core.items() if v is not None}
             if not core:
@@ -819,7 +820,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                     if p is None or not any(k in ("extended", "synthetic_tip") for k in p.ends):
                         continue
                     partners = {k: r for k, r in outl.items() if k != f.name}
-                    core[f.name] = fm.layer_patch(f, lay, ends[f.name], ring, zf, loft_method,
+                    core[f.name] = fm.layer_patch(f, lay, ends[f.name], area, zf, loft_method,
                                                   partners=partners)
             plist = [core[f.name] for f in group if f.name in core]
             for p in plist:
@@ -846,7 +847,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     prog("fault models", len(groups), len(groups))
     fault_surfaces: Dict[str, Surface] = {}
     for f in dataset.faults:
-        res = fm.fault_surface(f, ends[f.name], ring, loft_method, end_moves[f.name])
+        res = fm.fault_surface(f, ends[f.name], area, loft_method, end_moves[f.name])
         if res is not None:
             fault_surfaces[f.name] = Surface(f.name, res[0], res[1], kind="fault",
                                              metadata={"kind": f.kind, "group": f.group or ""})
