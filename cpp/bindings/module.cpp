@@ -15,6 +15,7 @@ void bind_loft(py::module_& m);
 void bind_stitch(py::module_& m);
 void bind_cutting(py::module_& m);
 void bind_study_area(py::module_& m);
+void bind_layer_tin(py::module_& m);
 }  // namespace faultmesh::bindings
 
 PYBIND11_MODULE(_core, m) {
@@ -34,4 +35,5 @@ PYBIND11_MODULE(_core, m) {
     fb::bind_stitch(m);
     fb::bind_cutting(m);
     fb::bind_study_area(m);
+    fb::bind_layer_tin(m);
 }

@@ -172,6 +172,12 @@ StudyArea::Nearest StudyArea::nearest(const double* p, double max_distance) cons
     return best;
 }
 
+void StudyArea::sides_near(const double* p, double r, std::vector<std::size_t>& out) const {
+    out.clear();
+    tree_.visit(Box2{p[0] - r, p[1] - r, p[0] + r, p[1] + r},
+                [&](std::int64_t e) { out.push_back(static_cast<std::size_t>(e)); });
+}
+
 StudyArea::RayHit StudyArea::ray_hit(const double* p, const double* d) const {
     RayHit best;
     best.t = kInf;

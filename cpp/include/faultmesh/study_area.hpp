@@ -86,6 +86,8 @@ public:
     // The first boundary point on the ray p + t d, t >= 0. A point on the
     // boundary (locate) gives t = 0 at its own position.
     RayHit ray_hit(const double* p, const double* d) const;
+    // The sides whose box comes within r of p (candidates for distance tests).
+    void sides_near(const double* p, double r, std::vector<std::size_t>& out) const;
 
 private:
     std::vector<double> xy_;
