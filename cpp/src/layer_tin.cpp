@@ -3,6 +3,7 @@
 #include <faultmesh/errors.hpp>
 #include <faultmesh/layer_tin.hpp>
 #include <faultmesh/predicates.hpp>
+#include <faultmesh/segments.hpp>
 
 #include <algorithm>
 #include <array>
@@ -10,12 +11,15 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
 
 #include "point_grid.hpp"
+#include "spatial_sort.hpp"
 
 namespace faultmesh {
 namespace detail {
@@ -89,9 +93,11 @@ bool solve3(std::array<double, 9> m, std::array<double, 3> b, std::array<double,
 
 // z at q from an inverse-distance weighted plane fit to the k nearest data
 // points (see layer_tin.hpp); data: 3 per point.
-double plane_fit_z(const PointGrid& grid, const std::vector<double>& data, const double* q, int k,
-                   double lo, double hi) {
-    const auto nb = grid.nearest(q, static_cast<std::size_t>(std::max(1, k)));
+// data: 3 per grid point; known[i]: point i carries a data elevation.
+double plane_fit_z(const PointGrid& grid, const std::vector<double>& data, const std::vector<char>& known,
+                   const double* q, int k, double lo, double hi) {
+    const auto nb = grid.nearest(q, static_cast<std::size_t>(std::max(1, k)),
+                                 [&](std::int64_t i) { return known[static_cast<std::size_t>(i)] != 0; });
     double exact_sum = 0.0;
     int exact_n = 0;
     double dmax = 0.0;
@@ -146,6 +152,23 @@ struct LayerTinState {
     std::optional<Tin> tin;  // set at the end of the constructor
     std::vector<std::map<double, std::int64_t>> by_side;
     std::vector<char> on_boundary;  // per TIN vertex
+    // mesh() without the elevations, cached until the next insert (the
+    // repair and the build ask for it many times; set_z does not change it).
+    struct Topology {
+        std::vector<std::int64_t> triangles, halfedges, tin_vertex;
+    };
+    struct Cache {
+        std::mutex mu;
+        std::shared_ptr<const Topology> topo;
+        Cache() = default;
+        Cache(const Cache& o) : topo(o.topo) {}
+        Cache& operator=(const Cache& o) {
+            topo = o.topo;
+            return *this;
+        }
+    };
+    mutable Cache cache;
+    std::shared_ptr<const Topology> topology() const;
 
     void mark_boundary(std::int64_t v) {
         if (static_cast<std::size_t>(v) >= on_boundary.size()) on_boundary.resize(static_cast<std::size_t>(v) + 1, 0);
@@ -201,10 +224,7 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
                                             " has a non-finite coordinate");
     const std::size_t ns = area.n_sides();
     // Data in the study area; those on its boundary go to their side.
-    std::vector<double> used;  // 3 per used data point (interior and boundary)
-    used.reserve(3 * n);
-    std::vector<std::vector<std::pair<double, double>>> side_data(ns);  // (s, z) of boundary data
-    std::vector<std::array<double, 2>> side_xy_tmp;
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     std::vector<double> interior;
     interior.reserve(3 * n);
     std::vector<StudyArea::Hit> hits;
@@ -223,7 +243,7 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
                 if (x.s == 0.0) h = x;
             if (h.s >= area.side_length(h.side)) h = {(h.side + 1) % ns, 0.0};
             bdata.push_back({h.side, h.s, p[0], p[1], p[2]});
-            used.insert(used.end(), p, p + 3);
+            lo = std::min(lo, p[2]), hi = std::max(hi, p[2]);
             continue;
         }
         if (!area.contains(p)) {
@@ -231,16 +251,11 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
             continue;
         }
         interior.insert(interior.end(), p, p + 3);
-        used.insert(used.end(), p, p + 3);
+        lo = std::min(lo, p[2]), hi = std::max(hi, p[2]);
     }
-    s.n_data = used.size() / 3;
+    s.n_data = interior.size() / 3 + bdata.size();
     s.n_boundary_data = bdata.size();
     if (s.n_data == 0) throw GeometryError(fn + ": no data point lies in the study area");
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    for (std::size_t i = 0; i < s.n_data; ++i) {
-        lo = std::min(lo, used[3 * i + 2]);
-        hi = std::max(hi, used[3 * i + 2]);
-    }
     // Spacing: about the data spacing, clamped so that a side gets at least
     // a few and at most a few thousand pieces.
     const std::vector<double>& ring = area.ring();
@@ -275,8 +290,10 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
         }
     }
     for (const auto& b : bdata) per_side[b.side].push_back({b.s, true, b.x, b.y, b.z});
-    detail::PointGrid data_grid(used.data(), s.n_data, 3);
-    std::vector<double> pts;  // boundary vertices first, then interior data
+    // Boundary vertices (side by side, by arc length; a data point at the
+    // position of a densification point replaces it), then the interior data.
+    std::vector<double> pts;
+    std::vector<char> known;
     std::vector<std::pair<std::size_t, double>> bpos;
     for (std::size_t i = 0; i < ns; ++i) {
         auto& v = per_side[i];
@@ -285,26 +302,34 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
         });
         for (std::size_t j = 0; j < v.size(); ++j) {
             if (j > 0 && v[j].s == v[j - 1].s) continue;  // the known one came first
-            double z = v[j].z;
-            if (!v[j].known) {
-                const double q[2] = {v[j].x, v[j].y};
-                z = detail::plane_fit_z(data_grid, used, q, options.plane_fit_neighbours, lo, hi);
-            }
             pts.push_back(v[j].x);
             pts.push_back(v[j].y);
-            pts.push_back(z);
+            pts.push_back(v[j].z);
+            known.push_back(v[j].known ? 1 : 0);
             bpos.emplace_back(i, v[j].s);
         }
     }
     const std::size_t nb = bpos.size();
-    pts.insert(pts.end(), interior.begin(), interior.end());
+    // The interior data in Hilbert order (stable: of points with equal XY the
+    // first in the input comes first, and the TIN keeps its z): the TIN's
+    // vertex numbering -- and every array derived from it, the stitcher's
+    // included -- is then spatially coherent, whatever the input order.
+    {
+        const std::vector<std::uint32_t> order = detail::hilbert_order(interior.data(), 3, interior.size() / 3);
+        pts.reserve(pts.size() + interior.size());
+        for (std::uint32_t i : order) pts.insert(pts.end(), &interior[3 * i], &interior[3 * i] + 3);
+    }
+    known.resize(pts.size() / 3, 1);
+    // One grid over every vertex: the plane fits' neighbours (data only) and
+    // the protection's disk tests.
+    detail::PointGrid grid(pts.data(), pts.size() / 3, 3);
+    for (std::size_t i = 0; i < nb; ++i)
+        if (!known[i])
+            pts[3 * i + 2] = detail::plane_fit_z(grid, pts, known, &pts[3 * i], options.plane_fit_neighbours, lo, hi);
 
     // Protection: split pieces whose closed diametral disk holds another vertex.
     s.by_side.assign(ns, {});
-    std::vector<std::pair<std::size_t, double>> pos = bpos;  // per point of pts: (side, s) or (npos, 0)
-    pos.resize(pts.size() / 3, {static_cast<std::size_t>(-1), 0.0});
     for (std::size_t i = 0; i < nb; ++i) s.by_side[bpos[i].first].emplace(bpos[i].second, static_cast<std::int64_t>(i));
-    detail::PointGrid grid(pts.data(), pts.size() / 3, 3);
     std::vector<std::pair<std::size_t, double>> work;  // (side, sa) of pieces to check
     for (std::size_t i = 0; i < ns; ++i)
         for (const auto& e : s.by_side[i]) work.emplace_back(i, e.first);
@@ -340,7 +365,6 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
         pts.push_back(xy[0]);
         pts.push_back(xy[1]);
         pts.push_back(z);
-        pos.emplace_back(pc.side, sm);
         grid.add(xy);
         s.by_side[pc.side].emplace(sm, id);
         work.emplace_back(pc.side, pc.sa);
@@ -354,7 +378,7 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
             s.mark_boundary(e.second);
         }
     s.on_boundary.resize(s.tin->n_vertices(), 0);
-    (void)mesh();  // checks that every piece is a TIN edge and the inside is closed
+    (void)s.topology();  // checks that every piece is a TIN edge and the inside is closed
 }
 
 LayerTin::~LayerTin() = default;
@@ -428,6 +452,10 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
     }
     if (keep.empty()) return 0;
     const std::size_t k = keep.size() / 3;
+    {
+        std::lock_guard<std::mutex> guard(s.cache.mu);
+        s.cache.topo.reset();
+    }
     std::vector<std::int64_t> ids = s.tin->insert(keep.data(), k);
     {
         std::vector<double> z(k);
@@ -526,8 +554,11 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
 }
 
 // ---------------------------------------------------------------- mesh
-LayerTinMesh LayerTin::mesh() const {
-    const LayerTinState& s = *s_;
+namespace detail {
+std::shared_ptr<const LayerTinState::Topology> LayerTinState::topology() const {
+    std::lock_guard<std::mutex> guard(cache.mu);
+    if (cache.topo) return cache.topo;
+    const LayerTinState& s = *this;
     const std::string fn = "LayerTin('" + s.name + "')";
     const std::vector<std::int64_t> T = s.tin->triangles();
     const std::vector<std::int64_t> H = s.tin->halfedges();
@@ -586,51 +617,265 @@ LayerTinMesh LayerTin::mesh() const {
             }
         }
     }
-    LayerTinMesh out;
+    auto out = std::make_shared<Topology>();
     std::vector<std::int64_t> remap(nv, -1), tri_of(m, -1);
     std::int64_t mt = 0;
     for (std::size_t t = 0; t < m; ++t)
         if (inside[t]) tri_of[t] = mt++;
-    out.halfedges.assign(3 * static_cast<std::size_t>(mt), -1);
+    out->halfedges.assign(3 * static_cast<std::size_t>(mt), -1);
     for (std::size_t t = 0; t < m; ++t) {
         if (!inside[t]) continue;
         for (int k = 0; k < 3; ++k) {
             const std::int64_t o = H[3 * t + static_cast<std::size_t>(k)];
             if (o >= 0 && tri_of[static_cast<std::size_t>(o / 3)] >= 0)
-                out.halfedges[3 * static_cast<std::size_t>(tri_of[t]) + static_cast<std::size_t>(k)] =
+                out->halfedges[3 * static_cast<std::size_t>(tri_of[t]) + static_cast<std::size_t>(k)] =
                     3 * tri_of[static_cast<std::size_t>(o / 3)] + o % 3;
         }
         for (int k = 0; k < 3; ++k) {
             const std::int64_t v = T[3 * t + static_cast<std::size_t>(k)];
             if (remap[static_cast<std::size_t>(v)] < 0) {
-                remap[static_cast<std::size_t>(v)] = static_cast<std::int64_t>(out.tin_vertex.size());
-                out.tin_vertex.push_back(v);
+                remap[static_cast<std::size_t>(v)] = static_cast<std::int64_t>(out->tin_vertex.size());
+                out->tin_vertex.push_back(v);
             }
-            out.triangles.push_back(remap[static_cast<std::size_t>(v)]);
+            out->triangles.push_back(remap[static_cast<std::size_t>(v)]);
         }
     }
-    out.vertices.reserve(3 * out.tin_vertex.size());
-    for (std::int64_t v : out.tin_vertex)
-        out.vertices.insert(out.vertices.end(), &V[3 * static_cast<std::size_t>(v)], &V[3 * static_cast<std::size_t>(v)] + 3);
+    cache.topo = out;
     return out;
 }
+}  // namespace detail
+
+LayerTinMesh LayerTin::mesh() const {
+    const auto topo = s_->topology();
+    const std::vector<double> V = s_->tin->vertices();
+    LayerTinMesh out;
+    out.triangles = topo->triangles;
+    out.halfedges = topo->halfedges;
+    out.tin_vertex = topo->tin_vertex;
+    out.vertices.resize(3 * topo->tin_vertex.size());
+    for (std::size_t i = 0; i < topo->tin_vertex.size(); ++i)
+        std::copy_n(&V[3 * static_cast<std::size_t>(topo->tin_vertex[i])], 3, &out.vertices[3 * i]);
+    return out;
+}
+
+
+// ---------------------------------------------------------------- overlay walk
+namespace detail {
+namespace {
+
+// The upper surface of a repair, walked along the lower edges: the whole Tin
+// (its compact triangles and half-edges), fixed during the repair.
+struct UpperWalk {
+    std::vector<std::int64_t> T;  // 3 per triangle (vertex ids)
+    std::vector<std::int64_t> H;  // opposite half-edge or -1
+    // The corners' coordinates copied per triangle (9 doubles): a step of
+    // the walk reads one contiguous block instead of three vertices that the
+    // input order may have scattered over memory (measured: 4x faster walks
+    // on 100k randomly ordered points).
+    std::vector<double> C;
+
+    UpperWalk(const std::vector<double>& V, std::vector<std::int64_t> tri, std::vector<std::int64_t> he)
+        : T(std::move(tri)), H(std::move(he)), C(3 * T.size()) {
+        for (std::size_t i = 0; i < T.size(); ++i)
+            std::copy_n(&V[3 * static_cast<std::size_t>(T[i])], 3, &C[3 * i]);
+    }
+    // Coordinates of corner k of triangle t.
+    const double* corner(std::int64_t t, int k) const { return &C[9 * static_cast<std::size_t>(t) + 3 * static_cast<std::size_t>(k)]; }
+    // Coordinates of the vertex half-edge h starts at.
+    const double* at(std::int64_t h) const { return &C[3 * static_cast<std::size_t>(h)]; }
+    static std::int64_t nxt(std::int64_t h) { return h % 3 == 2 ? h - 2 : h + 1; }
+    static std::int64_t prv(std::int64_t h) { return h % 3 == 0 ? h + 2 : h - 1; }
+
+    // The triangle around vertex `vtx` (which is a corner of triangle t) whose
+    // corner at vtx holds the direction towards q, or -1.
+    std::int64_t wedge(std::int64_t t, std::int64_t vtx, const double* q) const {
+        std::int64_t h0 = -1;
+        for (int k = 0; k < 3; ++k)
+            if (T[static_cast<std::size_t>(3 * t + k)] == vtx) h0 = 3 * t + k;
+        if (h0 < 0) return -1;
+        const double* o = at(h0);
+        auto holds = [&](std::int64_t h) {
+            const double* a = at(nxt(h));
+            const double* b = at(prv(h));
+            return orient2d(o, a, q) >= 0.0 && orient2d(o, b, q) <= 0.0;
+        };
+        // Counter-clockwise around vtx, then clockwise if the hull stops us.
+        std::int64_t h = h0;
+        for (std::size_t guard = 0; guard < 1u << 20; ++guard) {
+            if (holds(h)) return h / 3;
+            const std::int64_t o2 = H[static_cast<std::size_t>(prv(h))];
+            if (o2 < 0) break;
+            h = o2;
+            if (h == h0) return -1;
+        }
+        h = h0;
+        for (std::size_t guard = 0; guard < 1u << 20; ++guard) {
+            const std::int64_t o2 = H[static_cast<std::size_t>(h)];
+            if (o2 < 0) return -1;
+            h = nxt(o2);
+            if (h == h0) return -1;
+            if (holds(h)) return h / 3;
+        }
+        return -1;
+    }
+
+    // Walks the segment p -> q (lower elevations zp, zq) from triangle t (a
+    // triangle whose closed region holds p) and keeps the crossing with an
+    // upper edge or vertex where the lower segment is highest above the upper
+    // surface, if that is more than `best`. Returns false if none is.
+    bool worst_crossing(const double* p, double zp, const double* q, double zq, std::int64_t t,
+                        double& best, double out[3]) const {
+        bool found = false;
+        const double dx = q[0] - p[0], dy = q[1] - p[1];
+        const double dd = dx * dx + dy * dy;
+        auto check = [&](double x, double y, double zu) {
+            const double tt = ((x - p[0]) * dx + (y - p[1]) * dy) / dd;
+            if (!(tt > 0.0 && tt < 1.0)) return;
+            const double viol = zp + tt * (zq - zp) - zu;
+            if (viol > best) {
+                best = viol;
+                out[0] = x, out[1] = y, out[2] = zu;
+                found = true;
+            }
+        };
+        std::int64_t from_vertex = -1;
+        double done_along = 0.0;  // projection of the last passage point on p -> q
+        for (std::size_t step = 0; step < 1u << 24 && t >= 0; ++step) {
+            const std::int64_t* tv = &T[3 * static_cast<std::size_t>(t)];
+            const double* a[3] = {corner(t, 0), corner(t, 1), corner(t, 2)};
+            if (in_closed_triangle(q, a[0], a[1], a[2])) return found;
+            int o[3];
+            for (int k = 0; k < 3; ++k) o[k] = orient2d_sign(p, q, a[k]);
+            // A proper crossing of an edge ahead: its start right of the
+            // line, its end left of it (the triangle is counter-clockwise).
+            int exit = -1;
+            for (int k = 0; k < 3; ++k)
+                if (o[k] < 0 && o[(k + 1) % 3] > 0 && orient2d_sign(a[k], a[(k + 1) % 3], q) < 0) exit = k;
+            if (exit >= 0) {
+                const double* A = a[exit];
+                const double* B = a[(exit + 1) % 3];
+                const double oa = orient2d(p, q, A), ob = orient2d(p, q, B);
+                const double u = oa / (oa - ob);
+                const double x = A[0] + u * (B[0] - A[0]), y = A[1] + u * (B[1] - A[1]);
+                check(x, y, A[2] + u * (B[2] - A[2]));
+                done_along = (x - p[0]) * dx + (y - p[1]) * dy;
+                const std::int64_t o2 = H[static_cast<std::size_t>(3 * t + exit)];
+                t = o2 < 0 ? -1 : o2 / 3;
+                from_vertex = -1;
+                continue;
+            }
+            // Otherwise the segment leaves through a vertex on the line (or
+            // starts at one): the one furthest ahead.
+            int at = -1;
+            double far = done_along;
+            for (int k = 0; k < 3; ++k) {
+                if (o[k] != 0 || tv[k] == from_vertex) continue;
+                const double along = (a[k][0] - p[0]) * dx + (a[k][1] - p[1]) * dy;
+                if (along >= far) far = along, at = k;
+            }
+            if (at < 0) {
+                // p lies on an edge whose far side the segment enters.
+                for (int k = 0; k < 3 && at < 0; ++k)
+                    if (orient2d_sign(a[k], a[(k + 1) % 3], p) == 0 && orient2d_sign(a[k], a[(k + 1) % 3], q) < 0) {
+                        const std::int64_t o2 = H[static_cast<std::size_t>(3 * t + k)];
+                        t = o2 < 0 ? -1 : o2 / 3;
+                        at = 3;  // moved
+                    }
+                if (at < 0) return found;  // nothing ahead (q beyond the hull)
+                continue;
+            }
+            check(a[at][0], a[at][1], a[at][2]);
+            done_along = far;
+            from_vertex = tv[at];
+            t = wedge(t, tv[at], q);
+        }
+        return found;
+    }
+};
+
+// Bounds of a TIN surface over XY boxes: a coarse grid whose cells hold the
+// lowest (or highest) corner elevation of every triangle whose box meets the
+// cell. Any point X of a box lies in a triangle whose box meets X's cell, so
+// z(X) >= low(box) (<= high(box)). The repair tests only what these bounds
+// cannot rule out: a lower vertex or edge not above the upper surface's low
+// bound, an upper vertex not below the lower surface's high bound. On layers
+// tens of metres apart that is almost nothing, and the repair costs a few
+// sequential passes instead of a point location per vertex and a walk per
+// edge.
+struct ZBound {
+    double x0 = 0, y0 = 0, cw = 1, ch = 1;
+    long nx = 1, ny = 1;
+    bool high = false;
+    std::vector<double> z;
+
+    ZBound(const std::vector<double>& V, const std::vector<std::int64_t>& T, bool high_bound) : high(high_bound) {
+        const std::size_t m = T.size() / 3;
+        const double inf = std::numeric_limits<double>::infinity();
+        double x1 = -inf, y1 = -inf;
+        x0 = y0 = inf;
+        for (std::size_t i = 0; i < V.size() / 3; ++i) {
+            x0 = std::min(x0, V[3 * i]), x1 = std::max(x1, V[3 * i]);
+            y0 = std::min(y0, V[3 * i + 1]), y1 = std::max(y1, V[3 * i + 1]);
+        }
+        const double cells = std::max(1.0, static_cast<double>(m) / 16.0);
+        const double w = std::max(x1 - x0, 1e-300), h = std::max(y1 - y0, 1e-300);
+        const double c = std::sqrt(w * h / cells);
+        nx = std::max(1L, std::min(4096L, static_cast<long>(std::ceil(w / c))));
+        ny = std::max(1L, std::min(4096L, static_cast<long>(std::ceil(h / c))));
+        cw = w / static_cast<double>(nx), ch = h / static_cast<double>(ny);
+        z.assign(static_cast<std::size_t>(nx * ny), high ? -inf : inf);
+        for (std::size_t t = 0; t < m; ++t) {
+            double bx0 = inf, bx1 = -inf, by0 = inf, by1 = -inf, zt = high ? -inf : inf;
+            for (int k = 0; k < 3; ++k) {
+                const double* p = &V[3 * static_cast<std::size_t>(T[3 * t + static_cast<std::size_t>(k)])];
+                bx0 = std::min(bx0, p[0]), bx1 = std::max(bx1, p[0]);
+                by0 = std::min(by0, p[1]), by1 = std::max(by1, p[1]);
+                zt = high ? std::max(zt, p[2]) : std::min(zt, p[2]);
+            }
+            for (long j = cy(by0); j <= cy(by1); ++j)
+                for (long i = cx(bx0); i <= cx(bx1); ++i) {
+                    double& c2 = z[static_cast<std::size_t>(j * nx + i)];
+                    c2 = high ? std::max(c2, zt) : std::min(c2, zt);
+                }
+        }
+    }
+    // Cells of coordinates (the truncation of a non-negative offset is its
+    // floor; points left of or below the frame clamp to the first cell).
+    long cx(double x) const {
+        const double u = (x - x0) / cw;
+        return u <= 0.0 ? 0 : std::min(nx - 1, static_cast<long>(u));
+    }
+    long cy(double y) const {
+        const double u = (y - y0) / ch;
+        return u <= 0.0 ? 0 : std::min(ny - 1, static_cast<long>(u));
+    }
+    // The bound over the box of segment p-q (p == q: a point).
+    double over(const double* p, const double* q) const {
+        double r = high ? -std::numeric_limits<double>::infinity() : std::numeric_limits<double>::infinity();
+        for (long j = cy(std::min(p[1], q[1])); j <= cy(std::max(p[1], q[1])); ++j)
+            for (long i = cx(std::min(p[0], q[0])); i <= cx(std::max(p[0], q[0])); ++i) {
+                const double c2 = z[static_cast<std::size_t>(j * nx + i)];
+                r = high ? std::max(r, c2) : std::min(r, c2);
+            }
+        return r;
+    }
+};
+
+}  // namespace
+}  // namespace detail
 
 // ---------------------------------------------------------------- repair
 RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const RepairOptions& opt) {
     const std::string fn = "repair_crossings('" + upper.name() + "', '" + lower.name() + "')";
     RepairCounts counts;
     const LayerTinMesh um = upper.mesh();
-    const std::size_t nu = um.vertices.size() / 3, mu = um.triangles.size() / 3;
+    const std::size_t nu = um.vertices.size() / 3;
     double zscale = 1.0;
     for (std::size_t i = 0; i < nu; ++i) zscale = std::max(zscale, std::fabs(um.vertices[3 * i + 2]));
     for (double z : lower.z()) zscale = std::max(zscale, std::fabs(z));
     const double tol = opt.tolerance >= 0.0 ? opt.tolerance : 1e-9 * zscale;
-    std::vector<double> uxy(2 * nu);
-    for (std::size_t i = 0; i < nu; ++i) {
-        uxy[2 * i] = um.vertices[3 * i];
-        uxy[2 * i + 1] = um.vertices[3 * i + 1];
-    }
-    const AabbTree utree = AabbTree::from_triangles(um.vertices.data(), nu, 3, um.triangles.data(), mu);
+    const detail::UpperWalk walk(upper.tin().vertices(), upper.tin().triangles(), upper.tin().halfedges());
+    const detail::ZBound upper_low(um.vertices, um.triangles, /*high_bound=*/false);
     const std::size_t n_start = lower.n_vertices();
     std::int64_t inserted = 0;
     // Small layers may need many points relative to their size (a few local
@@ -659,19 +904,25 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
         {
             const LayerTinMesh lm = lower.mesh();
             const std::size_t nl = lm.vertices.size() / 3;
-            std::vector<double> xy(2 * nl);
+            std::vector<double> xy;
+            std::vector<std::size_t> which;
             for (std::size_t i = 0; i < nl; ++i) {
-                xy[2 * i] = lm.vertices[3 * i];
-                xy[2 * i + 1] = lm.vertices[3 * i + 1];
+                const double* p = &lm.vertices[3 * i];
+                if (p[2] - upper_low.over(p, p) <= tol) continue;
+                xy.push_back(p[0]);
+                xy.push_back(p[1]);
+                which.push_back(i);
             }
-            const std::vector<double> zu = upper.interpolate(xy.data(), nl);
+            const std::vector<double> zu = upper.interpolate(xy.data(), which.size());
             std::vector<std::int64_t> ids;
             std::vector<double> zs;
-            for (std::size_t i = 0; i < nl; ++i)
-                if (std::isfinite(zu[i]) && lm.vertices[3 * i + 2] - zu[i] > tol) {
+            for (std::size_t k = 0; k < which.size(); ++k) {
+                const std::size_t i = which[k];
+                if (std::isfinite(zu[k]) && lm.vertices[3 * i + 2] - zu[k] > tol) {
                     ids.push_back(lm.tin_vertex[i]);
-                    zs.push_back(zu[i]);
+                    zs.push_back(zu[k]);
                 }
+            }
             if (!ids.empty()) {
                 lower.set_z(ids.data(), zs.data(), ids.size());
                 counts.rule1 += static_cast<std::int64_t>(ids.size());
@@ -681,11 +932,24 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
         }
         // Rule 1b: upper vertices below the lower surface.
         {
-            const std::vector<double> zl = lower.interpolate(uxy.data(), nu);
+            const LayerTinMesh lm = lower.mesh();
+            const detail::ZBound lower_high(lm.vertices, lm.triangles, /*high_bound=*/true);
+            std::vector<double> xy;
+            std::vector<std::size_t> which;
+            for (std::size_t i = 0; i < nu; ++i) {
+                const double* p = &um.vertices[3 * i];
+                if (lower_high.over(p, p) - p[2] <= tol) continue;
+                xy.push_back(p[0]);
+                xy.push_back(p[1]);
+                which.push_back(i);
+            }
+            const std::vector<double> zl = lower.interpolate(xy.data(), which.size());
             std::vector<double> add;
-            for (std::size_t i = 0; i < nu; ++i)
-                if (std::isfinite(zl[i]) && zl[i] - um.vertices[3 * i + 2] > tol)
+            for (std::size_t k = 0; k < which.size(); ++k) {
+                const std::size_t i = which[k];
+                if (std::isfinite(zl[k]) && zl[k] - um.vertices[3 * i + 2] > tol)
                     add.insert(add.end(), &um.vertices[3 * i], &um.vertices[3 * i] + 3);
+            }
             changed |= insert(add, counts.rule1b);
         }
         // Rule 2: lower edges (each once: the half-edge without a twin or
@@ -695,8 +959,8 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
         {
             const LayerTinMesh lm = lower.mesh();
             const std::size_t ml = lm.triangles.size() / 3;
-            std::vector<Box2> qboxes;
             std::vector<std::array<std::int64_t, 2>> qedges;
+            std::vector<char> need(lm.vertices.size() / 3, 0);
             for (std::size_t h = 0; h < 3 * ml; ++h) {
                 const std::int64_t o = lm.halfedges[h];
                 if (o >= 0 && o < static_cast<std::int64_t>(h)) continue;
@@ -704,46 +968,40 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
                 if (!dirty[static_cast<std::size_t>(lm.tin_vertex[static_cast<std::size_t>(a)])] &&
                     !dirty[static_cast<std::size_t>(lm.tin_vertex[static_cast<std::size_t>(b)])])
                     continue;
-                const double* p = &lm.vertices[3 * static_cast<std::size_t>(a)];
-                const double* q = &lm.vertices[3 * static_cast<std::size_t>(b)];
-                qboxes.push_back({std::min(p[0], q[0]), std::min(p[1], q[1]), std::max(p[0], q[0]),
-                                  std::max(p[1], q[1])});
+                const double* pa = &lm.vertices[3 * static_cast<std::size_t>(a)];
+                const double* pb = &lm.vertices[3 * static_cast<std::size_t>(b)];
+                if (std::max(pa[2], pb[2]) - upper_low.over(pa, pb) <= tol) continue;
                 qedges.push_back({a, b});
+                need[static_cast<std::size_t>(a)] = 1;
             }
             std::fill(dirty.begin(), dirty.end(), 0);
-            const Csr hits = utree.query(qboxes.data(), qboxes.size(), /*sorted=*/false);
-            for (std::size_t e = 0; e < qedges.size(); ++e) {
+            // Each walk starts in the upper triangle of its first end: one
+            // batched location per lower vertex, not per edge.
+            std::vector<double> starts;
+            std::vector<std::int64_t> slot(need.size(), -1);
+            for (std::size_t i = 0; i < need.size(); ++i)
+                if (need[i]) {
+                    slot[i] = static_cast<std::int64_t>(starts.size() / 2);
+                    starts.push_back(lm.vertices[3 * i]);
+                    starts.push_back(lm.vertices[3 * i + 1]);
+                }
+            const std::vector<std::int64_t> located = upper.tin().locate(starts.data(), starts.size() / 2);
+            // Walks in the order of their start triangles: consecutive walks
+            // then read neighbouring memory of the upper TIN (the walks are
+            // memory-bound: ~2x faster than in the lower mesh's order).
+            std::vector<std::pair<std::int64_t, std::uint32_t>> order(qedges.size());
+            for (std::size_t e = 0; e < qedges.size(); ++e)
+                order[e] = {located[static_cast<std::size_t>(slot[static_cast<std::size_t>(qedges[e][0])])],
+                            static_cast<std::uint32_t>(e)};
+            std::sort(order.begin(), order.end());
+            for (const auto& oe : order) {
+                const std::size_t e = oe.second;
+                const std::int64_t t0 = oe.first;
                 const double* P = &lm.vertices[3 * static_cast<std::size_t>(qedges[e][0])];
                 const double* Q = &lm.vertices[3 * static_cast<std::size_t>(qedges[e][1])];
-                const double rx = Q[0] - P[0], ry = Q[1] - P[1];
-                double best = tol, bx = 0.0, by = 0.0, bz = 0.0;
-                bool found = false;
-                for (std::int64_t j = hits.offsets[e]; j < hits.offsets[e + 1]; ++j) {
-                    const std::size_t t = static_cast<std::size_t>(hits.indices[static_cast<std::size_t>(j)]);
-                    for (std::size_t k = 0; k < 3; ++k) {
-                        const double* A = &um.vertices[3 * static_cast<std::size_t>(um.triangles[3 * t + k])];
-                        const double* B = &um.vertices[3 * static_cast<std::size_t>(um.triangles[3 * t + (k + 1) % 3])];
-                        // The crossing of the two segments (floating point:
-                        // it only locates a violation of more than tol).
-                        const double sx = B[0] - A[0], sy = B[1] - A[1];
-                        const double den = rx * sy - ry * sx;
-                        if (den == 0.0) continue;
-                        const double wx = A[0] - P[0], wy = A[1] - P[1];
-                        const double tt = (wx * sy - wy * sx) / den;
-                        const double uu = (wx * ry - wy * rx) / den;
-                        if (!(tt > 0.0 && tt < 1.0 && uu >= 0.0 && uu <= 1.0)) continue;
-                        const double zl = P[2] + tt * (Q[2] - P[2]);
-                        const double zu = A[2] + uu * (B[2] - A[2]);
-                        if (zl - zu > best) {
-                            best = zl - zu;
-                            found = true;
-                            bx = P[0] + tt * rx;
-                            by = P[1] + tt * ry;
-                            bz = zu;
-                        }
-                    }
-                }
-                if (!found) continue;
+                double best = tol, x[3] = {0.0, 0.0, 0.0};
+                if (t0 < 0 || !walk.worst_crossing(P, P[2], Q, Q[2], t0, best, x)) continue;
+                const double bx = x[0], by = x[1], bz = x[2];
                 if (round < opt.midpoint_rounds) {
                     add.push_back(0.5 * (P[0] + Q[0]));
                     add.push_back(0.5 * (P[1] + Q[1]));
