@@ -16,6 +16,7 @@ void bind_stitch(py::module_& m);
 void bind_cutting(py::module_& m);
 void bind_study_area(py::module_& m);
 void bind_layer_tin(py::module_& m);
+void bind_surface_sampling(py::module_& m);
 }  // namespace faultmesh::bindings
 
 PYBIND11_MODULE(_core, m) {
@@ -36,4 +37,5 @@ PYBIND11_MODULE(_core, m) {
     fb::bind_cutting(m);
     fb::bind_study_area(m);
     fb::bind_layer_tin(m);
+    fb::bind_surface_sampling(m);
 }
