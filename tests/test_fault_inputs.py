@@ -158,7 +158,8 @@ def test_surface_patches_are_one_fault(tmp_path):
 
 def test_surface_written_by_faultmesh_reads_back(tmp_path):
     rng = np.random.default_rng(5)
-    V = np.column_stack([rng.uniform(0, 1000, 30), rng.uniform(0, 1000, 30), rng.uniform(-500, 0, 30)])
+    V = np.column_stack([rng.uniform(0, 1000, 30), rng.uniform(0, 1000, 30),
+                         rng.uniform(-500, 0, 30)])
     from scipy.spatial import Delaunay
     T = Delaunay(V[:, :2]).simplices.astype(np.int64)
     m = Model(name="m", surfaces={}, faults={"F": Surface("F", V, T, kind="fault")})
@@ -180,9 +181,11 @@ def test_surface_errors_name_the_file(tmp_path):
     f.write_text("GOCAD TSurf 1\nTFACE\nVRTX 1 0 0 0\nVRTX 2 1 0 0\nEND\n")
     with pytest.raises(DatasetError, match=re.escape(f"{f}: TSurf 'surface_0' has no triangles")):
         read_fault_surface(f)
-    f.write_text("GOCAD TSurf 1\nTFACE\nVRTX 1 0 0 0\nVRTX 2 1 0 0\nVRTX 3 1 0 0\nTRGL 1 2 3\nEND\n")
+    f.write_text("GOCAD TSurf 1\nTFACE\nVRTX 1 0 0 0\nVRTX 2 1 0 0\nVRTX 3 1 0 0\n"
+                 "TRGL 1 2 3\nEND\n")
     with pytest.raises(DatasetError, match=re.escape(f"{f}: TSurf 'surface_0' triangle 1") +
                        ".*two corners at the same position"):
         read_fault_surface(f)
-    with pytest.raises(DatasetError, match=r"missing\.ts: fault 'F2' surface: file .*missing\.ts' not found"):
+    with pytest.raises(DatasetError,
+                       match=r"missing\.ts: fault 'F2' surface: file .*missing\.ts' not found"):
         read_fault_surface(tmp_path / "missing.ts", label="fault 'F2' surface")

@@ -267,8 +267,8 @@ def _check_surveys(t: SurveyTable) -> None:
         pos = np.flatnonzero(bad)
         p = int(pos[np.argmin(t.lines[order[pos]])])
         k, prev = int(order[p]), int(order[p - 1])
-        raise DatasetError(f"{_where(t.file, t.lines[k], 'depth')}: {_r(t.depth[k])} is not greater "
-                           f"than the previous survey depth {_r(t.depth[prev])} of hole "
+        raise DatasetError(f"{_where(t.file, t.lines[k], 'depth')}: {_r(t.depth[k])} is not "
+                           f"greater than the previous survey depth {_r(t.depth[prev])} of hole "
                            f"{_r(t.hole_id[k])} (row {t.lines[prev]}); survey rows of a hole must "
                            "go down the hole")
     # A turn back onto itself between consecutive stations has no defined arc.
@@ -297,14 +297,14 @@ def _check_intervals(t: IntervalTable) -> None:
     bad = t.depth_from < 0
     if bad.any():
         k = _first_bad(bad, t.lines)
-        raise DatasetError(f"{_where(t.file, t.lines[k], 'from')}: {_r(t.depth_from[k])} is negative; "
-                           "depths are measured along the hole from the collar")
+        raise DatasetError(f"{_where(t.file, t.lines[k], 'from')}: {_r(t.depth_from[k])} is "
+                           "negative; depths are measured along the hole from the collar")
     _check_deepest(t.depth_to, t.file, t.lines, "to")
     bad = ~(t.depth_to > t.depth_from)
     if bad.any():
         k = _first_bad(bad, t.lines)
-        raise DatasetError(f"{_where(t.file, t.lines[k], 'to')}: {_r(t.depth_to[k])} is not greater "
-                           f"than 'from' {_r(t.depth_from[k])}")
+        raise DatasetError(f"{_where(t.file, t.lines[k], 'to')}: {_r(t.depth_to[k])} is not "
+                           f"greater than 'from' {_r(t.depth_from[k])}")
     # Consecutive intervals of a hole (ordered by 'from') must touch.
     order, same = _same_hole_runs(t.hole_id, t.lines, t.depth_from)
     a, b = t.depth_from[order], t.depth_to[order]
