@@ -5,7 +5,9 @@
 #include <faultmesh/ear_clipping.hpp>
 #include <faultmesh/errors.hpp>
 #include <faultmesh/predicates.hpp>
+#include <faultmesh/segments.hpp>
 #include <faultmesh/stitch.hpp>
+#include <faultmesh/study_area.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -34,35 +36,6 @@ std::string fmt_point(const double* p) {
 
 inline std::int64_t next_h(std::int64_t h) { return h % 3 == 2 ? h - 2 : h + 1; }
 inline std::int64_t prev_h(std::int64_t h) { return h % 3 == 0 ? h + 2 : h - 1; }
-
-// ------------------------------------------------------------ exact 2D tests
-// True iff p lies on the closed segment [a, b] (exact).
-bool on_segment(const double* a, const double* b, const double* p) {
-    if (orient2d(a, b, p) != 0.0) return false;
-    return std::min(a[0], b[0]) <= p[0] && p[0] <= std::max(a[0], b[0]) &&
-           std::min(a[1], b[1]) <= p[1] && p[1] <= std::max(a[1], b[1]);
-}
-
-// True iff the closed segments [a, b] and [c, d] share a point (exact).
-bool segments_meet(const double* a, const double* b, const double* c, const double* d) {
-    const int o1 = orient2d_sign(a, b, c), o2 = orient2d_sign(a, b, d);
-    const int o3 = orient2d_sign(c, d, a), o4 = orient2d_sign(c, d, b);
-    if (o1 * o2 < 0 && o3 * o4 < 0) return true;
-    if (o1 == 0 && on_segment(a, b, c)) return true;
-    if (o2 == 0 && on_segment(a, b, d)) return true;
-    if (o3 == 0 && on_segment(c, d, a)) return true;
-    if (o4 == 0 && on_segment(c, d, b)) return true;
-    return false;
-}
-
-// True iff p lies in the closed triangle (a, b, c), any orientation, possibly
-// degenerate (then: on one of its sides).
-bool in_closed_triangle(const double* p, const double* a, const double* b, const double* c) {
-    const int o = orient2d_sign(a, b, c);
-    if (o == 0) return on_segment(a, b, p) || on_segment(b, c, p) || on_segment(c, a, p);
-    const int s1 = orient2d_sign(a, b, p), s2 = orient2d_sign(b, c, p), s3 = orient2d_sign(c, a, p);
-    return s1 * o >= 0 && s2 * o >= 0 && s3 * o >= 0;
-}
 
 Box2 tri_box(const double* a, const double* b, const double* c) {
     return {std::min(a[0], std::min(b[0], c[0])), std::min(a[1], std::min(b[1], c[1])),
@@ -198,112 +171,6 @@ bool ring_contains(const std::vector<const double*>& ring, const double* p) {
     return in;
 }
 
-// The study-area boundary: a CCW polygon with arc-length parameters.
-struct StudyBoundary {
-    std::vector<double> xy;   // k points, CCW
-    std::vector<double> cum;  // k + 1 cumulative lengths
-    std::vector<double> len;  // k side lengths
-    double tol = 0.0;
-    Rings rings;
-
-    std::size_t k() const { return len.size(); }
-    double perimeter() const { return cum.back(); }
-
-    void init(std::vector<double> pts, double tolerance) {
-        // Drop a repeated closing point and consecutive duplicates.
-        std::vector<double> q;
-        const std::size_t n = pts.size() / 2;
-        for (std::size_t i = 0; i < n; ++i) {
-            if (!q.empty() && q[q.size() - 2] == pts[2 * i] && q[q.size() - 1] == pts[2 * i + 1])
-                continue;
-            q.push_back(pts[2 * i]);
-            q.push_back(pts[2 * i + 1]);
-        }
-        while (q.size() >= 4 && q[0] == q[q.size() - 2] && q[1] == q[q.size() - 1]) q.resize(q.size() - 2);
-        if (q.size() < 6)
-            throw std::invalid_argument("LayerStitcher: boundary must have at least 3 distinct points");
-        for (double v : q)
-            if (!std::isfinite(v)) throw std::invalid_argument("LayerStitcher: boundary has a non-finite coordinate");
-        std::vector<const double*> ptrs;
-        for (std::size_t i = 0; i < q.size() / 2; ++i) ptrs.push_back(q.data() + 2 * i);
-        const double a2 = ring_area2(ptrs);
-        if (a2 == 0.0) throw GeometryError("LayerStitcher: the boundary polygon has zero area");
-        if (a2 < 0.0) {
-            // Reverse to counter-clockwise.
-            std::vector<double> r;
-            for (std::size_t i = q.size() / 2; i-- > 0;) {
-                r.push_back(q[2 * i]);
-                r.push_back(q[2 * i + 1]);
-            }
-            q.swap(r);
-        }
-        xy = std::move(q);
-        const std::size_t kk = xy.size() / 2;
-        cum.assign(kk + 1, 0.0);
-        len.assign(kk, 0.0);
-        double scale = 1.0;
-        for (double v : xy) scale = std::max(scale, std::fabs(v));
-        for (std::size_t i = 0; i < kk; ++i) {
-            const double* a = &xy[2 * i];
-            const double* b = &xy[2 * ((i + 1) % kk)];
-            len[i] = std::hypot(b[0] - a[0], b[1] - a[1]);
-            cum[i + 1] = cum[i] + len[i];
-        }
-        // Boundary points are computed, not given (densified sides
-        // a + t (b - a), trace points converted from (s, z) on a boundary
-        // section): each is within a few ulps of the largest coordinate of
-        // the exact side, so 64 eps max|c| accepts them with a wide margin
-        // while rejecting points 1e-7 m off at UTM magnitudes.
-        tol = tolerance >= 0.0 ? tolerance : 64.0 * kEpsilon * scale;
-        rings = Rings(xy, std::vector<std::int64_t>{0, static_cast<std::int64_t>(kk)});
-    }
-
-    // Sides within tol of p, with the arc parameter along each. A point at a
-    // corner is reported once per side and its parameter is snapped to the
-    // corner, so that all descriptions of the corner give the same t.
-    struct Hit {
-        std::size_t side;
-        double s;  // along the side, in [0, len]
-    };
-    void locate(const double* p, std::vector<Hit>& out) const {
-        out.clear();
-        const Box2 q{p[0] - tol, p[1] - tol, p[0] + tol, p[1] + tol};
-        rings.tree().visit(q, [&](std::int64_t e) {
-            const std::size_t i = static_cast<std::size_t>(e);
-            const double* a = &xy[2 * i];
-            const double* b = &xy[2 * ((i + 1) % k())];
-            const double dx = b[0] - a[0], dy = b[1] - a[1];
-            const double L = len[i];
-            double s = ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / L;
-            double cx, cy;
-            if (s <= 0.0) {
-                cx = a[0], cy = a[1];
-            } else if (s >= L) {
-                cx = b[0], cy = b[1];
-            } else {
-                cx = a[0] + dx * (s / L), cy = a[1] + dy * (s / L);
-            }
-            if (std::hypot(p[0] - cx, p[1] - cy) > tol) return;
-            if (s <= tol) s = 0.0;
-            if (s >= L - tol) s = L;
-            out.push_back({i, s});
-        });
-    }
-    double param(const Hit& h) const {
-        double t = cum[h.side] + h.s;
-        if (h.s == len[h.side]) t = cum[h.side + 1];
-        if (t >= perimeter()) t = 0.0;
-        return t;
-    }
-    // Inside or on the study polygon.
-    bool contains(const double* p) const {
-        std::vector<Hit> hits;
-        locate(p, hits);
-        if (!hits.empty()) return true;
-        return rings.inside(p);
-    }
-};
-
 }  // namespace
 
 // ---------------------------------------------------------------- state
@@ -329,7 +196,7 @@ struct StitcherState {
     std::unordered_map<std::int64_t, std::vector<std::int64_t>> gap_patches;  // live gaps
     std::int64_t next_gap = 0;
     std::vector<std::string> patch_names;
-    StudyBoundary study;
+    StudyArea study;
     // Scratch markers with stamps: no O(mesh) clearing per stitch.
     std::vector<std::uint32_t> in_d;
     std::uint32_t stamp = 0;
@@ -543,7 +410,7 @@ LayerStitcher::LayerStitcher(const double* vertices, std::size_t n_vertices,
         }
         if (bpts.empty()) throw GeometryError(fn + ": the mesh has no outer boundary loop");
     }
-    s.study.init(std::move(bpts), options.boundary_tolerance);
+    s.study = StudyArea(bpts.data(), bpts.size() / 2, options.boundary_tolerance);
 }
 
 LayerStitcher::~LayerStitcher() = default;
@@ -650,8 +517,8 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
     std::vector<double> ring_xy;
     std::vector<std::int64_t> ring_off{0};
     {
-        std::unordered_map<std::int64_t, std::vector<detail::StudyBoundary::Hit>> hits;
-        std::vector<detail::StudyBoundary::Hit> tmp;
+        std::unordered_map<std::int64_t, std::vector<StudyArea::Hit>> hits;
+        std::vector<StudyArea::Hit> tmp;
         for (const auto& loop : bc.loops)
             for (std::int64_t vtx : loop) {
                 s.study.locate(P(vtx), tmp);
@@ -711,7 +578,7 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
                     bad = orient2d(o, p, q) == 0.0 &&
                           (p[0] - o[0]) * (q[0] - o[0]) + (p[1] - o[1]) * (q[1] - o[1]) > 0.0;
                 } else {
-                    bad = detail::segments_meet(a, b, c, d);
+                    bad = segments_meet(a, b, c, d);
                 }
                 if (bad)
                     throw GeometryError(
@@ -915,7 +782,7 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
     std::vector<std::pair<double, int>> events;
     const double perim = s.study.perimeter();
     auto tpos = [&](std::size_t side, double sv) {
-        return sv == s.study.len[side] ? s.study.cum[side + 1] : s.study.cum[side] + sv;
+        return sv >= s.study.side_length(side) ? s.study.side_start(side + 1) : s.study.side_start(side) + sv;
     };
     auto key_of = [&](double t) { return t >= perim ? 0.0 : t; };
     std::unordered_set<std::uint64_t> study_keys;  // directed gap edges along the study boundary
@@ -924,7 +791,7 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
     };
     std::unordered_map<std::uint64_t, std::int64_t> dside;  // D interior edge (a,b) -> opposite kept half-edge
     {
-        std::vector<detail::StudyBoundary::Hit> ha, hb;
+        std::vector<StudyArea::Hit> ha, hb;
         for (std::int64_t h : bnd) {
             const std::int64_t a = s.tri[static_cast<std::size_t>(h)];
             const std::int64_t b = s.tri[static_cast<std::size_t>(detail::next_h(h))];

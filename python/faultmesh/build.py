@@ -1,34 +1,8 @@
-"""The modelling workflow: :func:`build_model` (DESIGN.md steps 2-7).
+"""The modelling workflow: :func:`build_model` (docs/design.md, "Workflow").
 
-Step 2, stratum TINs (:class:`LayerTin`): per layer, the Delaunay TIN of the
-layer's data points (``Dataset.layer_points``) plus vertices on the study-area
-boundary, so that every layer covers the whole study area and its outer
-boundary IS the study-area polygon:
-
-* the polygon's sides are densified at about the data spacing, and a side
-  piece whose diametral circle contains another vertex is split again until
-  none does. A segment whose closed diametral disk holds no other point is an
-  edge of every Delaunay triangulation containing its endpoints, so each side
-  piece is an edge of the TIN even for a non-convex study area; the triangles
-  outside the polygon (in its notches) are then dropped. Inserted points that
-  enter a side piece's circle split it again (``LayerTin.insert``).
-* boundary vertices get z from a weighted local plane fit to the nearest data
-  points (regional dip carried to the boundary), clamped to the data range
-  widened by half of it, so an extrapolation never runs away.
-* data points outside the study area are not used; points on its boundary
-  become boundary vertices.
-
-Step 3, layer-crossing repair (paper 3.2, Figure 6): top down, each layer is
-made to lie nowhere above the layer over it. Rule 1: a lower vertex above the
-upper surface takes the upper elevation. Rule 1b ("supplementing drilling
-data", Figure 6b): where an upper vertex lies below the lower surface, the
-lower layer receives a point there at the upper elevation. Rule 2: a lower
-edge that pierces the upper surface between its endpoints (found exactly at
-the crossings with the upper TIN's edges) gets its midpoint inserted into the
-lower layer (at the lower of the two elevations), and the TIN is updated by
-point insertion. Repeated until no crossing is left (bounded; GeometryError
-otherwise). Counts go to ``model.metadata["repair"]``.
-
+Steps 2 and 3 -- stratum TINs and the layer-crossing repair -- are the C++
+:class:`faultmesh.LayerTin` and :func:`faultmesh.repair_crossings`
+(cpp/include/faultmesh/layer_tin.hpp), driven by :func:`continuous_layers`.
 Steps 4-7: fault patches (:mod:`faultmesh.faults`) stitched into each layer by
 the C++ :class:`faultmesh.Stitcher` (overlap, growth, boundary contours,
 bridging, ear clipping, merge), one fault group after another.
@@ -40,499 +14,56 @@ import time
 from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
-from ._core import AabbTree, GeometryError, Stitcher, Tin
+from ._core import AabbTree, GeometryError, LayerTin, Stitcher, StudyArea, repair_crossings
 from .dataset import points_in_polygon
 from .model import Gap, Model, Surface
 
-__all__ = ["build_model", "LayerTin", "repair_crossings", "gap_quality", "fault_accuracy",
-           "surface_z"]
+__all__ = ["build_model", "continuous_layers", "stratum_tins", "LayerTin", "repair_crossings",
+           "gap_quality", "fault_accuracy", "surface_z"]
 
 
-# ---------------------------------------------------------------------------
-# Geometry helpers
-# ---------------------------------------------------------------------------
 def _ccw_ring(ring: np.ndarray) -> np.ndarray:
-    r = np.asarray(ring, dtype=np.float64).reshape(-1, 2)
-    if len(r) > 1 and np.array_equal(r[0], r[-1]):
-        r = r[:-1]
-    x, y = r[:, 0] - r[0, 0], r[:, 1] - r[0, 1]
-    a = 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
-    if a == 0.0:
-        raise GeometryError("build_model: the study-area boundary has zero area")
-    return np.ascontiguousarray(r if a > 0 else r[::-1])
-
-
-def _on_segment_tol(ring: np.ndarray) -> float:
-    # Same tolerance as the invariant checks and the stitcher (see
-    # invariants.on_boundary_tolerance): 64 ulps of the largest coordinate.
-    return 64.0 * 2.0 ** -53 * max(1.0, float(np.abs(ring).max()))
-
-
-def _project_on_sides(p: np.ndarray, ring: np.ndarray, tol: float):
-    """For points p (k, 2): (side index or -1, parameter along the side) of the
-    nearest side within tol."""
-    a = ring
-    b = np.roll(ring, -1, axis=0)
-    d = b - a
-    L2 = np.einsum("ij,ij->i", d, d)
-    t = np.einsum("kij,ij->ki", p[:, None, :] - a[None], d) / L2[None]
-    t = np.clip(t, 0.0, 1.0)
-    c = a[None] + t[..., None] * d[None]
-    dist = np.hypot(p[:, None, 0] - c[..., 0], p[:, None, 1] - c[..., 1])
-    side = np.argmin(dist, axis=1)
-    ok = dist[np.arange(len(p)), side] <= tol
-    return np.where(ok, side, -1), t[np.arange(len(p)), side]
-
-
-def _plane_fit_z(data: np.ndarray, q: np.ndarray, k: int = 12) -> np.ndarray:
-    """z at q (k, 2) from inverse-distance weighted local plane fits to the k
-    nearest data points (x, y, z); falls back to IDW where the fit is
-    ill-conditioned (nearly collinear neighbours)."""
-    n = len(data)
-    k = int(min(k, n))
-    tree = cKDTree(data[:, :2])
-    dist, idx = tree.query(q, k=k)
-    dist = np.asarray(dist).reshape(len(q), k)
-    idx = np.asarray(idx).reshape(len(q), k)
-    z = data[:, 2]
-    lo, hi = float(z.min()), float(z.max())
-    pad = 0.5 * (hi - lo) + 1.0
-    out = np.empty(len(q))
-    for i in range(len(q)):
-        P = data[idx[i]]
-        w = 1.0 / (dist[i] ** 2 + 1e-12 * (1.0 + dist[i].max() ** 2))
-        if np.any(dist[i] == 0.0):
-            out[i] = float(np.mean(P[dist[i] == 0.0, 2]))
-            continue
-        idw = float(np.sum(w * P[:, 2]) / np.sum(w))
-        if k >= 3:
-            A = np.column_stack([np.ones(k), P[:, 0] - q[i, 0], P[:, 1] - q[i, 1]])
-            sw = np.sqrt(w)
-            Aw = A * sw[:, None]
-            s = np.linalg.svd(Aw, compute_uv=False)
-            if s[-1] > 1e-6 * s[0]:
-                coef, *_ = np.linalg.lstsq(Aw, P[:, 2] * sw, rcond=None)
-                out[i] = float(np.clip(coef[0], lo - pad, hi + pad))
-                continue
-        out[i] = idw
-    return out
-
-
-def _barycentric_z(V: np.ndarray, T: np.ndarray, tri: np.ndarray, xy: np.ndarray) -> np.ndarray:
-    """z at xy by linear interpolation in triangles tri (indices into T, -1 = NaN)."""
-    out = np.full(len(xy), np.nan)
-    ok = tri >= 0
-    if not ok.any():
-        return out
-    t = T[tri[ok]]
-    a, b, c = V[t[:, 0]], V[t[:, 1]], V[t[:, 2]]
-    p = xy[ok]
-    v0x, v0y = b[:, 0] - a[:, 0], b[:, 1] - a[:, 1]
-    v1x, v1y = c[:, 0] - a[:, 0], c[:, 1] - a[:, 1]
-    v2x, v2y = p[:, 0] - a[:, 0], p[:, 1] - a[:, 1]
-    den = v0x * v1y - v1x * v0y
-    with np.errstate(divide="ignore", invalid="ignore"):
-        l1 = (v2x * v1y - v1x * v2y) / den
-        l2 = (v0x * v2y - v2x * v0y) / den
-    l0 = 1.0 - l1 - l2
-    out[ok] = l0 * a[:, 2] + l1 * b[:, 2] + l2 * c[:, 2]
-    return out
+    """The study-area ring (k, 2), counter-clockwise, without a closing point."""
+    return np.ascontiguousarray(StudyArea(np.asarray(ring, dtype=np.float64).reshape(-1, 2)).ring)
 
 
 # ---------------------------------------------------------------------------
-# Step 2: stratum TINs
+# Steps 2 and 3: stratum TINs and the layer-crossing repair
 # ---------------------------------------------------------------------------
-class LayerTin:
-    """The continuous TIN of one layer over the whole study area.
-
-    ``tin`` is the Delaunay triangulation (a :class:`faultmesh.Tin`) of the
-    data and boundary vertices; ``z`` holds the elevations actually used
-    (the repair changes them; the Tin keeps its insertion z). ``mesh()``
-    gives the triangles inside the study area.
-    """
-
-    def __init__(self, name: str, data: np.ndarray, boundary: np.ndarray,
-                 spacing: Optional[float] = None) -> None:
-        self.name = name
-        ring = _ccw_ring(boundary)
-        self.ring = ring
-        self.tol = _on_segment_tol(ring)
-        data = np.asarray(data, dtype=np.float64).reshape(-1, 3)
-        if not np.isfinite(data).all():
-            r = int(np.flatnonzero(~np.isfinite(data).all(axis=1))[0])
-            raise ValueError(f"build_model: layer {name!r}: data point {r} is not finite: "
-                             f"{data[r].tolist()}")
-        inside = points_in_polygon(data[:, :2], ring)
-        self.n_outside = int((~inside).sum())
-        data = data[inside]
-        if len(data) < 1:
-            raise GeometryError(f"build_model: layer {name!r} has no data point inside the "
-                                "study area")
-        side, tpar = _project_on_sides(data[:, :2], ring, self.tol)
-        on_b = side >= 0
-        self.data = data
-        area = abs(0.5 * float(np.sum(ring[:, 0] * np.roll(ring[:, 1], -1)
-                                      - np.roll(ring[:, 0], -1) * ring[:, 1])))
-        perim = float(np.hypot(*(np.roll(ring, -1, axis=0) - ring).T).sum())
-        if spacing is None:
-            spacing = math.sqrt(area / max(1, len(data)))
-        spacing = float(np.clip(spacing, perim / 4000.0, perim / 12.0))
-        self.spacing = spacing
-
-        # Boundary vertices per side: corners, densification, data on the side.
-        k = len(ring)
-        side_pts: List[List[Tuple[float, np.ndarray, Optional[float]]]] = [[] for _ in range(k)]
-        for i in range(k):
-            a, b = ring[i], ring[(i + 1) % k]
-            L = float(np.hypot(*(b - a)))
-            n = max(1, int(math.ceil(L / spacing)))
-            for j in range(n):
-                t = j / n
-                side_pts[i].append((t, a + t * (b - a) if j else a.copy(), None))
-        for r in np.flatnonzero(on_b):
-            i, t = int(side[r]), float(tpar[r])
-            if t >= 1.0:
-                i, t = (i + 1) % k, 0.0
-            side_pts[i].append((t, data[r, :2].copy(), float(data[r, 2])))
-        bxy, bz = [], []
-        for i in range(k):
-            pts = sorted(side_pts[i], key=lambda e: (e[0], e[2] is None))
-            last_t = None
-            for t, p, z in pts:
-                if last_t is not None and t == last_t:
-                    if z is not None:
-                        bz[-1] = z
-                        bxy[-1] = p
-                    continue
-                last_t = t
-                bxy.append(p)
-                bz.append(z)
-        bxy = np.array(bxy)
-        interior = data[~on_b]
-        known = np.array([z is not None for z in bz])
-        zb = np.empty(len(bz))
-        zb[known] = [z for z in bz if z is not None]
-        if (~known).any():
-            zb[~known] = _plane_fit_z(data, bxy[~known])
-        self.n_boundary_data = int(on_b.sum())
-        # Boundary pieces as a cyclic list of vertex rows in `pts`.
-        pts = np.vstack([np.column_stack([bxy, zb]), interior])
-        nb = len(bxy)
-        self._bnext = {i: (i + 1) % nb for i in range(nb)}
-        self._protect_init(pts, nb)
-
-    # -- boundary protection ------------------------------------------------
-    def _protect_init(self, pts: np.ndarray, nb: int) -> None:
-        """Split boundary pieces until no point lies in a piece's closed
-        diametral disk, then build the Tin."""
-        pts = [p for p in pts]
-        bnext = dict(self._bnext)
-        for _round in range(60):
-            arr = np.array(pts)
-            tree = cKDTree(arr[:, :2])
-            starts = np.array(list(bnext.keys()))
-            ends = np.array([bnext[s] for s in starts])
-            a, b = arr[starts, :2], arr[ends, :2]
-            mid = 0.5 * (a + b)
-            r = 0.5 * np.hypot(*(b - a).T)
-            # A relative slack of 1e-9 makes points ON the circle count as
-            # inside: cocircular ties would otherwise let the edge flip.
-            hits = tree.query_ball_point(mid, r * (1.0 + 1e-9))
-            split = [i for i, h in enumerate(hits)
-                     if any(j != starts[i] and j != ends[i] for j in h)]
-            if not split:
-                break
-            for i in split:
-                s, e = int(starts[i]), int(ends[i])
-                p = 0.5 * (arr[s] + arr[e])  # linear z along the piece: surface unchanged
-                pts.append(p)
-                new = len(pts) - 1
-                bnext[s] = new
-                bnext[new] = e
-        else:
-            raise GeometryError(f"build_model: layer {self.name!r}: could not protect the "
-                                "study-area boundary (a data point lies on it within rounding?)")
-        self._bnext = bnext
-        arr = np.array(pts)
-        self.tin = Tin(arr)
-        vmap = np.asarray(self.tin.vertex_of_input)
-        if len(np.unique(vmap)) != len(vmap):
-            # Duplicated XY among data points: the Tin keeps the first z.
-            pass
-        self.z = np.asarray(self.tin.vertices)[:, 2].copy()
-        self._bnext = {int(vmap[s]): int(vmap[e]) for s, e in bnext.items()}
-        self._cache = None
-        self._check_boundary_edges()
-
-    def _check_boundary_edges(self) -> None:
-        T = self._triangles()
-        n = len(self.z)
-        e = np.sort(np.vstack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1)
-        keys = np.unique(e[:, 0] * n + e[:, 1])
-        s = np.array(list(self._bnext.keys()), dtype=np.int64)
-        t = np.array([self._bnext[k] for k in s], dtype=np.int64)
-        want = np.minimum(s, t) * n + np.maximum(s, t)
-        pos = np.minimum(np.searchsorted(keys, want), len(keys) - 1)
-        miss = np.flatnonzero(keys[pos] != want)
-        if miss.size:
-            i = int(miss[0])
-            raise GeometryError(f"build_model: layer {self.name!r}: the boundary piece "
-                                f"({s[i]}, {t[i]}) is not an edge of the TIN")
-
-    def _triangles(self) -> np.ndarray:
-        if self._cache is None:
-            V = np.asarray(self.tin.vertices)
-            T = np.asarray(self.tin.triangles)
-            self._cache = (V, T, None)
-        return self._cache[1]
-
-    @property
-    def vertices(self) -> np.ndarray:
-        """All TIN vertices (n, 3) with the current elevations."""
-        self._triangles()
-        out = self._cache[0].copy()
-        out[:, 2] = self.z
-        return out
-
-    def _inside(self, T: np.ndarray) -> np.ndarray:
-        """Triangles inside the study area: those reached from the inner side
-        of the boundary pieces without crossing one. (Classifying by centroid
-        fails for the slivers that nearly collinear boundary points form just
-        outside the pieces: their centroids lie on the boundary line within
-        rounding.)"""
-        m = len(T)
-        H = np.asarray(self.tin.halfedges)
-        n = len(self.z)
-        hf = T.reshape(-1)
-        ht = T[:, [1, 2, 0]].reshape(-1)
-        key = hf * n + ht
-        order = np.argsort(key)
-        skey = key[order]
-        starts = np.array(list(self._bnext.keys()), dtype=np.int64)
-        ends = np.array([self._bnext[s] for s in starts], dtype=np.int64)
-        want = starts * n + ends  # piece s->e has the study area on its left
-        pos = np.searchsorted(skey, want)
-        ok = (pos < len(skey)) & (skey[np.minimum(pos, len(skey) - 1)] == want)
-        if not ok.all():
-            i = int(np.flatnonzero(~ok)[0])
-            raise GeometryError(f"build_model: layer {self.name!r}: boundary piece "
-                                f"({starts[i]}, {ends[i]}) is not a TIN edge")
-        wall = np.zeros(3 * m, dtype=bool)
-        hs = order[pos]
-        wall[hs] = True
-        wall[H[hs][H[hs] >= 0]] = True
-        h = np.flatnonzero(~wall & (H >= 0))
-        g = coo_matrix((np.ones(len(h)), (h // 3, H[h] // 3)), shape=(m, m))
-        _, lab = connected_components(g, directed=False)
-        seeds = np.unique(hs // 3)
-        inside = np.isin(lab, np.unique(lab[seeds]))
-        leak = np.flatnonzero(~wall & (H < 0))
-        if inside[leak // 3].any():
-            raise GeometryError(f"build_model: layer {self.name!r}: the study area leaks to "
-                                "the convex hull (boundary not protected)")
-        return inside
-
-    def mesh(self) -> Tuple[np.ndarray, np.ndarray]:
-        """(vertices (n, 3), triangles (m, 3)) of the TIN inside the study area
-        (unused vertices dropped)."""
-        self._triangles()
-        V, T, inside = self._cache
-        if inside is None:
-            inside = self._inside(T)
-            self._cache = (V, T, inside)
-        T = T[inside]
-        used = np.zeros(len(V), dtype=bool)
-        used[T.ravel()] = True
-        remap = np.cumsum(used) - 1
-        W = V[used].copy()
-        W[:, 2] = self.z[used]
-        return W, remap[T]
-
-    def interpolate(self, xy: np.ndarray) -> np.ndarray:
-        """z at xy (k, 2) with the current elevations; NaN outside the hull."""
-        xy = np.ascontiguousarray(np.asarray(xy, dtype=np.float64).reshape(-1, 2))
-        if len(xy) == 0:
-            return np.zeros(0)
-        self._triangles()
-        V = self._cache[0].copy()
-        V[:, 2] = self.z
-        tri = np.asarray(self.tin.locate(xy))
-        return _barycentric_z(V, self._cache[1], tri, xy)
-
-    def insert(self, xyz: np.ndarray) -> int:
-        """Insert points (k, 3), keeping the boundary protected. Returns the
-        number of new vertices. An existing vertex at the same XY takes the
-        new z (the repair lowers vertices this way)."""
-        xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
-        if len(xyz) == 0:
-            return 0
-        n0 = len(self.z)
-        idx = np.asarray(self.tin.insert(xyz))
-        self.z = np.concatenate([self.z, np.full(int(self.tin.n_vertices) - n0, np.nan)])
-        self.z[idx] = xyz[:, 2]
-        self._cache = None
-        # Keep the boundary pieces protected against the new points.
-        for _round in range(60):
-            V = np.asarray(self.tin.vertices)
-            starts = np.array(list(self._bnext.keys()))
-            ends = np.array([self._bnext[s] for s in starts])
-            a, b = V[starts, :2], V[ends, :2]
-            mid = 0.5 * (a + b)
-            r = 0.5 * np.hypot(*(b - a).T)
-            new_ids = np.unique(idx[idx >= n0]) if _round == 0 else new_b
-            if len(new_ids) == 0:
-                break
-            tree = cKDTree(V[new_ids, :2])
-            hits = tree.query_ball_point(mid, r * (1.0 + 1e-9))
-            split = [i for i, h in enumerate(hits) if h]
-            if not split:
-                break
-            add = []
-            for i in split:
-                s, e = int(starts[i]), int(ends[i])
-                p = np.r_[0.5 * (V[s, :2] + V[e, :2]), 0.5 * (self.z[s] + self.z[e])]
-                add.append((s, e, p))
-            nb0 = int(self.tin.n_vertices)
-            got = np.asarray(self.tin.insert(np.array([p for _, _, p in add])))
-            self.z = np.concatenate([self.z, np.full(int(self.tin.n_vertices) - nb0, np.nan)])
-            for (s, e, p), g in zip(add, got):
-                self.z[g] = p[2]
-                self._bnext[s] = int(g)
-                self._bnext[int(g)] = e
-            new_b = np.unique(got)
-        else:
-            raise GeometryError(f"build_model: layer {self.name!r}: could not keep the "
-                                "study-area boundary protected after an insertion")
-        self._cache = None
-        self._check_boundary_edges()
-        return int(self.tin.n_vertices) - n0
+def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repair: bool = True,
+                 max_repair_rounds: int = 50, progress=None) -> Tuple[Dict[str, LayerTin], Dict[str, Any]]:
+    """Steps 2 and 3: the continuous TIN of every layer over the study area
+    (:class:`faultmesh.LayerTin`), then, top down, each layer made to lie
+    nowhere above the one over it (:func:`faultmesh.repair_crossings`).
+    Returns (layer -> LayerTin, metadata with per-layer counts)."""
+    prog = _progress_fn(progress)
+    layers = list(dataset.layers)
+    tins: Dict[str, LayerTin] = {}
+    for i, lay in enumerate(layers):
+        prog("stratum TINs", i, len(layers))
+        tins[lay] = LayerTin(lay, dataset.layer_points(lay), area, spacing)
+    prog("stratum TINs", len(layers), len(layers))
+    meta: Dict[str, Any] = {"tins": {lay: {"data_points": int(t.n_data), "outside_ignored": int(t.n_outside),
+                                           "boundary_data": int(t.n_boundary_data),
+                                           "boundary_spacing": float(t.spacing)}
+                                     for lay, t in tins.items()},
+                            "repair": {}}
+    if repair:
+        for i, (up, lo) in enumerate(zip(layers[:-1], layers[1:])):
+            prog("layer repair", i, len(layers) - 1)
+            meta["repair"][lo] = repair_crossings(tins[up], tins[lo], max_repair_rounds)
+        prog("layer repair", len(layers) - 1, len(layers) - 1)
+    return tins, meta
 
 
-# ---------------------------------------------------------------------------
-# Step 3: layer-crossing repair
-# ---------------------------------------------------------------------------
-def _piercing_edges(lower: LayerTin, upper: LayerTin, tol: float):
-    """Lower-surface edges (a, b) that rise above the upper surface strictly
-    between their endpoints, found at their crossings with the upper TIN's
-    edges (where the difference of two piecewise-linear surfaces along a
-    segment can peak). Returns (lower vertices, edges (k, 2), crossing of
-    largest violation per edge (k, 3) at the upper elevation)."""
-    VL, TL = lower.mesh()
-    VU, TU = upper.mesh()
-    E = np.vstack([TL[:, [0, 1]], TL[:, [1, 2]], TL[:, [2, 0]]])
-    E = np.unique(np.sort(E, axis=1), axis=0)
-    p, q = VL[E[:, 0]], VL[E[:, 1]]
-    boxes = np.column_stack([np.minimum(p[:, 0], q[:, 0]), np.minimum(p[:, 1], q[:, 1]),
-                             np.maximum(p[:, 0], q[:, 0]), np.maximum(p[:, 1], q[:, 1])])
-    tree = AabbTree(VU, TU)
-    edges, crosses, viols = [], [], []
-    # Chunks bound the memory of the candidate pairs on large layers.
-    for c0 in range(0, len(E), 100_000):
-        c1 = min(len(E), c0 + 100_000)
-        off, hit = tree.query(boxes[c0:c1])
-        off = np.asarray(off)
-        hit = np.asarray(hit)
-        ei = c0 + np.repeat(np.arange(c1 - c0), np.diff(off))
-        # Upper edges of the candidate triangles.
-        UE = np.stack([TU[hit][:, [0, 1]], TU[hit][:, [1, 2]], TU[hit][:, [2, 0]]], axis=1).reshape(-1, 2)
-        ei = np.repeat(ei, 3)
-        a, b = VU[UE[:, 0]], VU[UE[:, 1]]
-        P, Q = p[ei], q[ei]
-        r = Q[:, :2] - P[:, :2]
-        sd = b[:, :2] - a[:, :2]
-        den = r[:, 0] * sd[:, 1] - r[:, 1] * sd[:, 0]
-        w = a[:, :2] - P[:, :2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (w[:, 0] * sd[:, 1] - w[:, 1] * sd[:, 0]) / den
-            u = (w[:, 0] * r[:, 1] - w[:, 1] * r[:, 0]) / den
-        ok = (den != 0) & (t > 0) & (t < 1) & (u >= 0) & (u <= 1)
-        zl = P[ok, 2] + t[ok] * (Q[ok, 2] - P[ok, 2])
-        zu = a[ok, 2] + u[ok] * (b[ok, 2] - a[ok, 2])
-        viol = zl - zu
-        bad = viol > tol
-        if bad.any():
-            edges.append(ei[ok][bad])
-            viols.append(viol[bad])
-            x = P[ok][bad, :2] + t[ok][bad, None] * r[ok][bad]
-            crosses.append(np.column_stack([x, zu[bad]]))
-    if not edges:
-        return VL, E[:0], np.zeros((0, 3))
-    e_ok = np.concatenate(edges)
-    v = np.concatenate(viols)
-    xz = np.vstack(crosses)
-    # Per piercing edge, the crossing of largest violation (on the upper
-    # edge, at the upper elevation).
-    order = np.lexsort((-v, e_ok))
-    first = np.r_[True, e_ok[order][1:] != e_ok[order][:-1]]
-    sel = order[first]
-    return VL, E[e_ok[sel]], xz[sel]
-
-
-def repair_crossings(upper: LayerTin, lower: LayerTin, max_rounds: int = 50,
-                     tol: Optional[float] = None, midpoint_rounds: int = 8) -> Dict[str, int]:
-    """Make ``lower`` lie nowhere above ``upper`` (paper 3.2, Figure 6).
-
-    Returns counts: rule1 (vertices lowered), rule1b (points supplemented
-    under upper vertices), rule2 (edge midpoints inserted), rule2_crossing
-    (crossing points inserted after ``midpoint_rounds`` rounds), rounds.
-    Raises GeometryError if crossings remain after ``max_rounds`` rounds.
-    """
-    if tol is None:
-        # Elevations are compared after barycentric interpolation, which errs
-        # by a few ulps of |z|; 1e-9 of the elevation scale (1e-6 m at 1 km)
-        # is far above that and far below any geological thickness.
-        zs = max(1.0, float(np.abs(lower.z).max()), float(np.abs(upper.z).max()))
-        tol = 1e-9 * zs
-    counts = {"rule1": 0, "rule1b": 0, "rule2": 0, "rule2_crossing": 0, "rounds": 0}
-    for rnd in range(max_rounds):
-        changed = False
-        # Rule 1: lower vertices above the upper surface take its elevation.
-        VL = lower.vertices
-        zu = upper.interpolate(VL[:, :2])
-        above = np.isfinite(zu) & (VL[:, 2] - zu > tol)
-        if above.any():
-            lower.z[above] = zu[above]
-            lower._cache = None
-            counts["rule1"] += int(above.sum())
-            changed = True
-        # Rule 1b: upper vertices below the lower surface: supplement the
-        # lower data there at the upper elevation.
-        VU, _ = upper.mesh()
-        zl = lower.interpolate(VU[:, :2])
-        below = np.isfinite(zl) & (zl - VU[:, 2] > tol)
-        if below.any():
-            lower.insert(VU[below])
-            counts["rule1b"] += int(below.sum())
-            changed = True
-        # Rule 2: edges piercing the upper surface between their endpoints.
-        # The paper inserts the edge's midpoint (at the lower of the two
-        # elevations). Where the upper surface is convex across an upper edge
-        # (a valley) and the lower one touches it, the chords keep piercing
-        # and midpoints only halve the violation each round; after
-        # `midpoint_rounds` rounds the crossing point itself (on the upper
-        # edge, at the upper elevation) is inserted, which resolves that
-        # crossing exactly.
-        VL, E, cross = _piercing_edges(lower, upper, tol)
-        if len(E):
-            if rnd < midpoint_rounds:
-                mid = 0.5 * (VL[E[:, 0]] + VL[E[:, 1]])
-                zu = upper.interpolate(mid[:, :2])
-                mid[:, 2] = np.fmin(mid[:, 2], zu)
-                lower.insert(mid)
-                counts["rule2"] += int(len(E))
-            else:
-                lower.insert(cross)
-                counts["rule2_crossing"] += int(len(E))
-            changed = True
-        counts["rounds"] = rnd + 1
-        if not changed:
-            return counts
-    raise GeometryError(f"repair_crossings: layer {lower.name!r} still crosses {upper.name!r} "
-                        f"after {max_rounds} rounds ({counts})")
+def continuous_layers(dataset, *, spacing: Optional[float] = None, repair: bool = True,
+                      max_repair_rounds: int = 50) -> Dict[str, Surface]:
+    """The continuous layer surfaces of ``dataset`` before any fault (steps 2
+    and 3 of :func:`build_model`, same code and defaults)."""
+    area = StudyArea(np.asarray(dataset.boundary, dtype=np.float64))
+    tins, _ = stratum_tins(dataset, area, spacing, repair, max_repair_rounds)
+    return {lay: Surface(lay, *t.mesh(), kind="layer") for lay, t in tins.items()}
 
 
 # ---------------------------------------------------------------------------
@@ -766,30 +297,17 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     if not layers:
         raise ValueError(f"build_model: dataset {dataset.name!r} has no layer")
     ring = _ccw_ring(dataset.boundary)
+    area = StudyArea(ring)
+    ring = area.ring
     meta: Dict[str, Any] = {"options": {"loft_method": loft_method, "refine": refine,
                                         "stitch_order": stitch_order, "bridge": bridge,
                                         "repair": repair}}
 
-    # Step 2: stratum TINs.
+    # Steps 2 and 3: stratum TINs, layer-crossing repair.
     t0 = time.perf_counter()
-    tins: Dict[str, LayerTin] = {}
-    for i, lay in enumerate(layers):
-        prog("stratum TINs", i, len(layers))
-        tins[lay] = LayerTin(lay, dataset.layer_points(lay), ring, spacing)
-    prog("stratum TINs", len(layers), len(layers))
-    meta["tins"] = {lay: {"data_points": int(len(t.data)), "outside_ignored": t.n_outside,
-                          "boundary_spacing": t.spacing} for lay, t in tins.items()}
-    timings["stratum_tins"] = time.perf_counter() - t0
-
-    # Step 3: layer-crossing repair, top down.
-    t0 = time.perf_counter()
-    meta["repair"] = {}
-    if repair:
-        for i, (up, lo) in enumerate(zip(layers[:-1], layers[1:])):
-            prog("layer repair", i, len(layers) - 1)
-            meta["repair"][lo] = repair_crossings(tins[up], tins[lo], max_repair_rounds)
-        prog("layer repair", len(layers) - 1, len(layers) - 1)
-    timings["repair"] = time.perf_counter() - t0
+    tins, tin_meta = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, prog)
+    meta.update(tin_meta)
+    timings["stratum_tins_and_repair"] = time.perf_counter() - t0
     continuous = {lay: Surface(lay, *tins[lay].mesh(), kind="layer") for lay in layers}
 
     # Step 4: fine fault models, per group and layer.
@@ -807,7 +325,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         prog("fault models", gi, len(groups))
         for lay in layers:
             zf = tins[lay].interpolate
-            core = {f.name: fm.layer_patch(f, lay, ends[f.name], ring, zf, loft_method)
+            core = {f.name: fm.layer_patch(f, lay, ends[f.name], area, zf, loft_method)
                     for f in group}
             core = {k: v for k, v in core.items() if v is not None}
             if not core:
@@ -819,7 +337,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                     if p is None or not any(k in ("extended", "synthetic_tip") for k in p.ends):
                         continue
                     partners = {k: r for k, r in outl.items() if k != f.name}
-                    core[f.name] = fm.layer_patch(f, lay, ends[f.name], ring, zf, loft_method,
+                    core[f.name] = fm.layer_patch(f, lay, ends[f.name], area, zf, loft_method,
                                                   partners=partners)
             plist = [core[f.name] for f in group if f.name in core]
             for p in plist:
@@ -846,7 +364,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     prog("fault models", len(groups), len(groups))
     fault_surfaces: Dict[str, Surface] = {}
     for f in dataset.faults:
-        res = fm.fault_surface(f, ends[f.name], ring, loft_method, end_moves[f.name])
+        res = fm.fault_surface(f, ends[f.name], area, loft_method, end_moves[f.name])
         if res is not None:
             fault_surfaces[f.name] = Surface(f.name, res[0], res[1], kind="fault",
                                              metadata={"kind": f.kind, "group": f.group or ""})

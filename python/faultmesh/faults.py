@@ -48,8 +48,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ._core import GeometryError, boundary_contours, loft, triangles_touching_region
-from .dataset import points_in_polygon
+from ._core import GeometryError, StudyArea, boundary_contours, loft, triangles_touching_region
 
 __all__ = ["LayerPatch", "FaultEnds", "fault_ends", "trace_polyline", "layer_patch",
            "fault_surface", "group_patch", "patch_outline"]
@@ -131,6 +130,25 @@ def _unit(v: np.ndarray) -> np.ndarray:
     if n == 0.0:
         raise GeometryError("faults: zero-length direction")
     return np.asarray(v[:2], dtype=np.float64) / n
+
+
+def as_study_area(ring) -> StudyArea:
+    """The study area as a :class:`faultmesh.StudyArea` (built from a ring (k, 2) once)."""
+    return ring if isinstance(ring, StudyArea) else StudyArea(np.asarray(ring, dtype=np.float64))
+
+
+def _pull_inside(area: StudyArea, origin: np.ndarray, xy: np.ndarray, what: str) -> np.ndarray:
+    """``xy`` moved back towards ``origin`` (which must be in the study area)
+    until it lies in the study area: halved moves, then the origin itself."""
+    xy = np.asarray(xy, dtype=np.float64).copy()
+    for _ in range(60):
+        if area.contains(xy[None, :])[0]:
+            return xy
+        xy = origin + 0.5 * (xy - origin)
+    if area.contains(origin[None, :2])[0]:
+        return np.asarray(origin[:2], dtype=np.float64).copy()
+    raise GeometryError(f"faults: {what} at ({origin[0]:.3f}, {origin[1]:.3f}) lies outside "
+                        "the study area")
 
 
 def fault_ends(fault) -> FaultEnds:
@@ -232,13 +250,10 @@ def _layer_tip(fault, traces_with, layer: str, end: int, tip: np.ndarray, direct
     if ref is None:
         ref = mid_l
     v = tip - ref[:2]
-    xy = mid_l[:2] + v
     # Keep the tip inside the study area (a deep layer's shifted tip can
     # leave a study area that the fault's tip just fits in).
-    for _ in range(40):
-        if points_in_polygon(xy[None, :], ring)[0]:
-            break
-        xy = mid_l[:2] + 0.5 * (xy - mid_l[:2])
+    xy = _pull_inside(as_study_area(ring), mid_l[:2], mid_l[:2] + v,
+                      f"fault {fault.name!r} layer {layer!r}: the cutoff at the end trace")
     sides = tr.layers[layer]
     zc = 0.5 * (float(np.asarray(sides["foot"])[-1, 2]) + float(np.asarray(sides["hanging"])[0, 2]))
     z = zc
@@ -249,12 +264,29 @@ def _layer_tip(fault, traces_with, layer: str, end: int, tip: np.ndarray, direct
     return np.array([xy[0], xy[1], z])
 
 
-def _extend(poly: np.ndarray, d: np.ndarray, targets: Dict[str, List[np.ndarray]],
-            max_dist: float, surface_z) -> Optional[Tuple[np.ndarray, str, float]]:
-    """``poly`` carried along ``d`` onto the nearest target (all points must
-    hit it within ``max_dist``): (new polyline, target name, median distance)."""
+def _to_boundary(area: StudyArea, poly: np.ndarray, d: np.ndarray, surface_z):
+    """``poly`` carried along ``d`` onto the study-area boundary: (points
+    (k, 3) placed on their sides, t (k,) the distances). A point already on
+    the boundary stays where it is (t = 0, the same coordinates)."""
+    t, side, _, xy = area.ray_hit(poly[:, :2], np.asarray(d, dtype=np.float64)[None, :])
+    on = t == 0.0
+    xy = np.where(on[:, None], poly[:, :2], xy)
+    pts = np.column_stack([xy, _shift_z(poly, xy, surface_z)])
+    pts[on] = poly[on]
+    return pts, t
+
+
+def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
+            partners: Dict[str, List[np.ndarray]], max_dist: float,
+            surface_z) -> Optional[Tuple[np.ndarray, str, float]]:
+    """``poly`` carried along ``d`` onto the nearest target (every point must
+    hit it within ``max_dist``): the study-area boundary or a group partner's
+    outline. Returns (new polyline, target name, median distance) or None."""
     best = None
-    for name, rings in targets.items():
+    pts, t = _to_boundary(area, poly, d, surface_z)
+    if np.all(np.isfinite(t)) and float(t.max()) <= max_dist:
+        best = (pts, "boundary", float(np.median(t)))
+    for name, rings in partners.items():
         if not rings:
             continue
         t = _ray_hits(poly, d, rings)
@@ -262,40 +294,69 @@ def _extend(poly: np.ndarray, d: np.ndarray, targets: Dict[str, List[np.ndarray]
             continue
         med = float(np.median(t))
         if best is None or med < best[2]:
-            best = (t, name, med)
-    if best is None:
-        return None
-    t, name, med = best
-    xy = poly[:, :2] + t[:, None] * d[None, :]
-    return np.column_stack([xy, _shift_z(poly, xy, surface_z)]), name, med
+            xy = poly[:, :2] + t[:, None] * d[None, :]
+            best = (np.column_stack([xy, _shift_z(poly, xy, surface_z)]), name, med)
+    return best
 
 
 # ---------------------------------------------------------------------------
 # Assembly
 # ---------------------------------------------------------------------------
 def _assemble(seq: List[np.ndarray], method: str) -> Tuple[np.ndarray, np.ndarray]:
-    """Loft consecutive polylines of ``seq`` into one patch (shared vertices)."""
-    offs = np.cumsum([0] + [len(p) for p in seq])
-    V = np.vstack(seq)
+    """Loft consecutive polylines of ``seq`` into one patch.
+
+    Consecutive polylines share vertices where they have the same point at
+    the same position (an end trace that already lies on the study-area
+    boundary is its own extension there): such a point is one vertex, and
+    the loft triangles that would join it to itself (two corners at one
+    vertex: zero area) are not made. The strip between the polylines is
+    pinched at the shared point, and the remaining triangles cover it."""
+    Vs: List[np.ndarray] = []
+    index: List[np.ndarray] = []  # per polyline: vertex index of each point
+    n = 0
+    for i, p in enumerate(seq):
+        idx = np.arange(n, n + len(p))
+        if i > 0 and len(p) == len(seq[i - 1]):
+            same = np.all(p == seq[i - 1], axis=1)
+            if same.any():
+                idx = np.where(same, index[-1], -1)
+                new = ~same
+                idx[new] = np.arange(n, n + int(new.sum()))
+                Vs.append(p[new])
+                n += int(new.sum())
+                index.append(idx)
+                continue
+        Vs.append(p)
+        n += len(p)
+        index.append(idx)
     tris = []
     for i in range(len(seq) - 1):
         a, b = seq[i], seq[i + 1]
         t = np.asarray(loft(a, b, method=method), dtype=np.int64)
         k = len(a)
-        tris.append(np.where(t < k, t + offs[i], t - k + offs[i + 1]))
+        tris.append(np.where(t < k, index[i][np.minimum(t, k - 1)],
+                             index[i + 1][np.maximum(t - k, 0)]))
     T = np.vstack(tris) if tris else np.zeros((0, 3), dtype=np.int64)
+    T = T[(T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 2] != T[:, 0])]
+    V = np.vstack(Vs) if Vs else np.zeros((0, 3))
     return np.ascontiguousarray(V), np.ascontiguousarray(T)
 
 
-def layer_patch(fault, layer: str, ends: FaultEnds, ring: np.ndarray, surface_z=None,
+def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 loft_method: str = "min_area",
                 partners: Optional[Dict[str, List[np.ndarray]]] = None,
                 max_extension: Optional[float] = None) -> Optional[LayerPatch]:
     """The fine model of ``fault`` in ``layer`` (None if no trace has it).
 
+    ``ring``: the study area (a (k, 2) ring or a :class:`faultmesh.StudyArea`).
     ``surface_z(xy) -> z`` is the continuous layer surface (tips and
     extensions follow its trend); ``partners``: group partners' XY outlines
-    in this layer (extension targets besides the study-area boundary)."""
+    in this layer (extension targets besides the study-area boundary).
+
+    An end trace that lies on the study-area boundary (every point of its
+    polyline, by :meth:`StudyArea.on_boundary`) closes the patch there: the
+    fault runs out of the study area (end kind ``boundary``)."""
+    area = as_study_area(ring)
     with_layer = [tr for tr in fault.traces if layer in tr.layers]
     if not with_layer:
         return None
@@ -303,23 +364,22 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring: np.ndarray, surface_z=
     seq = [p for p, _ in polys]
     throws = [t for _, t in polys]
     if max_extension is None:
-        max_extension = max(1.5 * ends.spacing, 0.25 * math.sqrt(abs(_area(ring))))
+        max_extension = max(1.5 * ends.spacing, 0.25 * math.sqrt(abs(_area(area.ring))))
     kinds, abuts, meta = [], [], {}
-    targets = {"boundary": [ring]}
-    for name, rings in (partners or {}).items():
-        targets[name] = rings
     for end in (0, 1):
         poly = seq[0] if end == 0 else seq[-1]
         tip = ends.tips[end]
         d = ends.directions[end]
         add: Optional[np.ndarray] = None
         if tip is not None:
-            add = _layer_tip(fault, with_layer, layer, end, tip, d, ring, surface_z)[None, :]
+            add = _layer_tip(fault, with_layer, layer, end, tip, d, area, surface_z)[None, :]
             kinds.append("tip")
         elif (throws[0] if end == 0 else throws[-1]) == 0.0:
             kinds.append("zero_throw")
+        elif area.on_boundary(poly[:, :2]).all():
+            kinds.append("boundary")
         else:
-            ext = _extend(poly, d, targets, max_extension, surface_z)
+            ext = _extend(poly, d, area, partners or {}, max_extension, surface_z)
             if ext is not None:
                 add, target, dist = ext
                 kinds.append("extended")
@@ -331,11 +391,8 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring: np.ndarray, surface_z=
                 # Nothing within reach: close by a synthetic pinch-out.
                 sides = (with_layer[0] if end == 0 else with_layer[-1]).layers[layer]
                 cm = 0.5 * (np.asarray(sides["foot"])[-1] + np.asarray(sides["hanging"])[0])
-                xy = cm[:2] + 0.5 * ends.spacing * d
-                for _ in range(40):
-                    if points_in_polygon(xy[None, :], ring)[0]:
-                        break
-                    xy = cm[:2] + 0.5 * (xy - cm[:2])
+                xy = _pull_inside(area, cm[:2], cm[:2] + 0.5 * ends.spacing * d,
+                                  f"fault {fault.name!r} layer {layer!r}: the end cutoff")
                 add = np.array([[xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])]])
                 kinds.append("synthetic_tip")
         if add is not None:
@@ -347,7 +404,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring: np.ndarray, surface_z=
     return LayerPatch(fault.name, layer, V, T, kinds, abuts, meta)
 
 
-def fault_surface(fault, ends: FaultEnds, ring: np.ndarray, loft_method: str = "min_area",
+def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
                   end_moves: Optional[Sequence[Optional[Tuple[str, np.ndarray]]]] = None):
     """(vertices, triangles) of the fault surface lofted from its plane
     traces, or None with fewer than two polylines.
@@ -356,7 +413,9 @@ def fault_surface(fault, ends: FaultEnds, ring: np.ndarray, loft_method: str = "
     offset from the cutoff midpoint of the layer whose cutoff line passes
     closest to the tip). ``end_moves`` (per end, None, ``("ray", d)``: each
     point carried along d onto the study-area boundary, or ``("shift", v)``:
-    the trace moved by v) extends an end like the layers' patches."""
+    the trace moved by v) extends an end like the layers' patches. An end
+    plane trace that already lies on the boundary stays as it is."""
+    area = as_study_area(ring)
     seq = [np.asarray(tr.plane, dtype=np.float64).reshape(-1, 3) for tr in fault.traces]
     seq = [p for p in seq if len(p) >= 1]
     if not seq:
@@ -372,23 +431,28 @@ def fault_surface(fault, ends: FaultEnds, ring: np.ndarray, loft_method: str = "
                 ref = plane[len(plane) // 2]
             moved = plane.copy()
             moved[:, :2] += (tip - ref[:2])[None, :]
+        elif area.on_boundary(plane[:, :2]).all():
+            moved = None
         elif end_moves is not None and end_moves[end] is not None:
             how, vec = end_moves[end]
-            moved = plane.copy()
             if how == "ray":
-                t = _ray_hits(plane, np.asarray(vec, dtype=np.float64), [ring])
-                t = np.where(np.isfinite(t), t, 0.0)
-                moved[:, :2] += t[:, None] * np.asarray(vec)[None, :]
+                moved, t = _to_boundary(area, plane, np.asarray(vec, dtype=np.float64), None)
+                miss = ~np.isfinite(t)
+                moved[miss] = plane[miss]
             else:
+                moved = plane.copy()
                 moved[:, :2] += np.asarray(vec, dtype=np.float64)[None, :]
         if moved is not None:
             # Keep it inside the study area (halve the move where it leaves).
-            inside = points_in_polygon(moved[:, :2], ring)
-            for _ in range(40):
+            inside = area.contains(moved[:, :2])
+            for _ in range(60):
                 if inside.all():
                     break
                 moved[~inside, :2] = 0.5 * (moved[~inside, :2] + plane[~inside, :2])
-                inside = points_in_polygon(moved[:, :2], ring)
+                inside = area.contains(moved[:, :2])
+            else:
+                raise GeometryError(f"fault_surface: fault {fault.name!r}: the end plane trace "
+                                    "cannot be moved inside the study area")
             if end == 0:
                 seq.insert(0, moved)
             else:
@@ -398,8 +462,8 @@ def fault_surface(fault, ends: FaultEnds, ring: np.ndarray, loft_method: str = "
     return _assemble(seq, loft_method)
 
 
-def _area(ring: np.ndarray) -> float:
-    r = np.asarray(ring, dtype=np.float64)
+def _area(ring) -> float:
+    r = np.asarray(ring.ring if isinstance(ring, StudyArea) else ring, dtype=np.float64)
     x, y = r[:, 0] - r[0, 0], r[:, 1] - r[0, 1]
     return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
 
