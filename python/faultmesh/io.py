@@ -17,7 +17,7 @@ suffix     format                                            keeps
 ``.vtk``   VTK legacy (binary), merged                       names, kinds, arrays
 ``.obj``   Wavefront OBJ, one object per surface             names, kinds
 ``.ply``   PLY binary, merged (one mesh in viewers)          names, kinds
-``.stl``   STL (read only, meshio)                           one surface
+``.stl``   STL (read only)                                   one surface
 ``.omf``   Open Mining Format v1 (``faultmesh[omf]``)        names, kinds
 ``.epc``   RESQML 2.0.1 (+ ``.h5``; ``faultmesh[resqml]``)   names, kinds, CRS
 ``.geoh5`` Geoscience ANALYST (``faultmesh[geoh5]``)         names, kinds

@@ -1,10 +1,9 @@
-"""meshio, where faultmesh still uses it (reading PLY and STL), and the folder
-layout of one file per surface (``<folder>/<NN>_<kind>_<name>.<ext>``, ``NN``
-the surface's position: layers top down, then faults), which keeps names,
-kinds and order for formats that hold one mesh.
+"""The folder layout of one file per surface (``<folder>/<NN>_<kind>_<name>.<ext>``,
+``NN`` the surface's position: layers top down, then faults), which keeps
+names, kinds and order for viewers that show one object per file.
 
-meshio calls ``sys.exit`` on some files it cannot read; every call goes
-through :func:`._common.guarded`, so a bad file raises ModelFileError.
+(The module kept its old name; faultmesh reads and writes every mesh format
+itself now, meshio is no longer used.)
 """
 from __future__ import annotations
 
@@ -12,46 +11,9 @@ import re
 from pathlib import Path
 from typing import List, Optional
 
-import numpy as np
-
-from ._common import AtomicFiles, ModelFileError, _Shared, guarded, model_surfaces, slug
+from ._common import AtomicFiles, ModelFileError, _Shared, model_surfaces, slug
 
 _PIECE = re.compile(r"^(\d+)_(layer|fault)_(.+)$")
-
-
-def _meshio():
-    import meshio
-
-    return meshio
-
-
-def read_mesh(path: Path, fmt: str):
-    """(mesh, points (n, 3), triangles (m, 3)) of a file meshio reads."""
-    meshio = _meshio()
-    if not path.is_file():
-        if path.is_dir():
-            raise ModelFileError(path, "is a directory, expected a file")
-        raise FileNotFoundError(f"{path}: no such file")
-    mesh = guarded(path, f"reading it as {fmt.upper()} (meshio)", meshio.read, str(path),
-                   file_format=fmt)
-    tris = []
-    for block in mesh.cells:
-        if block.type == "triangle":
-            tris.append(np.asarray(block.data, dtype=np.int64))
-        elif block.type in ("vertex", "line"):
-            continue
-        else:
-            raise ModelFileError(path, f"expected a triangle mesh, found {len(block.data)} "
-                                       f"{block.type!r} cells (triangulate it first)")
-    T = np.vstack(tris) if tris else np.zeros((0, 3), dtype=np.int64)
-    P = np.asarray(mesh.points, dtype=np.float64)
-    if P.ndim != 2 or P.shape[1] not in (2, 3):
-        raise ModelFileError(path, f"expected points (n, 3), got shape {P.shape}")
-    if P.shape[1] == 2:
-        P = np.column_stack([P, np.zeros(len(P))])
-    if T.size and (T.min() < 0 or T.max() >= len(P)):
-        raise ModelFileError(path, f"triangle vertex index outside 0..{len(P) - 1}")
-    return mesh, P, T
 
 
 def write_folder(model, folder, fmt: str, files: Optional[AtomicFiles] = None) -> List[Path]:
