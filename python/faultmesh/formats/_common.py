@@ -409,6 +409,10 @@ def _unprefix(arrays: Dict[str, np.ndarray], prefix: str, reserved: Tuple[str, .
              else k): v for k, v in arrays.items()}
 
 
+def _all_nan(a: np.ndarray) -> bool:
+    return a.size > 0 and a.dtype.kind == "f" and bool(np.isnan(a).all())
+
+
 def split_merged(path, points: np.ndarray, triangles: np.ndarray,
                  point_arrays: Dict[str, np.ndarray], cell_arrays: Dict[str, np.ndarray],
                  names: Optional[Sequence[str]] = None, kinds: Optional[Sequence[str]] = None,
@@ -432,9 +436,11 @@ def split_merged(path, points: np.ndarray, triangles: np.ndarray,
     kind_c = ca.pop("kind", None) if sid is not None else None
 
     def meta(vsel, tsel) -> Dict[str, object]:
+        # A surface that lacked an array in the merged file has only NaN
+        # there (Merged fills them): it gets no such array back.
         m: Dict[str, object] = {}
-        vp = {k: v[vsel] for k, v in pa.items()}
-        tp = {k: v[tsel] for k, v in ca.items()}
+        vp = {k: v[vsel] for k, v in pa.items() if not _all_nan(v[vsel])}
+        tp = {k: v[tsel] for k, v in ca.items() if not _all_nan(v[tsel])}
         if vp:
             m["vertex_properties"] = _unprefix(vp, "vertex", ("surface_id",))
         if tp:

@@ -4,8 +4,10 @@
 Written: a workspace with two container groups, ``Layers`` and ``Faults``
 (as the model orders them), each surface a ``Surface`` object named after it
 with its vertices (float64, exact), triangles and vertex properties as float
-data. Read: every ``Surface`` object; a fault when one of its parent groups
-is named like "fault", vertex float data as vertex properties.
+data, and object data ``faultmesh_order`` (geoh5 keeps no order) and
+``faultmesh_fault_kind``. Read: every ``Surface`` object (in faultmesh's order,
+else by name); a fault when one of its parent groups is named like "fault",
+vertex float data as vertex properties.
 """
 from __future__ import annotations
 
@@ -35,10 +37,17 @@ def _write_into(model, tmp: Path) -> None:
     try:
         groups = {"layer": ContainerGroup.create(ws, name="Layers"),
                   "fault": ContainerGroup.create(ws, name="Faults")}
-        for surf, kind in model_surfaces(model):
+        for k, (surf, kind) in enumerate(model_surfaces(model)):
             gs = GSurface.create(ws, name=str(surf.name), parent=groups[kind],
                                  vertices=np.asarray(surf.vertices, np.float64),
                                  cells=np.asarray(surf.triangles, np.uint32))
+            # geoh5 keeps no order of objects: faultmesh's own object data do.
+            own = {"faultmesh_order": {"values": np.array([k], np.int32), "association": "OBJECT"}}
+            sub = str((surf.metadata or {}).get("kind", "")).lower()
+            if kind == "fault" and sub in ("normal", "reverse"):
+                own["faultmesh_fault_kind"] = {"values": sub, "association": "OBJECT",
+                                               "type": "text"}
+            gs.add_data(own)
             for name, a in vertex_properties(surf).items():
                 a = np.asarray(a, np.float64).reshape(surf.n_vertices, -1)
                 for c in range(a.shape[1]):
@@ -66,9 +75,22 @@ def _read(path: Path):
     ws = Workspace(str(path), mode="r")
     try:
         layers, faults = {}, {}
-        for obj in ws.objects:
-            if not isinstance(obj, GSurface):
-                continue
+        objs = [o for o in ws.objects if isinstance(o, GSurface)]
+
+        def own(o, name):
+            for d in getattr(o, "children", []) or []:
+                if d.name == name and str(getattr(d, "association", "")).upper().endswith("OBJECT"):
+                    return d.values
+            return None
+
+        def position(o):
+            v = own(o, "faultmesh_order")
+            try:
+                return (0, int(np.asarray(v).reshape(-1)[0]), str(o.name))
+            except (TypeError, ValueError, IndexError):
+                return (1, 0, str(o.name))     # foreign objects: by name
+
+        for obj in sorted(objs, key=position):
             V = np.asarray(obj.vertices, np.float64).reshape(-1, 3)
             T = np.asarray(obj.cells if obj.cells is not None else np.zeros((0, 3)),
                            np.int64).reshape(-1, 3)
@@ -77,6 +99,7 @@ def _read(path: Path):
                 parents.append(str(p.name).lower())
                 p = getattr(p, "parent", None)
             kind = "fault" if any("fault" in n for n in parents) else "layer"
+            fk = own(obj, "faultmesh_fault_kind")
             props = {}
             for d in getattr(obj, "children", []):
                 vals = getattr(d, "values", None)
@@ -91,8 +114,10 @@ def _read(path: Path):
             if T.size and (T.min() < 0 or T.max() >= len(V)):
                 raise ModelFileError(path, f"surface {name!r}: triangle vertex index outside "
                                            f"0..{len(V) - 1}")
-            target[name] = Surface(name=name, vertices=V, triangles=T, kind=kind,
-                                   metadata={"vertex_properties": props} if props else {})
+            meta = {"vertex_properties": props} if props else {}
+            if kind == "fault" and str(fk) in ("normal", "reverse"):
+                meta["kind"] = str(fk)
+            target[name] = Surface(name=name, vertices=V, triangles=T, kind=kind, metadata=meta)
     finally:
         ws.close()
     if not layers and not faults:

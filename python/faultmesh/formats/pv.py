@@ -89,6 +89,15 @@ def _field_str(ds, key: str) -> Optional[str]:
 
 def _triangles(mesh, what: str) -> tuple:
     pv = _pv()
+    if isinstance(mesh, pv.UnstructuredGrid):
+        # Taken as it is (extract_surface would renumber the points).
+        types = np.asarray(mesh.celltypes)
+        if mesh.n_cells and not np.all(types == 5):
+            raise ValueError(f"from_pyvista: {what} has cells that are not triangles; call "
+                             ".triangulate() on it first")
+        T = np.asarray(mesh.cells, np.int64).reshape(-1, 4)[:, 1:] if mesh.n_cells else \
+            np.zeros((0, 3), np.int64)
+        return mesh, np.asarray(mesh.points, np.float64).reshape(-1, 3), T
     if not isinstance(mesh, pv.PolyData):
         try:
             mesh = mesh.extract_surface(algorithm="dataset_surface")
