@@ -110,7 +110,8 @@ def test_plot_command(model_file, tmp_path):
 
 @pytest.mark.parametrize("argv, fragment", [
     (["quality", "/no/such/model.3dt"], "quality: error: model '/no/such/model.3dt': no such file"),
-    (["convert", "{model}", "{tmp}/m.stl"], "convert: error: save_model: unknown format '.stl'"),
+    (["convert", "{model}", "{tmp}/m.xyz"], "convert: error: save_model: unknown format '.xyz'"),
+    (["convert", "{model}", "{tmp}/m.stl"], "convert: error: save_model: .stl is read-only"),
     (["section", "{bad}", "--origin", "0", "0", "--azimuth", "0"], "bad.3dt, line 1: not a .3dt file"),
     (["build", "no_such_dataset", "-o", "{tmp}/o"], "build: error: dataset 'no_such_dataset': no such file"),
     (["section", "{model}", "--origin", "0", "0", "--azimuth", "nan"], "azimuth must be a finite number"),

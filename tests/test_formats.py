@@ -286,6 +286,15 @@ def test_ts_to_ts_keeps_vertex_properties_and_fault_kind(tmp_path):
     assert (tmp_path / "a.ts").read_bytes() == (tmp_path / "b.ts").read_bytes()
 
 
+def test_gocad_name_ending_with_a_brace_keeps_the_header_open(tmp_path):
+    """Regression: a header line 'name:a}' closed the header, losing the rest."""
+    m = make_model()
+    m.surfaces["coal 8"].name = "coal {8}"
+    m.save(tmp_path / "m.ts")
+    r = load_model(tmp_path / "m.ts")
+    assert list(r.surfaces) == ["top soil", "coal {8}"] and r.name == m.name
+
+
 def test_gocad_names_are_bare_and_line_breaks_refused(tmp_path):
     m = make_model()
     m.save(tmp_path / "m.ml")

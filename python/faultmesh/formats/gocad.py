@@ -376,11 +376,12 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
                 skip_until = None
             continue
         if block_end is not None:
-            # Inside HEADER { ... } (or a property class header): key:value lines.
+            # Inside HEADER { ... } (or a property class header): key:value
+            # lines up to a line starting with "}" (a name may end with "}").
             body = s
-            closes = body.endswith("}")
+            closes = body.startswith("}")
             if closes:
-                body = body[:-1].strip()
+                body = ""
             if block_end == "HEADER" and body:
                 key, sep, val = body.partition(":")
                 if sep:
