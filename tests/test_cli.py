@@ -110,7 +110,8 @@ def test_plot_command(model_file, tmp_path):
 
 @pytest.mark.parametrize("argv, fragment", [
     (["quality", "/no/such/model.3dt"], "quality: error: model '/no/such/model.3dt': no such file"),
-    (["convert", "{model}", "{tmp}/m.stl"], "convert: error: save_model: unknown format '.stl'"),
+    (["convert", "{model}", "{tmp}/m.xyz"], "convert: error: save_model: unknown format '.xyz'"),
+    (["convert", "{model}", "{tmp}/m.stl"], "convert: error: save_model: .stl is read-only"),
     (["section", "{bad}", "--origin", "0", "0", "--azimuth", "0"], "bad.3dt, line 1: not a .3dt file"),
     (["build", "no_such_dataset", "-o", "{tmp}/o"], "build: error: dataset 'no_such_dataset': no such file"),
     (["section", "{model}", "--origin", "0", "0", "--azimuth", "nan"], "azimuth must be a finite number"),
@@ -173,6 +174,7 @@ def test_build_command_with_options(tmp_path, capsys):
                "--loft", "shortest_diagonal", "-q"])
     assert rc == 0, capsys.readouterr().err
     files = sorted(p.name for p in (tmp_path / "b").iterdir())
-    assert files == ["paper_like.3dt", "paper_like.ts", "quality.csv", "quality.json", "quality.md"]
+    assert files == ["paper_like.3dt", "paper_like.ts", "paper_like_boundary.pl", "quality.csv",
+                     "quality.json", "quality.md"]
     m = load_model(tmp_path / "b" / "paper_like.3dt")
     assert np.all(np.isfinite(m.surfaces[next(iter(m.surfaces))].vertices))

@@ -40,5 +40,6 @@ def include_dir() -> str:
 from .dataset import Dataset, DatasetError, load_dataset  # noqa: E402
 from . import datasets  # noqa: E402
 from .io import load_model  # noqa: E402
+from .formats.pv import from_pyvista  # noqa: E402  (needs faultmesh[viz] when called)
 from .model import Model, Surface, Gap  # noqa: E402
 from .build import build_model  # noqa: E402

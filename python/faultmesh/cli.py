@@ -25,12 +25,14 @@ examples:
   faultmesh build paper_like -o out --loft shortest_diagonal
   faultmesh section out/site.3dt --origin 4500 3200 --azimuth 90 -o cut.csv --png cut.png
   faultmesh quality out/site.3dt --json quality.json
-  faultmesh convert out/site.3dt site.ts     (GOCAD TSurf; also .vtu .vtk .obj .ply)
+  faultmesh convert out/site.3dt site.ml     (GOCAD Model3d; also .ts .vtu .vtk .vtp
+                                             .obj .ply .omf .epc .geoh5)
   faultmesh plot out/site.3dt --png model.png
 
 Datasets: a format-v1 JSON file (docs/dataset.md) or a built-in name
 (paper_like, synthetic). Models: .3dt (faultmesh's own, keeps everything),
-.ts, .vtu, .vtk, .obj, .ply, or a folder written by 'build'.
+.ts, .ml, .vtu, .vtp, .vtk, .obj, .ply, .omf, .epc (RESQML), .geoh5, read also
+.pl and .stl, or a folder written by 'build' (docs/formats.md).
 Azimuths are degrees clockwise from north (0 = north, 90 = east).
 """
 
@@ -383,6 +385,14 @@ def cmd_plot(args) -> int:
     from . import plots
 
     model = _load_model(args.model)
+    if args.interactive:
+        from .formats import pv
+
+        if not pv.has_display():
+            raise CliError("--interactive needs a display (DISPLAY/WAYLAND_DISPLAY is not set); "
+                           "draw a picture with --png instead")
+        pv.show(model, vertical_exaggeration=args.ve)
+        return 0
     wrote = []
     if args.png or not args.gaps:
         target = args.png or "model_3d.png"
@@ -504,8 +514,14 @@ def make_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("convert", formatter_class=fmt, help="convert a model between formats",
                        description="Read IN and write OUT; formats follow the suffixes "
-                       "(.3dt, .ts, .vtu, .vtk, .obj, .ply; a folder OUT receives all).",
+                       "(.3dt, .ts, .ml, .vtu, .vtp, .vtk, .obj, .ply, .omf, .epc, .geoh5; "
+                       "IN also .pl, .stl; a folder OUT receives .3dt, .ts, .vtu, obj/, ply/). "
+                       "See docs/formats.md for what each keeps and which programs open it.",
                        epilog="examples:\n  faultmesh convert out/m.3dt m.ts\n"
+                              "  faultmesh convert out/m.3dt m.ml        (SKUA/OpenGeode "
+                              "structural model)\n"
+                              "  faultmesh convert out/m.3dt m.omf       (Leapfrog; needs "
+                              "faultmesh[omf])\n"
                               "  faultmesh convert other_tool.ts model.3dt")
     p.add_argument("input", metavar="IN")
     p.add_argument("output", metavar="OUT")
@@ -513,13 +529,18 @@ def make_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_convert)
 
     p = sub.add_parser("plot", formatter_class=fmt, help="draw a model in 3D (and its gaps)",
-                       epilog="example:\n  faultmesh plot out/m.3dt --png model.png --gaps gaps.png")
+                       epilog="examples:\n  faultmesh plot out/m.3dt --png model.png --gaps gaps.png\n"
+                              "  faultmesh plot out/m.3dt --interactive --ve 3   (a window; "
+                              "needs faultmesh[viz] and a display)")
     p.add_argument("model", metavar="MODEL")
     p.add_argument("--png", metavar="PNG", help="3D view (default model_3d.png)")
     p.add_argument("--gaps", metavar="PNG", help="stitched gaps close up")
     p.add_argument("--ve", type=float, metavar="X", help="vertical exaggeration (default: automatic)")
     p.add_argument("--elev", type=float, default=28.0, help="view elevation angle (degrees)")
     p.add_argument("--azim", type=float, default=-58.0, help="view azimuth angle (degrees)")
+    p.add_argument("--interactive", action="store_true",
+                   help="open the model in an interactive 3D window (PyVista) instead of "
+                        "drawing pictures; needs 'pip install faultmesh[viz]' and a display")
     _add_common(p)
     p.set_defaults(func=cmd_plot)
     return parser

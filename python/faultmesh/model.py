@@ -105,8 +105,17 @@ class Model:
 
         return quality(self)
 
+    def to_pyvista(self):
+        """The model as a ``pyvista.MultiBlock``: one block per surface named
+        after it, field data ``kind``/``name``/``order``, per-triangle arrays
+        (``owner``, ``kind``) as cell data and vertex properties as point
+        data (needs ``pip install 'faultmesh[viz]'``; docs/formats.md)."""
+        from .formats.pv import to_pyvista
+
+        return to_pyvista(self)
+
     def save(self, path, **kwargs) -> None:
-        """Write the model; the format follows the suffix (.3dt, .ts, .vtu, .vtk, .obj, .ply)."""
+        """Write the model; the format follows the suffix (faultmesh.io, docs/formats.md)."""
         from .io import save_model
 
         save_model(self, path, **kwargs)

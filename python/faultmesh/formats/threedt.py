@@ -47,6 +47,10 @@ _ATTR = re.compile(r'\s*([A-Za-z_][A-Za-z0-9_]*)=("(?:[^"\\]|\\.)*"|[^\s"]+)')
 
 def _json_default(o: Any):
     if isinstance(o, np.ndarray):
+        if o.dtype.kind == "f" and not np.all(np.isfinite(o)):
+            # JSON has no NaN: missing values (e.g. GOCAD no-data vertex
+            # properties) are written as null.
+            return np.where(np.isfinite(o), o, None).tolist()
         return o.tolist()
     if isinstance(o, np.generic):
         return o.item()
