@@ -16,11 +16,14 @@ from typing import Any, Callable, Dict, List, Optional, Tuple
 import numpy as np
 
 from ._core import AabbTree, GeometryError, LayerTin, Stitcher, StudyArea, repair_crossings
-from .dataset import points_in_polygon
+from . import report as _report
 from .model import Gap, Model, Surface
 
 __all__ = ["build_model", "continuous_layers", "stratum_tins", "LayerTin", "repair_crossings",
            "gap_quality", "fault_accuracy", "surface_z"]
+
+#: Table 2 of the paper for a model: :func:`faultmesh.report.gap_quality`.
+gap_quality = _report.gap_quality
 
 
 def _ccw_ring(ring: np.ndarray) -> np.ndarray:
@@ -67,144 +70,24 @@ def continuous_layers(dataset, *, spacing: Optional[float] = None, repair: bool 
 
 
 # ---------------------------------------------------------------------------
-# Evaluation helpers (used by build_model, usable by the report)
+# Evaluation (one evaluator: faultmesh.report)
 # ---------------------------------------------------------------------------
 def surface_z(vertices: np.ndarray, triangles: np.ndarray, xy: np.ndarray):
-    """z of a TIN at points xy (k, 2): (z_low, z_high, hits). Where the
-    surface folds (a reverse fault's repetition band) several triangles cover
-    a point: z_low/z_high are the lowest/highest sheet; NaN where none does.
-    AABB candidates, then barycentric coordinates (a point on a shared edge
-    is counted once per triangle; both give the same z)."""
-    V = np.asarray(vertices, dtype=np.float64)
-    T = np.asarray(triangles, dtype=np.int64)
-    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-    lo = np.full(len(xy), np.nan)
-    hi = np.full(len(xy), np.nan)
-    hits = np.zeros(len(xy), dtype=np.int64)
-    if len(T) == 0 or len(xy) == 0:
-        return lo, hi, hits
-    tree = AabbTree(V, T)
-    off, idx = tree.query(np.column_stack([xy, xy]))
-    off = np.asarray(off)
-    idx = np.asarray(idx)
-    q = np.repeat(np.arange(len(xy)), np.diff(off))
-    P = V[T[idx]]
-    p = xy[q]
-    a, b, c = P[:, 0], P[:, 1], P[:, 2]
-    den = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        l1 = ((p[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (p[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])) / den
-        l2 = ((b[:, 0] - a[:, 0]) * (p[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (p[:, 0] - a[:, 0])) / den
-    l0 = 1.0 - l1 - l2
-    # Barycentric coordinates err by ~1e-12 relative at these magnitudes;
-    # accept points on an edge up to that.
-    eps = 1e-10
-    ok = (den != 0) & (l0 >= -eps) & (l1 >= -eps) & (l2 >= -eps)
-    z = l0 * a[:, 2] + l1 * b[:, 2] + l2 * c[:, 2]
-    q, z = q[ok], z[ok]
-    zl = np.full(len(xy), np.inf)
-    zh = np.full(len(xy), -np.inf)
-    np.minimum.at(zl, q, z)
-    np.maximum.at(zh, q, z)
-    np.add.at(hits, q, 1)
-    has = hits > 0
-    lo[has] = zl[has]
-    hi[has] = zh[has]
-    return lo, hi, hits
+    """z of a TIN at points xy (k, 2): (z_low, z_high, hits); see
+    :func:`faultmesh.sample_surface`."""
+    from ._core import sample_surface
 
-
-def _min_angles(P: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """Smallest interior angle (degrees) of each triangle, in 3D."""
-    A, B, C = P[T[:, 0]], P[T[:, 1]], P[T[:, 2]]
-
-    def ang(u, v):
-        cr = np.cross(u, v)
-        return np.degrees(np.arctan2(np.linalg.norm(cr, axis=1), np.einsum("ij,ij->i", u, v)))
-
-    return np.minimum(np.minimum(ang(B - A, C - A), ang(C - B, A - B)), ang(A - C, B - C))
-
-
-def gap_quality(model: Model) -> Dict[str, Any]:
-    """Share of stitched gap triangles whose smallest 3D angle is under 10 and
-    under 20 degrees (the paper's Table 2), overall and per gap."""
-    per = []
-    all_min = []
-    for g in model.gaps:
-        s = model.surfaces[g.layer]
-        rows = np.asarray(g.triangles, dtype=np.int64).reshape(-1)
-        ma = _min_angles(s.vertices, s.triangles[rows]) if len(rows) else np.zeros(0)
-        all_min.append(ma)
-        per.append({"fault": g.fault, "layer": g.layer, "triangles": int(len(rows)),
-                    "lt10": float(np.mean(ma < 10.0)) if len(ma) else 0.0,
-                    "lt20": float(np.mean(ma < 20.0)) if len(ma) else 0.0})
-    ma = np.concatenate(all_min) if all_min else np.zeros(0)
-    return {"triangles": int(len(ma)),
-            "lt10": float(np.mean(ma < 10.0)) if len(ma) else 0.0,
-            "lt20": float(np.mean(ma < 20.0)) if len(ma) else 0.0,
-            "gaps": per}
+    lo, hi, hits = sample_surface(vertices, triangles, np.asarray(xy, dtype=np.float64).reshape(-1, 2))
+    return lo, hi, hits.astype(np.int64)
 
 
 def fault_accuracy(model: Model, continuous: Dict[str, Surface], truth=None, near: float = 150.0,
                    samples: int = 250) -> Dict[str, Any]:
     """Vertical error against the ground truth near the faults, stitched model
-    vs the continuous TINs (no fault models), on the SAME sample points.
+    vs the continuous TINs: :func:`faultmesh.report.accuracy_near_faults`."""
+    from .report import accuracy_near_faults
 
-    Samples: a regular grid (``samples`` cells along the longer side) inside
-    the study area. Near a fault: within ``near`` metres (measured on the grid)
-    of the XY footprint of the fault patches stitched into that layer. The
-    truth reports the upper sheet in a reverse fault's repetition band (the
-    hanging wall), so the stitched model's upper sheet is compared there; the
-    continuous TIN keeps the shallowest borehole hit, the same sheet. Samples
-    where the truth has no value are left out."""
-    from scipy.ndimage import distance_transform_edt
-
-    truth = truth if truth is not None else model.truth
-    if truth is None:
-        raise ValueError("fault_accuracy: no ground truth")
-    ring = _ccw_ring(model.boundary)
-    lo, hi = ring.min(axis=0), ring.max(axis=0)
-    h = float(max(hi - lo)) / samples
-    gx = np.arange(lo[0] + h / 2, hi[0], h)
-    gy = np.arange(lo[1] + h / 2, hi[1], h)
-    X, Y = np.meshgrid(gx, gy)
-    P = np.column_stack([X.ravel(), Y.ravel()])
-    inside = points_in_polygon(P, ring)
-    out: Dict[str, Any] = {"near_m": near, "grid_spacing_m": h, "layers": {}}
-    tot = {"stitched": [], "continuous": []}
-    for layer, surf in model.surfaces.items():
-        kinds = surf.metadata.get("_kinds")
-        if kinds is None or not np.any(kinds == 1):
-            continue
-        PT = surf.triangles[kinds == 1]
-        _, _, hits = surface_z(surf.vertices, PT, P)
-        foot = (hits > 0).reshape(X.shape)
-        dist = distance_transform_edt(~foot) * h
-        nearm = (dist.ravel() <= near) & inside
-        sel = np.flatnonzero(nearm)
-        t = np.asarray(truth(layer, P[sel, 0], P[sel, 1]), dtype=np.float64)
-        _, z_s, hs = surface_z(surf.vertices, surf.triangles, P[sel])
-        c = continuous[layer]
-        _, z_c, hc = surface_z(c.vertices, c.triangles, P[sel])
-        ok = np.isfinite(t) & np.isfinite(z_s) & np.isfinite(z_c)
-        es, ec = np.abs(z_s[ok] - t[ok]), np.abs(z_c[ok] - t[ok])
-        tot["stitched"].append(es)
-        tot["continuous"].append(ec)
-        out["layers"][layer] = {
-            "samples": int(ok.sum()),
-            "rmse_stitched": float(np.sqrt(np.mean(es ** 2))) if len(es) else float("nan"),
-            "rmse_continuous": float(np.sqrt(np.mean(ec ** 2))) if len(ec) else float("nan"),
-            "mean_abs_stitched": float(es.mean()) if len(es) else float("nan"),
-            "mean_abs_continuous": float(ec.mean()) if len(ec) else float("nan"),
-            "max_abs_stitched": float(es.max()) if len(es) else float("nan"),
-            "max_abs_continuous": float(ec.max()) if len(ec) else float("nan")}
-    es = np.concatenate(tot["stitched"]) if tot["stitched"] else np.zeros(0)
-    ec = np.concatenate(tot["continuous"]) if tot["continuous"] else np.zeros(0)
-    out["samples"] = int(len(es))
-    out["rmse_stitched"] = float(np.sqrt(np.mean(es ** 2))) if len(es) else float("nan")
-    out["rmse_continuous"] = float(np.sqrt(np.mean(ec ** 2))) if len(ec) else float("nan")
-    out["mean_abs_stitched"] = float(es.mean()) if len(es) else float("nan")
-    out["mean_abs_continuous"] = float(ec.mean()) if len(ec) else float("nan")
-    return out
+    return accuracy_near_faults(model, continuous, truth, near=near, samples=samples)
 
 
 # ---------------------------------------------------------------------------
@@ -435,7 +318,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                   crs=getattr(dataset, "crs", ""), gaps=gaps,
                   truth=getattr(dataset, "truth", None), metadata=meta)
     t0 = time.perf_counter()
-    meta["quality"] = gap_quality(model)
+    meta["quality"] = _report.gap_quality(model)
     if evaluate and model.truth is not None:
         try:
             meta["accuracy"] = fault_accuracy(model, continuous)
