@@ -560,84 +560,108 @@ std::shared_ptr<const LayerTinState::Topology> LayerTinState::topology() const {
     if (cache.topo) return cache.topo;
     const LayerTinState& s = *this;
     const std::string fn = "LayerTin('" + s.name + "')";
-    const std::vector<std::int64_t> T = s.tin->triangles();
-    const std::vector<std::int64_t> H = s.tin->halfedges();
-    const std::vector<double> V = s.tin->vertices();
-    const std::size_t nv = V.size() / 3, m = T.size() / 3;
-    // Outgoing half-edges per vertex (counting sort by the start vertex).
-    std::vector<std::int64_t> start(nv + 1, 0), hs(3 * m);
-    for (std::size_t h = 0; h < 3 * m; ++h) ++start[static_cast<std::size_t>(T[h]) + 1];
-    for (std::size_t i = 0; i < nv; ++i) start[i + 1] += start[i];
-    {
-        std::vector<std::int64_t> fill(start.begin(), start.end() - 1);
-        for (std::size_t h = 0; h < 3 * m; ++h) hs[static_cast<std::size_t>(fill[static_cast<std::size_t>(T[h])]++)] = static_cast<std::int64_t>(h);
-    }
-    auto nxt = [](std::int64_t h) { return h % 3 == 2 ? h - 2 : h + 1; };
-    // Walls: the half-edges of the pieces (area on their left) and their twins.
-    std::vector<char> wall(3 * m, 0);
-    std::vector<std::int64_t> seeds;
-    const std::size_t ns = s.area.n_sides();
-    for (std::size_t i = 0; i < ns; ++i)
+    std::vector<std::int64_t> T = s.tin->triangles();
+    std::vector<std::int64_t> H = s.tin->halfedges();
+    const std::size_t nv = s.tin->n_vertices(), m = T.size() / 3;
+    auto nxt = [](std::size_t h) { return h % 3 == 2 ? h - 2 : h + 1; };
+    auto where = [&](std::int64_t v) {
+        const std::vector<double> V = s.tin->vertices();
+        return detail::fmt_xy(&V[3 * static_cast<std::size_t>(v)]);
+    };
+    // The pieces: boundary vertex -> the next one counter-clockwise.
+    std::vector<std::int64_t> next_b(nv, -1);
+    std::size_t n_pieces = 0;
+    for (std::size_t i = 0; i < s.area.n_sides(); ++i)
         for (auto it = s.by_side[i].begin(); it != s.by_side[i].end(); ++it) {
             const Piece pc = piece_at(s, i, it);
-            std::int64_t found = -1;
-            for (std::int64_t j = start[static_cast<std::size_t>(pc.a)]; j < start[static_cast<std::size_t>(pc.a) + 1]; ++j) {
-                const std::int64_t h = hs[static_cast<std::size_t>(j)];
-                if (T[static_cast<std::size_t>(nxt(h))] == pc.b) found = h;
-            }
-            if (found < 0)
-                throw GeometryError(fn + ": the boundary piece from " + detail::fmt_xy(&V[3 * static_cast<std::size_t>(pc.a)]) +
-                                    " to " + detail::fmt_xy(&V[3 * static_cast<std::size_t>(pc.b)]) +
-                                    " is not an edge of the TIN");
-            wall[static_cast<std::size_t>(found)] = 1;
-            if (H[static_cast<std::size_t>(found)] >= 0) wall[static_cast<std::size_t>(H[static_cast<std::size_t>(found)])] = 1;
-            seeds.push_back(found / 3);
+            next_b[static_cast<std::size_t>(pc.a)] = pc.b;
+            ++n_pieces;
         }
-    std::vector<char> inside(m, 0);
-    std::vector<std::int64_t> stack;
-    for (std::int64_t t : seeds)
-        if (!inside[static_cast<std::size_t>(t)]) {
-            inside[static_cast<std::size_t>(t)] = 1;
-            stack.push_back(t);
-        }
-    while (!stack.empty()) {
-        const std::int64_t t = stack.back();
-        stack.pop_back();
-        for (int k = 0; k < 3; ++k) {
-            const std::int64_t h = 3 * t + k;
-            if (wall[static_cast<std::size_t>(h)]) continue;
-            const std::int64_t o = H[static_cast<std::size_t>(h)];
-            if (o < 0)
-                throw GeometryError(fn + ": the study area leaks to the convex hull near " +
-                                    detail::fmt_xy(&V[3 * static_cast<std::size_t>(T[static_cast<std::size_t>(h)])]) +
-                                    " (boundary not protected)");
-            if (!inside[static_cast<std::size_t>(o / 3)]) {
-                inside[static_cast<std::size_t>(o / 3)] = 1;
-                stack.push_back(o / 3);
-            }
+    // Walls: the half-edges along the pieces, both directions (one sequential
+    // pass; the piece half-edges have the study area on their left).
+    std::vector<char> wall(3 * m, 0);
+    std::size_t found = 0;
+    for (std::size_t h = 0; h < 3 * m; ++h) {
+        const std::int64_t a = T[h], b = T[nxt(h)];
+        if (next_b[static_cast<std::size_t>(a)] == b) {
+            wall[h] = 2;
+            ++found;
+        } else if (next_b[static_cast<std::size_t>(b)] == a) {
+            wall[h] = 1;
         }
     }
-    auto out = std::make_shared<Topology>();
-    std::vector<std::int64_t> remap(nv, -1), tri_of(m, -1);
-    std::int64_t mt = 0;
-    for (std::size_t t = 0; t < m; ++t)
-        if (inside[t]) tri_of[t] = mt++;
-    out->halfedges.assign(3 * static_cast<std::size_t>(mt), -1);
-    for (std::size_t t = 0; t < m; ++t) {
-        if (!inside[t]) continue;
-        for (int k = 0; k < 3; ++k) {
-            const std::int64_t o = H[3 * t + static_cast<std::size_t>(k)];
-            if (o >= 0 && tri_of[static_cast<std::size_t>(o / 3)] >= 0)
-                out->halfedges[3 * static_cast<std::size_t>(tri_of[t]) + static_cast<std::size_t>(k)] =
-                    3 * tri_of[static_cast<std::size_t>(o / 3)] + o % 3;
+    if (found != n_pieces) {
+        std::vector<char> seen(nv, 0);
+        for (std::size_t h = 0; h < 3 * m; ++h)
+            if (wall[h] == 2) seen[static_cast<std::size_t>(T[h])] = 1;
+        for (std::size_t v = 0; v < nv; ++v)
+            if (next_b[v] >= 0 && !seen[v])
+                throw GeometryError(fn + ": the boundary piece from " + where(static_cast<std::int64_t>(v)) + " to " +
+                                    where(next_b[v]) + " is not an edge of the TIN");
+    }
+    // Outside the study area: the triangles reached from the hull's edges
+    // that are not pieces (the notches of a non-convex area, and slivers
+    // between nearly collinear boundary vertices) without crossing a piece.
+    // In the common case (every hull edge a piece) there are none.
+    std::vector<char> outside(m, 0);
+    std::vector<std::int64_t> stack;
+    for (std::size_t h = 0; h < 3 * m; ++h)
+        if (H[h] < 0 && !wall[h] && !outside[h / 3]) {
+            outside[h / 3] = 1;
+            stack.push_back(static_cast<std::int64_t>(h / 3));
         }
-        for (int k = 0; k < 3; ++k) {
-            const std::int64_t v = T[3 * t + static_cast<std::size_t>(k)];
-            if (remap[static_cast<std::size_t>(v)] < 0) {
-                remap[static_cast<std::size_t>(v)] = static_cast<std::int64_t>(out->tin_vertex.size());
-                out->tin_vertex.push_back(v);
+    std::size_t n_out = stack.size();
+    while (!stack.empty()) {
+        const std::size_t t = static_cast<std::size_t>(stack.back());
+        stack.pop_back();
+        for (std::size_t k = 0; k < 3; ++k) {
+            const std::size_t h = 3 * t + k;
+            const std::int64_t o = H[h];
+            if (wall[h] || o < 0 || outside[static_cast<std::size_t>(o / 3)]) continue;
+            outside[static_cast<std::size_t>(o / 3)] = 1;
+            ++n_out;
+            stack.push_back(o / 3);
+        }
+    }
+    // The inside must not have leaked out: no piece's inner triangle is outside.
+    for (std::size_t h = 0; h < 3 * m; ++h)
+        if (wall[h] == 2 && outside[h / 3])
+            throw GeometryError(fn + ": the study area leaks to the convex hull near " + where(T[h]) +
+                                " (boundary not protected)");
+    auto out = std::make_shared<Topology>();
+    // Mesh vertices keep the TIN's (spatially coherent) order; unused ones
+    // (only outside triangles use them) are dropped.
+    std::vector<std::int64_t> remap(nv, -1);
+    {
+        std::vector<char> used(nv, 0);
+        for (std::size_t t = 0; t < m; ++t)
+            if (!outside[t])
+                for (std::size_t k = 0; k < 3; ++k) used[static_cast<std::size_t>(T[3 * t + k])] = 1;
+        for (std::size_t v = 0; v < nv; ++v)
+            if (used[v]) {
+                remap[v] = static_cast<std::int64_t>(out->tin_vertex.size());
+                out->tin_vertex.push_back(static_cast<std::int64_t>(v));
             }
-            out->triangles.push_back(remap[static_cast<std::size_t>(v)]);
+    }
+    if (n_out == 0 && out->tin_vertex.size() == nv) {
+        out->triangles = std::move(T);
+        out->halfedges = std::move(H);
+    } else {
+        std::vector<std::int64_t> tri_of(m, -1);
+        std::int64_t mt = 0;
+        for (std::size_t t = 0; t < m; ++t)
+            if (!outside[t]) tri_of[t] = mt++;
+        out->triangles.reserve(3 * static_cast<std::size_t>(mt));
+        out->halfedges.assign(3 * static_cast<std::size_t>(mt), -1);
+        for (std::size_t t = 0; t < m; ++t) {
+            if (outside[t]) continue;
+            for (std::size_t k = 0; k < 3; ++k) {
+                const std::int64_t o = H[3 * t + k];
+                if (o >= 0 && tri_of[static_cast<std::size_t>(o / 3)] >= 0)
+                    out->halfedges[3 * static_cast<std::size_t>(tri_of[t]) + k] =
+                        3 * tri_of[static_cast<std::size_t>(o / 3)] + o % 3;
+                out->triangles.push_back(remap[static_cast<std::size_t>(T[3 * t + k])]);
+            }
         }
     }
     cache.topo = out;
