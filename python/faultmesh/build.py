@@ -45,7 +45,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from ._core import AabbTree, GeometryError, Stitcher, Tin
-from .dataset import points_in_polygon
+from .dataset import points_in_polygon, prepare_for_build
 from .model import Gap, Model, Surface
 
 __all__ = ["build_model", "LayerTin", "repair_crossings", "gap_quality", "fault_accuracy",
@@ -769,6 +769,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     meta: Dict[str, Any] = {"options": {"loft_method": loft_method, "refine": refine,
                                         "stitch_order": stitch_order, "bridge": bridge,
                                         "repair": repair}}
+    dataset, meta["input"] = prepare_for_build(dataset)  # data checks + boundary policy (dataset.py)
 
     # Step 2: stratum TINs.
     t0 = time.perf_counter()
