@@ -928,14 +928,14 @@ def _fault_policy(f: Fault, sn: _Snapper, adj: List[Adjustment]) -> Optional[Fau
             q = _piece_points(pc, xyz, sn)
             if len(q) >= 2 or (k == 1 and len(q) == 1):
                 cands.append((pc, q))
-        if side == "foot":
-            keep = [c for c in cands if c[0][-1] == ("v", k - 1)]
-            why = (f"its cutoff at the fault (point {k}) lies beyond the boundary; layer "
-                   f"{lay!r} is dropped from trace {j + 1}")
-        elif side == "hanging":
-            keep = [c for c in cands if c[0][0] == ("v", 0)]
-            why = (f"its cutoff at the fault (point 1) lies beyond the boundary; layer "
-                   f"{lay!r} is dropped from trace {j + 1}")
+        if side in ("foot", "hanging"):
+            anchor = k - 1 if side == "foot" else 0
+            keep = [c for c in cands if (c[0][-1] if side == "foot" else c[0][0]) == ("v", anchor)]
+            why = (f"its cutoff at the fault (point {anchor + 1}) lies beyond the boundary"
+                   if not vin[anchor] else
+                   f"only its cutoff at the fault (point {anchor + 1}) lies in the study area, "
+                   "the polyline runs beyond the boundary from there")
+            why += f"; layer {lay!r} is dropped from trace {j + 1}"
         else:
             keep = sorted(cands, key=lambda c: -float(np.sum(np.linalg.norm(
                 np.diff(c[1], axis=0), axis=1))))[:1]
@@ -1280,8 +1280,9 @@ class _Ctx:
             for k in v:
                 if k not in keys:
                     at = f"{jpath}.{k}" if jpath else str(k)
+                    at = at if len(at) <= 2 * _QUOTE_MAX else at[:2 * _QUOTE_MAX] + "..."
                     raise self.err(where, f"unknown key {_short(k)}{_suggest(k, keys)} at JSON "
-                                   f"path {_short(at, 80)}; allowed keys: {sorted(keys)}")
+                                   f"path {at}; allowed keys: {sorted(keys)}")
         return v
 
     def lst(self, v, where: str) -> list:
@@ -1591,6 +1592,8 @@ def load_dataset(path, *, snap: Optional[float] = None,
         is_dir = p.is_dir()
     except OSError:
         is_dir = False
+    if is_dir and p.suffix.lower() == ".json":
+        raise DatasetError(f"{p}: dataset: file {str(p)!r} is a directory, expected a file")
     if is_dir:
         p = _find_json(p)
     if not os.path.lexists(p):
