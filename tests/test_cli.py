@@ -173,6 +173,7 @@ def test_build_command_with_options(tmp_path, capsys):
                "--loft", "shortest_diagonal", "-q"])
     assert rc == 0, capsys.readouterr().err
     files = sorted(p.name for p in (tmp_path / "b").iterdir())
-    assert files == ["paper_like.3dt", "paper_like.ts", "quality.csv", "quality.json", "quality.md"]
+    assert files == ["paper_like.3dt", "paper_like.ts", "quality.csv", "quality.json", "quality.md",
+                     "run.json"]
     m = load_model(tmp_path / "b" / "paper_like.3dt")
     assert np.all(np.isfinite(m.surfaces[next(iter(m.surfaces))].vertices))
