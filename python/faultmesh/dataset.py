@@ -687,14 +687,13 @@ class _Snapper:
         return _nearest_on_boundary(P, self.ring)[2]
 
 
-def _segment_params(p: np.ndarray, q: np.ndarray, ring: np.ndarray) -> List[List[float]]:
-    """For segments p -> q (s, 2): the parameters t in [0, 1] where each meets
-    a boundary side (closed segments, decided exactly with orient2d; the
-    parameter itself is rounded). Collinear overlaps give both ends."""
+def _segment_params(p: np.ndarray, q: np.ndarray, ring: np.ndarray):
+    """For segments p -> q (s, 2): (segment index, parameter t in [0, 1])
+    pairs where a segment meets a boundary side. Whether they meet is decided
+    exactly (orient2d on the closed segments); the parameter is rounded. A
+    collinear overlap gives both ends of the side (clipped to [0, 1])."""
     s, k = len(p), len(ring)
-    out: List[List[float]] = [[] for _ in range(s)]
-    if s == 0:
-        return out
+    segs, ts = [np.zeros(0, dtype=np.int64)], [np.zeros(0)]
     a_all = ring
     b_all = np.roll(ring, -1, axis=0)
     for s0, s1 in _chunks(s, k):
@@ -703,69 +702,83 @@ def _segment_params(p: np.ndarray, q: np.ndarray, ring: np.ndarray) -> List[List
         P2 = np.repeat(q[s0:s1], k, axis=0)
         A = np.tile(a_all, (n, 1))
         B = np.tile(b_all, (n, 1))
-        hit = _segments_intersect(P1, P2, A, B)
-        if not hit.any():
+        hit = np.flatnonzero(_segments_intersect(P1, P2, A, B))
+        if not hit.size:
             continue
-        idx = np.flatnonzero(hit)
-        P1, P2, A, B = P1[idx], P2[idx], A[idx], B[idx]
-        seg = idx // k + s0
+        P1, P2, A, B = P1[hit], P2[hit], A[hit], B[hit]
+        seg = hit // k + s0
         d = P2 - P1
         e = B - A
-        den = d[:, 0] * e[:, 1] - d[:, 1] * e[:, 0]
         L2 = np.einsum("ij,ij->i", d, d)
         with np.errstate(divide="ignore", invalid="ignore"):
             w = A - P1
-            t_cross = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / den
+            t_cross = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / (d[:, 0] * e[:, 1] - d[:, 1] * e[:, 0])
             t_a = np.einsum("ij,ij->i", A - P1, d) / L2
             t_b = np.einsum("ij,ij->i", B - P1, d) / L2
         col = (_orient_sign(P1, P2, A) == 0) & (_orient_sign(P1, P2, B) == 0)
-        for i in range(len(idx)):
-            if L2[i] == 0.0:
-                continue
-            if col[i]:
-                out[seg[i]].extend([float(np.clip(t_a[i], 0, 1)), float(np.clip(t_b[i], 0, 1))])
-            elif np.isfinite(t_cross[i]):
-                out[seg[i]].append(float(np.clip(t_cross[i], 0.0, 1.0)))
-    return out
+        ok = L2 > 0.0                                    # a zero-length segment has no parameter
+        cross = ok & ~col & np.isfinite(t_cross)
+        both = ok & col
+        segs += [seg[cross], seg[both], seg[both]]
+        ts += [np.clip(t_cross[cross], 0.0, 1.0), np.clip(t_a[both], 0.0, 1.0),
+               np.clip(t_b[both], 0.0, 1.0)]
+    return np.concatenate(segs), np.concatenate(ts)
 
 
 def _inside_intervals(p: np.ndarray, q: np.ndarray, snapper: _Snapper):
-    """Per segment p -> q: the parameter intervals [t0, t1] that lie in the
-    study area (inside, on, or within on_tol of the boundary)."""
+    """Which parts of the segments p -> q (s, 2) lie in the study area
+    (inside, on, or within on_tol of the boundary).
+
+    Returns ``(whole, parts)``: ``whole`` (s,) bool, the segment is in the
+    area from end to end; ``parts``: for the other segments, segment index ->
+    list of parameter intervals ``(t0, t1)`` in the area (maybe empty)."""
     s = len(p)
-    params = _segment_params(p, q, snapper.ring)
-    L = np.hypot(*(q - p).T) if s else np.zeros(0)
-    cuts: List[List[float]] = []
-    for i in range(s):
-        if L[i] == 0.0 or not params[i]:
-            cuts.append([0.0, 1.0])
-            continue
-        # Parameters closer than on_tol along the segment are one crossing (a
-        # corner met from two sides; an end snapped onto a side): interior ones
-        # that close to an end or to the previous one are left out.
-        tol = snapper.on_tol / L[i]
-        merged = [0.0]
-        for t in sorted(set(params[i])):
-            if t - merged[-1] > tol and 1.0 - t > tol:
-                merged.append(t)
-        merged.append(1.0)
-        cuts.append(merged)
-    mids, owner = [], []
-    for i, c in enumerate(cuts):
-        for t0, t1 in zip(c[:-1], c[1:]):
-            tm = 0.5 * (t0 + t1)
-            mids.append(p[i] + tm * (q[i] - p[i]))
-            owner.append((i, t0, t1))
-    ins = snapper.inside(np.array(mids).reshape(-1, 2))
-    out: List[List[Tuple[float, float]]] = [[] for _ in range(s)]
-    for (i, t0, t1), ok in zip(owner, ins):
-        if not ok:
-            continue
-        if out[i] and out[i][-1][1] == t0:
-            out[i][-1] = (out[i][-1][0], t1)
-        else:
-            out[i].append((t0, t1))
-    return out
+    if s == 0:
+        return np.zeros(0, dtype=bool), {}
+    seg, t = _segment_params(p, q, snapper.ring)
+    L = np.hypot(*(q - p).T)
+    # Parameters closer than on_tol along the segment are one crossing (a
+    # corner met from two sides; an end snapped onto a side): those that
+    # close to an end, or to the parameter before them, are left out.
+    with np.errstate(divide="ignore"):
+        tol = snapper.on_tol / L
+    keep = (t > tol[seg]) & (t < 1.0 - tol[seg])
+    seg, t = seg[keep], t[keep]
+    order = np.lexsort((t, seg))
+    seg, t = seg[order], t[order]
+    dup = np.zeros(len(seg), dtype=bool)
+    dup[1:] = (seg[1:] == seg[:-1]) & (t[1:] - t[:-1] <= tol[seg[1:]])
+    seg, t = seg[~dup], t[~dup]
+    # Cuts per segment: 0, its parameters, 1; one interval between each two.
+    counts = np.bincount(seg, minlength=s)
+    offs = np.concatenate([[0], np.cumsum(counts + 2)])
+    cuts = np.empty(offs[-1])
+    cuts[offs[:-1]] = 0.0
+    cuts[offs[1:] - 1] = 1.0
+    first = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    cuts[offs[seg] + 1 + (np.arange(len(seg)) - first[seg])] = t
+    start = np.ones(len(cuts), dtype=bool)
+    start[offs[1:] - 1] = False                           # the last cut of a segment
+    i0 = np.flatnonzero(start)
+    owner = np.repeat(np.arange(s), counts + 1)
+    t0, t1 = cuts[i0], cuts[i0 + 1]
+    tm = 0.5 * (t0 + t1)
+    mids = p[owner] + tm[:, None] * (q[owner] - p[owner])
+    ins = snapper.inside(mids)
+    whole = (counts == 0) & ins[offs[:-1] - np.arange(s)]  # one interval, in the area
+    parts: Dict[int, List[Tuple[float, float]]] = {}
+    for k in np.flatnonzero(~whole):
+        sel = np.flatnonzero(owner == k)
+        out: List[Tuple[float, float]] = []
+        for a, b, ok in zip(t0[sel], t1[sel], ins[sel]):
+            if not ok:
+                continue
+            if out and out[-1][1] == a:
+                out[-1] = (out[-1][0], float(b))
+            else:
+                out.append((float(a), float(b)))
+        parts[int(k)] = out
+    return whole, parts
 
 
 def _clip_polyline(P3: np.ndarray, vin: np.ndarray, intervals):
@@ -905,13 +918,9 @@ def _fault_policy(f: Fault, sn: _Snapper, adj: List[Adjustment]) -> Optional[Fau
     # Inside parameter intervals of every segment of every polyline, at once.
     seg_p = [new[offs[li]:offs[li + 1] - 1] for li in range(len(lines))]
     seg_q = [new[offs[li] + 1:offs[li + 1]] for li in range(len(lines))]
-    ivs_all = _inside_intervals(np.vstack(seg_p + [np.zeros((0, 2))]),
-                                np.vstack(seg_q + [np.zeros((0, 2))]), sn)
-    ivs: List[list] = []
-    pos = 0
-    for sp in seg_p:
-        ivs.append(ivs_all[pos:pos + len(sp)])
-        pos += len(sp)
+    whole_seg, parts = _inside_intervals(np.vstack(seg_p + [np.zeros((0, 2))]),
+                                         np.vstack(seg_q + [np.zeros((0, 2))]), sn)
+    seg0 = np.concatenate([[0], np.cumsum([len(sp) for sp in seg_p])])
 
     # Outcome per polyline: ("whole", xyz) | ("clip", piece, xyz) | ("none", why).
     outcome: List[tuple] = []
@@ -920,11 +929,12 @@ def _fault_policy(f: Fault, sn: _Snapper, adj: List[Adjustment]) -> Optional[Fau
         vin = inside[o:o + k]
         xyz = pts.copy()
         xyz[:, :2] = new[o:o + k]
-        if vin.all() and all(v == [(0.0, 1.0)] for v in ivs[li]):
+        if vin.all() and whole_seg[seg0[li]:seg0[li + 1]].all():
             outcome.append(("whole", xyz))
             continue
+        ivs = [[(0.0, 1.0)] if whole_seg[g] else parts[g] for g in range(seg0[li], seg0[li + 1])]
         cands = []
-        for pc in _clip_polyline(xyz, vin, ivs[li]):
+        for pc in _clip_polyline(xyz, vin, ivs):
             q = _piece_points(pc, xyz, sn)
             if len(q) >= 2 or (k == 1 and len(q) == 1):
                 cands.append((pc, q))
