@@ -609,6 +609,7 @@ def _nearest_on_boundary(P: np.ndarray, ring: np.ndarray):
     b = np.roll(ring, -1, axis=0)
     d = b - a
     L2 = np.einsum("ij,ij->i", d, d)
+    L2 = np.where(L2 > 0.0, L2, 1.0)          # a repeated vertex: its "side" is the vertex
     horiz = d[:, 1] == 0.0
     vert = d[:, 0] == 0.0
     lo = np.minimum(a, b)
@@ -976,17 +977,18 @@ def _fault_policy(f: Fault, sn: _Snapper, adj: List[Adjustment]) -> Optional[Fau
             adj.append(Adjustment("dropped", label, _xy(pts[near]) if k else None, None,
                                   float(dist[o + near]) if k else None, oc[1]))
             return
-        kept = set(range(k)) if oc[0] == "whole" else {e[1] for e in oc[1] if e[0] == "v"}
-        for i in range(k):
-            if i in kept:
-                if moved[o + i]:
-                    adj.append(Adjustment("snapped", f"{label} point {i + 1}", _xy(pts[i]),
-                                          _xy(new[o + i]), float(dist[o + i])))
-            else:
-                adj.append(Adjustment(
-                    "dropped", f"{label} point {i + 1}", _xy(pts[i]), None, float(dist[o + i]),
-                    "beyond the study-area boundary" if not inside[o + i] else
-                    "on a part of the polyline cut off by the boundary"))
+        kept = np.ones(k, dtype=bool)
+        if oc[0] == "clip":
+            kept[:] = False
+            kept[[e[1] for e in oc[1] if e[0] == "v"]] = True
+        for i in np.flatnonzero(kept & moved[o:o + k]):
+            adj.append(Adjustment("snapped", f"{label} point {i + 1}", _xy(pts[i]),
+                                  _xy(new[o + i]), float(dist[o + i])))
+        for i in np.flatnonzero(~kept):
+            adj.append(Adjustment(
+                "dropped", f"{label} point {i + 1}", _xy(pts[i]), None, float(dist[o + i]),
+                "beyond the study-area boundary" if not inside[o + i] else
+                "on a part of the polyline cut off by the boundary"))
         if oc[0] == "clip":
             crossings = [e for e in oc[1] if e[0] == "x"]
             for e in crossings:
