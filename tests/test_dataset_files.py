@@ -226,3 +226,16 @@ def test_hostile_json_is_a_dataset_error(small, text, fragment):
     small.write_text(text)
     msg = error(small)
     assert fragment in msg and "dataset.json" in msg and len(msg) < 600, msg
+
+
+def test_coordinates_beyond_the_range_name_the_field(small):
+    # Found by the fuzz target: 1e300 coordinates overflowed inside the
+    # boundary policy (a warning, NaN parameters) instead of a clear error.
+    p = small.parent / "boreholes.csv"
+    p.write_text(p.read_text().replace("B5,520,398,top", "B5,1e300,398,top", 1))
+    msg = error(small)
+    assert "boreholes.csv, row 15, field 'x'" in msg and "beyond the coordinate range" in msg
+    shutil.copy(SMALL / "boreholes.csv", p)
+    edit(small, lambda d: d["boundary"].__setitem__(1, [0, 2e15]))
+    msg = error(small)
+    assert "boundary point 2 y" in msg and "beyond the coordinate range" in msg

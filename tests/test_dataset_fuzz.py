@@ -4,7 +4,8 @@ keys, types, deleted and repeated keys) and the CSV level (cells: text, NaN,
 inf, huge, empty, quotes; extra and missing columns; BOM, CRLF, truncation,
 binary junk). ``load_dataset`` must return a dataset or raise a DatasetError
 whose message names the file and the row/field or the JSON item; never
-another exception, never a hang. A dataset that loads survives save + load.
+another exception (a numpy RuntimeWarning counts as one), never a hang. A
+dataset that loads survives save + load.
 
 CI runs a few derandomized examples (tests/helpers.py: fuzz_settings);
 ``python bench/fuzz.py -k dataset_reader --examples 5000`` runs it long.
@@ -16,6 +17,7 @@ import re
 import shutil
 import signal
 import tempfile
+import warnings
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -211,7 +213,9 @@ def _check_mutated(data, base_name: str) -> None:
                 except UnicodeDecodeError:
                     continue
         try:
-            with _no_hang(30.0):
+            # A numpy warning (overflow, invalid value) is a finding too.
+            with _no_hang(30.0), warnings.catch_warnings():
+                warnings.simplefilter("error", RuntimeWarning)
                 ds = fm.load_dataset(d)
         except fm.DatasetError as e:
             msg = str(e)

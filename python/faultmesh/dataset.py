@@ -711,15 +711,15 @@ def _segment_params(p: np.ndarray, q: np.ndarray, ring: np.ndarray):
         d = P2 - P1
         e = B - A
         L2 = np.einsum("ij,ij->i", d, d)
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(all="ignore"):            # non-finite parameters are dropped
             w = A - P1
             t_cross = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / (d[:, 0] * e[:, 1] - d[:, 1] * e[:, 0])
             t_a = np.einsum("ij,ij->i", A - P1, d) / L2
             t_b = np.einsum("ij,ij->i", B - P1, d) / L2
         col = (_orient_sign(P1, P2, A) == 0) & (_orient_sign(P1, P2, B) == 0)
-        ok = L2 > 0.0                                    # a zero-length segment has no parameter
+        ok = (L2 > 0.0) & np.isfinite(L2)                # a zero-length segment has no parameter
         cross = ok & ~col & np.isfinite(t_cross)
-        both = ok & col
+        both = ok & col & np.isfinite(t_a) & np.isfinite(t_b)
         segs += [seg[cross], seg[both], seg[both]]
         ts += [np.clip(t_cross[cross], 0.0, 1.0), np.clip(t_a[both], 0.0, 1.0),
                np.clip(t_b[both], 0.0, 1.0)]
@@ -1212,6 +1212,14 @@ _FAULT_KEYS = {"name", "kind", "group", "tips", "traces"} | _NOTES
 _TRACE_KEYS = {"section", "plane", "layers"} | _NOTES
 _SIDE_KEYS = {"foot", "hanging"}
 
+#: Largest coordinate (x, y, z, s) the loader accepts, in absolute value. Far
+#: beyond any survey in any unit (UTM in millimetres is ~1e10), and small
+#: enough that products of two coordinates (orientations, areas, squared
+#: distances: ~1e30) stay far inside the double range, so no step of the
+#: policy or the builder overflows; the kernels refuse |c| > 1e60 anyway, and
+#: here the message names the field.
+COORD_MAX = 1e15
+
 #: Values quoted in messages are cut to this many characters: a message names
 #: the offending field, it never reproduces a file (a CSV path may point at a
 #: file that is not ours).
@@ -1263,7 +1271,8 @@ class _Ctx:
     def err(self, where: str, msg: str) -> DatasetError:
         return DatasetError(f"{self.file}: {where}: {msg}" if where else f"{self.file}: {msg}")
 
-    def num(self, v, where: str) -> float:
+    def num(self, v, where: str, coord: bool = False) -> float:
+        """A finite number; ``coord``: a coordinate, at most COORD_MAX in size."""
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise self.err(where, f"{_short(v)} is not a number")
         try:
@@ -1272,6 +1281,9 @@ class _Ctx:
             f = float("inf")
         if not np.isfinite(f):
             raise self.err(where, f"{_short(v)} is not a finite number")
+        if coord and abs(f) > COORD_MAX:
+            raise self.err(where, f"{_short(v)} is beyond the coordinate range "
+                           f"(|value| <= {COORD_MAX:g})")
         return f
 
     def string(self, v, where: str) -> str:
@@ -1319,7 +1331,7 @@ class _Ctx:
             w = f"{where} point {i + 1}"
             if not isinstance(p, list) or len(p) != 2:
                 raise self.err(w, f"must be [x, y], got {_short(p)}")
-            out.append([self.num(p[0], w + " x"), self.num(p[1], w + " y")])
+            out.append([self.num(p[0], w + " x", True), self.num(p[1], w + " y", True)])
         return np.array(out, dtype=np.float64).reshape(-1, 2)
 
     def polyline(self, v, where: str, section: Optional[Section]) -> np.ndarray:
@@ -1333,18 +1345,19 @@ class _Ctx:
             if not isinstance(p, list) or len(p) not in (2, 3):
                 raise self.err(w, f"must be [x, y, z] or [s, z], got {_short(p)}")
             if len(p) == 3:
-                out[i] = [self.num(p[0], w + " x"), self.num(p[1], w + " y"),
-                          self.num(p[2], w + " z")]
+                out[i] = [self.num(p[0], w + " x", True), self.num(p[1], w + " y", True),
+                          self.num(p[2], w + " z", True)]
             else:
                 if section is None:
                     raise self.err(w, "an [s, z] point needs the trace to name a section")
-                s = self.num(p[0], w + " s")
+                s = self.num(p[0], w + " s", True)
                 out[i, :2] = section.to_xy([s])[0]
-                out[i, 2] = self.num(p[1], w + " z")
-        if not np.all(np.isfinite(out)):
-            i = int(np.flatnonzero(~np.all(np.isfinite(out), axis=1))[0])
-            raise self.err(f"{where} point {i + 1}", "is not finite once placed on its section "
-                           "(coordinates too large)")
+                out[i, 2] = self.num(p[1], w + " z", True)
+        big = ~np.all(np.abs(out) <= COORD_MAX, axis=1)
+        if big.any():
+            i = int(np.flatnonzero(big)[0])
+            raise self.err(f"{where} point {i + 1}", "is beyond the coordinate range "
+                           f"(|value| <= {COORD_MAX:g}) once placed on its section")
         same = np.all(out[1:] == out[:-1], axis=1)
         if same.any():
             i = int(np.flatnonzero(same)[0])
@@ -1487,7 +1500,7 @@ def _csv_numbers(file: Path, col: List[str], lines: List[int], field_name: str) 
         a = np.array(col, dtype=np.float64)
     except (ValueError, OverflowError):
         a = None
-    if a is not None and np.all(np.isfinite(a)):
+    if a is not None and np.all(np.abs(a) <= COORD_MAX):    # also False for NaN
         return a
     for v, ln in zip(col, lines):
         if v == "":
@@ -1500,6 +1513,9 @@ def _csv_numbers(file: Path, col: List[str], lines: List[int], field_name: str) 
         if not np.isfinite(f):
             raise DatasetError(f"{file}, row {ln}, field {field_name!r}: {_short(v)} is not a "
                                "finite number")
+        if abs(f) > COORD_MAX:
+            raise DatasetError(f"{file}, row {ln}, field {field_name!r}: {_short(v)} is beyond "
+                               f"the coordinate range (|value| <= {COORD_MAX:g})")
     raise AssertionError("unreachable")  # pragma: no cover
 
 
@@ -1673,7 +1689,7 @@ def load_dataset(path, *, snap: Optional[float] = None,
                 w = f"points[{lay!r}] point {i + 1}"
                 if not isinstance(q, list) or len(q) != 3:
                     raise ctx.err(w, f"must be [x, y, z], got {_short(q)}")
-                arr[i] = [ctx.num(c, w + f" {k}") for c, k in zip(q, "xyz")]
+                arr[i] = [ctx.num(c, w + f" {k}", True) for c, k in zip(q, "xyz")]
             points[lay] = arr
             sources[lay] = (f"points[{lay!r}]", None)
 
@@ -1689,7 +1705,7 @@ def load_dataset(path, *, snap: Optional[float] = None,
         org = ctx.lst(ctx.need(sd, "origin", w), w + " origin")
         if len(org) != 2:
             raise ctx.err(w + " origin", f"must be [x, y], got {_short(org)}")
-        origin = [ctx.num(org[0], w + " origin x"), ctx.num(org[1], w + " origin y")]
+        origin = [ctx.num(org[0], w + " origin x", True), ctx.num(org[1], w + " origin y", True)]
         az = ctx.num(ctx.need(sd, "azimuth", w), w + " azimuth")
         sections[sname] = Section(sname, np.array(origin), az)
 
