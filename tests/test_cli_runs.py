@@ -121,6 +121,28 @@ def test_a_second_run_into_the_same_folder_is_refused(tmp_path):
     assert current_run(out).files == ["a.txt"]
 
 
+def test_a_broken_manifest_is_a_clear_error_and_the_next_run_replaces_it(tmp_path, capsys):
+    out = tmp_path / "out"
+    with RunWriter(out, command="test") as run:
+        (run.stage / "a.txt").write_text("a")
+        run.commit()
+    (out / MANIFEST).write_text('{"faultmesh_run": 1, "files": [{"path": "../../victim"}]}')
+    victim = tmp_path / "victim"
+    victim.write_text("keep me")
+    assert main(["quality", str(out)]) == 2
+    assert "run.json" in capsys.readouterr().err
+    with RunWriter(out, command="test") as run:             # deletes nothing outside
+        (run.stage / "b.txt").write_text("b")
+        run.commit()
+    assert victim.read_text() == "keep me" and current_run(out).files == ["b.txt"]
+    (out / MANIFEST).write_text("{not json")
+    with pytest.raises(Exception, match="run.json: not a readable run manifest"):
+        load_model(out)
+    with RunWriter(out, command="test") as run:
+        run.commit()
+    assert current_run(out).files == []
+
+
 # ---------------------------------------------------------------------------
 # a kill at every step of the swap
 # ---------------------------------------------------------------------------

@@ -87,6 +87,13 @@ def _read_manifest(path: Path) -> Optional[Dict[str, Any]]:
     if not isinstance(doc, dict) or doc.get("faultmesh_run") != MANIFEST_FORMAT \
             or not isinstance(doc.get("files"), list):
         raise RunFolderError(f"{path}: not a faultmesh run manifest (format {MANIFEST_FORMAT})")
+    for f in doc["files"]:
+        if not isinstance(f, dict) or not isinstance(f.get("path"), str):
+            raise RunFolderError(f"{path}: not a faultmesh run manifest (a file entry without "
+                                 "a path)")
+        _safe_rel(f["path"], path.parent)
+    if doc.get("model") is not None and not isinstance(doc["model"], str):
+        raise RunFolderError(f"{path}: not a faultmesh run manifest ('model' is not a path)")
     return doc
 
 
@@ -94,7 +101,8 @@ def _safe_rel(rel: str, folder: Path) -> Path:
     """A manifest path as a path inside ``folder`` (never outside it)."""
     p = Path(rel)
     if p.is_absolute() or ".." in p.parts or not p.parts:
-        raise RunFolderError(f"{folder / MANIFEST}: file {rel!r} lies outside the run folder")
+        raise RunFolderError(f"{folder / MANIFEST}: file {rel[:80]!r} lies outside the run "
+                             "folder")
     return p
 
 
@@ -210,6 +218,14 @@ def _prune_empty_dirs(top: Path, rels: Iterable[Path]) -> None:
             d = d.parent
 
 
+def _within(p: Path, folder: Path) -> bool:
+    try:
+        p.parent.resolve().relative_to(folder.resolve())
+        return True
+    except (ValueError, OSError, RuntimeError):
+        return False
+
+
 def _finish_swap(folder: Path) -> None:
     """Steps 2-4 of the swap (see the module doc); idempotent, so it also
     finishes a swap a killed run left half done."""
@@ -232,6 +248,9 @@ def _finish_swap(folder: Path) -> None:
             except RunFolderError:
                 continue
             if rel not in keep:
+                # Never through a symlinked folder to somewhere else.
+                if not _within(folder / rel, folder):
+                    continue
                 try:
                     (folder / rel).unlink()
                 except FileNotFoundError:
