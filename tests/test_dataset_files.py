@@ -239,3 +239,12 @@ def test_coordinates_beyond_the_range_name_the_field(small):
     edit(small, lambda d: d["boundary"].__setitem__(1, [0, 2e15]))
     msg = error(small)
     assert "boundary point 2 y" in msg and "beyond the coordinate range" in msg
+
+
+def test_save_refuses_a_hole_id_the_reader_would_skip_as_a_comment(tmp_path):
+    ds = fm.load_dataset(SMALL)
+    ids = ds.boreholes.hole_id.astype("<U8")
+    ids[ids == "B1"] = "#1"
+    ds.boreholes.hole_id = ids
+    with pytest.raises(fm.DatasetError, match="hole_id '#1' cannot be written"):
+        ds.save(tmp_path / "o")

@@ -1836,9 +1836,11 @@ def save_dataset(ds: Dataset, path, *, section_coords: bool = False) -> Path:
     lines = [",".join(_BOREHOLE_COLUMNS)]
     for h, (x, y), lay, z in zip(b.hole_id, b.xy, b.layer, b.z):
         for v, what in ((h, "hole_id"), (lay, "layer")):
-            if any(c in str(v) for c in ',"\n\r') or str(v) != str(v).strip() or not str(v):
-                raise DatasetError(f"Dataset.save: borehole {what} {str(v)!r} cannot be written "
-                                   "to CSV (empty, surrounding spaces, comma, quote or newline)")
+            if any(c in str(v) for c in ',"\n\r') or str(v) != str(v).strip() or not str(v) \
+                    or (what == "hole_id" and str(v).startswith("#")):
+                raise DatasetError(f"Dataset.save: borehole {what} {_short(str(v))} cannot be "
+                                   "written to CSV (empty, surrounding spaces, comma, quote or "
+                                   "newline, or a hole_id starting with '#', read as a comment)")
         lines.append(f"{h},{_fmt(x)},{_fmt(y)},{lay},{_fmt(z)}")
     bname = prefix + "boreholes.csv"
     files[bname] = "\n".join(lines) + "\n"
