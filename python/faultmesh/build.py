@@ -16,7 +16,7 @@ from typing import Any, Callable, Dict, List, Optional, Tuple
 import numpy as np
 
 from ._core import AabbTree, GeometryError, LayerTin, Stitcher, StudyArea, repair_crossings
-from .dataset import points_in_polygon
+from .dataset import points_in_polygon, prepare_for_build
 from .model import Gap, Model, Surface
 
 __all__ = ["build_model", "continuous_layers", "stratum_tins", "LayerTin", "repair_crossings",
@@ -302,6 +302,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     meta: Dict[str, Any] = {"options": {"loft_method": loft_method, "refine": refine,
                                         "stitch_order": stitch_order, "bridge": bridge,
                                         "repair": repair}}
+    dataset, meta["input"] = prepare_for_build(dataset)  # data checks + boundary policy (dataset.py)
 
     # Steps 2 and 3: stratum TINs, layer-crossing repair.
     t0 = time.perf_counter()
