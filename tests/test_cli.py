@@ -175,6 +175,6 @@ def test_build_command_with_options(tmp_path, capsys):
     assert rc == 0, capsys.readouterr().err
     files = sorted(p.name for p in (tmp_path / "b").iterdir())
     assert files == ["paper_like.3dt", "paper_like.ts", "paper_like_boundary.pl", "quality.csv",
-                     "quality.json", "quality.md"]
+                     "quality.json", "quality.md", "run.json"]
     m = load_model(tmp_path / "b" / "paper_like.3dt")
     assert np.all(np.isfinite(m.surfaces[next(iter(m.surfaces))].vertices))

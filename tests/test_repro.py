@@ -28,3 +28,15 @@ def test_fault_across_the_study_area_builds_and_checks(name):
     assert ends["F0"] == [("boundary", "boundary")]
     for s in model.faults.values():
         assert len(np.unique(s.vertices, axis=0)) == len(s.vertices)
+
+
+def test_surveyors_rounding_on_the_boundary_builds_and_checks():
+    # The traces on the boundary were written to 0.1 mm, the boundary not:
+    # 0.03 mm outside. The loader snaps them onto the boundary (recorded in
+    # the input report); the builder then closes the patches there.
+    ds = faultmesh.load_dataset(REPRO / "boundary-rounding" / "dataset.json")
+    snapped = [a for a in ds.adjustments if a.what == "snapped"]
+    assert snapped and max(a.distance for a in snapped) < 1e-4
+    model = faultmesh.build_model(ds)
+    model.check()
+    assert "snapped" in model.metadata["input"]["summary"]

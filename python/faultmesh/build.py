@@ -17,6 +17,7 @@ import numpy as np
 
 from ._core import AabbTree, GeometryError, LayerTin, Stitcher, StudyArea, repair_crossings
 from . import report as _report
+from .dataset import prepare_for_build
 from .model import Gap, Model, Surface
 
 __all__ = ["build_model", "continuous_layers", "stratum_tins", "LayerTin", "repair_crossings",
@@ -185,6 +186,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     meta: Dict[str, Any] = {"options": {"loft_method": loft_method, "refine": refine,
                                         "stitch_order": stitch_order, "bridge": bridge,
                                         "repair": repair}}
+    dataset, meta["input"] = prepare_for_build(dataset)  # data checks + boundary policy (dataset.py)
 
     # Steps 2 and 3: stratum TINs, layer-crossing repair.
     t0 = time.perf_counter()

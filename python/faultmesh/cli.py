@@ -101,24 +101,53 @@ def _builtin_datasets() -> Dict[str, Callable]:
     return out
 
 
-def _load_dataset(spec: str):
-    """A dataset file, or a built-in name (``paper_like``, ``synthetic``)."""
-    p = Path(spec)
+def _load_dataset(spec: str, args=None):
+    """A dataset file or folder, or a built-in name (``paper_like``, ``synthetic``).
+    ``--snap`` and ``--allow-outside-paths`` of ``args`` go to load_dataset."""
+    import os
+
     builtins = _builtin_datasets()
-    if not p.exists() and spec in builtins:
+    # lexists: a symlink loop or a dangling link is a file the user named,
+    # and load_dataset says what is wrong with it.
+    if not os.path.lexists(spec) and spec in builtins:
         return builtins[spec](), spec
-    if not p.exists():
+    if not os.path.lexists(spec):
         raise CliError(f"dataset {spec!r}: no such file, and not a built-in dataset "
                        f"({', '.join(builtins) or 'none available'})")
     from .dataset import load_dataset
 
-    if p.is_dir():
-        cands = sorted(p.glob("*.json"))
-        if len(cands) != 1:
-            raise CliError(f"dataset folder {p}: expected exactly one .json file, found "
-                           f"{len(cands)}")
-        p = cands[0]
-    return load_dataset(p), None
+    return load_dataset(spec, snap=getattr(args, "snap", None),
+                        allow_outside_paths=bool(getattr(args, "allow_outside_paths", False))), None
+
+
+def _dataset_record(ds, builtin: Optional[str]) -> Dict[str, object]:
+    """What the run manifest says about the dataset."""
+    path = getattr(ds, "path", None)
+    return {"name": ds.name, "path": str(Path(path).resolve()) if path else None,
+            "builtin": builtin}
+
+
+def _input_summary(args, model) -> None:
+    """The one-paragraph summary of what the input policy did (stdout)."""
+    rec = (model.metadata or {}).get("input")
+    if rec and rec.get("summary"):
+        _echo(rec["summary"])
+
+
+def _run_writer(args, command: str):
+    from .runs import RunWriter
+
+    return RunWriter(Path(args.output), command=command, argv=getattr(args, "argv", None))
+
+
+def _model_file(run, files) -> Optional[str]:
+    """The file readers should open: the richest single-file model written."""
+    finals = [run.final(f) for f in files]
+    for suffix in (".3dt", ".ts", ".vtu", ".vtk"):
+        for f in finals:
+            if f.suffix == suffix and f.parent == run.folder:
+                return f.name
+    return None
 
 
 def _build_model_fn():
@@ -212,15 +241,19 @@ def _fence_sections(model, dataset) -> list:
     return out
 
 
-def _write_report(model, out: Path, stem: str = "quality") -> List[Path]:
+def _write_report(model, out: Path, stem: str = "quality"):
+    """quality.md/.csv/.json; the JSON (the build report) also holds the
+    input policy's record (``model.metadata["input"]``) under ``"input"``."""
+    import json
+
     rep = model.quality()
-    return [rep.to_markdown_file(out / f"{stem}.md"), rep.to_csv(out / f"{stem}.csv"),
-            _write_json(rep, out / f"{stem}.json")], rep
-
-
-def _write_json(rep, path: Path) -> Path:
-    rep.to_json(path)
-    return path
+    doc = json.loads(rep.to_json())
+    inp = (model.metadata or {}).get("input")
+    if inp is not None:
+        doc["input"] = inp
+    js = out / f"{stem}.json"
+    js.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    return [rep.to_markdown_file(out / f"{stem}.md"), rep.to_csv(out / f"{stem}.csv"), js], rep
 
 
 def _print_tables(rep) -> None:
@@ -239,10 +272,8 @@ def _print_tables(rep) -> None:
 # ----------------------------------------------------------------------------
 
 def cmd_demo(args) -> int:
-    from .io import save_model
-    from . import plots
-
     out = Path(args.output)
+    _check_output_folder(out, "demo")
     t_start = time.perf_counter()
     builtins = _builtin_datasets()
     if "paper_like" not in builtins:
@@ -259,18 +290,36 @@ def cmd_demo(args) -> int:
         model.truth = ds.truth
     _info(args, f"  built in {secs:.1f} s: " + ", ".join(
         f"{n} {s.n_triangles} triangles" for n, s in model.surfaces.items()))
-    files = save_model(model, out, formats=("3dt", "ts", "vtu"))
-    rep_files, rep = _write_report(model, out)
-    files += rep_files
+    with _run_writer(args, "demo") as run:
+        rep = _write_demo(run.stage, model, ds, args)
+        files = sorted(p for p in run.stage.rglob("*") if p.is_file())
+        run.commit(model=_model_file(run, files), dataset=_dataset_record(ds, "paper_like"),
+                   extra={"input": _input_record_short(model)})
+    _echo(f"faultmesh demo: model {model.name!r} built in {secs:.1f} s, everything written "
+          f"in {time.perf_counter() - t_start:.1f} s to {out.resolve()}/")
+    for f in files:
+        _echo(f"  {run.final(f)}")
+    _input_summary(args, model)
+    _echo("mesh quality of the stitched gaps (the paper's Table 2):")
+    _print_tables(rep)
+    return 0
+
+
+def _write_demo(out: Path, model, ds, args):
+    """Every file of the demo, written into ``out`` (the run's staging
+    folder); returns the quality report."""
+    from .io import save_model
+    from . import plots
+
+    save_model(model, out, formats=("3dt", "ts", "vtu"))
+    _, rep = _write_report(model, out)
     sections = []
     for name, origin, az in _sections_for(model, ds):
         sec = model.section(origin, az)
         sec.name = name
         sections.append(sec)
-        files.append(sec.to_csv(out / f"section_{name}.csv"))
-        fig = sec.plot(out / f"section_{name}.png")
-        files.append(out / f"section_{name}.png")
-        _close(fig)
+        sec.to_csv(out / f"section_{name}.csv")
+        _close(sec.plot(out / f"section_{name}.png"))
     _info(args, "drawing pictures ...")
     fence = _fence_sections(model, ds) or sections
     first = 1 if len(model.surfaces) >= 3 else 0
@@ -281,14 +330,26 @@ def cmd_demo(args) -> int:
                       ("gaps.png", lambda p: plots.plot_gaps(model, p)),
                       ("map.png", lambda p: plots.plot_map(model, p, sections=sections))):
         _close(fn(out / fname))
-        files.append(out / fname)
-    _echo(f"faultmesh demo: model {model.name!r} built in {secs:.1f} s, everything written "
-          f"in {time.perf_counter() - t_start:.1f} s to {out.resolve()}/")
-    for f in files:
-        _echo(f"  {f}")
-    _echo("mesh quality of the stitched gaps (the paper's Table 2):")
-    _print_tables(rep)
-    return 0
+    return rep
+
+
+def _input_record_short(model) -> Optional[Dict[str, object]]:
+    """The input policy's counts and summary for the run manifest (the full
+    list of adjustments is in the model's metadata and in quality.json)."""
+    rec = (model.metadata or {}).get("input")
+    if not rec:
+        return None
+    return {"snap_distance": rec.get("snap_distance"), "counts": rec.get("counts"),
+            "summary": rec.get("summary")}
+
+
+def _check_output_folder(out: Path, command: str) -> None:
+    """-o must name a folder (or a path to create); checked before building."""
+    import os
+
+    if os.path.lexists(out) and not out.is_dir():
+        what = "a file" if out.is_file() else "not a folder (a broken or looping symlink?)"
+        raise CliError(f"-o {out}: is {what}; '{command}' writes several files into a folder")
 
 
 def _close(fig) -> None:
@@ -303,8 +364,9 @@ def _close(fig) -> None:
 def cmd_build(args) -> int:
     from .io import save_model
 
-    ds, builtin = _load_dataset(args.dataset)
     out = Path(args.output)
+    _check_output_folder(out, "build")
+    ds, builtin = _load_dataset(args.dataset, args)
     _info(args, f"building {ds.name!r} ...")
     model, secs = _build(ds, args, _Progress(not _quiet(args)))
     if builtin:
@@ -313,18 +375,22 @@ def cmd_build(args) -> int:
     if model.truth is None and getattr(ds, "truth", None) is not None:
         model.truth = ds.truth
     formats = args.formats.split(",") if args.formats else None
-    files = save_model(model, out, formats=formats)
-    rep_files, rep = _write_report(model, out)
-    files += rep_files
-    if args.plots:
-        from . import plots
+    with _run_writer(args, "build") as run:
+        stage = run.stage
+        save_model(model, stage, formats=formats)
+        _, rep = _write_report(model, stage)
+        if args.plots:
+            from . import plots
 
-        _close(plots.plot_model_3d(model, out / "model_3d.png"))
-        _close(plots.plot_gaps(model, out / "gaps.png"))
-        files += [out / "model_3d.png", out / "gaps.png"]
+            _close(plots.plot_model_3d(model, stage / "model_3d.png"))
+            _close(plots.plot_gaps(model, stage / "gaps.png"))
+        files = sorted(p for p in stage.rglob("*") if p.is_file())
+        run.commit(model=_model_file(run, files), dataset=_dataset_record(ds, builtin),
+                   extra={"input": _input_record_short(model)})
     _echo(f"model {model.name!r} built in {secs:.1f} s; written to {out.resolve()}/")
     for f in files:
-        _echo(f"  {f}")
+        _echo(f"  {run.final(f)}")
+    _input_summary(args, model)
     _print_tables(rep)
     return 0
 
@@ -421,6 +487,17 @@ def _add_common(p: argparse.ArgumentParser, top: bool = False) -> None:
                    help="no progress bars or notes on stderr")
 
 
+def _add_dataset_options(p: argparse.ArgumentParser) -> None:
+    """Options of every command that loads a dataset file (docs/dataset.md)."""
+    p.add_argument("--snap", type=float, metavar="M",
+                   help="snap distance in metres: data this close to the study-area boundary "
+                        "are moved onto it (default: the dataset's snap_distance, else "
+                        "min(0.02, 1e-5 x the area's diagonal); docs/dataset.md)")
+    p.add_argument("--allow-outside-paths", action="store_true",
+                   help="let the dataset JSON name CSV files outside its folder (absolute "
+                        "paths, '..', symlinks leading out)")
+
+
 def _add_build_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--plain-order", action="store_true",
                    help="clip the ears of each gap in the paper's plain (Eberly) order instead "
@@ -474,6 +551,7 @@ def make_parser() -> argparse.ArgumentParser:
                    help="comma-separated formats to write (3dt,ts,vtu,vtk,obj,ply); "
                         "default 3dt,ts,vtu,obj,ply")
     p.add_argument("--plots", action="store_true", help="also draw model_3d.png and gaps.png")
+    _add_dataset_options(p)
     _add_common(p)
     p.set_defaults(func=cmd_build)
 
@@ -550,6 +628,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = make_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
+    args.argv = argv  # for the run manifest
     debug = bool(getattr(args, "debug", False))
     if not getattr(args, "command", None):
         parser.print_help()

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Optional
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -146,6 +146,10 @@ class Boreholes:
     xy: np.ndarray
     layer: np.ndarray
     z: np.ndarray
+    #: Where the rows come from, for messages: the CSV's name and each row's
+    #: 1-based line number in it (header = 1). None for data made in memory.
+    source: Optional[str] = None
+    rows: Optional[np.ndarray] = None
 
     def __post_init__(self) -> None:
         self.hole_id = np.asarray(self.hole_id, dtype=str).reshape(-1)
@@ -156,6 +160,22 @@ class Boreholes:
         if not (len(self.xy) == len(self.layer) == len(self.z) == n):
             raise DatasetError("Boreholes: hole_id, xy, layer and z must have the same number "
                                f"of rows, got {n}, {len(self.xy)}, {len(self.layer)}, {len(self.z)}")
+        if self.rows is not None:
+            self.rows = np.asarray(self.rows, dtype=np.int64).reshape(-1)
+            if len(self.rows) != n:
+                self.rows = None  # numbering no longer matches: fall back to row indices
+
+    def row_label(self, i: int) -> str:
+        """A readable name of row ``i``: ``boreholes.csv row 17 (hole 'BH3', layer 'L0')``."""
+        what = f"hole {str(self.hole_id[i])!r}, layer {str(self.layer[i])!r}"
+        if self.source is not None and self.rows is not None:
+            return f"{self.source} row {int(self.rows[i])} ({what})"
+        return f"borehole row {i + 1} ({what})"
+
+    def subset(self, keep: np.ndarray) -> "Boreholes":
+        """The rows where ``keep`` (bool (n,)) is True, with their source rows."""
+        return Boreholes(self.hole_id[keep], self.xy[keep], self.layer[keep], self.z[keep],
+                         self.source, None if self.rows is None else self.rows[keep])
 
     def __len__(self) -> int:
         return int(len(self.hole_id))
@@ -190,16 +210,36 @@ class Dataset:
     #: The ground-truth model (:class:`faultmesh.geology.Geology`) of a generated
     #: dataset, None for loaded ones. ``truth`` is its ``truth`` method.
     geology: Optional[Any] = None
+    #: The snap distance set for this dataset (the JSON key ``snap_distance``
+    #: or ``load_dataset(snap=...)``); None = the default (:func:`default_snap_distance`).
+    snap_distance: Optional[float] = None
+    #: What the input policy changed or noticed (:class:`Adjustment` records:
+    #: points snapped onto the boundary, data clipped or dropped beyond it,
+    #: warnings about the layer order), in the order they were made.
+    adjustments: List["Adjustment"] = field(default_factory=list)
+    #: Where each layer's extra points come from, for messages: layer ->
+    #: (CSV name, 1-based line numbers) or (JSON label, None) for inline points.
+    point_sources: Dict[str, Tuple[str, Optional[np.ndarray]]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.layers = [str(v) for v in self.layers]
         self.boundary = np.asarray(self.boundary, dtype=np.float64).reshape(-1, 2)
         self.points = {str(k): np.asarray(v, dtype=np.float64).reshape(-1, 3)
                        for k, v in self.points.items()}
+        self.adjustments = list(self.adjustments)
+
+    def point_label(self, layer: str, i: int) -> str:
+        """A readable name of extra point ``i`` of ``layer``: ``topo.csv row 5``
+        or ``points['top'] point 5``."""
+        label, rows = self.point_sources.get(layer, (f"points[{layer!r}]", None))
+        if rows is not None and i < len(rows):
+            return f"{label} row {int(rows[i])}"
+        return f"{label} point {i + 1}"
 
     def __eq__(self, other) -> bool:
         """Equal data (name, crs, layers, boundary, boreholes, points, sections,
-        faults); ``path``, ``truth`` and ``geology`` are not compared."""
+        faults); ``path``, ``truth``, ``geology``, ``snap_distance``,
+        ``adjustments`` and ``point_sources`` are not compared."""
         if not isinstance(other, Dataset):
             return NotImplemented
         return (self.name == other.name and self.crs == other.crs
@@ -423,43 +463,855 @@ def points_in_polygon(points, ring) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------
+# The input tolerance policy: snap distance, data beyond the boundary, records
+# ---------------------------------------------------------------------------
+#: Absolute cap of the default snap distance, in metres (dataset units).
+#: Surveyed coordinates are written to 0.1 mm .. 1 cm. A point on a side
+#: rounded to 1 cm is at most 0.5 cm x sqrt(2) = 7.1 mm from the side (slanted
+#: side, both coordinates off by half a unit); the same holds when the boundary
+#: was rounded and the point was not, and 14.1 mm when both were rounded to
+#: 1 cm independently. 2 cm covers all of these with margin and is still below
+#: what a collar survey can resolve (GNSS RTK: 1-2 cm horizontally) and three
+#: orders of magnitude below any triangle of a model (tens of metres).
+SNAP_ABSOLUTE = 0.02
+#: Relative cap of the default snap distance: this share of the diagonal of
+#: the boundary's bounding box. The builder spaces boundary vertices at least
+#: perimeter / 4000 apart (build.LayerTin), about 1e-3 of the area's size, so
+#: a move of 1e-5 of it stays ~100x below the finest boundary spacing: it never
+#: changes which part of a side a point belongs to, and a hand-made test
+#: geometry of a few units is moved by no more than 1e-5 of its size. For the
+#: 2.5-6 km areas of real studies this is 2.5-8.5 cm, so SNAP_ABSOLUTE rules.
+SNAP_RELATIVE = 1e-5
+
+
+def default_snap_distance(boundary) -> float:
+    """The default snap distance of a study area: ``min(SNAP_ABSOLUTE,
+    SNAP_RELATIVE x the diagonal of the boundary's bounding box)`` (2 cm for
+    any area wider than 2 km; see the constants for why)."""
+    b = np.asarray(boundary, dtype=np.float64).reshape(-1, 2)
+    if len(b) == 0:
+        return SNAP_ABSOLUTE
+    diag = float(np.hypot(*(b.max(axis=0) - b.min(axis=0))))
+    return min(SNAP_ABSOLUTE, SNAP_RELATIVE * diag)
+
+
+def on_boundary_tolerance(boundary) -> float:
+    """Distance under which a point counts as ON the boundary without being
+    moved: 64 units in the last place of the largest coordinate, the builder's
+    own on-side tolerance (build._on_segment_tol). A point moved onto a slanted
+    side lands within a few units in the last place of it (the projection is
+    rounded), so the policy leaves such points where they are the second time
+    (idempotent), and the builder takes them as boundary vertices."""
+    b = np.asarray(boundary, dtype=np.float64)
+    return 64.0 * 2.0 ** -53 * max(1.0, float(np.abs(b).max()) if b.size else 1.0)
+
+
+@dataclass(frozen=True)
+class Adjustment:
+    """One change (or remark) the input policy made.
+
+    ``what``: ``"snapped"`` (moved onto the boundary), ``"clipped"`` (a
+    polyline cut where it leaves the study area: ``after`` is the new end on
+    the boundary, ``before`` the vertex beyond it), ``"dropped"`` (removed:
+    beyond the boundary, or a part left without the data it needs) or
+    ``"warning"`` (nothing changed; ``note`` says what looks wrong).
+    ``item``: a readable name, e.g. ``fault 'F0' trace 1 layer 'L0' foot point 3``
+    or ``boreholes.csv row 17 (hole 'BH3', layer 'L0')``. ``before``/``after``:
+    XY, or None. ``distance``: for ``snapped`` the length of the move, for
+    ``clipped``/``dropped`` how far ``before`` lies from the boundary (m)."""
+
+    what: str
+    item: str
+    before: Optional[Tuple[float, float]] = None
+    after: Optional[Tuple[float, float]] = None
+    distance: Optional[float] = None
+    note: str = ""
+
+    def to_dict(self) -> Dict[str, Any]:
+        return {"what": self.what, "item": self.item,
+                "before": None if self.before is None else [float(v) for v in self.before],
+                "after": None if self.after is None else [float(v) for v in self.after],
+                "distance": None if self.distance is None else float(self.distance),
+                "note": self.note}
+
+
+def _xy(p) -> Tuple[float, float]:
+    return (float(p[0]), float(p[1]))
+
+
+def _fmt_len(d: float) -> str:
+    if d < 1e-3:
+        return f"{d * 1e3:.3g} mm"
+    if d < 1.0:
+        return f"{d * 1e3:.1f} mm"
+    return f"{d:.3f} m"
+
+
+def adjustment_counts(adjustments: Sequence[Adjustment]) -> Dict[str, Dict[str, Any]]:
+    """Per kind (snapped, clipped, dropped, warning): ``count`` and the largest
+    ``distance`` (None when no record of the kind has one)."""
+    out: Dict[str, Dict[str, Any]] = {}
+    for what in ("snapped", "clipped", "dropped", "warning"):
+        sel = [a for a in adjustments if a.what == what]
+        ds = [a.distance for a in sel if a.distance is not None]
+        out[what] = {"count": len(sel), "largest_distance": max(ds) if ds else None}
+    return out
+
+
+def summarize_adjustments(adjustments: Sequence[Adjustment],
+                          snap: Optional[float] = None) -> str:
+    """One paragraph for people: counts per kind and the largest distances."""
+    c = adjustment_counts(adjustments)
+    parts = []
+    if c["snapped"]["count"]:
+        parts.append(f"{c['snapped']['count']} point(s) snapped onto the study-area boundary "
+                     f"(largest move {_fmt_len(c['snapped']['largest_distance'])})")
+    if c["clipped"]["count"]:
+        parts.append(f"{c['clipped']['count']} fault polyline(s) clipped at the boundary "
+                     f"(farthest vertex cut off {_fmt_len(c['clipped']['largest_distance'])} "
+                     "beyond it)")
+    if c["dropped"]["count"]:
+        d = c["dropped"]["largest_distance"]
+        far = f" (farthest {_fmt_len(d)} beyond the boundary)" if d is not None else ""
+        parts.append(f"{c['dropped']['count']} item(s) dropped{far}")
+    snap_txt = f" (snap distance {_fmt_len(snap)})" if snap is not None else ""
+    if not parts:
+        text = f"input: all data lie inside the study area{snap_txt}; nothing was snapped, " \
+               "clipped or dropped."
+    else:
+        text = f"input{snap_txt}: " + "; ".join(parts) + "."
+    warns = [a for a in adjustments if a.what == "warning"]
+    if warns:
+        text += f" {len(warns)} warning(s): " + " ".join(
+            f"{a.item}: {a.note}" for a in warns[:3]) + (" ..." if len(warns) > 3 else "")
+    return text
+
+
+def _chunks(m: int, k: int, budget: int = 1_000_000):
+    step = max(1, budget // max(1, k))
+    for s in range(0, m, step):
+        yield s, min(m, s + step)
+
+
+def _nearest_on_boundary(P: np.ndarray, ring: np.ndarray):
+    """Distance (m,), side index (m,) and nearest point (m, 2) of points P on the
+    closed ring. Corners and axis-parallel sides are hit exactly (the point
+    copies the corner, or the side's constant coordinate), so a point moved
+    there has an exact orient2d of 0 against its side."""
+    P = np.asarray(P, dtype=np.float64).reshape(-1, 2)
+    m, k = len(P), len(ring)
+    dist = np.empty(m)
+    side = np.empty(m, dtype=np.int64)
+    Q = np.empty((m, 2))
+    if m == 0:
+        return dist, side, Q
+    a = ring
+    b = np.roll(ring, -1, axis=0)
+    d = b - a
+    L2 = np.einsum("ij,ij->i", d, d)
+    L2 = np.where(L2 > 0.0, L2, 1.0)          # a repeated vertex: its "side" is the vertex
+    horiz = d[:, 1] == 0.0
+    vert = d[:, 0] == 0.0
+    lo = np.minimum(a, b)
+    hi = np.maximum(a, b)
+    for s0, s1 in _chunks(m, k):
+        p = P[s0:s1, None, :]                                   # (c, 1, 2)
+        t = np.einsum("cki,ki->ck", p - a[None], d) / L2[None]
+        c = a[None] + np.clip(t, 0.0, 1.0)[..., None] * d[None]
+        # Exact where possible: axis-parallel sides keep their coordinate and
+        # clamp the other; the side's ends are copied, not recomputed.
+        cx = np.where(horiz[None], np.clip(p[..., 0], lo[None, :, 0], hi[None, :, 0]), c[..., 0])
+        cy = np.where(horiz[None], a[None, :, 1], c[..., 1])
+        cx = np.where(vert[None], a[None, :, 0], cx)
+        cy = np.where(vert[None], np.clip(p[..., 1], lo[None, :, 1], hi[None, :, 1]), cy)
+        at_a = t <= 0.0
+        at_b = t >= 1.0
+        cx = np.where(at_a, a[None, :, 0], np.where(at_b, b[None, :, 0], cx))
+        cy = np.where(at_a, a[None, :, 1], np.where(at_b, b[None, :, 1], cy))
+        dd = np.hypot(p[..., 0] - cx, p[..., 1] - cy)
+        j = np.argmin(dd, axis=1)
+        r = np.arange(s1 - s0)
+        dist[s0:s1] = dd[r, j]
+        side[s0:s1] = j
+        Q[s0:s1, 0] = cx[r, j]
+        Q[s0:s1, 1] = cy[r, j]
+    return dist, side, Q
+
+
+def _inside_or_on(P: np.ndarray, ring: np.ndarray) -> np.ndarray:
+    """points_in_polygon in chunks (it builds (m x k) arrays)."""
+    P = np.asarray(P, dtype=np.float64).reshape(-1, 2)
+    out = np.zeros(len(P), dtype=bool)
+    for s0, s1 in _chunks(len(P), len(ring), 200_000):
+        out[s0:s1] = points_in_polygon(P[s0:s1], ring)
+    return out
+
+
+class _Snapper:
+    """Classification of points against the study area under the policy."""
+
+    def __init__(self, ring: np.ndarray, snap: float) -> None:
+        self.ring = ring
+        self.snap = float(snap)
+        self.on_tol = on_boundary_tolerance(ring)
+        a = ring
+        d = np.roll(ring, -1, axis=0) - a
+        self.slanted = (d[:, 0] != 0.0) & (d[:, 1] != 0.0)
+
+    def classify(self, P: np.ndarray):
+        """For points P (m, 2): (new XY, moved (m,) bool, distance of the
+        original point from the boundary (m,), in (m,) bool: inside, on, or
+        within the snap distance)."""
+        P = np.asarray(P, dtype=np.float64).reshape(-1, 2)
+        dist, side, Q = _nearest_on_boundary(P, self.ring)
+        same = np.all(Q == P, axis=1)
+        # Already on a slanted side up to rounding: left alone (idempotence).
+        interior_of_side = ~(np.all(Q == self.ring[side], axis=1)
+                             | np.all(Q == np.roll(self.ring, -1, axis=0)[side], axis=1))
+        on_slanted = self.slanted[side] & interior_of_side & (dist <= self.on_tol) if len(P) \
+            else np.zeros(0, dtype=bool)
+        moved = (dist <= self.snap) & ~same & ~on_slanted
+        new = np.where(moved[:, None], Q, P)
+        inside = (dist <= max(self.snap, self.on_tol)) | _inside_or_on(P, self.ring)
+        return new, moved, dist, inside
+
+    def inside(self, P: np.ndarray) -> np.ndarray:
+        """Inside, on, or within on_tol of the boundary (for points made here)."""
+        P = np.asarray(P, dtype=np.float64).reshape(-1, 2)
+        if len(P) == 0:
+            return np.zeros(0, dtype=bool)
+        dist, _, _ = _nearest_on_boundary(P, self.ring)
+        return (dist <= self.on_tol) | _inside_or_on(P, self.ring)
+
+    def onto(self, P: np.ndarray) -> np.ndarray:
+        """Points made on the boundary (crossings) moved onto their nearest side."""
+        return _nearest_on_boundary(P, self.ring)[2]
+
+
+def _segment_params(p: np.ndarray, q: np.ndarray, ring: np.ndarray):
+    """For segments p -> q (s, 2): (segment index, parameter t in [0, 1])
+    pairs where a segment meets a boundary side. Whether they meet is decided
+    exactly (orient2d on the closed segments); the parameter is rounded. A
+    collinear overlap gives both ends of the side (clipped to [0, 1])."""
+    s, k = len(p), len(ring)
+    segs, ts = [np.zeros(0, dtype=np.int64)], [np.zeros(0)]
+    a_all = ring
+    b_all = np.roll(ring, -1, axis=0)
+    for s0, s1 in _chunks(s, k):
+        n = s1 - s0
+        P1 = np.repeat(p[s0:s1], k, axis=0)
+        P2 = np.repeat(q[s0:s1], k, axis=0)
+        A = np.tile(a_all, (n, 1))
+        B = np.tile(b_all, (n, 1))
+        hit = np.flatnonzero(_segments_intersect(P1, P2, A, B))
+        if not hit.size:
+            continue
+        P1, P2, A, B = P1[hit], P2[hit], A[hit], B[hit]
+        seg = hit // k + s0
+        d = P2 - P1
+        e = B - A
+        L2 = np.einsum("ij,ij->i", d, d)
+        with np.errstate(all="ignore"):            # non-finite parameters are dropped
+            w = A - P1
+            t_cross = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / (d[:, 0] * e[:, 1] - d[:, 1] * e[:, 0])
+            t_a = np.einsum("ij,ij->i", A - P1, d) / L2
+            t_b = np.einsum("ij,ij->i", B - P1, d) / L2
+        col = (_orient_sign(P1, P2, A) == 0) & (_orient_sign(P1, P2, B) == 0)
+        ok = (L2 > 0.0) & np.isfinite(L2)                # a zero-length segment has no parameter
+        cross = ok & ~col & np.isfinite(t_cross)
+        both = ok & col & np.isfinite(t_a) & np.isfinite(t_b)
+        segs += [seg[cross], seg[both], seg[both]]
+        ts += [np.clip(t_cross[cross], 0.0, 1.0), np.clip(t_a[both], 0.0, 1.0),
+               np.clip(t_b[both], 0.0, 1.0)]
+    return np.concatenate(segs), np.concatenate(ts)
+
+
+def _inside_intervals(p: np.ndarray, q: np.ndarray, snapper: _Snapper):
+    """Which parts of the segments p -> q (s, 2) lie in the study area
+    (inside, on, or within on_tol of the boundary).
+
+    Returns ``(whole, parts)``: ``whole`` (s,) bool, the segment is in the
+    area from end to end; ``parts``: for the other segments, segment index ->
+    list of parameter intervals ``(t0, t1)`` in the area (maybe empty)."""
+    s = len(p)
+    if s == 0:
+        return np.zeros(0, dtype=bool), {}
+    seg, t = _segment_params(p, q, snapper.ring)
+    L = np.hypot(*(q - p).T)
+    # Parameters closer than on_tol along the segment are one crossing (a
+    # corner met from two sides; an end snapped onto a side): those that
+    # close to an end, or to the parameter before them, are left out.
+    with np.errstate(divide="ignore"):
+        tol = snapper.on_tol / L
+    keep = (t > tol[seg]) & (t < 1.0 - tol[seg])
+    seg, t = seg[keep], t[keep]
+    order = np.lexsort((t, seg))
+    seg, t = seg[order], t[order]
+    dup = np.zeros(len(seg), dtype=bool)
+    dup[1:] = (seg[1:] == seg[:-1]) & (t[1:] - t[:-1] <= tol[seg[1:]])
+    seg, t = seg[~dup], t[~dup]
+    # Cuts per segment: 0, its parameters, 1; one interval between each two.
+    counts = np.bincount(seg, minlength=s)
+    offs = np.concatenate([[0], np.cumsum(counts + 2)])
+    cuts = np.empty(offs[-1])
+    cuts[offs[:-1]] = 0.0
+    cuts[offs[1:] - 1] = 1.0
+    first = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    cuts[offs[seg] + 1 + (np.arange(len(seg)) - first[seg])] = t
+    start = np.ones(len(cuts), dtype=bool)
+    start[offs[1:] - 1] = False                           # the last cut of a segment
+    i0 = np.flatnonzero(start)
+    owner = np.repeat(np.arange(s), counts + 1)
+    t0, t1 = cuts[i0], cuts[i0 + 1]
+    tm = 0.5 * (t0 + t1)
+    mids = p[owner] + tm[:, None] * (q[owner] - p[owner])
+    ins = snapper.inside(mids)
+    whole = (counts == 0) & ins[offs[:-1] - np.arange(s)]  # one interval, in the area
+    parts: Dict[int, List[Tuple[float, float]]] = {}
+    for k in np.flatnonzero(~whole):
+        sel = np.flatnonzero(owner == k)
+        out: List[Tuple[float, float]] = []
+        for a, b, ok in zip(t0[sel], t1[sel], ins[sel]):
+            if not ok:
+                continue
+            if out and out[-1][1] == a:
+                out[-1] = (out[-1][0], float(b))
+            else:
+                out.append((float(a), float(b)))
+        parts[int(k)] = out
+    return whole, parts
+
+
+def _clip_polyline(P3: np.ndarray, vin: np.ndarray, intervals):
+    """Pieces of a polyline (k, 3) inside the study area.
+
+    ``vin``: per vertex, inside (after snapping); ``intervals``: per segment,
+    its inside parameter intervals. Returns a list of pieces, each a list of
+    entries ``("v", i)`` (vertex i) or ``("x", seg, t, beyond)`` (a crossing on
+    segment seg at parameter t; ``beyond`` is the vertex on the outer side)."""
+    n = len(P3)
+    if n == 1:
+        return [[("v", 0)]] if vin[0] else []
+    pieces: List[list] = []
+    cur: Optional[list] = None
+    cur_open = False          # the current piece ends at vertex s (continues into segment s)
+    for s in range(n - 1):
+        for t0, t1 in intervals[s]:
+            if cur is not None and cur_open and t0 == 0.0:
+                pass                                    # continue through vertex s
+            else:
+                if cur is not None:
+                    pieces.append(cur)
+                cur = [("v", s) if t0 == 0.0 else ("x", s, t0, s)]
+            cur.append(("v", s + 1) if t1 == 1.0 else ("x", s, t1, s + 1))
+            cur_open = t1 == 1.0
+        if not (intervals[s] and intervals[s][-1][1] == 1.0):
+            cur_open = False
+    if cur is not None:
+        pieces.append(cur)
+    return pieces
+
+
+def apply_boundary_policy(ds: Dataset, snap: Optional[float] = None) -> Dataset:
+    """Apply the input tolerance policy (docs/dataset.md "Tolerance policy")
+    and return a new :class:`Dataset`; ``ds`` is not changed.
+
+    * Every point (borehole rows, extra points, fault tips and every vertex of
+      every fault polyline) within the snap distance of the study-area
+      boundary is moved onto the nearest point of the nearest side (onto the
+      corner when that is nearest; axis-parallel sides and corners exactly).
+    * Beyond the snap distance: borehole rows, extra points and tips outside
+      are dropped; fault polylines (plane, foot, hanging) are cut where they
+      leave the area (the new end is the crossing, on the boundary, z
+      interpolated along the segment) and their outside parts dropped. A
+      footwall (hanging-wall) polyline keeps the part that holds its cutoff at
+      the fault, its last (first) point; if that point lies beyond the boundary
+      the layer is dropped from the trace (its cutoff, the datum the model
+      needs, is not in the area). A fault-plane trace keeps its longest inside
+      part; a trace whose plane trace lies wholly outside is dropped with its
+      layers, and a fault left with no trace is dropped.
+    * Every change is appended to ``adjustments`` of the result.
+
+    ``snap``: the snap distance (m); None = ``ds.snap_distance`` if set, else
+    :func:`default_snap_distance`. Idempotent: applied to its own result it
+    changes nothing and records nothing.
+    """
+    if snap is None:
+        snap = ds.snap_distance
+    explicit = snap
+    if snap is None:
+        snap = default_snap_distance(ds.boundary)
+    snap = _check_snap(snap, "apply_boundary_policy: snap")
+    ring = np.asarray(ds.boundary, dtype=np.float64).reshape(-1, 2)
+    if len(ring) > 1 and np.array_equal(ring[0], ring[-1]):
+        ring = ring[:-1]
+    sn = _Snapper(ring, snap)
+    adj: List[Adjustment] = []
+
+    # Boreholes.
+    b = ds.boreholes
+    new_xy, moved, dist, inside = sn.classify(b.xy)
+    for i in np.flatnonzero(moved & inside):
+        adj.append(Adjustment("snapped", b.row_label(int(i)), _xy(b.xy[i]), _xy(new_xy[i]),
+                              float(dist[i])))
+    for i in np.flatnonzero(~inside):
+        adj.append(Adjustment("dropped", b.row_label(int(i)), _xy(b.xy[i]), None, float(dist[i]),
+                              "beyond the study-area boundary"))
+    boreholes = Boreholes(b.hole_id, new_xy, b.layer, b.z, b.source, b.rows).subset(inside) \
+        if (moved.any() or not inside.all()) else b
+
+    # Extra points.
+    points: Dict[str, np.ndarray] = {}
+    sources = dict(ds.point_sources)
+    for lay, arr in ds.points.items():
+        arr = np.asarray(arr, dtype=np.float64).reshape(-1, 3)
+        nxy, mv, dd, ins = sn.classify(arr[:, :2])
+        for i in np.flatnonzero(mv & ins):
+            adj.append(Adjustment("snapped", ds.point_label(lay, int(i)), _xy(arr[i]),
+                                  _xy(nxy[i]), float(dd[i])))
+        for i in np.flatnonzero(~ins):
+            adj.append(Adjustment("dropped", ds.point_label(lay, int(i)), _xy(arr[i]), None,
+                                  float(dd[i]), "beyond the study-area boundary"))
+        if mv.any() or not ins.all():
+            arr = np.column_stack([nxy, arr[:, 2]])[ins]
+            if lay in sources and sources[lay][1] is not None:
+                sources[lay] = (sources[lay][0], sources[lay][1][ins])
+        points[lay] = arr
+
+    faults = [_fault_policy(f, sn, adj) for f in ds.faults]
+    faults = [f for f in faults if f is not None]
+
+    from dataclasses import replace
+    return replace(ds, boreholes=boreholes, points=points, faults=faults,
+                   adjustments=list(ds.adjustments) + adj, point_sources=sources,
+                   snap_distance=explicit)
+
+
+def _check_snap(snap, what: str) -> float:
+    if isinstance(snap, bool) or not isinstance(snap, (int, float, np.floating, np.integer)):
+        raise DatasetError(f"{what}: must be a number (metres), got {_short(snap)}")
+    snap = float(snap)
+    if not np.isfinite(snap) or snap < 0:
+        raise DatasetError(f"{what}: must be a finite distance >= 0, got {snap!r}")
+    return snap
+
+
+def _fault_policy(f: Fault, sn: _Snapper, adj: List[Adjustment]) -> Optional[Fault]:
+    """The policy on one fault (see apply_boundary_policy); None = dropped."""
+    fw = f"fault {f.name!r}"
+    # Every XY point of the fault at once: tips, then each polyline's vertices.
+    lines: List[Tuple[int, Optional[str], str, np.ndarray]] = []   # (trace, layer, side, pts)
+    for j, tr in enumerate(f.traces):
+        lines.append((j, None, "plane", np.asarray(tr.plane, dtype=np.float64).reshape(-1, 3)))
+        for lay, sides in tr.layers.items():
+            for side in ("foot", "hanging"):
+                if side in sides:
+                    lines.append((j, lay, side,
+                                  np.asarray(sides[side], dtype=np.float64).reshape(-1, 3)))
+    tips = np.asarray(f.tips, dtype=np.float64).reshape(-1, 2)
+    nt = len(tips)
+    allxy = np.vstack([tips] + [pts[:, :2] for *_, pts in lines])
+    new, moved, dist, inside = sn.classify(allxy)
+    offs = [nt]
+    for *_, pts in lines:
+        offs.append(offs[-1] + len(pts))
+
+    # Inside parameter intervals of every segment of every polyline, at once.
+    seg_p = [new[offs[li]:offs[li + 1] - 1] for li in range(len(lines))]
+    seg_q = [new[offs[li] + 1:offs[li + 1]] for li in range(len(lines))]
+    whole_seg, parts = _inside_intervals(np.vstack(seg_p + [np.zeros((0, 2))]),
+                                         np.vstack(seg_q + [np.zeros((0, 2))]), sn)
+    seg0 = np.concatenate([[0], np.cumsum([len(sp) for sp in seg_p])])
+
+    # Outcome per polyline: ("whole", xyz) | ("clip", piece, xyz) | ("none", why).
+    outcome: List[tuple] = []
+    for li, (j, lay, side, pts) in enumerate(lines):
+        o, k = offs[li], len(pts)
+        vin = inside[o:o + k]
+        xyz = pts.copy()
+        xyz[:, :2] = new[o:o + k]
+        if vin.all() and whole_seg[seg0[li]:seg0[li + 1]].all():
+            outcome.append(("whole", xyz))
+            continue
+        ivs = [[(0.0, 1.0)] if whole_seg[g] else parts[g] for g in range(seg0[li], seg0[li + 1])]
+        cands = []
+        for pc in _clip_polyline(xyz, vin, ivs):
+            q = _piece_points(pc, xyz, sn)
+            if len(q) >= 2 or (k == 1 and len(q) == 1):
+                cands.append((pc, q))
+        if side in ("foot", "hanging"):
+            anchor = k - 1 if side == "foot" else 0
+            keep = [c for c in cands if (c[0][-1] if side == "foot" else c[0][0]) == ("v", anchor)]
+            why = (f"its cutoff at the fault (point {anchor + 1}) lies beyond the boundary"
+                   if not vin[anchor] else
+                   f"only its cutoff at the fault (point {anchor + 1}) lies in the study area, "
+                   "the polyline runs beyond the boundary from there")
+            why += f"; layer {lay!r} is dropped from trace {j + 1}"
+        else:
+            keep = sorted(cands, key=lambda c: -float(np.sum(np.linalg.norm(
+                np.diff(c[1], axis=0), axis=1))))[:1]
+            why = (f"wholly outside the study area; trace {j + 1} is dropped"
+                   + (f" with its layer(s) {list(f.traces[j].layers)}" if f.traces[j].layers
+                      else ""))
+        outcome.append(("clip", keep[0][0], keep[0][1]) if keep else ("none", why))
+
+    if not (moved.any() or any(oc[0] != "whole" for oc in outcome) or not inside[:nt].all()):
+        return f                                # nothing to do
+
+    # Tips.
+    for i in range(nt):
+        if not inside[i]:
+            adj.append(Adjustment("dropped", f"{fw} tip {i + 1}", _xy(tips[i]), None,
+                                  float(dist[i]), "beyond the study-area boundary; that end of "
+                                  "the fault now reaches the boundary"))
+        elif moved[i]:
+            adj.append(Adjustment("snapped", f"{fw} tip {i + 1}", _xy(tips[i]), _xy(new[i]),
+                                  float(dist[i])))
+    new_tips = new[:nt][inside[:nt]]
+
+    def record(li: int, label: str) -> None:
+        pts, oc = lines[li][3], outcome[li]
+        o, k = offs[li], len(pts)
+        if oc[0] == "none":
+            near = int(np.argmin(dist[o:o + k])) if k else 0
+            adj.append(Adjustment("dropped", label, _xy(pts[near]) if k else None, None,
+                                  float(dist[o + near]) if k else None, oc[1]))
+            return
+        kept = np.ones(k, dtype=bool)
+        if oc[0] == "clip":
+            kept[:] = False
+            kept[[e[1] for e in oc[1] if e[0] == "v"]] = True
+        for i in np.flatnonzero(kept & moved[o:o + k]):
+            adj.append(Adjustment("snapped", f"{label} point {i + 1}", _xy(pts[i]),
+                                  _xy(new[o + i]), float(dist[o + i])))
+        for i in np.flatnonzero(~kept):
+            adj.append(Adjustment(
+                "dropped", f"{label} point {i + 1}", _xy(pts[i]), None, float(dist[o + i]),
+                "beyond the study-area boundary" if not inside[o + i] else
+                "on a part of the polyline cut off by the boundary"))
+        if oc[0] == "clip":
+            crossings = [e for e in oc[1] if e[0] == "x"]
+            for e in crossings:
+                _, s, t, beyond = e
+                p = new[o + s] + t * (new[o + s + 1] - new[o + s])
+                after = sn.onto(p[None])[0]
+                adj.append(Adjustment("clipped", f"{label} between points {s + 1} and {s + 2}",
+                                      _xy(pts[beyond]), _xy(after), float(dist[o + beyond]),
+                                      f"cut where it leaves the study area (point {beyond + 1} "
+                                      "lies beyond it)"))
+
+    # Rebuild the traces, recording as we go.
+    traces: List[Trace] = []
+    li = 0
+    for j, tr in enumerate(f.traces):
+        tw = f"{fw} trace {j + 1}"
+        plane_li = li
+        li += 1
+        layer_lis: Dict[str, Dict[str, int]] = {}
+        for lay, sides in tr.layers.items():
+            layer_lis[lay] = {}
+            for side in ("foot", "hanging"):
+                if side in sides:
+                    layer_lis[lay][side] = li
+                    li += 1
+        if outcome[plane_li][0] == "none":
+            record(plane_li, f"{tw} plane")
+            continue
+        record(plane_li, f"{tw} plane")
+        layers: Dict[str, Dict[str, np.ndarray]] = {}
+        for lay, sl in layer_lis.items():
+            lost = [side for side, i in sl.items() if outcome[i][0] == "none"]
+            if lost:
+                # The layer's cutoff lies beyond the boundary: the other side
+                # is no use alone, so the layer goes from this trace.
+                record(sl[lost[0]], f"{tw} layer {lay!r} {lost[0]}")
+                continue
+            for side, i in sl.items():
+                record(i, f"{tw} layer {lay!r} {side}")
+            layers[lay] = {side: outcome[i][-1] for side, i in sl.items()}
+        traces.append(Trace(tr.section, outcome[plane_li][-1], layers))
+    if not traces:
+        adj.append(Adjustment("dropped", fw, None, None, None,
+                              "no trace left inside the study area"))
+        return None
+    return Fault(f.name, f.kind, f.group, new_tips, traces)
+
+
+def _piece_points(pc, pts3: np.ndarray, sn: _Snapper) -> np.ndarray:
+    """XYZ of a piece from _clip_polyline: vertices as they are, crossings
+    interpolated along their segment (z too) and moved onto the boundary side
+    they lie on. Consecutive equal points are merged."""
+    out = []
+    for e in pc:
+        if e[0] == "v":
+            out.append(pts3[e[1]].copy())
+        else:
+            _, s, t, _ = e
+            p = pts3[s] + t * (pts3[s + 1] - pts3[s])
+            p[:2] = sn.onto(p[None, :2])[0]
+            out.append(p)
+    arr = np.array(out).reshape(-1, 3)
+    keep = np.ones(len(arr), dtype=bool)
+    keep[1:] = np.any(arr[1:] != arr[:-1], axis=1)
+    return arr[keep]
+
+
+# ---------------------------------------------------------------------------
+# Checks of the data themselves: hole positions, layer order
+# ---------------------------------------------------------------------------
+#: Up to this many holes are named in a message.
+_NAME_HOLES = 4
+
+
+def _hole_rows(b: Boreholes, idx) -> str:
+    if b.rows is not None and b.source is not None:
+        return ", ".join(f"row {int(b.rows[i])}" for i in idx)
+    return ", ".join(f"row {int(i) + 1}" for i in idx)
+
+
+def check_hole_positions(ds: Dataset, tol: Optional[float] = None) -> None:
+    """Every row of one ``hole_id`` has the same XY, up to ``tol`` (default:
+    the dataset's snap distance, the rounding the policy accepts on any point).
+    Two holes that share an id at different places are a :class:`DatasetError`
+    naming both rows (a repeated id is usually a copy-paste slip, and which of
+    the two the model would use is arbitrary)."""
+    b = ds.boreholes
+    if len(b) < 2:
+        return
+    if tol is None:
+        tol = ds.snap_distance if ds.snap_distance is not None else \
+            default_snap_distance(ds.boundary)
+    ids, first, inv = np.unique(b.hole_id, return_index=True, return_inverse=True)
+    ref = b.xy[first[inv]]
+    d = np.hypot(*(b.xy - ref).T)
+    bad = np.flatnonzero(d > tol)
+    if bad.size:
+        i = int(bad[0])
+        j = int(first[inv[i]])
+        src = f"{b.source}: " if b.source else ""
+        raise DatasetError(
+            f"{src}hole {_short(str(b.hole_id[i]))} is at two places: {_hole_rows(b, [j])} at "
+            f"({b.xy[j, 0]:.3f}, {b.xy[j, 1]:.3f}) and {_hole_rows(b, [i])} at "
+            f"({b.xy[i, 0]:.3f}, {b.xy[i, 1]:.3f}), {d[i]:.3f} m apart; a hole_id must name one "
+            f"hole (its rows may differ in XY by rounding, at most {tol:g} m)"
+            + (f"; {bad.size - 1} more row(s) like this" if bad.size > 1 else ""))
+
+
+def check_layer_order(ds: Dataset) -> List[Adjustment]:
+    """Does the layer order (top to bottom) agree with the boreholes?
+
+    For each pair of adjacent layers (upper U, lower L) the holes that hit
+    both vote, each with its SHALLOWEST hit of each layer: a hole that crosses
+    a reverse fault sees a layer twice, and its first hit of each layer is on
+    the same (upper) block, so the shallowest hits keep the stratigraphic
+    order; a hole that misses a layer does not vote on its pairs. A hole
+    agrees when U's hit is higher than L's, disagrees when it is lower (equal
+    elevations, a pinched-out layer, do not vote). When MORE holes disagree
+    than agree (a strict majority of the votes) the order is contradicted: a
+    :class:`DatasetError` naming the layers and some of the holes (reversed
+    list, two layers swapped, depths given as elevations). Fewer disagreeing
+    holes (bad picks) give a ``warning`` :class:`Adjustment` each pair, which
+    is returned (not raised)."""
+    b = ds.boreholes
+    layers = list(ds.layers)
+    if len(b) == 0 or len(layers) < 2:
+        return []
+    li = {lay: i for i, lay in enumerate(layers)}
+    lay_idx = np.array([li.get(str(v), -1) for v in b.layer], dtype=np.int64)
+    ok = lay_idx >= 0
+    hole_names, hole_idx = np.unique(b.hole_id, return_inverse=True)
+    H = np.full((len(hole_names), len(layers)), -np.inf)
+    np.maximum.at(H, (hole_idx[ok], lay_idx[ok]), b.z[ok])
+    # The row of each hole's shallowest hit of each layer, for messages.
+    R = np.full(H.shape, -1, dtype=np.int64)
+    o = np.lexsort((b.z, lay_idx, hole_idx))
+    o = o[ok[o]]
+    key = hole_idx[o] * len(layers) + lay_idx[o]
+    last = np.ones(len(o), dtype=bool)                      # the last of each group is its max
+    last[:-1] = key[1:] != key[:-1]
+    R[hole_idx[o[last]], lay_idx[o[last]]] = o[last]
+    warnings: List[Adjustment] = []
+    problems = []
+    n_pairs = 0
+    for i in range(len(layers) - 1):
+        up, lo = H[:, i], H[:, i + 1]
+        both = np.isfinite(up) & np.isfinite(lo)
+        if not both.any():
+            continue
+        n_pairs += 1
+        agree = np.flatnonzero(both & (up > lo))
+        disagree = np.flatnonzero(both & (up < lo))
+        if not disagree.size:
+            continue
+        U, L = layers[i], layers[i + 1]
+        # The holes that disagree most first.
+        worst = disagree[np.argsort(up[disagree] - lo[disagree])][:_NAME_HOLES]
+        names = "; ".join(
+            f"hole {_short(str(hole_names[h]))}: {U!r} at z {up[h]:.2f} "
+            f"({_hole_rows(b, [R[h, i]])}), {L!r} at z {lo[h]:.2f} ({_hole_rows(b, [R[h, i + 1]])})"
+            for h in worst)
+        more = f" and {disagree.size - len(worst)} more" if disagree.size > len(worst) else ""
+        counts = (f"{disagree.size} of the {agree.size + disagree.size} holes that hit both "
+                  f"(shallowest hit of each) find {L!r} higher")
+        if disagree.size > agree.size:
+            problems.append((U, L, f"layers {U!r} and {L!r}: the order says {U!r} lies above "
+                                   f"{L!r}, but {counts}: {names}{more}"))
+        else:
+            warnings.append(Adjustment("warning", f"layers {U!r} and {L!r}",
+                                       note=f"{counts} (bad picks?): {names}{more}"))
+    if problems:
+        src = f"{b.source}: " if b.source else ""
+        hint = ("every pair of layers is upside down: is the layer list reversed, or are the "
+                "z values depths (positive down) instead of elevations?"
+                if len(problems) == n_pairs and n_pairs > 0 else
+                "check the order of 'layers' (top to bottom) against the boreholes")
+        raise DatasetError(f"{src}the layer order contradicts the boreholes: "
+                           + " | ".join(p[2] for p in problems[:3])
+                           + (f" | and {len(problems) - 3} more pair(s)" if len(problems) > 3 else "")
+                           + f"; {hint}")
+    return warnings
+
+
+def prepare_for_build(ds: Dataset):
+    """What :func:`faultmesh.build_model` runs first, before any repair:
+    the data checks (:func:`check_hole_positions`, :func:`check_layer_order`,
+    raising :class:`DatasetError`) and :func:`apply_boundary_policy`.
+
+    Returns ``(dataset, record)``: the dataset as the policy leaves it (the
+    same data for a loaded dataset, the policy being idempotent) and the
+    JSON-ready record for ``model.metadata["input"]``: ``snap_distance``,
+    ``counts`` per kind, ``summary`` and every ``adjustment``."""
+    check_hole_positions(ds)
+    warns = [w for w in check_layer_order(ds) if w not in ds.adjustments]
+    out = apply_boundary_policy(ds)
+    if warns:
+        out.adjustments.extend(warns)
+    return out, input_record(out)
+
+
+def input_record(ds: Dataset) -> Dict[str, Any]:
+    """The JSON-ready record of the input policy for ``ds`` (see prepare_for_build)."""
+    snap = ds.snap_distance if ds.snap_distance is not None else \
+        default_snap_distance(ds.boundary)
+    return {"snap_distance": float(snap),
+            "counts": adjustment_counts(ds.adjustments),
+            "summary": summarize_adjustments(ds.adjustments, snap),
+            "adjustments": [a.to_dict() for a in ds.adjustments]}
+
+
+# ---------------------------------------------------------------------------
 # Loading
 # ---------------------------------------------------------------------------
 _BOREHOLE_COLUMNS = ("hole_id", "x", "y", "layer", "z")
+# "description" and "comment" are free text wherever a person may want a note.
+_NOTES = {"description", "comment"}
 _TOP_KEYS = {"faultmesh_dataset", "name", "crs", "layers", "boundary", "boreholes",
-             "points", "sections", "faults", "description", "comment"}
+             "points", "sections", "faults", "snap_distance"} | _NOTES
+_SECTION_KEYS = {"name", "origin", "azimuth"} | _NOTES
+_FAULT_KEYS = {"name", "kind", "group", "tips", "traces"} | _NOTES
+_TRACE_KEYS = {"section", "plane", "layers"} | _NOTES
+_SIDE_KEYS = {"foot", "hanging"}
+
+#: Largest coordinate (x, y, z, s) the loader accepts, in absolute value. Far
+#: beyond any survey in any unit (UTM in millimetres is ~1e10), and small
+#: enough that products of two coordinates (orientations, areas, squared
+#: distances: ~1e30) stay far inside the double range, so no step of the
+#: policy or the builder overflows; the kernels refuse |c| > 1e60 anyway, and
+#: here the message names the field.
+COORD_MAX = 1e15
+
+#: Values quoted in messages are cut to this many characters: a message names
+#: the offending field, it never reproduces a file (a CSV path may point at a
+#: file that is not ours).
+_QUOTE_MAX = 40
+
+
+def _short(v, limit: int = _QUOTE_MAX) -> str:
+    """repr of ``v``, cut to about ``limit`` characters."""
+    if isinstance(v, str):
+        return repr(v) if len(v) <= limit else repr(v[:limit]) + "..."
+    if isinstance(v, (list, dict)):
+        r = f"a JSON {'list' if isinstance(v, list) else 'object'} of {len(v)} item(s)"
+        try:
+            text = repr(v)
+        except RecursionError:  # pragma: no cover - json bounds nesting first
+            return r
+        return text if len(text) <= limit else r
+    r = repr(v)
+    return r if len(r) <= limit else r[:limit] + "..."
+
+
+def _suggest(word: str, choices) -> str:
+    import difflib
+    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+class _JsonObject(dict):
+    """A JSON object that remembers keys given more than once (json keeps the
+    last silently; a repeated key is almost always an editing slip)."""
+
+    def __init__(self, pairs):
+        super().__init__()
+        self.repeated: List[str] = []
+        for k, v in pairs:
+            if k in self:
+                self.repeated.append(k)
+            self[k] = v
 
 
 class _Ctx:
     """Where we are in the JSON, for messages: file plus a readable key path."""
 
-    def __init__(self, file: Path):
+    def __init__(self, file: Path, allow_outside_paths: bool = False):
         self.file = file
+        self.base = file.parent
+        self.allow_outside = allow_outside_paths
 
     def err(self, where: str, msg: str) -> DatasetError:
         return DatasetError(f"{self.file}: {where}: {msg}" if where else f"{self.file}: {msg}")
 
-    def num(self, v, where: str) -> float:
+    def num(self, v, where: str, coord: bool = False) -> float:
+        """A finite number; ``coord``: a coordinate, at most COORD_MAX in size."""
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.err(where, f"{v!r} is not a number")
-        f = float(v)
+            raise self.err(where, f"{_short(v)} is not a number")
+        try:
+            f = float(v)
+        except OverflowError:
+            f = float("inf")
         if not np.isfinite(f):
-            raise self.err(where, f"{v!r} is not a finite number")
+            raise self.err(where, f"{_short(v)} is not a finite number")
+        if coord and abs(f) > COORD_MAX:
+            raise self.err(where, f"{_short(v)} is beyond the coordinate range "
+                           f"(|value| <= {COORD_MAX:g})")
         return f
 
     def string(self, v, where: str) -> str:
         if not isinstance(v, str) or not v.strip():
-            raise self.err(where, f"must be a non-empty string, got {v!r}")
+            raise self.err(where, f"must be a non-empty string, got {_short(v)}")
         return v
 
-    def obj(self, v, where: str) -> dict:
+    def obj(self, v, where: str, jpath: Optional[str] = None, keys=None) -> dict:
+        """``v`` must be a JSON object; with ``keys``, only those keys (an
+        unknown one names its JSON path and the nearest valid key)."""
         if not isinstance(v, dict):
-            raise self.err(where, f"must be a JSON object, got {type(v).__name__}")
+            raise self.err(where, f"must be a JSON object, got {_json_type(v)}")
+        rep = getattr(v, "repeated", None)
+        if rep:
+            raise self.err(where, f"key {_short(rep[0])} is given more than once"
+                           + (f" (JSON path {jpath})" if jpath else ""))
+        if keys is not None:
+            for k in v:
+                if k not in keys:
+                    at = f"{jpath}.{k}" if jpath else str(k)
+                    at = at if len(at) <= 2 * _QUOTE_MAX else at[:2 * _QUOTE_MAX] + "..."
+                    raise self.err(where, f"unknown key {_short(k)}{_suggest(k, keys)} at JSON "
+                                   f"path {at}; allowed keys: {sorted(keys)}")
         return v
 
     def lst(self, v, where: str) -> list:
         if not isinstance(v, list):
-            raise self.err(where, f"must be a JSON list, got {type(v).__name__}")
+            raise self.err(where, f"must be a JSON list, got {_json_type(v)}")
         return v
 
     def need(self, d: dict, key: str, where: str):
@@ -467,13 +1319,19 @@ class _Ctx:
             raise self.err(where, f"missing key {key!r}")
         return d[key]
 
+    def layer(self, lay, layers: List[str], where: str) -> str:
+        if lay not in layers:
+            raise self.err(where, f"unknown layer {_short(lay)}{_suggest(lay, layers)}; "
+                           f"layers are {layers}")
+        return lay
+
     def xy_list(self, v, where: str) -> np.ndarray:
         out = []
         for i, p in enumerate(self.lst(v, where)):
             w = f"{where} point {i + 1}"
             if not isinstance(p, list) or len(p) != 2:
-                raise self.err(w, f"must be [x, y], got {p!r}")
-            out.append([self.num(p[0], w + " x"), self.num(p[1], w + " y")])
+                raise self.err(w, f"must be [x, y], got {_short(p)}")
+            out.append([self.num(p[0], w + " x", True), self.num(p[1], w + " y", True)])
         return np.array(out, dtype=np.float64).reshape(-1, 2)
 
     def polyline(self, v, where: str, section: Optional[Section]) -> np.ndarray:
@@ -485,40 +1343,154 @@ class _Ctx:
         for i, p in enumerate(pts):
             w = f"{where} point {i + 1}"
             if not isinstance(p, list) or len(p) not in (2, 3):
-                raise self.err(w, f"must be [x, y, z] or [s, z], got {p!r}")
+                raise self.err(w, f"must be [x, y, z] or [s, z], got {_short(p)}")
             if len(p) == 3:
-                out[i] = [self.num(p[0], w + " x"), self.num(p[1], w + " y"),
-                          self.num(p[2], w + " z")]
+                out[i] = [self.num(p[0], w + " x", True), self.num(p[1], w + " y", True),
+                          self.num(p[2], w + " z", True)]
             else:
                 if section is None:
                     raise self.err(w, "an [s, z] point needs the trace to name a section")
-                s = self.num(p[0], w + " s")
+                s = self.num(p[0], w + " s", True)
                 out[i, :2] = section.to_xy([s])[0]
-                out[i, 2] = self.num(p[1], w + " z")
+                out[i, 2] = self.num(p[1], w + " z", True)
+        big = ~np.all(np.abs(out) <= COORD_MAX, axis=1)
+        if big.any():
+            i = int(np.flatnonzero(big)[0])
+            raise self.err(f"{where} point {i + 1}", "is beyond the coordinate range "
+                           f"(|value| <= {COORD_MAX:g}) once placed on its section")
         same = np.all(out[1:] == out[:-1], axis=1)
         if same.any():
             i = int(np.flatnonzero(same)[0])
             raise self.err(where, f"points {i + 1} and {i + 2} coincide")
         return out
 
+    def data_file(self, v, label: str) -> Tuple[Path, str]:
+        """The path of a CSV named in the JSON (relative to the JSON's folder)
+        and the name to use in messages. A path leaving the dataset folder
+        (absolute, ``..``, or a symlink resolving outside) is an error unless
+        outside paths are allowed."""
+        rel = self.string(v, label)
+        if "\x00" in rel:
+            raise self.err(label, "a path cannot contain a NUL character")
+        file = self.base / rel
+        if not self.allow_outside:
+            how = "allow it with load_dataset(..., allow_outside_paths=True) or " \
+                  "--allow-outside-paths"
+            if Path(rel).is_absolute():
+                raise self.err(label, f"{_short(rel, 120)} is an absolute path; CSV paths must "
+                               f"be relative to the dataset folder ({how})")
+            try:
+                base = self.base.resolve()
+                target = file.resolve()
+            except (RuntimeError, OSError):
+                raise self.err(label, f"file {_short(str(file), 200)}: symlink loop") from None
+            if not (target == base or _is_within(target, base)):
+                raise self.err(label, f"{_short(rel, 120)} leaves the dataset folder {str(base)!r}"
+                               f" (resolves to {_short(str(target), 200)}); {how}")
+        return file, rel
+
+
+def _is_within(p: Path, base: Path) -> bool:
+    try:
+        p.relative_to(base)
+        return True
+    except ValueError:
+        return False
+
+
+def _json_type(v) -> str:
+    return {dict: "object", list: "list", str: "string", bool: "boolean", int: "number",
+            float: "number", type(None): "null"}.get(type(v), type(v).__name__) \
+        if not isinstance(v, dict) else "object"
+
+
+def _read_regular_file(file: Path, what: str) -> bytes:
+    """The bytes of ``file``, which must be a regular file. A directory, a
+    FIFO, a device, a socket, a symlink loop or a dangling symlink is a clear
+    DatasetError; the file type is checked (stat) before opening, and the open
+    does not block (O_NONBLOCK: opening a FIFO for reading would wait for a
+    writer), and the opened file is checked again (fstat) against a swap."""
+    import errno
+    import os
+    import stat as st
+
+    name = _short(str(file), 200)
+    try:
+        info = os.stat(file)
+    except FileNotFoundError:
+        if os.path.islink(file):
+            raise DatasetError(f"{what}: file {name} is a symlink to a missing file") from None
+        raise DatasetError(f"{what}: file {name} not found") from None
+    except OSError as e:
+        if e.errno == errno.ELOOP:
+            raise DatasetError(f"{what}: file {name}: symlink loop") from None
+        if e.errno == errno.ENOTDIR:
+            raise DatasetError(f"{what}: file {name} not found (a part of the path is not a "
+                               "folder)") from None
+        raise DatasetError(f"{what}: file {name} cannot be read: {e.strerror}") from None
+    except ValueError as e:  # e.g. an embedded NUL
+        raise DatasetError(f"{what}: file {name}: invalid path ({e})") from None
+
+    def kind(mode) -> Optional[str]:
+        if st.S_ISREG(mode):
+            return None
+        if st.S_ISDIR(mode):
+            return "is a directory, expected a file"
+        if st.S_ISFIFO(mode):
+            return "is not a regular file (a FIFO)"
+        if st.S_ISCHR(mode) or st.S_ISBLK(mode):
+            return "is not a regular file (a device)"
+        if st.S_ISSOCK(mode):
+            return "is not a regular file (a socket)"
+        return "is not a regular file"
+
+    k = kind(info.st_mode)
+    if k:
+        raise DatasetError(f"{what}: file {name} {k}")
+    try:
+        fd = os.open(file, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+    except OSError as e:
+        raise DatasetError(f"{what}: file {name} cannot be opened: {e.strerror}") from None
+    try:
+        k = kind(os.fstat(fd).st_mode)
+        if k:
+            raise DatasetError(f"{what}: file {name} {k}")
+        with os.fdopen(fd, "rb", closefd=False) as fh:
+            return fh.read()
+    except OSError as e:
+        raise DatasetError(f"{what}: file {name} cannot be read: {e.strerror}") from None
+    finally:
+        os.close(fd)
+
+
+def _decode(data: bytes, file: Path) -> str:
+    """UTF-8 text; a byte-order mark at the start (Excel, Notepad) is dropped."""
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        line = data.count(b"\n", 0, e.start) + 1
+        raise DatasetError(f"{file}, row {line}: not UTF-8 text (byte {e.start + 1} of the file "
+                           "cannot be decoded)") from None
+
 
 def _read_csv(file: Path, label: str, ctx: _Ctx):
     """Rows of a CSV with their 1-based line numbers (header = line 1). Blank
     lines and lines starting with '#' are skipped."""
     import csv
-    if not file.is_file():
-        raise ctx.err(label, f"file {str(file)!r} not found")
+    import io
+
+    data = _read_regular_file(file, f"{ctx.file}: {label}")
+    text = _decode(data, file)
     rows, lines = [], []
+    reader = csv.reader(io.StringIO(text, newline=""))
     try:
-        with open(file, newline="", encoding="utf-8") as fh:
-            reader = csv.reader(fh)
-            for row in reader:
-                if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
-                    continue
-                rows.append([c.strip() for c in row])
-                lines.append(reader.line_num)
-    except (UnicodeDecodeError, csv.Error) as e:
-        raise DatasetError(f"{file}: cannot read as UTF-8 CSV: {e}") from None
+        for row in reader:
+            if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
+                continue
+            rows.append([c.strip() for c in row])
+            lines.append(reader.line_num)
+    except csv.Error as e:
+        raise DatasetError(f"{file}, row {reader.line_num + 1}: cannot read as CSV: {e}") from None
     return rows, lines
 
 
@@ -526,23 +1498,28 @@ def _csv_numbers(file: Path, col: List[str], lines: List[int], field_name: str) 
     """Column ``col`` as float64; an error names file, row and field."""
     try:
         a = np.array(col, dtype=np.float64)
-    except ValueError:
+    except (ValueError, OverflowError):
         a = None
-    if a is not None and np.all(np.isfinite(a)):
+    if a is not None and np.all(np.abs(a) <= COORD_MAX):    # also False for NaN
         return a
     for v, ln in zip(col, lines):
         if v == "":
             raise DatasetError(f"{file}, row {ln}, field {field_name!r}: missing value")
         try:
             f = float(v)
-        except ValueError:
-            raise DatasetError(f"{file}, row {ln}, field {field_name!r}: {v!r} is not a number") from None
+        except (ValueError, OverflowError):
+            raise DatasetError(f"{file}, row {ln}, field {field_name!r}: {_short(v)} is not a "
+                               "number") from None
         if not np.isfinite(f):
-            raise DatasetError(f"{file}, row {ln}, field {field_name!r}: {v!r} is not a finite number")
+            raise DatasetError(f"{file}, row {ln}, field {field_name!r}: {_short(v)} is not a "
+                               "finite number")
+        if abs(f) > COORD_MAX:
+            raise DatasetError(f"{file}, row {ln}, field {field_name!r}: {_short(v)} is beyond "
+                               f"the coordinate range (|value| <= {COORD_MAX:g})")
     raise AssertionError("unreachable")  # pragma: no cover
 
 
-def _load_boreholes(file: Path, layers: List[str], ctx: _Ctx) -> Boreholes:
+def _load_boreholes(file: Path, name: str, layers: List[str], ctx: _Ctx) -> Boreholes:
     rows, lines = _read_csv(file, "boreholes", ctx)
     if not rows:
         raise DatasetError(f"{file}: empty file (expected header {','.join(_BOREHOLE_COLUMNS)})")
@@ -557,7 +1534,7 @@ def _load_boreholes(file: Path, layers: List[str], ctx: _Ctx) -> Boreholes:
         # Allowed: data may come from `points` alone (seismic picks, DEMs);
         # the boundary must then be given (checked by the caller).
         return Boreholes(np.zeros(0, dtype=str), np.zeros((0, 2)), np.zeros(0, dtype=str),
-                         np.zeros(0))
+                         np.zeros(0), name, np.zeros(0, dtype=np.int64))
     for r, ln in zip(body, bl):
         if len(r) != len(header):
             raise DatasetError(f"{file}, row {ln}: expected {len(header)} fields, got {len(r)}")
@@ -568,16 +1545,16 @@ def _load_boreholes(file: Path, layers: List[str], ctx: _Ctx) -> Boreholes:
     known = set(layers)
     for v, ln in zip(cols["layer"], bl):
         if v not in known:
-            raise DatasetError(f"{file}, row {ln}, field 'layer': unknown layer {v!r}; "
-                               f"layers are {layers}")
+            raise DatasetError(f"{file}, row {ln}, field 'layer': unknown layer {_short(v)}"
+                               f"{_suggest(v, layers)}; layers are {layers}")
     x = _csv_numbers(file, cols["x"], bl, "x")
     y = _csv_numbers(file, cols["y"], bl, "y")
     z = _csv_numbers(file, cols["z"], bl, "z")
     return Boreholes(np.array(cols["hole_id"], dtype=str), np.column_stack([x, y]),
-                     np.array(cols["layer"], dtype=str), z)
+                     np.array(cols["layer"], dtype=str), z, name, np.array(bl, dtype=np.int64))
 
 
-def _load_points_csv(file: Path, layer: str, ctx: _Ctx) -> np.ndarray:
+def _load_points_csv(file: Path, layer: str, ctx: _Ctx) -> Tuple[np.ndarray, np.ndarray]:
     rows, lines = _read_csv(file, f"points[{layer!r}]", ctx)
     names = ["x", "y", "z"]
     if rows and all(c in [h.lower() for h in rows[0]] for c in names):
@@ -591,107 +1568,144 @@ def _load_points_csv(file: Path, layer: str, ctx: _Ctx) -> np.ndarray:
         if len(r) != ncol:
             raise DatasetError(f"{file}, row {ln}: expected {ncol} fields, got {len(r)}")
     if not rows:
-        return np.zeros((0, 3))
-    return np.column_stack([_csv_numbers(file, [r[i] for r in rows], lines, c)
-                            for i, c in zip(idx, names)])
+        return np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+    return (np.column_stack([_csv_numbers(file, [r[i] for r in rows], lines, c)
+                             for i, c in zip(idx, names)]), np.array(lines, dtype=np.int64))
+
+
+def _is_hidden(p: Path) -> bool:
+    # Our own temporary files (AtomicFiles: ".NAME.XXXXXXXX.tmp.EXT") and any
+    # other hidden file are never taken for a dataset.
+    return p.name.startswith(".")
 
 
 def _find_json(d: Path) -> Path:
-    if (d / "dataset.json").is_file():
+    import os
+    if os.path.lexists(d / "dataset.json"):
         return d / "dataset.json"
-    cands = sorted(d.glob("*.json"))
+    cands = sorted(c for c in d.glob("*.json") if not _is_hidden(c))
     if len(cands) == 1:
         return cands[0]
     if not cands:
-        raise DatasetError(f"{d}: directory holds no dataset JSON file")
-    raise DatasetError(f"{d}: directory holds several JSON files {[c.name for c in cands]} "
+        raise DatasetError(f"{d}: folder holds no dataset JSON file")
+    raise DatasetError(f"{d}: folder holds several JSON files {[c.name for c in cands]} "
                        "and no dataset.json; pass the file")
 
 
-def load_dataset(path) -> Dataset:
-    """Load and validate a format-v1 dataset (DESIGN.md "Dataset format").
+def load_dataset(path, *, snap: Optional[float] = None,
+                 allow_outside_paths: bool = False) -> Dataset:
+    """Load and validate a format-v1 dataset (docs/dataset.md).
 
-    ``path`` is the JSON file or a directory holding ``dataset.json`` (or a
-    single ``*.json``); CSV paths in it are relative to the JSON. Section-local
-    ``[s, z]`` trace points become XYZ through the trace's section. The boundary
-    defaults to the boreholes' bounding box and is returned counter-clockwise.
+    ``path`` is the JSON file or a folder holding ``dataset.json`` (or a
+    single ``*.json``); CSV paths in it are relative to the JSON, and must
+    stay inside its folder unless ``allow_outside_paths``. Section-local
+    ``[s, z]`` trace points become XYZ through the trace's section. The
+    boundary defaults to the boreholes' bounding box and is returned
+    counter-clockwise.
+
+    The data are checked (:func:`check_hole_positions`,
+    :func:`check_layer_order`) and the input tolerance policy is applied
+    (:func:`apply_boundary_policy` with ``snap``, default: the dataset's
+    ``snap_distance`` key, else :func:`default_snap_distance`); what it
+    changed is in ``Dataset.adjustments``.
+
     Raises :class:`DatasetError` naming the file, the row (1-based line of the
-    CSV, header = 1) and field, or the fault / trace / layer that is wrong.
+    CSV, header = 1) and field, or the JSON path / fault / trace / layer.
     """
     import json
-    import warnings
+    import os
 
     p = Path(path)
-    if p.is_dir():
-        p = _find_json(p)
-    if not p.is_file():
-        raise DatasetError(f"{p}: dataset file not found")
     try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
-    except UnicodeDecodeError as e:
-        raise DatasetError(f"{p}: not UTF-8 text: {e}") from None
+        is_dir = p.is_dir()
+    except OSError:
+        is_dir = False
+    if is_dir and p.suffix.lower() == ".json":
+        raise DatasetError(f"{p}: dataset: file {str(p)!r} is a directory, expected a file")
+    if is_dir:
+        p = _find_json(p)
+    if not os.path.lexists(p):
+        raise DatasetError(f"{p}: dataset file not found")
+    data = _read_regular_file(p, f"{p}: dataset")
+    text = _decode(data, p)
+    try:
+        doc = json.loads(text, object_pairs_hook=_JsonObject)
     except json.JSONDecodeError as e:
         raise DatasetError(f"{p}: not valid JSON: {e.msg} at line {e.lineno}, column {e.colno}") from None
-    ctx = _Ctx(p)
-    ctx.obj(doc, "")
+    except RecursionError:
+        raise DatasetError(f"{p}: not valid JSON for a dataset: nested too deeply") from None
+    except ValueError as e:  # e.g. an integer with more digits than Python reads
+        raise DatasetError(f"{p}: not valid JSON: {_short(str(e), 80)}") from None
+    ctx = _Ctx(p, allow_outside_paths)
+    if not isinstance(doc, dict):
+        raise ctx.err("", f"the top level must be a JSON object, got {_json_type(doc)}")
     if "faultmesh_dataset" not in doc:
         raise ctx.err("", "missing key 'faultmesh_dataset' (the format version, 1); "
                       "is this a faultmesh dataset?")
     version = doc["faultmesh_dataset"]
     if isinstance(version, bool) or version != FORMAT_VERSION:
-        raise ctx.err("faultmesh_dataset", f"unsupported format version {version!r}; "
+        raise ctx.err("faultmesh_dataset", f"unsupported format version {_short(version)}; "
                       f"this faultmesh reads version {FORMAT_VERSION}")
-    unknown = sorted(set(doc) - _TOP_KEYS)
-    if unknown:
-        warnings.warn(f"{p}: ignoring unknown key(s) {unknown}", stacklevel=2)
+    ctx.obj(doc, "", "", _TOP_KEYS)
     name = ctx.string(doc["name"], "name") if "name" in doc else p.stem
     crs = doc.get("crs", "")
     if not isinstance(crs, str):
-        raise ctx.err("crs", f"must be a string, got {crs!r}")
+        raise ctx.err("crs", f"must be a string, got {_short(crs)}")
+    snap_key = None
+    if doc.get("snap_distance") is not None:
+        snap_key = ctx.num(doc["snap_distance"], "snap_distance")
+        if snap_key < 0:
+            raise ctx.err("snap_distance", f"must be >= 0 (metres), got {snap_key!r}")
+    if snap is not None:
+        snap = _check_snap(snap, f"{p}: load_dataset snap")
 
     # Layers.
     layers = ctx.lst(ctx.need(doc, "layers", ""), "layers")
     if not layers:
         raise ctx.err("layers", "needs at least one layer")
     layers = [ctx.string(v, f"layers[{i}]") for i, v in enumerate(layers)]
-    dup = sorted({v for v in layers if layers.count(v) > 1})
+    dup = sorted({v for v in layers if layers.count(v) > 1}) if len(set(layers)) < len(layers) \
+        else []
     if dup:
-        raise ctx.err("layers", f"repeated layer name(s) {dup}")
+        raise ctx.err("layers", f"repeated layer name(s) {[d[:_QUOTE_MAX] for d in dup]}")
 
     # Boreholes.
-    bfile = ctx.string(ctx.need(doc, "boreholes", ""), "boreholes")
-    boreholes = _load_boreholes(p.parent / bfile, layers, ctx)
+    bfile, bname = ctx.data_file(ctx.need(doc, "boreholes", ""), "boreholes")
+    boreholes = _load_boreholes(bfile, bname, layers, ctx)
 
     # Extra points.
     points: Dict[str, np.ndarray] = {}
-    for lay, v in ctx.obj(doc.get("points", {}), "points").items():
-        if lay not in layers:
-            raise ctx.err(f"points[{lay!r}]", f"unknown layer {lay!r}; layers are {layers}")
+    sources: Dict[str, Tuple[str, Optional[np.ndarray]]] = {}
+    for lay, v in ctx.obj(doc.get("points", {}), "points", "points").items():
+        ctx.layer(lay, layers, f"points[{_short(lay)}]")
         if isinstance(v, str):
-            points[lay] = _load_points_csv(p.parent / v, lay, ctx)
+            f, rel = ctx.data_file(v, f"points[{lay!r}]")
+            points[lay], rows = _load_points_csv(f, lay, ctx)
+            sources[lay] = (rel, rows)
         else:  # inline [[x, y, z], ...]
             rows = ctx.lst(v, f"points[{lay!r}]")
             arr = np.empty((len(rows), 3))
             for i, q in enumerate(rows):
                 w = f"points[{lay!r}] point {i + 1}"
                 if not isinstance(q, list) or len(q) != 3:
-                    raise ctx.err(w, f"must be [x, y, z], got {q!r}")
-                arr[i] = [ctx.num(c, w + f" {k}") for c, k in zip(q, "xyz")]
+                    raise ctx.err(w, f"must be [x, y, z], got {_short(q)}")
+                arr[i] = [ctx.num(c, w + f" {k}", True) for c, k in zip(q, "xyz")]
             points[lay] = arr
+            sources[lay] = (f"points[{lay!r}]", None)
 
     # Sections.
     sections: Dict[str, Section] = {}
     for i, sd in enumerate(ctx.lst(doc.get("sections", []), "sections")):
         w = f"sections[{i}]"
-        ctx.obj(sd, w)
+        ctx.obj(sd, w, w, _SECTION_KEYS)
         sname = ctx.string(ctx.need(sd, "name", w), w + " name")
-        w = f"section {sname!r}"
+        w = f"section {_short(sname)}"
         if sname in sections:
             raise ctx.err(w, "repeated section name")
         org = ctx.lst(ctx.need(sd, "origin", w), w + " origin")
         if len(org) != 2:
-            raise ctx.err(w + " origin", f"must be [x, y], got {org!r}")
-        origin = [ctx.num(org[0], w + " origin x"), ctx.num(org[1], w + " origin y")]
+            raise ctx.err(w + " origin", f"must be [x, y], got {_short(org)}")
+        origin = [ctx.num(org[0], w + " origin x", True), ctx.num(org[1], w + " origin y", True)]
         az = ctx.num(ctx.need(sd, "azimuth", w), w + " azimuth")
         sections[sname] = Section(sname, np.array(origin), az)
 
@@ -721,15 +1735,16 @@ def load_dataset(path) -> Dataset:
     seen = set()
     for i, fd in enumerate(ctx.lst(doc.get("faults", []), "faults")):
         w = f"faults[{i}]"
-        ctx.obj(fd, w)
+        jf = f"faults[{i}]"
+        ctx.obj(fd, w, jf, _FAULT_KEYS)
         fname = ctx.string(ctx.need(fd, "name", w), w + " name")
-        w = f"fault {fname!r}"
+        w = f"fault {_short(fname)}"
         if fname in seen:
             raise ctx.err(w, "repeated fault name")
         seen.add(fname)
         kind = ctx.need(fd, "kind", w)
         if kind not in ("normal", "reverse"):
-            raise ctx.err(w + " kind", f"must be 'normal' or 'reverse', got {kind!r}")
+            raise ctx.err(w + " kind", f"must be 'normal' or 'reverse', got {_short(kind)}")
         group = fd.get("group")
         if group is not None:
             group = ctx.string(group, w + " group")
@@ -740,13 +1755,15 @@ def load_dataset(path) -> Dataset:
         traces: List[Trace] = []
         for j, td in enumerate(tds):
             tw = f"{w} trace {j + 1}"
-            ctx.obj(td, tw)
+            jt = f"{jf}.traces[{j}]"
+            ctx.obj(td, tw, jt, _TRACE_KEYS)
             sec = None
             sname = td.get("section")
             if sname is not None:
                 sname = ctx.string(sname, tw + " section")
                 if sname not in sections:
-                    raise ctx.err(tw, f"unknown section {sname!r}; sections are {sorted(sections)}")
+                    raise ctx.err(tw, f"unknown section {_short(sname)}{_suggest(sname, sections)};"
+                                  f" sections are {sorted(sections)}")
                 sec = sections[sname]
             plane = ctx.polyline(ctx.need(td, "plane", tw), tw + " plane", sec)
             if np.any(np.diff(plane[:, 2]) > 0):
@@ -754,55 +1771,32 @@ def load_dataset(path) -> Dataset:
                 raise ctx.err(tw + " plane", f"must go top down, but point {k + 2} is higher "
                               f"than point {k + 1}")
             tl: Dict[str, Dict[str, np.ndarray]] = {}
-            for lay, sides in ctx.obj(td.get("layers", {}), tw + " layers").items():
-                lw = f"{tw} layer {lay!r}"
-                if lay not in layers:
-                    raise ctx.err(lw, f"unknown layer {lay!r}; layers are {layers}")
-                ctx.obj(sides, lw)
-                extra = sorted(set(sides) - {"foot", "hanging"})
-                if extra:
-                    raise ctx.err(lw, f"unknown key(s) {extra}; expected 'foot' and 'hanging'")
+            for lay, sides in ctx.obj(td.get("layers", {}), tw + " layers", jt + ".layers").items():
+                lw = f"{tw} layer {_short(lay)}"
+                ctx.layer(lay, layers, lw)
+                ctx.obj(sides, lw, f"{jt}.layers[{_short(lay)}]", _SIDE_KEYS)
                 tl[lay] = {side: ctx.polyline(ctx.need(sides, side, lw), f"{lw} {side}", sec)
                            for side in ("foot", "hanging")}
             traces.append(Trace(sname, plane, tl))
-        fault = Fault(fname, kind, group, tips, traces)
-        _check_inside(fault, ring, ctx)
-        faults.append(fault)
+        faults.append(Fault(fname, kind, group, tips, traces))
 
     ds = Dataset(name=name, layers=layers, boundary=ring, boreholes=boreholes, points=points,
-                 sections=sections, faults=faults, crs=crs, path=p)
+                 sections=sections, faults=faults, crs=crs, path=p, snap_distance=snap_key,
+                 point_sources=sources)
+    # The data checks first (on every row, inside the area or not), then the
+    # tolerance policy; messages of the checks name the CSV and its rows.
+    try:
+        check_hole_positions(ds, snap if snap is not None else None)
+        ds.adjustments = check_layer_order(ds)
+    except DatasetError as e:
+        raise DatasetError(f"{p}: {e}") from None
+    ds = apply_boundary_policy(ds, snap)
     for lay in layers:
         n = len(ds.layer_points(lay))
         if n < 3:
-            raise ctx.err(f"layer {lay!r}", f"has {n} data point(s) (borehole hits plus extra "
-                          "points); a stratum TIN needs at least 3")
+            raise ctx.err(f"layer {lay!r}", f"has {n} data point(s) inside the study area "
+                          "(borehole hits plus extra points); a stratum TIN needs at least 3")
     return ds
-
-
-def _check_inside(fault: Fault, ring: np.ndarray, ctx: _Ctx) -> None:
-    """Every tip and trace point of ``fault`` lies inside or on the boundary."""
-    labels, pts = [], []
-    for i, t in enumerate(fault.tips):
-        labels.append(f"tip {i + 1}")
-        pts.append(t)
-    for j, tr in enumerate(fault.traces):
-        for k, q in enumerate(tr.plane):
-            labels.append(f"trace {j + 1} plane point {k + 1}")
-            pts.append(q[:2])
-        for lay, sides in tr.layers.items():
-            for side, arr in sides.items():
-                for k, q in enumerate(arr):
-                    labels.append(f"trace {j + 1} layer {lay!r} {side} point {k + 1}")
-                    pts.append(q[:2])
-    if not pts:
-        return
-    P = np.array(pts)
-    inside = points_in_polygon(P, ring)
-    if not inside.all():
-        k = int(np.flatnonzero(~inside)[0])
-        n_out = int(np.sum(~inside))
-        raise ctx.err(f"fault {fault.name!r}", f"{labels[k]} ({P[k, 0]:.3f}, {P[k, 1]:.3f}) lies "
-                      f"outside the study-area boundary ({n_out} point(s) outside)")
 
 
 # ---------------------------------------------------------------------------
@@ -830,9 +1824,6 @@ def _trace_points(arr: np.ndarray, sec: Optional[Section], section_coords: bool)
 
 def save_dataset(ds: Dataset, path, *, section_coords: bool = False) -> Path:
     """Write ``ds`` in format v1; see :meth:`Dataset.save`."""
-    import os
-    import tempfile
-
     path = Path(path)
     if path.suffix.lower() == ".json":
         folder, jname, prefix = path.parent, path.name, path.stem + "_"
@@ -845,9 +1836,11 @@ def save_dataset(ds: Dataset, path, *, section_coords: bool = False) -> Path:
     lines = [",".join(_BOREHOLE_COLUMNS)]
     for h, (x, y), lay, z in zip(b.hole_id, b.xy, b.layer, b.z):
         for v, what in ((h, "hole_id"), (lay, "layer")):
-            if any(c in str(v) for c in ',"\n\r') or str(v) != str(v).strip() or not str(v):
-                raise DatasetError(f"Dataset.save: borehole {what} {str(v)!r} cannot be written "
-                                   "to CSV (empty, surrounding spaces, comma, quote or newline)")
+            if any(c in str(v) for c in ',"\n\r') or str(v) != str(v).strip() or not str(v) \
+                    or (what == "hole_id" and str(v).startswith("#")):
+                raise DatasetError(f"Dataset.save: borehole {what} {_short(str(v))} cannot be "
+                                   "written to CSV (empty, surrounding spaces, comma, quote or "
+                                   "newline, or a hole_id starting with '#', read as a comment)")
         lines.append(f"{h},{_fmt(x)},{_fmt(y)},{lay},{_fmt(z)}")
     bname = prefix + "boreholes.csv"
     files[bname] = "\n".join(lines) + "\n"
@@ -866,6 +1859,8 @@ def save_dataset(ds: Dataset, path, *, section_coords: bool = False) -> Path:
     doc = {"faultmesh_dataset": FORMAT_VERSION, "name": ds.name}
     if ds.crs:
         doc["crs"] = ds.crs
+    if ds.snap_distance is not None:
+        doc["snap_distance"] = float(ds.snap_distance)
     doc["layers"] = list(ds.layers)
     doc["boundary"] = [[float(x), float(y)] for x, y in ds.boundary]
     doc["boreholes"] = bname
@@ -897,53 +1892,16 @@ def save_dataset(ds: Dataset, path, *, section_coords: bool = False) -> Path:
     doc["faults"] = fl
     files[jname] = _json_dump(doc)
 
-    # mkstemp creates files readable by the owner only; give the final files
-    # the permissions an ordinary open() would (0666 minus the umask).
-    umask = os.umask(0)
-    os.umask(umask)
-    tmps: Dict[str, str] = {}
-    try:
-        for fname, text in files.items():
-            fd_, tmp = tempfile.mkstemp(prefix=f".{fname}.", suffix=".tmp", dir=folder)
-            tmps[fname] = tmp
-            with os.fdopen(fd_, "w", encoding="utf-8", newline="\n") as fh:
-                fh.write(text)
-            os.chmod(tmp, 0o666 & ~umask)
-        # Swap the files in, JSON last (a reader never sees a JSON whose CSVs
-        # are not in place yet). Files being overwritten are first moved aside
-        # and put back if any rename fails, so the previous dataset survives.
-        backups: Dict[str, str] = {}
-        done: List[str] = []
-        try:
-            for fname in sorted(tmps, key=lambda n: n == jname):
-                dst = folder / fname
-                if dst.exists():
-                    bak = str(folder / f".{fname}.{os.getpid()}.bak")
-                    os.replace(dst, bak)
-                    backups[fname] = bak
-                os.replace(tmps[fname], dst)
-                del tmps[fname]
-                done.append(fname)
-        except BaseException:
-            for fname in done:
-                try:
-                    os.unlink(folder / fname)
-                except OSError:
-                    pass
-            for fname, bak in backups.items():
-                os.replace(bak, folder / fname)
-            raise
-        for bak in backups.values():
-            try:
-                os.unlink(bak)
-            except OSError:
-                pass
-    finally:
-        for tmp in tmps.values():
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
+    # One atomic multi-file write (formats._common.AtomicFiles, as for model
+    # files): every file goes to a temporary name beside its target, and they
+    # are renamed into place only when all were written, the JSON last (the
+    # commit follows the order of opening), so a reader never sees a JSON
+    # whose CSVs are not in place; a failing rename puts the old files back.
+    from .formats._common import AtomicFiles
+
+    with AtomicFiles() as out:
+        for fname in sorted(files, key=lambda n: n == jname):
+            out.open(folder / fname).write(files[fname])
     return folder / jname
 
 

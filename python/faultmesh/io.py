@@ -133,20 +133,54 @@ def save_model(model, path, *, formats: Optional[Iterable[str]] = None) -> List[
     return written
 
 
+def _run_model(folder: Path, kwargs):
+    """The model of the folder's current run (faultmesh.runs: ``run.json``),
+    or None when the folder has no manifest or its run wrote no model file."""
+    from .runs import RunFolderError, current_run
+
+    for attempt in range(3):
+        try:
+            view = current_run(folder)
+        except RunFolderError as e:
+            raise ModelFileError(folder, str(e)) from None
+        if view is None or not view.model:
+            return None
+        target = view.path(view.model)
+        suffix = target.suffix.lower()
+        if suffix not in FILE_FORMATS:
+            raise ModelFileError(folder, f"run manifest names model {view.model!r} of an "
+                                         "unknown format")
+        try:
+            return FILE_FORMATS[suffix][1](target, **kwargs)
+        except FileNotFoundError:
+            # A run swapping itself in moved the file between our look-up
+            # and the open: look again (three times at most).
+            if not view.swapping or attempt == 2:
+                raise
+    return None  # pragma: no cover
+
+
 def load_model(path, **kwargs):
     """Read a model written by :func:`save_model` (or by another tool).
 
     ``.3dt`` and ``.ts`` give the whole model; ``.vtu``/``.vtk``/``.ply``/
-    ``.obj`` give the surfaces they hold (see :mod:`faultmesh.io`). A folder:
-    its ``.3dt`` file if it has exactly one, else its ``.ts`` file, else one
-    surface per mesh file (``<NN>_<kind>_<name>.<ext>`` names keep order and
-    kind). Keyword arguments go to the reader (``atoms=`` for ``.ts``).
+    ``.obj`` give the surfaces they hold (see :mod:`faultmesh.io`). A folder
+    written by ``faultmesh build``/``demo``: the model file its run manifest
+    (``run.json``, :mod:`faultmesh.runs`) names. Another folder: its ``.3dt``
+    file if it has exactly one, else its ``.ts`` file, else one surface per
+    mesh file (``<NN>_<kind>_<name>.<ext>`` names keep order and kind);
+    hidden files (temporary files among them) are never read. Keyword arguments go to the reader (``atoms=`` for ``.ts``).
     Raises :class:`ModelFileError` (a ``ValueError``) naming the file and line.
     """
     path = Path(path)
     if path.is_dir():
+        model = _run_model(path, kwargs)
+        if model is not None:
+            return model
+        # A folder without a run manifest: hidden files (our temporary
+        # ".NAME.XXXXXXXX.tmp.EXT" among them) are never taken for the model.
         for suffix in (".3dt", ".ts"):
-            found = sorted(path.glob("*" + suffix))
+            found = sorted(p for p in path.glob("*" + suffix) if not p.name.startswith("."))
             if len(found) == 1:
                 return FILE_FORMATS[suffix][1](found[0], **kwargs)
             if len(found) > 1:

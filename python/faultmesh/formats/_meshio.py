@@ -44,7 +44,7 @@ def read_folder(folder, fmts=("vtu", "vtk", "vtp", "obj", "ply", "stl")):
     entries = []
     for p in sorted(folder.iterdir()):
         ext = p.suffix.lower().lstrip(".")
-        if not p.is_file() or ext not in fmts or p.name.startswith("."):
+        if not p.is_file() or ext not in fmts or p.name.startswith("."):  # hidden: temp files
             continue
         m = _PIECE.match(p.stem)
         order, kind, name = (int(m.group(1)), m.group(2), m.group(3)) if m else \
