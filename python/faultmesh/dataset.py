@@ -441,9 +441,21 @@ def _boundary_problem(ring: np.ndarray) -> Optional[str]:
 
 
 def points_in_polygon(points, ring) -> np.ndarray:
-    """Exact test: True for points (m, 2) inside or on the closed ring (k, 2)."""
+    """Exact test: True for points (m, 2) inside or on the closed ring (k, 2).
+
+    For a polygon with area this is :meth:`faultmesh.StudyArea.contains`
+    with tolerance 0 (exact winding, O(log k) per point); a degenerate ring
+    (fewer than 3 distinct points, zero area) is tested here directly."""
+    from ._core import StudyArea
+
     P = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     R = np.asarray(ring, dtype=np.float64).reshape(-1, 2)
+    try:
+        area = StudyArea(R, tolerance=0.0)
+    except ValueError:  # GeometryError is a ValueError
+        area = None
+    if area is not None:
+        return area.contains(P)
     m, k = len(P), len(R)
     if m == 0:
         return np.zeros(0, dtype=bool)
@@ -593,65 +605,36 @@ def _chunks(m: int, k: int, budget: int = 1_000_000):
         yield s, min(m, s + step)
 
 
-def _nearest_on_boundary(P: np.ndarray, ring: np.ndarray):
-    """Distance (m,), side index (m,) and nearest point (m, 2) of points P on the
-    closed ring. Corners and axis-parallel sides are hit exactly (the point
-    copies the corner, or the side's constant coordinate), so a point moved
-    there has an exact orient2d of 0 against its side."""
-    P = np.asarray(P, dtype=np.float64).reshape(-1, 2)
-    m, k = len(P), len(ring)
-    dist = np.empty(m)
-    side = np.empty(m, dtype=np.int64)
-    Q = np.empty((m, 2))
-    if m == 0:
-        return dist, side, Q
-    a = ring
-    b = np.roll(ring, -1, axis=0)
-    d = b - a
-    L2 = np.einsum("ij,ij->i", d, d)
-    L2 = np.where(L2 > 0.0, L2, 1.0)          # a repeated vertex: its "side" is the vertex
-    horiz = d[:, 1] == 0.0
-    vert = d[:, 0] == 0.0
-    lo = np.minimum(a, b)
-    hi = np.maximum(a, b)
-    for s0, s1 in _chunks(m, k):
-        p = P[s0:s1, None, :]                                   # (c, 1, 2)
-        t = np.einsum("cki,ki->ck", p - a[None], d) / L2[None]
-        c = a[None] + np.clip(t, 0.0, 1.0)[..., None] * d[None]
-        # Exact where possible: axis-parallel sides keep their coordinate and
-        # clamp the other; the side's ends are copied, not recomputed.
-        cx = np.where(horiz[None], np.clip(p[..., 0], lo[None, :, 0], hi[None, :, 0]), c[..., 0])
-        cy = np.where(horiz[None], a[None, :, 1], c[..., 1])
-        cx = np.where(vert[None], a[None, :, 0], cx)
-        cy = np.where(vert[None], np.clip(p[..., 1], lo[None, :, 1], hi[None, :, 1]), cy)
-        at_a = t <= 0.0
-        at_b = t >= 1.0
-        cx = np.where(at_a, a[None, :, 0], np.where(at_b, b[None, :, 0], cx))
-        cy = np.where(at_a, a[None, :, 1], np.where(at_b, b[None, :, 1], cy))
-        dd = np.hypot(p[..., 0] - cx, p[..., 1] - cy)
-        j = np.argmin(dd, axis=1)
-        r = np.arange(s1 - s0)
-        dist[s0:s1] = dd[r, j]
-        side[s0:s1] = j
-        Q[s0:s1, 0] = cx[r, j]
-        Q[s0:s1, 1] = cy[r, j]
-    return dist, side, Q
+def _nearest_on_boundary(P: np.ndarray, area):
+    """Distance (m,), side index (m,) and nearest point (m, 2) of points P on
+    the boundary of ``area`` (a :class:`faultmesh.StudyArea`; sides numbered
+    along its counter-clockwise ring). The point is placed on its side by
+    :meth:`StudyArea.place`: corners and axis-parallel sides are hit exactly,
+    so a point moved there has an exact orient2d of 0 against its side."""
+    P = np.ascontiguousarray(np.asarray(P, dtype=np.float64).reshape(-1, 2))
+    if len(P) == 0:
+        return np.empty(0), np.empty(0, dtype=np.int64), np.empty((0, 2))
+    side, s, dist = area.nearest(P)
+    Q = area.place(side, s)
+    # A point exactly on its side (distance 0 by the exact test) is its own
+    # nearest point; elsewhere the distance is that of the placed point.
+    on = dist == 0.0
+    Q[on] = P[on]
+    return np.where(on, 0.0, np.hypot(P[:, 0] - Q[:, 0], P[:, 1] - Q[:, 1])), side, Q
 
 
 def _inside_or_on(P: np.ndarray, ring: np.ndarray) -> np.ndarray:
-    """points_in_polygon in chunks (it builds (m x k) arrays)."""
-    P = np.asarray(P, dtype=np.float64).reshape(-1, 2)
-    out = np.zeros(len(P), dtype=bool)
-    for s0, s1 in _chunks(len(P), len(ring), 200_000):
-        out[s0:s1] = points_in_polygon(P[s0:s1], ring)
-    return out
+    return points_in_polygon(P, ring)
 
 
 class _Snapper:
     """Classification of points against the study area under the policy."""
 
     def __init__(self, ring: np.ndarray, snap: float) -> None:
-        self.ring = ring
+        from ._core import StudyArea
+
+        self.area = StudyArea(ring)
+        self.ring = ring = np.ascontiguousarray(self.area.ring)  # counter-clockwise, as its sides
         self.snap = float(snap)
         self.on_tol = on_boundary_tolerance(ring)
         a = ring
@@ -663,7 +646,7 @@ class _Snapper:
         original point from the boundary (m,), in (m,) bool: inside, on, or
         within the snap distance)."""
         P = np.asarray(P, dtype=np.float64).reshape(-1, 2)
-        dist, side, Q = _nearest_on_boundary(P, self.ring)
+        dist, side, Q = _nearest_on_boundary(P, self.area)
         same = np.all(Q == P, axis=1)
         # Already on a slanted side up to rounding: left alone (idempotence).
         interior_of_side = ~(np.all(Q == self.ring[side], axis=1)
@@ -680,12 +663,12 @@ class _Snapper:
         P = np.asarray(P, dtype=np.float64).reshape(-1, 2)
         if len(P) == 0:
             return np.zeros(0, dtype=bool)
-        dist, _, _ = _nearest_on_boundary(P, self.ring)
+        dist, _, _ = _nearest_on_boundary(P, self.area)
         return (dist <= self.on_tol) | _inside_or_on(P, self.ring)
 
     def onto(self, P: np.ndarray) -> np.ndarray:
         """Points made on the boundary (crossings) moved onto their nearest side."""
-        return _nearest_on_boundary(P, self.ring)[2]
+        return _nearest_on_boundary(P, self.area)[2]
 
 
 def _segment_params(p: np.ndarray, q: np.ndarray, ring: np.ndarray):
