@@ -560,14 +560,11 @@ std::shared_ptr<const LayerTinState::Topology> LayerTinState::topology() const {
     if (cache.topo) return cache.topo;
     const LayerTinState& s = *this;
     const std::string fn = "LayerTin('" + s.name + "')";
-    std::vector<std::int64_t> T = s.tin->triangles();
-    std::vector<std::int64_t> H = s.tin->halfedges();
+    std::vector<std::int64_t> T, H;
+    s.tin->mesh(&T, &H);
     const std::size_t nv = s.tin->n_vertices(), m = T.size() / 3;
     auto nxt = [](std::size_t h) { return h % 3 == 2 ? h - 2 : h + 1; };
-    auto where = [&](std::int64_t v) {
-        const std::vector<double> V = s.tin->vertices();
-        return detail::fmt_xy(&V[3 * static_cast<std::size_t>(v)]);
-    };
+    auto where = [&](std::int64_t v) { return detail::fmt_xy(&s.tin->vertex_array()[3 * static_cast<std::size_t>(v)]); };
     // The pieces: boundary vertex -> the next one counter-clockwise.
     std::vector<std::int64_t> next_b(nv, -1);
     std::size_t n_pieces = 0;
@@ -671,7 +668,7 @@ std::shared_ptr<const LayerTinState::Topology> LayerTinState::topology() const {
 
 LayerTinMesh LayerTin::mesh() const {
     const auto topo = s_->topology();
-    const std::vector<double> V = s_->tin->vertices();
+    const std::vector<double>& V = s_->tin->vertex_array();
     LayerTinMesh out;
     out.triangles = topo->triangles;
     out.halfedges = topo->halfedges;
@@ -832,14 +829,20 @@ struct ZBound {
     bool high = false;
     std::vector<double> z;
 
-    ZBound(const std::vector<double>& V, const std::vector<std::int64_t>& T, bool high_bound) : high(high_bound) {
+    // A mesh: triangles T over vertices whose coordinates are at
+    // V + 3 * vmap[i] (vmap: the mesh's vertex -> TIN vertex map).
+    ZBound(const std::vector<double>& V, const std::vector<std::int64_t>& vmap, const std::vector<std::int64_t>& T,
+           bool high_bound)
+        : high(high_bound) {
         const std::size_t m = T.size() / 3;
         const double inf = std::numeric_limits<double>::infinity();
+        auto pt = [&](std::int64_t i) { return &V[3 * static_cast<std::size_t>(vmap[static_cast<std::size_t>(i)])]; };
         double x1 = -inf, y1 = -inf;
         x0 = y0 = inf;
-        for (std::size_t i = 0; i < V.size() / 3; ++i) {
-            x0 = std::min(x0, V[3 * i]), x1 = std::max(x1, V[3 * i]);
-            y0 = std::min(y0, V[3 * i + 1]), y1 = std::max(y1, V[3 * i + 1]);
+        for (std::size_t i = 0; i < vmap.size(); ++i) {
+            const double* p = pt(static_cast<std::int64_t>(i));
+            x0 = std::min(x0, p[0]), x1 = std::max(x1, p[0]);
+            y0 = std::min(y0, p[1]), y1 = std::max(y1, p[1]);
         }
         const double cells = std::max(1.0, static_cast<double>(m) / 16.0);
         const double w = std::max(x1 - x0, 1e-300), h = std::max(y1 - y0, 1e-300);
@@ -851,7 +854,7 @@ struct ZBound {
         for (std::size_t t = 0; t < m; ++t) {
             double bx0 = inf, bx1 = -inf, by0 = inf, by1 = -inf, zt = high ? -inf : inf;
             for (int k = 0; k < 3; ++k) {
-                const double* p = &V[3 * static_cast<std::size_t>(T[3 * t + static_cast<std::size_t>(k)])];
+                const double* p = pt(T[3 * t + static_cast<std::size_t>(k)]);
                 bx0 = std::min(bx0, p[0]), bx1 = std::max(bx1, p[0]);
                 by0 = std::min(by0, p[1]), by1 = std::max(by1, p[1]);
                 zt = high ? std::max(zt, p[2]) : std::min(zt, p[2]);
@@ -892,14 +895,32 @@ struct ZBound {
 RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const RepairOptions& opt) {
     const std::string fn = "repair_crossings('" + upper.name() + "', '" + lower.name() + "')";
     RepairCounts counts;
-    const LayerTinMesh um = upper.mesh();
-    const std::size_t nu = um.vertices.size() / 3;
+    // The meshes are read in place: the cached topology (mesh vertex ->
+    // TIN vertex, triangles, half-edges) and the TIN's vertex array.
+    const auto utopo = upper.s_->topology();
+    const std::vector<double>& UV = upper.s_->tin->vertex_array();
+    const std::vector<std::int64_t>& uvm = utopo->tin_vertex;
+    const std::size_t nu = uvm.size();
+    auto up = [&](std::size_t i) { return &UV[3 * static_cast<std::size_t>(uvm[i])]; };
     double zscale = 1.0;
-    for (std::size_t i = 0; i < nu; ++i) zscale = std::max(zscale, std::fabs(um.vertices[3 * i + 2]));
-    for (double z : lower.z()) zscale = std::max(zscale, std::fabs(z));
+    for (std::size_t i = 0; i < nu; ++i) zscale = std::max(zscale, std::fabs(up(i)[2]));
+    {
+        const std::vector<double>& LV = lower.s_->tin->vertex_array();
+        for (std::size_t i = 2; i < LV.size(); i += 3) zscale = std::max(zscale, std::fabs(LV[i]));
+    }
     const double tol = opt.tolerance >= 0.0 ? opt.tolerance : 1e-9 * zscale;
-    const detail::UpperWalk walk(upper.tin().vertices(), upper.tin().triangles(), upper.tin().halfedges());
-    const detail::ZBound upper_low(um.vertices, um.triangles, /*high_bound=*/false);
+    // The overlay walk needs the upper TIN's arrays: made on first use (the
+    // elevation bounds usually rule every edge out).
+    std::unique_ptr<detail::UpperWalk> walk_ptr;
+    auto walk_of = [&]() -> const detail::UpperWalk& {
+        if (!walk_ptr) {
+            std::vector<std::int64_t> T, H;
+            upper.tin().mesh(&T, &H);
+            walk_ptr = std::make_unique<detail::UpperWalk>(UV, std::move(T), std::move(H));
+        }
+        return *walk_ptr;
+    };
+    const detail::ZBound upper_low(UV, uvm, utopo->triangles, /*high_bound=*/false);
     const std::size_t n_start = lower.n_vertices();
     std::int64_t inserted = 0;
     // Small layers may need many points relative to their size (a few local
@@ -909,44 +930,39 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
     // first round, then those lowered or created since rule 2 last ran (a
     // Delaunay insertion creates edges only at the new vertex).
     std::vector<char> dirty(lower.n_vertices(), 1);
-    auto mark_new = [&](std::size_t before) {
-        dirty.resize(lower.n_vertices(), 0);
-        for (std::size_t v = before; v < lower.n_vertices(); ++v) dirty[v] = 1;
-    };
     auto insert = [&](std::vector<double>& pts, std::int64_t& counter) {
         if (pts.empty()) return false;
         const std::size_t k = pts.size() / 3, before = lower.n_vertices();
         lower.insert(pts.data(), k);
         counter += static_cast<std::int64_t>(k);
         inserted += static_cast<std::int64_t>(k);
-        mark_new(before);
+        dirty.resize(lower.n_vertices(), 0);
+        for (std::size_t v = before; v < lower.n_vertices(); ++v) dirty[v] = 1;
         return true;
     };
     for (int round = 0; round < opt.max_rounds; ++round) {
         bool changed = false;
         // Rule 1: lower vertices above the upper surface take its elevation.
         {
-            const LayerTinMesh lm = lower.mesh();
-            const std::size_t nl = lm.vertices.size() / 3;
+            const auto lt = lower.s_->topology();
+            const std::vector<double>& LV = lower.s_->tin->vertex_array();
             std::vector<double> xy;
-            std::vector<std::size_t> which;
-            for (std::size_t i = 0; i < nl; ++i) {
-                const double* p = &lm.vertices[3 * i];
+            std::vector<std::int64_t> which;
+            for (std::int64_t v : lt->tin_vertex) {
+                const double* p = &LV[3 * static_cast<std::size_t>(v)];
                 if (p[2] - upper_low.over(p, p) <= tol) continue;
                 xy.push_back(p[0]);
                 xy.push_back(p[1]);
-                which.push_back(i);
+                which.push_back(v);
             }
             const std::vector<double> zu = upper.interpolate(xy.data(), which.size());
             std::vector<std::int64_t> ids;
             std::vector<double> zs;
-            for (std::size_t k = 0; k < which.size(); ++k) {
-                const std::size_t i = which[k];
-                if (std::isfinite(zu[k]) && lm.vertices[3 * i + 2] - zu[k] > tol) {
-                    ids.push_back(lm.tin_vertex[i]);
+            for (std::size_t k = 0; k < which.size(); ++k)
+                if (std::isfinite(zu[k]) && LV[3 * static_cast<std::size_t>(which[k]) + 2] - zu[k] > tol) {
+                    ids.push_back(which[k]);
                     zs.push_back(zu[k]);
                 }
-            }
             if (!ids.empty()) {
                 lower.set_z(ids.data(), zs.data(), ids.size());
                 counts.rule1 += static_cast<std::int64_t>(ids.size());
@@ -956,12 +972,13 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
         }
         // Rule 1b: upper vertices below the lower surface.
         {
-            const LayerTinMesh lm = lower.mesh();
-            const detail::ZBound lower_high(lm.vertices, lm.triangles, /*high_bound=*/true);
+            const auto lt = lower.s_->topology();
+            const detail::ZBound lower_high(lower.s_->tin->vertex_array(), lt->tin_vertex, lt->triangles,
+                                            /*high_bound=*/true);
             std::vector<double> xy;
             std::vector<std::size_t> which;
             for (std::size_t i = 0; i < nu; ++i) {
-                const double* p = &um.vertices[3 * i];
+                const double* p = up(i);
                 if (lower_high.over(p, p) - p[2] <= tol) continue;
                 xy.push_back(p[0]);
                 xy.push_back(p[1]);
@@ -970,9 +987,8 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
             const std::vector<double> zl = lower.interpolate(xy.data(), which.size());
             std::vector<double> add;
             for (std::size_t k = 0; k < which.size(); ++k) {
-                const std::size_t i = which[k];
-                if (std::isfinite(zl[k]) && zl[k] - um.vertices[3 * i + 2] > tol)
-                    add.insert(add.end(), &um.vertices[3 * i], &um.vertices[3 * i] + 3);
+                const double* p = up(which[k]);
+                if (std::isfinite(zl[k]) && zl[k] - p[2] > tol) add.insert(add.end(), p, p + 3);
             }
             changed |= insert(add, counts.rule1b);
         }
@@ -981,59 +997,59 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
         // and rise above the upper surface at a crossing with an upper edge.
         std::vector<double> add;
         {
-            const LayerTinMesh lm = lower.mesh();
-            const std::size_t ml = lm.triangles.size() / 3;
+            const auto lt = lower.s_->topology();
+            const std::vector<double>& LV = lower.s_->tin->vertex_array();
+            const std::vector<std::int64_t>& lvm = lt->tin_vertex;
+            auto lp = [&](std::int64_t i) { return &LV[3 * static_cast<std::size_t>(lvm[static_cast<std::size_t>(i)])]; };
+            const std::size_t ml = lt->triangles.size() / 3;
             std::vector<std::array<std::int64_t, 2>> qedges;
-            std::vector<char> need(lm.vertices.size() / 3, 0);
             for (std::size_t h = 0; h < 3 * ml; ++h) {
-                const std::int64_t o = lm.halfedges[h];
+                const std::int64_t o = lt->halfedges[h];
                 if (o >= 0 && o < static_cast<std::int64_t>(h)) continue;
-                const std::int64_t a = lm.triangles[h], b = lm.triangles[h % 3 == 2 ? h - 2 : h + 1];
-                if (!dirty[static_cast<std::size_t>(lm.tin_vertex[static_cast<std::size_t>(a)])] &&
-                    !dirty[static_cast<std::size_t>(lm.tin_vertex[static_cast<std::size_t>(b)])])
+                const std::int64_t a = lt->triangles[h], b = lt->triangles[h % 3 == 2 ? h - 2 : h + 1];
+                if (!dirty[static_cast<std::size_t>(lvm[static_cast<std::size_t>(a)])] &&
+                    !dirty[static_cast<std::size_t>(lvm[static_cast<std::size_t>(b)])])
                     continue;
-                const double* pa = &lm.vertices[3 * static_cast<std::size_t>(a)];
-                const double* pb = &lm.vertices[3 * static_cast<std::size_t>(b)];
+                const double* pa = lp(a);
+                const double* pb = lp(b);
                 if (std::max(pa[2], pb[2]) - upper_low.over(pa, pb) <= tol) continue;
                 qedges.push_back({a, b});
-                need[static_cast<std::size_t>(a)] = 1;
             }
             std::fill(dirty.begin(), dirty.end(), 0);
-            // Each walk starts in the upper triangle of its first end: one
-            // batched location per lower vertex, not per edge.
-            std::vector<double> starts;
-            std::vector<std::int64_t> slot(need.size(), -1);
-            for (std::size_t i = 0; i < need.size(); ++i)
-                if (need[i]) {
-                    slot[i] = static_cast<std::int64_t>(starts.size() / 2);
-                    starts.push_back(lm.vertices[3 * i]);
-                    starts.push_back(lm.vertices[3 * i + 1]);
-                }
-            const std::vector<std::int64_t> located = upper.tin().locate(starts.data(), starts.size() / 2);
-            // Walks in the order of their start triangles: consecutive walks
-            // then read neighbouring memory of the upper TIN (the walks are
-            // memory-bound: ~2x faster than in the lower mesh's order).
-            std::vector<std::pair<std::int64_t, std::uint32_t>> order(qedges.size());
-            for (std::size_t e = 0; e < qedges.size(); ++e)
-                order[e] = {located[static_cast<std::size_t>(slot[static_cast<std::size_t>(qedges[e][0])])],
-                            static_cast<std::uint32_t>(e)};
-            std::sort(order.begin(), order.end());
-            for (const auto& oe : order) {
-                const std::size_t e = oe.second;
-                const std::int64_t t0 = oe.first;
-                const double* P = &lm.vertices[3 * static_cast<std::size_t>(qedges[e][0])];
-                const double* Q = &lm.vertices[3 * static_cast<std::size_t>(qedges[e][1])];
-                double best = tol, x[3] = {0.0, 0.0, 0.0};
-                if (t0 < 0 || !walk.worst_crossing(P, P[2], Q, Q[2], t0, best, x)) continue;
-                const double bx = x[0], by = x[1], bz = x[2];
-                if (round < opt.midpoint_rounds) {
-                    add.push_back(0.5 * (P[0] + Q[0]));
-                    add.push_back(0.5 * (P[1] + Q[1]));
-                    add.push_back(0.5 * (P[2] + Q[2]));
-                } else {
-                    add.push_back(bx);
-                    add.push_back(by);
-                    add.push_back(bz);
+            if (!qedges.empty()) {
+                // Each walk starts in the upper triangle of its first end: one
+                // batched location per lower vertex, not per edge.
+                std::vector<std::int64_t> slot(lvm.size(), -1);
+                std::vector<double> starts;
+                for (const auto& e : qedges)
+                    if (slot[static_cast<std::size_t>(e[0])] < 0) {
+                        slot[static_cast<std::size_t>(e[0])] = static_cast<std::int64_t>(starts.size() / 2);
+                        starts.push_back(lp(e[0])[0]);
+                        starts.push_back(lp(e[0])[1]);
+                    }
+                const std::vector<std::int64_t> located = upper.tin().locate(starts.data(), starts.size() / 2);
+                // Walks in the order of their start triangles: consecutive walks
+                // then read neighbouring memory of the upper TIN (the walks are
+                // memory-bound: ~2x faster than in the lower mesh's order).
+                std::vector<std::pair<std::int64_t, std::uint32_t>> order(qedges.size());
+                for (std::size_t e = 0; e < qedges.size(); ++e)
+                    order[e] = {located[static_cast<std::size_t>(slot[static_cast<std::size_t>(qedges[e][0])])],
+                                static_cast<std::uint32_t>(e)};
+                std::sort(order.begin(), order.end());
+                for (const auto& oe : order) {
+                    const std::size_t e = oe.second;
+                    const std::int64_t t0 = oe.first;
+                    const double* P = lp(qedges[e][0]);
+                    const double* Q = lp(qedges[e][1]);
+                    double best = tol, x[3] = {0.0, 0.0, 0.0};
+                    if (t0 < 0 || !walk_of().worst_crossing(P, P[2], Q, Q[2], t0, best, x)) continue;
+                    if (round < opt.midpoint_rounds) {
+                        add.push_back(0.5 * (P[0] + Q[0]));
+                        add.push_back(0.5 * (P[1] + Q[1]));
+                        add.push_back(0.5 * (P[2] + Q[2]));
+                    } else {
+                        add.insert(add.end(), x, x + 3);
+                    }
                 }
             }
         }

@@ -74,6 +74,60 @@ StudyArea::StudyArea(const double* pts, std::size_t k, double tolerance) {
     // of the largest coordinate; 64 eps max|c| accepts them with a margin.
     tol_ = tolerance >= 0.0 ? tolerance : 64.0 * std::numeric_limits<double>::epsilon() * scale;
     tree_ = AabbTree::from_segments(xy_.data(), n, 2, seg_.data(), n);
+
+    // The classification grid (see the header): about 4 cells per side,
+    // between 16 x 16 and 256 x 256.
+    double x0 = kInf, y0 = kInf, x1 = -kInf, y1 = -kInf;
+    for (std::size_t i = 0; i < n; ++i) {
+        x0 = std::min(x0, xy_[2 * i]), x1 = std::max(x1, xy_[2 * i]);
+        y0 = std::min(y0, xy_[2 * i + 1]), y1 = std::max(y1, xy_[2 * i + 1]);
+    }
+    const long g = std::min(256L, std::max(16L, static_cast<long>(4 * n)));
+    gnx_ = gny_ = g;
+    gx0_ = x0, gy0_ = y0, gx1_ = x1, gy1_ = y1;
+    gcw_ = std::max((x1 - x0) / static_cast<double>(g), 1e-300);
+    gch_ = std::max((y1 - y0) / static_cast<double>(g), 1e-300);
+    cell_.assign(static_cast<std::size_t>(g * g), 0);
+    std::vector<char> near(static_cast<std::size_t>(g * g), 0);
+    auto cx = [&](double x) { return std::min(g - 1, std::max(0L, static_cast<long>(std::floor((x - gx0_) / gcw_)))); };
+    auto cy = [&](double y) { return std::min(g - 1, std::max(0L, static_cast<long>(std::floor((y - gy0_) / gch_)))); };
+    // Mark the cells each side may pass within the tolerance of: the boxes of
+    // short pieces of the side (a piece spans at most half a cell), widened by
+    // the tolerance plus one cell (conservative against rounding).
+    for (std::size_t i = 0; i < n; ++i) {
+        const double* a = corner(i);
+        const double* b = corner(i + 1);
+        const double span = std::max(std::fabs(b[0] - a[0]) / gcw_, std::fabs(b[1] - a[1]) / gch_);
+        const long pieces = std::max(1L, static_cast<long>(std::ceil(2.0 * span)));
+        for (long k = 0; k < pieces; ++k) {
+            const double u0 = static_cast<double>(k) / static_cast<double>(pieces);
+            const double u1 = static_cast<double>(k + 1) / static_cast<double>(pieces);
+            const double xa = a[0] + u0 * (b[0] - a[0]), xb = a[0] + u1 * (b[0] - a[0]);
+            const double ya = a[1] + u0 * (b[1] - a[1]), yb = a[1] + u1 * (b[1] - a[1]);
+            const long i0 = cx(std::min(xa, xb) - tol_) - 1, i1 = cx(std::max(xa, xb) + tol_) + 1;
+            const long j0 = cy(std::min(ya, yb) - tol_) - 1, j1 = cy(std::max(ya, yb) + tol_) + 1;
+            for (long j = std::max(0L, j0); j <= std::min(g - 1, j1); ++j)
+                for (long ii = std::max(0L, i0); ii <= std::min(g - 1, i1); ++ii)
+                    near[static_cast<std::size_t>(j * g + ii)] = 1;
+        }
+    }
+    for (long j = 0; j < g; ++j)
+        for (long ii = 0; ii < g; ++ii) {
+            const std::size_t c = static_cast<std::size_t>(j * g + ii);
+            if (near[c]) continue;
+            const double centre[2] = {gx0_ + (static_cast<double>(ii) + 0.5) * gcw_,
+                                      gy0_ + (static_cast<double>(j) + 0.5) * gch_};
+            cell_[c] = inside_strictly(centre) ? 2 : 1;
+        }
+}
+
+int StudyArea::cell_class(const double* p) const {
+    if (cell_.empty() || !(p[0] == p[0]) || !(p[1] == p[1])) return 0;
+    // Farther than the tolerance beyond the ring's box: outside.
+    if (p[0] < gx0_ - tol_ || p[0] > gx1_ + tol_ || p[1] < gy0_ - tol_ || p[1] > gy1_ + tol_) return 1;
+    const long i = std::min(gnx_ - 1, std::max(0L, static_cast<long>((p[0] - gx0_) / gcw_)));
+    const long j = std::min(gny_ - 1, std::max(0L, static_cast<long>((p[1] - gy0_) / gch_)));
+    return cell_[static_cast<std::size_t>(j * gnx_ + i)];
 }
 
 double StudyArea::arc_position(const Hit& h) const {
@@ -84,6 +138,7 @@ double StudyArea::arc_position(const Hit& h) const {
 
 void StudyArea::locate(const double* p, std::vector<Hit>& out) const {
     out.clear();
+    if (cell_class(p) != 0) return;  // no side within the tolerance
     const Box2 q{p[0] - tol_, p[1] - tol_, p[0] + tol_, p[1] + tol_};
     tree_.visit(q, [&](std::int64_t e) {
         const std::size_t i = static_cast<std::size_t>(e);
@@ -125,7 +180,11 @@ bool StudyArea::inside_strictly(const double* p) const {
     return in;
 }
 
-bool StudyArea::contains(const double* p) const { return on_boundary(p) || inside_strictly(p); }
+bool StudyArea::contains(const double* p) const {
+    const int c = cell_class(p);
+    if (c != 0) return c == 2;
+    return on_boundary(p) || inside_strictly(p);
+}
 
 void StudyArea::place(std::size_t side, double s, double* out) const {
     const double* a = corner(side);

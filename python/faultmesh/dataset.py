@@ -165,6 +165,19 @@ class Boreholes:
             if len(self.rows) != n:
                 self.rows = None  # numbering no longer matches: fall back to row indices
 
+    @property
+    def codes(self):
+        """(layer names, layer code per row, hole code per row): the string
+        columns as integers, computed once (the arrays must not be changed in
+        place afterwards)."""
+        cache = self.__dict__.get("_codes")
+        if cache is None:
+            names, lc = np.unique(self.layer, return_inverse=True)
+            _, hc = np.unique(self.hole_id, return_inverse=True)
+            cache = (list(names), lc.astype(np.int64), hc.astype(np.int64))
+            self.__dict__["_codes"] = cache
+        return cache
+
     def row_label(self, i: int) -> str:
         """A readable name of row ``i``: ``boreholes.csv row 17 (hole 'BH3', layer 'L0')``."""
         what = f"hole {str(self.hole_id[i])!r}, layer {str(self.layer[i])!r}"
@@ -305,10 +318,11 @@ class Dataset:
             raise DatasetError(f"dataset {self.name!r}: unknown layer {layer!r}; "
                                f"layers are {self.layers}")
         b = self.boreholes
-        sel = np.flatnonzero(b.layer == layer)
+        names, lcode, hcode = b.codes
+        sel = np.flatnonzero(lcode == names.index(layer)) if layer in names else np.zeros(0, np.int64)
         out = np.zeros((0, 3))
         if sel.size:
-            ids = b.hole_id[sel]
+            ids = hcode[sel]
             # Sort by hole, then by decreasing z: the first row of each hole is
             # its shallowest hit.
             order = np.lexsort((-b.z[sel], ids))

@@ -109,7 +109,7 @@ public:
 
 private:
     std::unique_ptr<detail::LayerTinState> s_;
-    friend struct RepairAccess;
+    friend struct RepairCounts repair_crossings(const LayerTin&, LayerTin&, const struct RepairOptions&);
 };
 
 struct RepairOptions {

@@ -96,6 +96,14 @@ private:
     std::vector<std::int64_t> seg_;
     double tol_ = 0.0;
     AabbTree tree_;
+    // A coarse grid over the ring's box: cells no side comes within the
+    // tolerance of are wholly inside (2) or wholly outside (1) -- decided once
+    // at the cell's centre -- so most points are classified without touching
+    // a side; 0: a side passes near, the exact tests decide.
+    double gx0_ = 0.0, gy0_ = 0.0, gx1_ = 0.0, gy1_ = 0.0, gcw_ = 1.0, gch_ = 1.0;
+    long gnx_ = 0, gny_ = 0;
+    std::vector<std::uint8_t> cell_;
+    int cell_class(const double* p) const;
     bool inside_strictly(const double* p) const;
 };
 
