@@ -193,7 +193,13 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     tins, tin_meta = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, prog)
     meta.update(tin_meta)
     timings["stratum_tins_and_repair"] = time.perf_counter() - t0
-    continuous = {lay: Surface(lay, *tins[lay].mesh(), kind="layer") for lay in layers}
+    # The continuous surfaces, with their half-edges (the stitcher then skips
+    # its adjacency build).
+    continuous: Dict[str, Surface] = {}
+    halfedges: Dict[str, np.ndarray] = {}
+    for lay in layers:
+        V, T, halfedges[lay] = tins[lay].mesh(halfedges=True)
+        continuous[lay] = Surface(lay, V, T, kind="layer")
 
     # Step 4: fine fault models, per group and layer.
     t0 = time.perf_counter()
@@ -265,7 +271,8 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     job = 0
     for lay in layers:
         V, T = continuous[lay].vertices, continuous[lay].triangles
-        st = Stitcher(V, T, boundary=ring, name=lay, refine=refine, order=stitch_order,
+        st = Stitcher(V, T, boundary=ring, halfedges=halfedges[lay], name=lay, refine=refine,
+                      order=stitch_order,
                       bridge=bridge, clearance=_clearance(clearance, tins[lay]))
         gap_info: Dict[int, Dict[str, Any]] = {}
         patch_group: List[str] = []

@@ -167,14 +167,14 @@ class Boreholes:
 
     @property
     def codes(self):
-        """(layer names, layer code per row, hole code per row): the string
-        columns as integers, computed once (the arrays must not be changed in
-        place afterwards)."""
+        """(layer names, layer code per row, hole code per row, hole names):
+        the string columns as integers, computed once (the arrays must not be
+        changed in place afterwards)."""
         cache = self.__dict__.get("_codes")
         if cache is None:
             names, lc = np.unique(self.layer, return_inverse=True)
-            _, hc = np.unique(self.hole_id, return_inverse=True)
-            cache = (list(names), lc.astype(np.int64), hc.astype(np.int64))
+            holes, hc = np.unique(self.hole_id, return_inverse=True)
+            cache = (list(names), lc.astype(np.int64), hc.astype(np.int64), holes)
             self.__dict__["_codes"] = cache
         return cache
 
@@ -318,7 +318,7 @@ class Dataset:
             raise DatasetError(f"dataset {self.name!r}: unknown layer {layer!r}; "
                                f"layers are {self.layers}")
         b = self.boreholes
-        names, lcode, hcode = b.codes
+        names, lcode, hcode, _ = b.codes
         sel = np.flatnonzero(lcode == names.index(layer)) if layer in names else np.zeros(0, np.int64)
         out = np.zeros((0, 3))
         if sel.size:
@@ -619,7 +619,7 @@ def _chunks(m: int, k: int, budget: int = 1_000_000):
         yield s, min(m, s + step)
 
 
-def _nearest_on_boundary(P: np.ndarray, area):
+def _nearest_on_boundary(P: np.ndarray, area, within: float = np.inf):
     """Distance (m,), side index (m,) and nearest point (m, 2) of points P on
     the boundary of ``area`` (a :class:`faultmesh.StudyArea`; sides numbered
     along its counter-clockwise ring). The point is placed on its side by
@@ -628,13 +628,19 @@ def _nearest_on_boundary(P: np.ndarray, area):
     P = np.ascontiguousarray(np.asarray(P, dtype=np.float64).reshape(-1, 2))
     if len(P) == 0:
         return np.empty(0), np.empty(0, dtype=np.int64), np.empty((0, 2))
-    side, s, dist = area.nearest(P)
+    side, s, dist = area.nearest(P, within)
+    far = side < 0                        # nothing within `within`: distance inf, Q = P
+    side[far] = 0
+    s[far] = 0.0
     Q = area.place(side, s)
+    Q[far] = P[far]
     # A point exactly on its side (distance 0 by the exact test) is its own
     # nearest point; elsewhere the distance is that of the placed point.
     on = dist == 0.0
     Q[on] = P[on]
-    return np.where(on, 0.0, np.hypot(P[:, 0] - Q[:, 0], P[:, 1] - Q[:, 1])), side, Q
+    dist = np.where(on, 0.0, np.hypot(P[:, 0] - Q[:, 0], P[:, 1] - Q[:, 1]))
+    dist[far] = np.inf
+    return dist, side, Q
 
 
 def _inside_or_on(P: np.ndarray, ring: np.ndarray) -> np.ndarray:
@@ -660,7 +666,9 @@ class _Snapper:
         original point from the boundary (m,), in (m,) bool: inside, on, or
         within the snap distance)."""
         P = np.asarray(P, dtype=np.float64).reshape(-1, 2)
-        dist, side, Q = _nearest_on_boundary(P, self.area)
+        # Only the points near the boundary need their nearest boundary
+        # point; the distance of the few outside ones is found after.
+        dist, side, Q = _nearest_on_boundary(P, self.area, 2.0 * max(self.snap, self.on_tol))
         same = np.all(Q == P, axis=1)
         # Already on a slanted side up to rounding: left alone (idempotence).
         interior_of_side = ~(np.all(Q == self.ring[side], axis=1)
@@ -670,6 +678,9 @@ class _Snapper:
         moved = (dist <= self.snap) & ~same & ~on_slanted
         new = np.where(moved[:, None], Q, P)
         inside = (dist <= max(self.snap, self.on_tol)) | _inside_or_on(P, self.ring)
+        far = ~inside & ~np.isfinite(dist)
+        if far.any():
+            dist[far] = _nearest_on_boundary(P[far], self.area)[0]
         return new, moved, dist, inside
 
     def inside(self, P: np.ndarray) -> np.ndarray:
@@ -677,7 +688,7 @@ class _Snapper:
         P = np.asarray(P, dtype=np.float64).reshape(-1, 2)
         if len(P) == 0:
             return np.zeros(0, dtype=bool)
-        dist, _, _ = _nearest_on_boundary(P, self.area)
+        dist, _, _ = _nearest_on_boundary(P, self.area, 2.0 * self.on_tol)
         return (dist <= self.on_tol) | _inside_or_on(P, self.ring)
 
     def onto(self, P: np.ndarray) -> np.ndarray:
@@ -1113,10 +1124,10 @@ def check_layer_order(ds: Dataset) -> List[Adjustment]:
     layers = list(ds.layers)
     if len(b) == 0 or len(layers) < 2:
         return []
+    names, lcode, hole_idx, hole_names = b.codes
     li = {lay: i for i, lay in enumerate(layers)}
-    lay_idx = np.array([li.get(str(v), -1) for v in b.layer], dtype=np.int64)
+    lay_idx = np.array([li.get(str(v), -1) for v in names], dtype=np.int64)[lcode]
     ok = lay_idx >= 0
-    hole_names, hole_idx = np.unique(b.hole_id, return_inverse=True)
     H = np.full((len(hole_names), len(layers)), -np.inf)
     np.maximum.at(H, (hole_idx[ok], lay_idx[ok]), b.z[ok])
     # The row of each hole's shallowest hit of each layer, for messages.
