@@ -14,6 +14,7 @@ void bind_ear_clipping(py::module_& m);
 void bind_loft(py::module_& m);
 void bind_stitch(py::module_& m);
 void bind_cutting(py::module_& m);
+void bind_fault_side(py::module_& m);
 }  // namespace faultmesh::bindings
 
 PYBIND11_MODULE(_core, m) {
@@ -32,4 +33,5 @@ PYBIND11_MODULE(_core, m) {
     fb::bind_loft(m);
     fb::bind_stitch(m);
     fb::bind_cutting(m);
+    fb::bind_fault_side(m);
 }
