@@ -781,6 +781,11 @@ def _spoiled_vertices(fs: "FaultSurface", layer: str, data: np.ndarray,
     return V[W[side[W] < 0], :2], V[W[side[W] > 0], :2]
 
 
+def _sides_of(r: Dict[str, Any], i: int) -> Dict[str, "SideSurface"]:
+    """The side surfaces of a layer for section ``i`` (its fault block's)."""
+    return r["sec_sides"].get(i, r["sides"])
+
+
 def _regional_throw(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, data: np.ndarray,
                     side: np.ndarray, fs: FaultSurface, spacing: float, window: float) -> float:
     """The layer's offset across the fault on this section at the scale of
@@ -816,18 +821,30 @@ def _regional_throw(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, data: np.nd
 
 
 def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float, float],
-                  used_names: set) -> Tuple[Fault, Dict[str, Section], FaultDerivation]:
-    warn: List[str] = []
+                  used_names: set, fs: FaultSurface, warn: List[str],
+                  partners: Sequence[FaultSurface] = ()) -> Tuple[Fault, Dict[str, Section],
+                                                                 FaultDerivation]:
     ring = np.asarray(ds.boundary, dtype=np.float64)
-    fs = fault_surface(fault, ring, z_range, reach=opt.reach, max_z_dip=opt.max_z_dip,
-                       warnings=warn)
-    if fault.group:
-        warn.append(f"fault {fault.name!r} is in group {fault.group!r}: derived on its own (the "
-                    "data beyond the other faults of the group are not kept apart)")
     u0, u1 = fs.u_range
     length = u1 - u0
     if not length > 0:
         raise GeometryError(f"derive: fault {fault.name!r} has no extent along strike")
+    # Sections go where the fault's extent crosses the study area: on a fine
+    # grid along strike (128 cuts, vectorised each), the positions whose
+    # trace has a point of the extent inside the study area.
+    grid = np.linspace(u0, u1, 129)[1:-1]
+    usable = []
+    for u in grid:
+        t = _section_trace(fs, float(u), ring)
+        if t is None or not np.isfinite(t.interval[0]) or not t.real.any():
+            continue
+        sr = np.r_[t.s[:-1][t.real], t.s[1:][t.real]]
+        if np.any((sr >= t.interval[0]) & (sr <= t.interval[1])):
+            usable.append(float(u))
+    if not usable:
+        raise GeometryError(f"derive: fault {fault.name!r}: its extent does not cross the study area")
+    u0, u1 = min(usable), max(usable)
+    length = max(u1 - u0, 1e-9 * max(1.0, abs(u0)))
     spacing = opt.spacing if opt.spacing is not None else length / 8.0
     if not spacing > 0:
         raise ValueError(f"derive_faults: spacing must be > 0, got {spacing}")
@@ -882,7 +899,32 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
         roots = {}
         for name, surf in sides.items():
             roots[name] = _roots(tr_all, surf, surf.nearest)
+        sec_sides: Dict[int, Dict[str, SideSurface]] = {}
+        if partners:
+            # Fault blocks: with crossing faults (a group), each section's
+            # cutoffs are derived again from the data in the block of its
+            # cutoffs, i.e. on their side of every partner fault.
+            keys = np.column_stack([p.side(D)[1] for p in partners])
+            cache: Dict[Tuple[int, ...], Optional[Dict[str, SideSurface]]] = {}
+            for j, i in enumerate(good):
+                f, h = roots["foot"][j], roots["hanging"][j]
+                if f is None or h is None:
+                    continue
+                mid = 0.5 * (f[0] + h[0])
+                key = tuple(int(p.side(mid[None, :])[1][0]) for p in partners)
+                if key not in cache:
+                    inblock = np.all((keys == np.array(key)[None, :]) | (keys == 0), axis=1)
+                    sel = {nm: D[split[nm] & inblock] for nm in ("foot", "hanging")}
+                    cache[key] = ({nm: SideSurface(v, opt.k) for nm, v in sel.items()}
+                                  if all(len(v) >= 3 for v in sel.values()) else None)
+                blk = cache[key]
+                if blk is None:
+                    continue
+                sec_sides[i] = blk
+                for nm in ("foot", "hanging"):
+                    roots[nm][j] = _roots([traces[i]], blk[nm], blk[nm].nearest)[0]
         res[lay] = {"sides": sides, "roots": roots, "near": near, "spacing": spacing_data,
+                    "sec_sides": sec_sides,
                     "data": D, "split": split, "side": fs.side(D)[1],
                     "spoiled": _spoiled_vertices(fs, lay, ds.layer_points(lay), ring)}
 
@@ -899,7 +941,8 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
             h = r["roots"]["hanging"][j]
             tr = traces[i]
             for name, rt in (("foot", f), ("hanging", h)):
-                if rt is not None and r["sides"][name].nearest(rt[0][None, :2])[0] > r["near"]:
+                if rt is not None and \
+                        _sides_of(r, i)[name].nearest(rt[0][None, :2])[0] > r["near"]:
                     nodata[lay][i] = name
             if f is None or h is None:
                 continue
@@ -911,25 +954,38 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
             cut[lay][i] = f[1] and h[1] and inside
             cutpts[lay][i] = (f[0], h[0])
 
-    # The layer's offset across the fault on each section at the scale of
-    # the fault (a common line plus a step over the data within the fault's
-    # along-strike length of it, see _regional_throw) decides the kind: the
-    # cutoff throws extrapolate each side's local slope, which near the fault
-    # can bend either way (drag), while the sense of displacement is a
-    # property of the blocks. On Claudius with every pick within 200-500 m
-    # of the fault withheld, the cutoff throws' median said reverse in 4 of
-    # 6 variants, this offset said normal in all 6.
-    treg = {lay: np.full(n_lines, np.nan) for lay in res}
+    # A layer counts as displaced by the fault if its cutoffs are at least
+    # min_throw apart on some section; the others (a fault that dies out
+    # below or above them) are left uncut.
+    for lay in res:
+        if not np.any(cut[lay] & (np.abs(throw[lay]) >= opt.min_throw)):
+            cut[lay][:] = False
+    # The kind: per section and displaced layer, the cutoff throw where both
+    # sides have data within two data spacings of their cutoffs; where a
+    # side's data stop farther away (a gap at the fault), the layer's offset
+    # across the fault at the scale of the fault instead (a common line plus
+    # a step over the data within the fault's along-strike length of it,
+    # _regional_throw): each side's local slope extrapolated across a gap can
+    # bend either way (drag), while the sense of displacement is a property
+    # of the blocks. On Claudius with every pick within 200-500 m of the
+    # fault withheld, the cutoff throws' median said reverse in 4 of 6
+    # variants, this rule says normal in all 6. The median of these decides.
+    evidence_l = []
     for lay, r in res.items():
         for i in good:
-            if cut[lay][i]:
-                treg[lay][i] = _regional_throw(traces[i], *cutpts[lay][i], r["data"],
-                                               r["side"], fs, spacing, max(r["near"], length))
-    allr = np.concatenate([treg[l][cut[l]] for l in res]) if res else np.zeros(0)
-    allr = allr[np.isfinite(allr)]
-    allt = np.concatenate([throw[l][cut[l]] for l in res]) if res else np.zeros(0)
+            if not cut[lay][i]:
+                continue
+            f, h = cutpts[lay][i]
+            gap = max(_sides_of(r, i)["foot"].nearest(f[None, :2])[0],
+                      _sides_of(r, i)["hanging"].nearest(h[None, :2])[0])
+            if gap <= 2.0 * r["spacing"]:
+                evidence_l.append(throw[lay][i])
+                continue
+            t = _regional_throw(traces[i], f, h, r["data"], r["side"], fs, spacing,
+                                max(r["near"], length))
+            evidence_l.append(t if np.isfinite(t) else throw[lay][i])
+    evidence = np.array(evidence_l)
     kind = None
-    evidence = allr if len(allr) else allt
     if len(evidence):
         kind = "normal" if float(np.median(evidence)) > 0 else "reverse"
     if fault.kind is not None and kind is not None and kind != fault.kind:
@@ -946,7 +1002,7 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
         root of the other side's surface shifted by ``dz``."""
         r = res[lay]
         other = "hanging" if side == "foot" else "foot"
-        base = r["sides"][other]
+        base = _sides_of(r, i)[other]
         shifted = _Shifted(base, dz)
         rt = _roots([traces[i]], shifted, base.nearest)[0]
         if rt is None:
@@ -982,9 +1038,11 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
             bad = cut[lay] & (np.sign(throw[lay]) == -sgn) & (np.abs(throw[lay]) > 0)
             for i in np.flatnonzero(bad):
                 f, h = cutpts[lay][i]
-                warn.append(f"fault {fault.name!r}, layer {lay!r}, section at u={lines[i]['u']:.0f}: "
-                            f"cutoff throw {throw[lay][i]:.1f} m has the sign of a "
-                            f"{'reverse' if kind == 'normal' else 'normal'} fault; set to zero")
+                if abs(throw[lay][i]) >= opt.min_throw:
+                    warn.append(f"fault {fault.name!r}, layer {lay!r}, section at "
+                                f"u={lines[i]['u']:.0f}: cutoff throw {throw[lay][i]:.1f} m has "
+                                f"the sign of a {'reverse' if kind == 'normal' else 'normal'} "
+                                "fault; set to zero")
                 m = _merge_cutoffs(traces[i], f, h)
                 cutpts[lay][i] = (m, m)
                 throw[lay][i] = 0.0
@@ -998,49 +1056,59 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
     end_kind = ["boundary", "boundary"]
     given_tips = np.asarray(fault.tips, dtype=np.float64).reshape(-1, 2)
     keep_lines = set(active)
-    for e in (0, 1):
-        seq = active if e == 0 else active[::-1]
-        if fs.ends[e] == "boundary" and not len(given_tips):
-            continue
-        end_kind[e] = "tip"
-        # Drop end sections (derived ones) without a throw above min_throw.
-        k = 0
-        while k < len(seq) and lines[seq[k]]["given"] is None and maxthrow[seq[k]] < opt.min_throw:
-            keep_lines.discard(seq[k])
-            k += 1
-        if len(given_tips):
-            continue
-        if k >= len(seq):
-            break
-        last = seq[k]
-        u_last = lines[last]["u"]
-        if k > 0:
-            prev = seq[k - 1]
-            t0, t1 = maxthrow[prev], maxthrow[last]
-            frac = (opt.min_throw - t0) / (t1 - t0) if t1 != t0 else 0.5
-            u_tip = lines[prev]["u"] + float(np.clip(frac, 0.0, 1.0)) * (u_last - lines[prev]["u"])
-        else:
-            u_tip = ends_u[e]
-        # On the cutoff line of the layer with the largest throw there.
-        lays = [l for l in res if cut[l][last]]
-        if not lays:
-            continue
-        ref = max(lays, key=lambda l: abs(throw[l][last]))
-        tip = None
-        et = _section_trace(fs, u_tip, ring)
-        if et is not None:
-            rr = [_roots([et], res[ref]["sides"][nm], res[ref]["sides"][nm].nearest)[0]
-                  for nm in ("foot", "hanging")]
-            if rr[0] is not None and rr[1] is not None:
-                tip = 0.5 * (rr[0][0][:2] + rr[1][0][:2])
-        if tip is None:
-            f, h = cutpts[ref][last]
-            tip = 0.5 * (f[:2] + h[:2]) + (u_tip - u_last) * fs.strike
-        tips.append(tip)
+    displaced = bool(np.any(maxthrow[active] >= opt.min_throw)) if active else False
     if len(given_tips):
-        tips = [t for t in given_tips]
-        end_kind = ["tip" if fs.ends[e] != "boundary" or len(given_tips) else "boundary"
-                    for e in (0, 1)]
+        # Given tips win: the derived sections beyond them are dropped.
+        mid = 0.5 * (u0 + u1)
+        for t in given_tips:
+            ut = float(fs.u(t[None, :])[0])
+            beyond = [i for i in active if lines[i]["given"] is None
+                      and ((ut < mid and lines[i]["u"] < ut) or (ut >= mid and lines[i]["u"] > ut))]
+            keep_lines -= set(beyond)
+            end_kind[0 if ut < mid else 1] = "tip"
+        tips = list(given_tips)
+    elif displaced:
+        for e in (0, 1):
+            seq = active if e == 0 else active[::-1]
+            if fs.ends[e] == "boundary":
+                continue
+            end_kind[e] = "tip"
+            # Drop end sections (derived ones) without a throw of min_throw.
+            k = 0
+            while k < len(seq) and lines[seq[k]]["given"] is None and \
+                    maxthrow[seq[k]] < opt.min_throw:
+                keep_lines.discard(seq[k])
+                k += 1
+            last = seq[k]
+            u_last = lines[last]["u"]
+            if k > 0:
+                # Where the throw profile falls to min_throw between the last
+                # kept section and the first dropped one.
+                prev = seq[k - 1]
+                t0, t1 = maxthrow[prev], maxthrow[last]
+                frac = (opt.min_throw - t0) / (t1 - t0) if t1 != t0 else 0.5
+                u_tip = lines[prev]["u"] + float(np.clip(frac, 0.0, 1.0)) * (u_last - lines[prev]["u"])
+            else:
+                u_tip = ends_u[e]  # the throw lasts to the extent's edge
+            # On the cutoff line of the layer with the largest throw there.
+            lays = [l for l in res if cut[l][last]]
+            if not lays:
+                continue
+            ref = max(lays, key=lambda l: abs(throw[l][last]))
+            tip = None
+            et = _section_trace(fs, u_tip, ring)
+            if et is not None:
+                sd = _sides_of(res[ref], last)
+                rr = [_roots([et], sd[nm], sd[nm].nearest)[0]
+                      for nm in ("foot", "hanging")]
+                if rr[0] is not None and rr[1] is not None:
+                    tip = 0.5 * (rr[0][0][:2] + rr[1][0][:2])
+            if tip is None:
+                f, h = cutpts[ref][last]
+                tip = 0.5 * (f[:2] + h[:2]) + (u_tip - u_last) * fs.strike
+            tips.append(tip)
+    else:
+        end_kind = ["none", "none"]
     tips = [t for t in tips if points_in_polygon(t[None, :], ring)[0]] + \
            [_pull_inside(t, ring, fs) for t in tips if not points_in_polygon(t[None, :], ring)[0]]
 
@@ -1079,8 +1147,8 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
                 continue
             f, h = cutpts[lay][i]
             hinted = r.get("hinted", {}).get(i)
-            surf_f = hinted[1] if hinted and hinted[0] == "foot" else r["sides"]["foot"]
-            surf_h = hinted[1] if hinted and hinted[0] == "hanging" else r["sides"]["hanging"]
+            surf_f = hinted[1] if hinted and hinted[0] == "foot" else _sides_of(r, i)["foot"]
+            surf_h = hinted[1] if hinted and hinted[0] == "hanging" else _sides_of(r, i)["hanging"]
             poly = _wall_polylines(tr, f, h, surf_f, surf_h, *fars[lay], r["spacing"])
             if poly is None:
                 continue
@@ -1167,9 +1235,12 @@ def _wall_polylines(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, surf_f, sur
     sf = float((f[:2] - tr.origin) @ tr.direction)
     sh = float((h[:2] - tr.origin) @ tr.direction)
     a, b = tr.interval
-    # The far ends stay a hair inside the study area (1e-6 of the section's
-    # length in it).
-    eps = 1e-6 * max(1.0, b - a)
+    # The far ends stay half a data spacing inside the study area: a far end
+    # on (or a hair inside) the boundary makes the builder's extension of the
+    # end trace along strike degenerate there (a zero-length step, and a gap
+    # polygon that touches itself: paper_like(0), F22 in "third impervious
+    # bed").
+    eps = min(0.5 * dsp, 0.25 * (b - a))
     s_ff = max(sf - far_f, a + eps)
     s_hf = min(sh + far_h, b - eps)
     if not (s_ff < sf and sh < s_hf):
@@ -1252,11 +1323,26 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
     used = set(sections)
     faults: List[Fault] = []
     report = DeriveReport()
+    ring = np.asarray(dataset.boundary, dtype=np.float64)
+    # Fault surfaces: of the faults to derive, and of their group partners
+    # (whose blocks keep the data apart, see _derive_fault).
+    todo = [f for f in dataset.faults if needs_derivation(f)]
+    surfs: Dict[str, FaultSurface] = {}
+    warns: Dict[str, List[str]] = {}
     for f in dataset.faults:
-        if not needs_derivation(f):
+        grouped = bool(f.group) and any(g.group == f.group and g is not f for g in dataset.faults)
+        if f in todo or (grouped and any(g.group == f.group for g in todo)):
+            warns[f.name] = []
+            surfs[f.name] = fault_surface(f, ring, z_range, reach=opt.reach,
+                                          max_z_dip=opt.max_z_dip, warnings=warns[f.name])
+    for f in dataset.faults:
+        if f not in todo:
             faults.append(f)
             continue
-        nf, secs, rep = _derive_fault(dataset, f, opt, z_range, used)
+        partners = [surfs[g.name] for g in dataset.faults
+                    if g is not f and f.group and g.group == f.group and g.name in surfs]
+        nf, secs, rep = _derive_fault(dataset, f, opt, z_range, used, surfs[f.name],
+                                      warns[f.name], partners)
         sections.update(secs)
         faults.append(nf)
         report.faults[f.name] = rep
