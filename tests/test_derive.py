@@ -356,6 +356,8 @@ def test_given_kind_contradicted_is_a_warning():
     assert fr.kind == "normal" and fr.given_kind == "reverse"
     assert any("given as reverse but the data say normal" in w for w in fr.warnings)
     assert d.faults[0].kind == "reverse"  # the user's word is kept, the geometry follows the data
+    # The derived fault is what the builder consumes: no second derivation.
+    assert not derive.needs_derivation(d.faults[0]) and d.faults[0].points is None
 
 
 def test_hand_drawn_cutoffs_win():
@@ -469,3 +471,45 @@ def test_fault_reaching_the_boundary_is_extended_to_it():
     model.check()
     ends = model.metadata["faults"]["F1"]["layers"][ds.layers[0]]["ends"]
     assert ends == ["tip", "extended"]
+
+
+def test_paper_like_from_fault_points_builds():
+    """Regression (found deriving paper_like(0) from fault points): a far end
+    clipped to a hair inside the study-area boundary made the builder's
+    extension of F22 degenerate and the gap polygon touch itself; the T-
+    crossing 2F1/4F2 needs each fault's data kept to its block (4F2 came out
+    reverse and its patch crossed 2F1's). Every kind must come out right and
+    the model must pass check()."""
+    ds = datasets.paper_like(0)
+    d = derive.derive_faults(v2_of(ds))
+    for f in ds.faults:
+        assert d.derivation.faults[f.name].kind == f.kind, f.name
+    assert d.derivation.faults["F22"].ends[1] == "boundary"
+    faultmesh.build_model(d, evaluate=False).check()
+
+
+def test_sections_whose_cutoffs_cross_are_dropped():
+    """Regression (found on Claudius with every pick within 300 m (2D) of the
+    fault withheld: wildly extrapolated cutoffs on one section made the
+    patch cross itself and the stitcher fail): such a section loses the
+    layer, with a warning, and the patch is simple again (one simple outline;
+    a normal fault's patch not folded)."""
+    ds = datasets.synthetic(0, kind="normal", dip=60.0, n_boreholes=120, n_layers=2)
+    d = derive.derive_faults(v2_of(ds))
+    f = d.faults[0]
+    lay = ds.layers[0]
+    with_l = [tr for tr in f.traces if lay in tr.layers]
+    bad = with_l[len(with_l) // 2]
+    # Swing this section's hanging-wall polyline along strike past its
+    # neighbour's: the patch outline now crosses itself.
+    sec = d.sections[bad.section]
+    along = np.array([sec.direction[1], -sec.direction[0]])
+    hw = bad.layers[lay]["hanging"]
+    t = np.linspace(0.0, 1.0, len(hw))[:, None]
+    hw[:, :2] += t * 700.0 * along[None, :]
+    assert not derive._patch_is_simple(f, lay, np.asarray(d.boundary))
+    warn = []
+    derive._drop_crossing_sections(f, np.asarray(d.boundary), warn)
+    assert lay not in bad.layers
+    assert derive._patch_is_simple(f, lay, np.asarray(d.boundary))
+    assert len(warn) == 1 and "cross itself" in warn[0]

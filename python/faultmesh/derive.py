@@ -377,20 +377,21 @@ def _densify_sticks(P: np.ndarray, sticks: Optional[np.ndarray]) -> np.ndarray:
     if sticks is None or len(P) < 3:
         return P
     step = _median_spacing3(P)
-    extra = []
     labels = np.asarray(sticks)
-    _, first = np.unique(labels, return_index=True)
-    for lab in labels[np.sort(first)]:
-        S = P[labels == lab]
-        if len(S) < 2:
-            continue
-        seg = S[1:] - S[:-1]
-        L = np.linalg.norm(seg, axis=1)
-        n = np.maximum(1, np.ceil(L / step).astype(int))
-        for i in np.flatnonzero(n > 1):
-            t = (np.arange(1, n[i]) / n[i])[:, None]
-            extra.append(S[i] + t * seg[i])
-    return np.vstack([P] + extra) if extra else P
+    # Consecutive points of one stick (in the given order): the segments.
+    order = np.argsort(labels, kind="stable")
+    a, b = order[:-1], order[1:]
+    same = labels[a] == labels[b]
+    a, b = a[same], b[same]
+    seg = P[b] - P[a]
+    n = np.maximum(1, np.ceil(np.linalg.norm(seg, axis=1) / step).astype(int))
+    k = n - 1  # extra points per segment
+    if not k.sum():
+        return P
+    rows = np.repeat(np.arange(len(a)), k)
+    j = np.arange(k.sum()) - np.repeat(np.cumsum(k) - k, k) + 1
+    t = (j / n[rows])[:, None]
+    return np.vstack([P, P[a[rows]] + t * seg[rows]])
 
 
 def _median_spacing3(P: np.ndarray) -> float:
@@ -650,18 +651,11 @@ def _section_trace(fs: FaultSurface, u: float, ring: np.ndarray,
     pts = np.vstack([segs[:1, 0], segs[:, 1]])
     # Keep the polyline strictly descending (drops the rare wiggle of a
     # bumpy surface and the duplicate points of segments meeting at a vertex).
-    keep = np.ones(len(pts), dtype=bool)
-    zmin = pts[0, 2]
-    for i in range(1, len(pts)):  # per section: a few hundred points at most
-        if pts[i, 2] < zmin:
-            zmin = pts[i, 2]
-        else:
-            keep[i] = False
+    z = pts[:, 2]
+    keep = np.r_[True, z[1:] < np.minimum.accumulate(z)[:-1]]
     idx = np.flatnonzero(keep)
     # A kept segment is real if every original segment it spans is.
-    seg_real = np.r_[real]
-    rk = np.array([seg_real[a:b].all() if b > a else seg_real[max(a - 1, 0)]
-                   for a, b in zip(idx[:-1], idx[1:])], dtype=bool)
+    rk = np.logical_and.reduceat(real, idx[:-1]) if len(idx) > 1 else np.zeros(0, dtype=bool)
     pts = pts[idx]
     if len(pts) < 2:
         return None
@@ -707,13 +701,9 @@ def _roots(traces: List[_SectionTrace], surf, side_data_near) -> List[Optional[T
     root = a + t[:, None] * (b - a)
     dist = side_data_near(root[:, :2])
     order = np.lexsort((dist, tid[cand]))
-    seen = set()
-    for i in order:
-        k = int(tid[cand[i]])
-        if k in seen:
-            continue
-        seen.add(k)
-        out[k] = (root[i], bool(real[cand[i]]))
+    first = np.r_[True, tid[cand][order][1:] != tid[cand][order][:-1]]
+    for i in order[first]:  # one per trace
+        out[int(tid[cand[i]])] = (root[i], bool(real[cand[i]]))
     return out
 
 
@@ -1186,9 +1176,11 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
         out_traces.append((ln["u"], trace))
     out_traces.sort(key=lambda t: t[0])
     final_kind = fault.kind if fault.kind is not None else (kind or "normal")
+    # What the builder consumes: the points, surface and hint were used up
+    # (the fault then needs no second derivation).
     new_fault = Fault(fault.name, final_kind, fault.group, np.array(tips).reshape(-1, 2),
-                      [t for _, t in out_traces], fault.points, fault.sticks, fault.surface,
-                      fault.throw)
+                      [t for _, t in out_traces])
+    _drop_crossing_sections(new_fault, ring, warn)
     prof = {lay: {"u": np.array([lines[i]["u"] for i in order]), "throw": throw[lay][order],
                   "cut": cut[lay][order]} for lay in res}
     cl = {lay: {k: np.array(v).reshape(-1, 3) for k, v in d.items()}
@@ -1196,6 +1188,68 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
     rep = FaultDerivation(fault.name, kind, fault.kind, warn, fs, sec_names, prof,
                           np.array(tips).reshape(-1, 2), end_kind, cl)
     return new_fault, new_secs, rep
+
+
+def _patch_problem(fault: Fault, layer: str, ring: np.ndarray) -> Optional[np.ndarray]:
+    """None if the builder's patch of ``layer`` (faults.layer_patch, XY only)
+    is fine for the stitcher: one simple outline and, for a normal fault, no
+    triangle turned over in XY (its patch does not fold; exact orient2d).
+    Otherwise the XY (k, 2) of the patch vertices involved (of the turned
+    triangles, or at the outline's first self-contact; all vertices when the
+    patch cannot be made)."""
+    from . import faults as fm
+    from ._core import check_polygon, orient2d
+    try:
+        p = fm.layer_patch(fault, layer, fm.fault_ends(fault), ring, None)
+    except GeometryError:
+        return np.vstack([np.vstack([tr.layers[layer]["foot"], tr.layers[layer]["hanging"]])[:, :2]
+                          for tr in fault.traces if layer in tr.layers])
+    if p is None or len(p.triangles) == 0:
+        return None
+    V, T = p.vertices, p.triangles
+    if fault.kind == "normal":
+        bad = orient2d(V[T[:, 0], :2], V[T[:, 1], :2], V[T[:, 2], :2]) < 0
+        if bad.any():
+            return V[np.unique(T[bad].ravel()), :2]
+    loops = boundary_loops(T, n_vertices=len(V), strict=False)
+    if len(loops) != 1:
+        return V[np.unique(np.concatenate([np.asarray(l) for l in loops[1:]])), :2]
+    ring_xy = V[np.asarray(loops[0]), :2]
+    ok, _, _, vertex = check_polygon([ring_xy])
+    if ok:
+        return None
+    k = len(ring_xy)
+    return ring_xy[[(vertex - 1) % k, vertex % k, (vertex + 1) % k]] if vertex >= 0 else ring_xy
+
+
+def _patch_is_simple(fault: Fault, layer: str, ring: np.ndarray) -> bool:
+    """True if :func:`_patch_problem` finds none."""
+    return _patch_problem(fault, layer, ring) is None
+
+
+def _drop_crossing_sections(fault: Fault, ring: np.ndarray, warn: List[str]) -> None:
+    """Where a layer's patch would cross itself (:func:`_patch_problem`;
+    cutoffs extrapolated wildly on some section, so that consecutive
+    sections' polylines cross), drop the layer from the section with the
+    most vertices at the problem (ties: the throw farthest from the layer's
+    median), until the patch is fine or the layer has no section left. In
+    place; a warning per drop."""
+    layers = sorted({lay for tr in fault.traces for lay in tr.layers})
+    for lay in layers:
+        while True:
+            where = _patch_problem(fault, lay, ring)
+            if where is None:
+                break
+            with_l = [tr for tr in fault.traces if lay in tr.layers]
+            t = np.array([tr.layers[lay]["foot"][-1, 2] - tr.layers[lay]["hanging"][0, 2]
+                          for tr in with_l])
+            hits = np.array([np.sum((np.vstack([tr.layers[lay]["foot"], tr.layers[lay]["hanging"]])
+                                     [:, None, :2] == where[None, :, :]).all(axis=2))
+                             for tr in with_l])
+            worst = with_l[int(np.lexsort((-np.abs(t - np.median(t)), -hits))[0])]
+            del worst.layers[lay]
+            warn.append(f"fault {fault.name!r}, layer {lay!r}: dropped from section "
+                        f"{worst.section!r}, whose cutoffs made the patch cross itself")
 
 
 def _pull_inside(t: np.ndarray, ring: np.ndarray, fs: FaultSurface) -> np.ndarray:
