@@ -1370,9 +1370,11 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
     dataset's ``derivation`` is a :class:`DeriveReport`.
 
     spacing: section spacing along strike (m; default an eighth of the
-    fault's along-strike extent). min_throw: throw (m) below which an end
-    section counts as past the tip (3 m: the offset below which
-    :mod:`faultmesh.datasets` draws no trace either). reach: an end of the
+    along-strike length of the fault's extent in the study area).
+    min_throw: throw (m) below which an end section counts as past the tip,
+    and which a layer's throw must reach somewhere to count as displaced (3
+    m: the offset below which :mod:`faultmesh.datasets` draws no trace
+    either). reach: an end of the
     fault's points closer than this to the study-area boundary is extended
     to it (default: a fifth of the fault's length). near: a side with no
     datum within this distance of its cutoff has "no data near the fault"
@@ -1394,17 +1396,17 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
     ring = np.asarray(dataset.boundary, dtype=np.float64)
     # Fault surfaces: of the faults to derive, and of their group partners
     # (whose blocks keep the data apart, see _derive_fault).
-    todo = [f for f in dataset.faults if needs_derivation(f)]
+    todo = {id(f) for f in dataset.faults if needs_derivation(f)}
+    todo_groups = {f.group for f in dataset.faults if id(f) in todo and f.group}
     surfs: Dict[str, FaultSurface] = {}
     warns: Dict[str, List[str]] = {}
     for f in dataset.faults:
-        grouped = bool(f.group) and any(g.group == f.group and g is not f for g in dataset.faults)
-        if f in todo or (grouped and any(g.group == f.group for g in todo)):
+        if id(f) in todo or f.group in todo_groups:
             warns[f.name] = []
             surfs[f.name] = fault_surface(f, ring, z_range, reach=opt.reach,
                                           max_z_dip=opt.max_z_dip, warnings=warns[f.name])
     for f in dataset.faults:
-        if f not in todo:
+        if id(f) not in todo:
             faults.append(f)
             continue
         partners = [surfs[g.name] for g in dataset.faults
