@@ -17,6 +17,7 @@ void bind_cutting(py::module_& m);
 void bind_study_area(py::module_& m);
 void bind_layer_tin(py::module_& m);
 void bind_surface_sampling(py::module_& m);
+void bind_fault_side(py::module_& m);
 }  // namespace faultmesh::bindings
 
 PYBIND11_MODULE(_core, m) {
@@ -38,4 +39,5 @@ PYBIND11_MODULE(_core, m) {
     fb::bind_study_area(m);
     fb::bind_layer_tin(m);
     fb::bind_surface_sampling(m);
+    fb::bind_fault_side(m);
 }

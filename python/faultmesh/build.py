@@ -147,6 +147,9 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                 max_repair_rounds: int = 50, spacing: Optional[float] = None,
                 evaluate: bool = True, clearance: Optional[float] = None) -> Model:
     """Build the faulted multi-layer model of ``dataset`` (DESIGN.md steps 2-7).
+    Faults without layer cutoffs (given by points, a surface or plane traces
+    only) get them from :func:`faultmesh.derive.derive_faults` first (its
+    report: ``metadata["derived_faults"]``).
 
     progress: None, True (a tqdm bar per step) or ``callable(step, i, n)``.
     loft_method: "min_area" (Fuchs-Kedem-Uselton) or "shortest_diagonal".
@@ -168,6 +171,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     timings, gap quality and (with a truth) accuracy.
     """
     from . import faults as fm
+    from .derive import derive_faults, needs_derivation
 
     if loft_method not in ("min_area", "shortest_diagonal"):
         raise ValueError(f"build_model: loft_method must be 'min_area' or 'shortest_diagonal', "
@@ -187,6 +191,12 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                                         "stitch_order": stitch_order, "bridge": bridge,
                                         "repair": repair}}
     dataset, meta["input"] = prepare_for_build(dataset)  # data checks + boundary policy (dataset.py)
+    # Faults given by points, a surface or plane traces only: derive their
+    # cutoffs, tips and kind from the layer data (faultmesh.derive).
+    if any(needs_derivation(f) for f in dataset.faults):
+        dataset = derive_faults(dataset)
+    if getattr(dataset, "derivation", None) is not None:
+        meta["derived_faults"] = dataset.derivation.as_dict()
 
     # Steps 2 and 3: stratum TINs, layer-crossing repair.
     t0 = time.perf_counter()

@@ -110,28 +110,86 @@ class Trace:
 
 @dataclass(eq=False)
 class Fault:
-    """A fault: ``kind`` is "normal" or "reverse"; faults sharing a ``group``
+    """A fault: ``kind`` is "normal", "reverse" or None (derived from the data
+    by :func:`faultmesh.derive.derive_faults`); faults sharing a ``group``
     value are modelled together (T- or X-crossings); ``tips`` (t, 2) are the
-    pinch-out points in XY (t may be 0); ``traces`` are ordered along strike."""
+    pinch-out points in XY (t may be 0); ``traces`` are ordered along strike.
+
+    The fault's geometry may also (or instead) be given as ``points`` (m, 3)
+    on the fault surface (e.g. seismic fault picks), optionally grouped into
+    fault sticks by ``sticks`` (m,) (any labels; None: no sticks), or as a
+    triangulated ``surface`` (vertices (n, 3), triangles (t, 3)); traces
+    without ``layers`` contribute their ``plane``. ``throw`` (e.g.
+    ``{"max": 40.0}``, metres) is a hint used only where a side of the fault
+    has no data near it. The cutoffs of such a fault are derived by
+    :func:`faultmesh.derive.derive_faults` (``build_model`` calls it)."""
 
     name: str
-    kind: str
+    kind: Optional[str] = None
     group: Optional[str] = None
     tips: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     traces: List[Trace] = field(default_factory=list)
+    points: Optional[np.ndarray] = None
+    sticks: Optional[np.ndarray] = None
+    surface: Optional[Tuple[np.ndarray, np.ndarray]] = None
+    throw: Optional[Dict[str, float]] = None
 
     def __post_init__(self) -> None:
         self.tips = np.asarray(self.tips, dtype=np.float64).reshape(-1, 2)
-        if self.kind not in ("normal", "reverse"):
-            raise DatasetError(f"fault {self.name!r}: kind must be 'normal' or 'reverse', "
-                               f"got {self.kind!r}")
+        if self.kind not in ("normal", "reverse", None):
+            raise DatasetError(f"fault {self.name!r}: kind must be 'normal', 'reverse' or None "
+                               f"(derive it), got {self.kind!r}")
+        if self.points is not None:
+            pts = np.asarray(self.points, dtype=np.float64)
+            if pts.ndim != 2 or pts.shape[1] != 3:
+                raise DatasetError(f"fault {self.name!r}: points must have shape (m, 3), "
+                                   f"got {pts.shape}")
+            bad = ~np.isfinite(pts).all(axis=1)
+            if bad.any():
+                raise DatasetError(f"fault {self.name!r}: point {int(np.flatnonzero(bad)[0]) + 1} "
+                                   "is not finite")
+            self.points = pts
+            if self.sticks is not None:
+                self.sticks = np.asarray(self.sticks).reshape(-1)
+                if len(self.sticks) != len(pts):
+                    raise DatasetError(f"fault {self.name!r}: sticks has {len(self.sticks)} "
+                                       f"labels for {len(pts)} points")
+        elif self.sticks is not None:
+            raise DatasetError(f"fault {self.name!r}: sticks given without points")
+        if self.surface is not None:
+            try:
+                V, T = self.surface
+            except (TypeError, ValueError):
+                raise DatasetError(f"fault {self.name!r}: surface must be (vertices, "
+                                   "triangles)") from None
+            V = np.asarray(V, dtype=np.float64)
+            T = np.asarray(T)
+            if V.ndim != 2 or V.shape[1] != 3 or not np.isfinite(V).all():
+                raise DatasetError(f"fault {self.name!r}: surface vertices must be finite (n, 3)")
+            if T.ndim != 2 or T.shape[1] != 3 or (T.size and (T.min() < 0 or T.max() >= len(V))):
+                raise DatasetError(f"fault {self.name!r}: surface triangles must be (t, 3) "
+                                   f"indices into its {len(V)} vertices")
+            self.surface = (V, T.astype(np.int64))
+        if self.throw is not None:
+            if not isinstance(self.throw, dict) or set(self.throw) - {"max"}:
+                raise DatasetError(f"fault {self.name!r}: throw must be a dict like "
+                                   f"{{'max': 40.0}}, got {self.throw!r}")
+            m = self.throw.get("max")
+            if m is not None and not (isinstance(m, (int, float)) and np.isfinite(m) and m > 0):
+                raise DatasetError(f"fault {self.name!r}: throw max must be a number > 0, got {m!r}")
 
     def __eq__(self, other) -> bool:
         if not isinstance(other, Fault):
             return NotImplemented
+        def opt(a, b):
+            return (a is None) == (b is None) and (a is None or _arr_eq(a, b))
         return (self.name == other.name and self.kind == other.kind
                 and self.group == other.group and _arr_eq(self.tips, other.tips)
-                and self.traces == other.traces)
+                and self.traces == other.traces and opt(self.points, other.points)
+                and opt(self.sticks, other.sticks) and self.throw == other.throw
+                and (self.surface is None) == (other.surface is None)
+                and (self.surface is None or all(_arr_eq(a, b) for a, b in
+                                                 zip(self.surface, other.surface))))
 
     __hash__ = None  # type: ignore[assignment]
 
@@ -208,7 +266,8 @@ class Boreholes:
 
 @dataclass(eq=False)
 class Dataset:
-    """A dataset in memory (format v1 of DESIGN.md)."""
+    """A dataset in memory (format v1 of DESIGN.md). ``boreholes`` may have no
+    rows when ``points`` carry the layer data."""
 
     name: str
     layers: List[str]
@@ -233,6 +292,9 @@ class Dataset:
     #: Where each layer's extra points come from, for messages: layer ->
     #: (CSV name, 1-based line numbers) or (JSON label, None) for inline points.
     point_sources: Dict[str, Tuple[str, Optional[np.ndarray]]] = field(default_factory=dict)
+    #: The report of :func:`faultmesh.derive.derive_faults` on a dataset it
+    #: returned (None otherwise); not compared.
+    derivation: Optional[Any] = None
 
     def __post_init__(self) -> None:
         self.layers = [str(v) for v in self.layers]
@@ -1038,11 +1100,16 @@ def _fault_policy(f: Fault, sn: _Snapper, adj: List[Adjustment]) -> Optional[Fau
                 record(i, f"{tw} layer {lay!r} {side}")
             layers[lay] = {side: outcome[i][-1] for side, i in sl.items()}
         traces.append(Trace(tr.section, outcome[plane_li][-1], layers))
-    if not traces:
+    # Fault points and surfaces describe the fault's plane, which may reach
+    # beyond the study area to be fitted well there: they are kept as they
+    # are (the derivation clips what it makes, faultmesh.derive).
+    has_geometry = f.points is not None or f.surface is not None
+    if not traces and not has_geometry:
         adj.append(Adjustment("dropped", fw, None, None, None,
                               "no trace left inside the study area"))
         return None
-    return Fault(f.name, f.kind, f.group, new_tips, traces)
+    import dataclasses
+    return dataclasses.replace(f, tips=new_tips, traces=traces)
 
 
 def _piece_points(pc, pts3: np.ndarray, sn: _Snapper) -> np.ndarray:
