@@ -17,7 +17,7 @@ import numpy as np
 
 from ._core import AabbTree, GeometryError, LayerTin, Stitcher, StudyArea, repair_crossings
 from . import report as _report
-from .dataset import prepare_for_build
+from .dataset import DatasetError, prepare_for_build
 from .model import Gap, Model, Surface
 
 __all__ = ["build_model", "continuous_layers", "stratum_tins", "LayerTin", "repair_crossings",
@@ -169,6 +169,20 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     """
     from . import faults as fm
 
+    # A fault given by points or a surface without layer cutoffs, or without
+    # kind (format v2): deriving them is faultmesh.derive's job, which this
+    # version does not have yet. (A fault of plane traces only, as version 1
+    # allows, still gives a fault surface that displaces no layer.)
+    for f in dataset.faults:
+        if not any(tr.layers for tr in f.traces) and (
+                f.points is not None or f.surface is not None or not f.traces):
+            raise DatasetError(f"build_model: fault {f.name!r} has no cutoffs (no trace with "
+                               "footwall and hanging-wall lines of a layer); deriving them from "
+                               "fault points needs faultmesh.derive")
+        if f.kind is None:
+            raise DatasetError(f"build_model: fault {f.name!r} has no kind; deriving it from the "
+                               "data needs faultmesh.derive (give \"kind\": \"normal\" or "
+                               "\"reverse\")")
     if loft_method not in ("min_area", "shortest_diagonal"):
         raise ValueError(f"build_model: loft_method must be 'min_area' or 'shortest_diagonal', "
                          f"got {loft_method!r}")

@@ -20,7 +20,7 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from .dataset import DatasetError, _csv_numbers, _Ctx, _read_csv
+from .dataset import DatasetError, _csv_numbers, _Ctx, _read_csv, _read_regular_file
 
 __all__ = ["FaultPoints", "FaultSurface", "read_fault_points", "read_fault_surface"]
 
@@ -135,8 +135,9 @@ def read_fault_surface(path, *, ctx: Optional[_Ctx] = None,
     from .formats.gocad import read_ts
 
     file = Path(path)
-    if not file.is_file():
-        raise (ctx if ctx is not None else _Ctx(file)).err(label, f"file {str(file)!r} not found")
+    # The file's type first, with the loader's messages (missing, a folder, a
+    # FIFO -- which must not be opened --, a dangling symlink ...).
+    _read_regular_file(file, f"{(ctx if ctx is not None else _Ctx(file)).file}: {label}")
     try:
         model = read_ts(file, atoms="merge")
     except ModelFileError as e:
