@@ -343,6 +343,18 @@ def test_data_file_errors_name_file_row_and_field(v2_dir, file, old, new, where,
     assert where in msg and words in msg, msg
 
 
+def test_regression_surface_error_quotes_no_line_of_the_file(v2_dir):
+    # A surface path naming another file (here a CSV): the GOCAD reader's
+    # message quoted the file's first line ("got 'x,y,z,stick'"); the dataset
+    # messages name the file and line only.
+    js = edit(v2_dir, _set(("faults", 1, "surface"), "f1.csv"))
+    with pytest.raises(DatasetError) as e:
+        load_dataset(js)
+    msg = str(e.value)
+    assert f"{v2_dir / 'f1.csv'}, line 1: expected 'GOCAD <type> 1' to start an object" in msg
+    assert "x,y,z" not in msg, msg
+
+
 @pytest.mark.parametrize("key,value", [("points", "f1.csv"), ("surface", "f2.ts"),
                                        ("throw", {"max": 3.0})])
 def test_v1_refuses_v2_keys_saying_so(v2_dir, key, value):
@@ -685,3 +697,42 @@ def test_fuzz_mutated_v2_json(tmp_path_factory, doc):
     # A dataset that loads survives save + load.
     back = load_dataset(ds.save(tmp_path_factory.mktemp("v2fuzz_out")))
     assert back == ds
+
+
+# ---------------------------------------------------------------------------
+# The documentation's example
+# ---------------------------------------------------------------------------
+def test_the_v2_example_of_the_docs_loads(tmp_path):
+    # The complete v2 example of docs/dataset.md, with data files made here:
+    # flat layers (picks on a grid), two vertical holes, fault picks, sticks
+    # and a surface. Every key of the example must be read as documented.
+    text = (Path(__file__).parents[1] / "docs" / "dataset.md").read_text()
+    block = re.search(r"## Version 2\n.*?```json\n(.*?)```", text, re.S).group(1)
+    doc = json.loads(block)
+    assert doc["faultmesh_dataset"] == 2
+    d = tmp_path / "example"
+    d.mkdir()
+    write(d / "dataset.json", block)
+    grid = [(x, y) for x in (200.0, 2000.0, 3800.0) for y in (200.0, 1500.0, 2800.0)]
+    for k, lay in enumerate(doc["layers"]):
+        write(d / doc["points"][lay], "x,y,z\n" + "".join(f"{x},{y},{-100.0 * k}\n"
+                                                          for x, y in grid))
+    write(d / "collars.csv", "hole_id,x,y,z\nW1,500,500,0\nW2,3500,2500,0\n")
+    write(d / "surveys.csv", "hole_id,depth,azimuth,dip\nW2,0,0,-90\n")
+    write(d / "intervals.csv", "hole_id,from,to,unit\n" + "".join(
+        f"{h},{100 * k},{100 * k + 100},{lay}\n" for h in ("W1", "W2")
+        for k, lay in enumerate(doc["layers"])) + "W1,400,402,fault gouge\n")
+    write(d / "fault_F1.csv", "x,y,z\n2000,0,0\n2050,1500,-300\n2100,3000,-600\n")
+    write(d / "fault_F3_sticks.csv", "x,y,z,stick\n1200,1500,-50,1\n1300,1500,-900,1\n"
+          "1400,2400,-50,2\n1480,2400,-900,2\n")
+    fm.formats.gocad.write_ts(f2_surface(), d / "fault_F2.ts")
+    ds = load_dataset(d)
+    assert ds.layers == doc["layers"] and ds.crs == "EPSG:23031"
+    assert ds.drillholes.other_units == ("unknown", "fault gouge")
+    assert ds.boreholes.hole_id.tolist() == ["W1"] * 4 + ["W2"] * 4
+    f1, f2, f3 = ds.faults
+    assert (f1.kind, f1.throw, f1.traces, f1.sticks) == (None, {"max": 40.0}, [], None)
+    assert f2.kind == "normal" and f2.surface is not None and len(f2.tips) == 1
+    assert f3.group == "F3-F4" and f3.sticks.tolist() == ["1", "1", "2", "2"]
+    assert [list(t.layers) for t in f3.traces] == [["val_250"], []]
+    np.testing.assert_array_equal(f3.traces[0].plane[0], [1210, 1500, -50])

@@ -1,6 +1,6 @@
 """Drillholes: collar, survey and interval tables, desurveying, layer tops.
 
-Dataset format v2 (draft, docs/dataset_v2_drillholes.md) may give the
+Dataset format v2 (docs/dataset.md, "Drillhole tables") may give the
 boreholes as the three tables that drillhole databases export (Leapfrog,
 acQuire, Micromine, GemPy's ``subsurface``):
 
