@@ -293,6 +293,8 @@ JSON_ERRORS = [
     (("boreholes", "collar"), "collars.csv", ["unknown key 'collar'", "did you mean 'collars'",
                                               "boreholes.collar"]),
     (("boreholes", "intervals"), _DEL, ["boreholes", "missing key 'intervals'"]),
+    # Regression (fuzz): a null table crashed with a TypeError.
+    (("boreholes", "collars"), None, ["boreholes.collars", "must be a non-empty string, got None"]),
     (("boreholes", "surveys"), "../surveys.csv", ["boreholes.surveys",
                                                   "leaves the dataset folder"]),
     (("boreholes", "other_units"), "cover", ["boreholes.other_units", "must be a JSON list"]),

@@ -1,8 +1,8 @@
 """Datasets: boreholes, section lines and fault traces (DESIGN.md "Dataset format").
 
 The data classes here are the contract between the loader and the modelling
-workflow (:func:`faultmesh.build_model`). Loading and saving of format v1 is
-added below them.
+workflow (:func:`faultmesh.build_model`). Loading and saving of formats v1
+and v2 (docs/dataset.md) is added below them.
 """
 from __future__ import annotations
 
@@ -114,8 +114,8 @@ class Trace:
 
 @dataclass(eq=False)
 class Fault:
-    """A fault: ``kind`` is "normal", "reverse" or None (derived from the data
-    by :func:`faultmesh.derive.derive_faults`); faults sharing a ``group``
+    """A fault: ``kind`` is "normal", "reverse" or None (to be derived from the
+    data); faults sharing a ``group``
     value are modelled together (T- or X-crossings); ``tips`` (t, 2) are the
     pinch-out points in XY (t may be 0); ``traces`` are ordered along strike.
 
@@ -1765,8 +1765,10 @@ def _load_drillhole_tables(spec: dict, layers: List[str], ctx: _Ctx):
     ctx.obj(spec, "boreholes", "boreholes", _DRILLHOLE_KEYS)
     files = {}
     for key in ("collars", "surveys", "intervals"):
-        v = spec.get(key) if key == "surveys" else ctx.need(spec, key, "boreholes")
-        files[key] = None if v is None else ctx.data_file(v, f"boreholes.{key}")
+        if key == "surveys" and spec.get(key) is None:
+            files[key] = None                    # every hole vertical
+        else:
+            files[key] = ctx.data_file(ctx.need(spec, key, "boreholes"), f"boreholes.{key}")
     other = ctx.lst(spec.get("other_units", []), "boreholes.other_units")
     other = [ctx.string(u, f"boreholes.other_units[{i}]") for i, u in enumerate(other)]
     both = [u for u in other if u in layers]
@@ -1816,11 +1818,18 @@ def load_dataset(path, *, snap: Optional[float] = None,
     """Load and validate a dataset of format version 1 or 2 (docs/dataset.md).
 
     ``path`` is the JSON file or a folder holding ``dataset.json`` (or a
-    single ``*.json``); CSV paths in it are relative to the JSON, and must
-    stay inside its folder unless ``allow_outside_paths``. Section-local
+    single ``*.json``); data file paths in it are relative to the JSON, and
+    must stay inside its folder unless ``allow_outside_paths``. Section-local
     ``[s, z]`` trace points become XYZ through the trace's section. The
-    boundary defaults to the boreholes' bounding box and is returned
+    boundary defaults to the boreholes' bounding box (version 2 without
+    borehole rows: the layers' points' bounding box) and is returned
     counter-clockwise.
+
+    Version 2: drillhole tables are read, checked and desurveyed
+    (:mod:`faultmesh.drillholes`; the tops become ``boreholes``, marked
+    ``desurveyed``, and the tables are kept in ``Dataset.drillholes``); fault
+    points and surfaces are read by :mod:`faultmesh.fault_inputs` into
+    ``Fault.points``/``sticks``/``surface``; ``kind`` may be None.
 
     The data are checked (:func:`check_hole_positions`,
     :func:`check_layer_order`) and the input tolerance policy is applied
