@@ -316,7 +316,7 @@ def test_error_unknown_section(small_copy):
     expect_error(small_copy, "fault 'F1' trace 2", "unknown section 'L9'", "['L1', 'L2']")
 
 
-@pytest.mark.parametrize("version", [2, 0, "1", True, None])
+@pytest.mark.parametrize("version", [3, 0, "1", True, None, 2.0])
 def test_error_wrong_version(small_copy, version):
     edit_json(small_copy, lambda d: d.update({"faultmesh_dataset": version}))
     expect_error(small_copy, "dataset.json", "faultmesh_dataset", "unsupported format version")

@@ -29,7 +29,7 @@ examples:
                                              .obj .ply .omf .epc .geoh5)
   faultmesh plot out/site.3dt --png model.png
 
-Datasets: a format-v1 JSON file (docs/dataset.md) or a built-in name
+Datasets: a JSON file of format v1 or v2 (docs/dataset.md) or a built-in name
 (paper_like, synthetic). Models: .3dt (faultmesh's own, keeps everything),
 .ts, .ml, .vtu, .vtp, .vtk, .obj, .ply, .omf, .epc (RESQML), .geoh5, read also
 .pl and .stl, or a folder written by 'build' (docs/formats.md).

@@ -1,8 +1,8 @@
 """Datasets: boreholes, section lines and fault traces (DESIGN.md "Dataset format").
 
 The data classes here are the contract between the loader and the modelling
-workflow (:func:`faultmesh.build_model`). Loading and saving of format v1 is
-added below them.
+workflow (:func:`faultmesh.build_model`). Loading and saving of formats v1
+and v2 (docs/dataset.md) is added below them.
 """
 from __future__ import annotations
 
@@ -12,7 +12,11 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+#: The format version :meth:`Dataset.save` writes by default (when the
+#: dataset holds nothing that needs version 2).
 FORMAT_VERSION = 1
+#: The format versions :func:`load_dataset` reads (docs/dataset.md).
+FORMAT_VERSIONS = (1, 2)
 
 
 class DatasetError(ValueError):
@@ -198,7 +202,13 @@ class Fault:
 class Boreholes:
     """Borehole layer tops, one row per hit: ``hole_id`` (n,) str, ``xy`` (n, 2),
     ``layer`` (n,) str, ``z`` (n,) elevation of the top of ``layer``. A
-    (hole_id, layer) pair may repeat (reverse-fault repetition)."""
+    (hole_id, layer) pair may repeat (reverse-fault repetition).
+
+    ``desurveyed``: the rows are layer tops desurveyed along the holes of
+    collar/survey/interval tables (:mod:`faultmesh.drillholes`), so the rows
+    of one deviated hole have their own XY; False for a plain
+    ``hole_id,x,y,layer,z`` table, whose rows of one hole must share one XY
+    (:func:`check_hole_positions`)."""
 
     hole_id: np.ndarray
     xy: np.ndarray
@@ -208,6 +218,7 @@ class Boreholes:
     #: 1-based line number in it (header = 1). None for data made in memory.
     source: Optional[str] = None
     rows: Optional[np.ndarray] = None
+    desurveyed: bool = False
 
     def __post_init__(self) -> None:
         self.hole_id = np.asarray(self.hole_id, dtype=str).reshape(-1)
@@ -246,12 +257,15 @@ class Boreholes:
     def subset(self, keep: np.ndarray) -> "Boreholes":
         """The rows where ``keep`` (bool (n,)) is True, with their source rows."""
         return Boreholes(self.hole_id[keep], self.xy[keep], self.layer[keep], self.z[keep],
-                         self.source, None if self.rows is None else self.rows[keep])
+                         self.source, None if self.rows is None else self.rows[keep],
+                         self.desurveyed)
 
     def __len__(self) -> int:
         return int(len(self.hole_id))
 
     def __eq__(self, other) -> bool:
+        """Equal rows (``source``, ``rows`` and ``desurveyed``, where the rows
+        come from, are not compared)."""
         if not isinstance(other, Boreholes):
             return NotImplemented
         return (_arr_eq(self.hole_id, other.hole_id) and _arr_eq(self.xy, other.xy)
@@ -266,8 +280,8 @@ class Boreholes:
 
 @dataclass(eq=False)
 class Dataset:
-    """A dataset in memory (format v1 of DESIGN.md). ``boreholes`` may have no
-    rows when ``points`` carry the layer data."""
+    """A dataset in memory (formats v1 and v2, docs/dataset.md). ``boreholes``
+    may have no rows when ``points`` carry the layer data."""
 
     name: str
     layers: List[str]
@@ -295,6 +309,11 @@ class Dataset:
     #: The report of :func:`faultmesh.derive.derive_faults` on a dataset it
     #: returned (None otherwise); not compared.
     derivation: Optional[Any] = None
+    #: The collar/survey/interval tables the boreholes were desurveyed from
+    #: (:class:`faultmesh.drillholes.DrillholeTables`, format v2), None for a
+    #: plain ``hole_id,x,y,layer,z`` table or data made in memory. Kept so that
+    #: :meth:`save` writes the tables back; not compared (the tops are).
+    drillholes: Optional[Any] = None
 
     def __post_init__(self) -> None:
         self.layers = [str(v) for v in self.layers]
@@ -313,8 +332,10 @@ class Dataset:
 
     def __eq__(self, other) -> bool:
         """Equal data (name, crs, layers, boundary, boreholes, points, sections,
-        faults); ``path``, ``truth``, ``geology``, ``snap_distance``,
-        ``adjustments`` and ``point_sources`` are not compared."""
+        faults, with their points, sticks, surface and throw); ``path``,
+        ``truth``, ``geology``, ``snap_distance``, ``adjustments``,
+        ``point_sources`` and ``drillholes`` (the source tables: the tops
+        desurveyed from them are compared) are not compared."""
         if not isinstance(other, Dataset):
             return NotImplemented
         return (self.name == other.name and self.crs == other.crs
@@ -349,9 +370,19 @@ class Dataset:
                         for a, b in zip(self.sections.values(), other.sections.values()))
                 and len(self.faults) == len(other.faults)):
             return False
+        def opt_close(a, b):
+            return (a is None) == (b is None) and (a is None or close(a, b))
+
         for f, g in zip(self.faults, other.faults):
             if (f.name, f.kind, f.group) != (g.name, g.kind, g.group) or not close(f.tips, g.tips) \
                     or len(f.traces) != len(g.traces):
+                return False
+            if not (opt_close(f.points, g.points) and f.throw == g.throw
+                    and ((f.sticks is None) == (g.sticks is None))
+                    and (f.sticks is None or _arr_eq(f.sticks, g.sticks))
+                    and (f.surface is None) == (g.surface is None)
+                    and (f.surface is None or (close(f.surface[0], g.surface[0])
+                                               and _arr_eq(f.surface[1], g.surface[1])))):
                 return False
             for s, t in zip(f.traces, g.traces):
                 if s.section != t.section or not close(s.plane, t.plane) \
@@ -423,20 +454,33 @@ class Dataset:
         raise KeyError(f"dataset {self.name!r}: no fault {name!r}; faults are "
                        f"{[f.name for f in self.faults]}")
 
-    def save(self, path, *, section_coords: bool = False) -> Path:
-        """Write format v1 and return the JSON path.
+    def save(self, path, *, section_coords: bool = False, version: Optional[int] = None) -> Path:
+        """Write the dataset and return the JSON path.
 
-        ``path`` ending in ``.json`` names the JSON file, CSVs are written
-        beside it as ``<stem>_boreholes.csv`` and ``<stem>_points_<layer>.csv``;
-        any other ``path`` is a directory (created if needed) that receives
-        ``dataset.json``, ``boreholes.csv`` and ``points_<layer>.csv``.
+        ``version``: the format version, 1 or 2; None (default) writes
+        version 1 unless the dataset needs version 2 (a fault without kind or
+        traces, or with points, a surface or a throw; boreholes from
+        drillhole tables). ``version=1`` for a dataset that needs 2 is a
+        :class:`DatasetError` saying why. Version 2 writes fault points as
+        ``fault_<name>_points.csv`` and fault surfaces as
+        ``fault_<name>_surface.ts`` (GOCAD TSurf), and boreholes loaded from
+        drillhole tables as those tables (``collars.csv``, ``surveys.csv``,
+        ``intervals.csv``) as long as they still give the boreholes (else,
+        and for ``version=1``, the tops as a ``hole_id,x,y,layer,z`` table,
+        which fails for the tops of deviated holes: a table row's hole has
+        one XY); a dataset without borehole rows gets no ``boreholes`` key.
+
+        ``path`` ending in ``.json`` names the JSON file, data files are
+        written beside it as ``<stem>_boreholes.csv``, ``<stem>_points_<layer>.csv``
+        and so on; any other ``path`` is a directory (created if needed) that
+        receives ``dataset.json``, ``boreholes.csv``, ``points_<layer>.csv`` ...
         ``section_coords=True`` writes trace points as section-local ``[s, z]``
         where a trace names a section and its points lie on that section's line
         (within 1 mm), as interpreted section views are usually digitised.
         Atomic: every file goes to a temporary name first; the files are renamed
         into place only when all were written, the JSON last, so an error
         leaves no half-written dataset (and the previous files untouched)."""
-        return save_dataset(self, path, section_coords=section_coords)
+        return save_dataset(self, path, section_coords=section_coords, version=version)
 
 
 
@@ -601,8 +645,11 @@ class Adjustment:
     ``what``: ``"snapped"`` (moved onto the boundary), ``"clipped"`` (a
     polyline cut where it leaves the study area: ``after`` is the new end on
     the boundary, ``before`` the vertex beyond it), ``"dropped"`` (removed:
-    beyond the boundary, or a part left without the data it needs) or
-    ``"warning"`` (nothing changed; ``note`` says what looks wrong).
+    beyond the boundary, or a part left without the data it needs),
+    ``"kept"`` (data beyond the boundary deliberately left as they are: a
+    fault's points or surface vertices; ``before`` = ``after`` = the farthest
+    one, ``distance`` its distance from the boundary) or ``"warning"``
+    (nothing changed; ``note`` says what looks wrong).
     ``item``: a readable name, e.g. ``fault 'F0' trace 1 layer 'L0' foot point 3``
     or ``boreholes.csv row 17 (hole 'BH3', layer 'L0')``. ``before``/``after``:
     XY, or None. ``distance``: for ``snapped`` the length of the move, for
@@ -636,10 +683,10 @@ def _fmt_len(d: float) -> str:
 
 
 def adjustment_counts(adjustments: Sequence[Adjustment]) -> Dict[str, Dict[str, Any]]:
-    """Per kind (snapped, clipped, dropped, warning): ``count`` and the largest
-    ``distance`` (None when no record of the kind has one)."""
+    """Per kind (snapped, clipped, dropped, kept, warning): ``count`` and the
+    largest ``distance`` (None when no record of the kind has one)."""
     out: Dict[str, Dict[str, Any]] = {}
-    for what in ("snapped", "clipped", "dropped", "warning"):
+    for what in ("snapped", "clipped", "dropped", "kept", "warning"):
         sel = [a for a in adjustments if a.what == what]
         ds = [a.distance for a in sel if a.distance is not None]
         out[what] = {"count": len(sel), "largest_distance": max(ds) if ds else None}
@@ -662,6 +709,10 @@ def summarize_adjustments(adjustments: Sequence[Adjustment],
         d = c["dropped"]["largest_distance"]
         far = f" (farthest {_fmt_len(d)} beyond the boundary)" if d is not None else ""
         parts.append(f"{c['dropped']['count']} item(s) dropped{far}")
+    if c["kept"]["count"]:
+        parts.append(f"fault data beyond the boundary kept for the fault surface fit "
+                     f"({c['kept']['count']} fault source(s), farthest point "
+                     f"{_fmt_len(c['kept']['largest_distance'])} beyond it)")
     snap_txt = f" (snap distance {_fmt_len(snap)})" if snap is not None else ""
     if not parts:
         text = f"input: all data lie inside the study area{snap_txt}; nothing was snapped, " \
@@ -899,7 +950,14 @@ def apply_boundary_policy(ds: Dataset, snap: Optional[float] = None) -> Dataset:
       the layer is dropped from the trace (its cutoff, the datum the model
       needs, is not in the area). A fault-plane trace keeps its longest inside
       part; a trace whose plane trace lies wholly outside is dropped with its
-      layers, and a fault left with no trace is dropped.
+      layers, and a fault left with no trace (and no fault points or surface)
+      is dropped.
+    * Fault points and fault-surface vertices (format v2) are never moved or
+      dropped: the fault surface is fitted to all of them, and data a little
+      beyond the boundary still tell where the fault runs inside it; the
+      model built from them is cut at the boundary anyway. A fault with some
+      beyond the boundary gets one ``kept`` record per source (points,
+      surface).
     * Every change is appended to ``adjustments`` of the result.
 
     ``snap``: the snap distance (m); None = ``ds.snap_distance`` if set, else
@@ -927,7 +985,8 @@ def apply_boundary_policy(ds: Dataset, snap: Optional[float] = None) -> Dataset:
     for i in np.flatnonzero(~inside):
         adj.append(Adjustment("dropped", b.row_label(int(i)), _xy(b.xy[i]), None, float(dist[i]),
                               "beyond the study-area boundary"))
-    boreholes = Boreholes(b.hole_id, new_xy, b.layer, b.z, b.source, b.rows).subset(inside) \
+    boreholes = Boreholes(b.hole_id, new_xy, b.layer, b.z, b.source, b.rows,
+                          b.desurveyed).subset(inside) \
         if (moved.any() or not inside.all()) else b
 
     # Extra points.
@@ -950,6 +1009,9 @@ def apply_boundary_policy(ds: Dataset, snap: Optional[float] = None) -> Dataset:
 
     faults = [_fault_policy(f, sn, adj) for f in ds.faults]
     faults = [f for f in faults if f is not None]
+    # A "kept" record notes data left as they are; applied again, the policy
+    # finds the same data and must not note them twice (idempotence).
+    adj = [a for a in adj if not (a.what == "kept" and a in ds.adjustments)]
 
     from dataclasses import replace
     return replace(ds, boreholes=boreholes, points=points, faults=faults,
@@ -966,9 +1028,38 @@ def _check_snap(snap, what: str) -> float:
     return snap
 
 
+def _kept_beyond(label: str, noun: Tuple[str, str], P: np.ndarray, sn: _Snapper,
+                 adj: List[Adjustment]) -> None:
+    """One ``kept`` record when some of the points P (m, 3) of a fault's data
+    (fault points, surface vertices) lie beyond the boundary; they are used as
+    they are (see apply_boundary_policy)."""
+    P = np.asarray(P, dtype=np.float64).reshape(-1, 3)
+    if not len(P):
+        return
+    _, _, dist, inside = sn.classify(P[:, :2])
+    out = np.flatnonzero(~inside)
+    if not out.size:
+        return
+    far = int(out[np.argmax(dist[out])])
+    first = ", ".join(str(int(i) + 1) for i in out[:5]) + (", ..." if out.size > 5 else "")
+    adj.append(Adjustment(
+        "kept", label, _xy(P[far]), _xy(P[far]), float(dist[far]),
+        f"{out.size} of {len(P)} {noun[1]} lie beyond the study-area boundary ({noun[1]} "
+        f"{first}; the farthest is {noun[0]} {far + 1}); kept as they are: the fault's surface "
+        "is fitted to all of its data, and only the model built from it is cut at the "
+        "boundary"))
+
+
 def _fault_policy(f: Fault, sn: _Snapper, adj: List[Adjustment]) -> Optional[Fault]:
     """The policy on one fault (see apply_boundary_policy); None = dropped."""
     fw = f"fault {f.name!r}"
+    # Fault points and surface vertices are never moved or dropped (the fault
+    # surface is fitted to all of them); those beyond the boundary are noted.
+    if f.points is not None:
+        _kept_beyond(f"{fw} points", ("point", "points"), f.points, sn, adj)
+    if f.surface is not None:
+        _kept_beyond(f"{fw} surface", ("vertex", "vertices"), f.surface[0], sn, adj)
+    has_data = f.points is not None or f.surface is not None
     # Every XY point of the fault at once: tips, then each polyline's vertices.
     lines: List[Tuple[int, Optional[str], str, np.ndarray]] = []   # (trace, layer, side, pts)
     for j, tr in enumerate(f.traces):
@@ -1100,16 +1191,12 @@ def _fault_policy(f: Fault, sn: _Snapper, adj: List[Adjustment]) -> Optional[Fau
                 record(i, f"{tw} layer {lay!r} {side}")
             layers[lay] = {side: outcome[i][-1] for side, i in sl.items()}
         traces.append(Trace(tr.section, outcome[plane_li][-1], layers))
-    # Fault points and surfaces describe the fault's plane, which may reach
-    # beyond the study area to be fitted well there: they are kept as they
-    # are (the derivation clips what it makes, faultmesh.derive).
-    has_geometry = f.points is not None or f.surface is not None
-    if not traces and not has_geometry:
+    if not traces and not has_data:
         adj.append(Adjustment("dropped", fw, None, None, None,
                               "no trace left inside the study area"))
         return None
-    import dataclasses
-    return dataclasses.replace(f, tips=new_tips, traces=traces)
+    from dataclasses import replace
+    return replace(f, tips=new_tips, traces=traces)
 
 
 def _piece_points(pc, pts3: np.ndarray, sn: _Snapper) -> np.ndarray:
@@ -1149,9 +1236,14 @@ def check_hole_positions(ds: Dataset, tol: Optional[float] = None) -> None:
     the dataset's snap distance, the rounding the policy accepts on any point).
     Two holes that share an id at different places are a :class:`DatasetError`
     naming both rows (a repeated id is usually a copy-paste slip, and which of
-    the two the model would use is arbitrary)."""
+    the two the model would use is arbitrary).
+
+    Only for a plain ``hole_id,x,y,layer,z`` table: tops desurveyed from
+    drillhole tables (``Boreholes.desurveyed``) lie along deviated holes,
+    each at its own XY, and a hole's identity comes from its collar row
+    (a repeated collar is an error of :mod:`faultmesh.drillholes`)."""
     b = ds.boreholes
-    if len(b) < 2:
+    if len(b) < 2 or b.desurveyed:
         return
     if tol is None:
         tol = ds.snap_distance if ds.snap_distance is not None else \
@@ -1284,6 +1376,12 @@ _TOP_KEYS = {"faultmesh_dataset", "name", "crs", "layers", "boundary", "borehole
              "points", "sections", "faults", "snap_distance"} | _NOTES
 _SECTION_KEYS = {"name", "origin", "azimuth"} | _NOTES
 _FAULT_KEYS = {"name", "kind", "group", "tips", "traces"} | _NOTES
+#: Keys of a fault that only format version 2 knows.
+_FAULT_KEYS_V2_ONLY = {"points", "surface", "throw"}
+_FAULT_KEYS_V2 = _FAULT_KEYS | _FAULT_KEYS_V2_ONLY
+#: ``"boreholes": {...}`` in version 2: drillhole tables.
+_DRILLHOLE_KEYS = {"collars", "surveys", "intervals", "other_units"} | _NOTES
+_THROW_KEYS = {"max"}
 _TRACE_KEYS = {"section", "plane", "layers"} | _NOTES
 _SIDE_KEYS = {"foot", "hanging"}
 
@@ -1440,8 +1538,8 @@ class _Ctx:
         return out
 
     def data_file(self, v, label: str) -> Tuple[Path, str]:
-        """The path of a CSV named in the JSON (relative to the JSON's folder)
-        and the name to use in messages. A path leaving the dataset folder
+        """The path of a data file (CSV, TSurf) named in the JSON (relative to
+        the JSON's folder) and the name to use in messages. A path leaving the dataset folder
         (absolute, ``..``, or a symlink resolving outside) is an error unless
         outside paths are allowed."""
         rel = self.string(v, label)
@@ -1452,8 +1550,8 @@ class _Ctx:
             how = "allow it with load_dataset(..., allow_outside_paths=True) or " \
                   "--allow-outside-paths"
             if Path(rel).is_absolute():
-                raise self.err(label, f"{_short(rel, 120)} is an absolute path; CSV paths must "
-                               f"be relative to the dataset folder ({how})")
+                raise self.err(label, f"{_short(rel, 120)} is an absolute path; data file paths "
+                               f"must be relative to the dataset folder ({how})")
             try:
                 base = self.base.resolve()
                 target = file.resolve()
@@ -1667,16 +1765,81 @@ def _find_json(d: Path) -> Path:
                        "and no dataset.json; pass the file")
 
 
+def _load_drillhole_tables(spec: dict, layers: List[str], ctx: _Ctx):
+    """Version 2 ``"boreholes": {"collars": F, "surveys": F, "intervals": F,
+    "other_units": [...]}``: the tables read, checked and desurveyed
+    (:mod:`faultmesh.drillholes`). Returns (the layer tops as Boreholes, the
+    :class:`~faultmesh.drillholes.DrillholeTables` kept on the Dataset)."""
+    from .drillholes import DrillholeTables, read_drillholes
+
+    ctx.obj(spec, "boreholes", "boreholes", _DRILLHOLE_KEYS)
+    files = {}
+    for key in ("collars", "surveys", "intervals"):
+        if key == "surveys" and spec.get(key) is None:
+            files[key] = None                    # every hole vertical
+        else:
+            files[key] = ctx.data_file(ctx.need(spec, key, "boreholes"), f"boreholes.{key}")
+    other = ctx.lst(spec.get("other_units", []), "boreholes.other_units")
+    other = [ctx.string(u, f"boreholes.other_units[{i}]") for i, u in enumerate(other)]
+    both = [u for u in other if u in layers]
+    if both:
+        raise ctx.err("boreholes.other_units", f"{_short(both[0])} is also a layer; a unit of "
+                      "the intervals is either a layer or not")
+    holes = read_drillholes(files["collars"][0],
+                            None if files["surveys"] is None else files["surveys"][0],
+                            files["intervals"][0], ctx=ctx,
+                            labels=("boreholes.collars", "boreholes.surveys",
+                                    "boreholes.intervals"))
+    tables = DrillholeTables(holes, tuple(other))
+    tops = tables.tops(layers)
+    tops.source = files["intervals"][1]      # messages name the table as the JSON does
+    return tops, tables
+
+
+def _load_fault_data(fd: dict, w: str, jf: str, ctx: _Ctx):
+    """Version 2 fault keys ``points``, ``surface`` and ``throw``: (points
+    (m, 3) or None, sticks (m,) or None, (vertices, triangles) or None, throw
+    dict or None)."""
+    from .fault_inputs import read_fault_points, read_fault_surface
+
+    points = sticks = surface = throw = None
+    if fd.get("points") is not None:
+        f, _ = ctx.data_file(fd["points"], f"{w} points")
+        points, sticks = read_fault_points(f, ctx=ctx, label=f"{w} points")
+    if fd.get("surface") is not None:
+        f, rel = ctx.data_file(fd["surface"], f"{w} surface")
+        V, T = read_fault_surface(f, ctx=ctx, label=f"{w} surface")
+        big = ~np.all(np.abs(V) <= COORD_MAX, axis=1)
+        if big.any():
+            raise ctx.err(f"{w} surface", f"{_short(rel, 120)}: vertex {int(np.flatnonzero(big)[0]) + 1}"
+                          f" is beyond the coordinate range (|value| <= {COORD_MAX:g})")
+        surface = (V, T)
+    if fd.get("throw") is not None:
+        td = ctx.obj(fd["throw"], f"{w} throw", f"{jf}.throw", _THROW_KEYS)
+        m = ctx.num(ctx.need(td, "max", f"{w} throw"), f"{w} throw max")
+        if not m > 0:
+            raise ctx.err(f"{w} throw max", f"must be a throw > 0 (metres), got {_short(m)}")
+        throw = {"max": m}
+    return points, sticks, surface, throw
+
+
 def load_dataset(path, *, snap: Optional[float] = None,
                  allow_outside_paths: bool = False) -> Dataset:
-    """Load and validate a format-v1 dataset (docs/dataset.md).
+    """Load and validate a dataset of format version 1 or 2 (docs/dataset.md).
 
     ``path`` is the JSON file or a folder holding ``dataset.json`` (or a
-    single ``*.json``); CSV paths in it are relative to the JSON, and must
-    stay inside its folder unless ``allow_outside_paths``. Section-local
+    single ``*.json``); data file paths in it are relative to the JSON, and
+    must stay inside its folder unless ``allow_outside_paths``. Section-local
     ``[s, z]`` trace points become XYZ through the trace's section. The
-    boundary defaults to the boreholes' bounding box and is returned
+    boundary defaults to the boreholes' bounding box (version 2 without
+    borehole rows: the layers' points' bounding box) and is returned
     counter-clockwise.
+
+    Version 2: drillhole tables are read, checked and desurveyed
+    (:mod:`faultmesh.drillholes`; the tops become ``boreholes``, marked
+    ``desurveyed``, and the tables are kept in ``Dataset.drillholes``); fault
+    points and surfaces are read by :mod:`faultmesh.fault_inputs` into
+    ``Fault.points``/``sticks``/``surface``; ``kind`` may be None.
 
     The data are checked (:func:`check_hole_positions`,
     :func:`check_layer_order`) and the input tolerance policy is applied
@@ -1715,12 +1878,12 @@ def load_dataset(path, *, snap: Optional[float] = None,
     if not isinstance(doc, dict):
         raise ctx.err("", f"the top level must be a JSON object, got {_json_type(doc)}")
     if "faultmesh_dataset" not in doc:
-        raise ctx.err("", "missing key 'faultmesh_dataset' (the format version, 1); "
+        raise ctx.err("", "missing key 'faultmesh_dataset' (the format version, 1 or 2); "
                       "is this a faultmesh dataset?")
     version = doc["faultmesh_dataset"]
-    if isinstance(version, bool) or version != FORMAT_VERSION:
+    if isinstance(version, bool) or not isinstance(version, int) or version not in FORMAT_VERSIONS:
         raise ctx.err("faultmesh_dataset", f"unsupported format version {_short(version)}; "
-                      f"this faultmesh reads version {FORMAT_VERSION}")
+                      f"this faultmesh reads versions {', '.join(map(str, FORMAT_VERSIONS))}")
     ctx.obj(doc, "", "", _TOP_KEYS)
     name = ctx.string(doc["name"], "name") if "name" in doc else p.stem
     crs = doc.get("crs", "")
@@ -1744,9 +1907,24 @@ def load_dataset(path, *, snap: Optional[float] = None,
     if dup:
         raise ctx.err("layers", f"repeated layer name(s) {[d[:_QUOTE_MAX] for d in dup]}")
 
-    # Boreholes.
-    bfile, bname = ctx.data_file(ctx.need(doc, "boreholes", ""), "boreholes")
-    boreholes = _load_boreholes(bfile, bname, layers, ctx)
+    # Boreholes: a hole_id,x,y,layer,z table; in version 2 also drillhole
+    # tables, or none at all (the layer data come from `points`).
+    drillholes = None
+    if version == 1:
+        bspec = ctx.need(doc, "boreholes", "")
+        if isinstance(bspec, dict):
+            raise ctx.err("boreholes", "drillhole tables (collars, surveys, intervals) need "
+                          'format version 2 ("faultmesh_dataset": 2)')
+    else:
+        bspec = doc.get("boreholes")
+    if bspec is None and version == 2:
+        boreholes = Boreholes(np.zeros(0, dtype=str), np.zeros((0, 2)), np.zeros(0, dtype=str),
+                              np.zeros(0))
+    elif isinstance(bspec, dict):
+        boreholes, drillholes = _load_drillhole_tables(bspec, layers, ctx)
+    else:
+        bfile, bname = ctx.data_file(bspec, "boreholes")
+        boreholes = _load_boreholes(bfile, bname, layers, ctx)
 
     # Extra points.
     points: Dict[str, np.ndarray] = {}
@@ -1793,14 +1971,22 @@ def load_dataset(path, *, snap: Optional[float] = None,
         if why:
             raise ctx.err("boundary", why)
     else:
-        if len(boreholes.z) == 0:
-            raise ctx.err("boundary", "not given, and there are no borehole rows to take the "
-                          "default (the boreholes' bounding box) from")
-        lo = boreholes.xy.min(axis=0)
-        hi = boreholes.xy.max(axis=0)
+        # Default: the boreholes' bounding box; in version 2 without borehole
+        # rows, the bounding box of the layers' points.
+        what = "the boreholes' bounding box"
+        xy = boreholes.xy
+        if len(xy) == 0 and version == 2:
+            what = "the bounding box of the layers' points (there are no borehole rows)"
+            xy = np.vstack([np.zeros((0, 2))] + [a[:, :2] for a in points.values()])
+        if len(xy) == 0:
+            raise ctx.err("boundary", "not given, and there are no borehole rows "
+                          + ("or points " if version == 2 else "")
+                          + "to take the default (the boreholes' bounding box) from")
+        lo = xy.min(axis=0)
+        hi = xy.max(axis=0)
         if not np.all(hi > lo):
-            raise ctx.err("boundary", "not given, and the boreholes' bounding box (the default) "
-                          "has zero width or height")
+            raise ctx.err("boundary", f"not given, and {what} (the default) has zero width or "
+                          "height")
         ring = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
     if _ring_orientation(ring) < 0:
         ring = ring[::-1].copy()
@@ -1811,22 +1997,40 @@ def load_dataset(path, *, snap: Optional[float] = None,
     for i, fd in enumerate(ctx.lst(doc.get("faults", []), "faults")):
         w = f"faults[{i}]"
         jf = f"faults[{i}]"
-        ctx.obj(fd, w, jf, _FAULT_KEYS)
+        if version == 1 and isinstance(fd, dict):
+            v2only = sorted(k for k in fd if k in _FAULT_KEYS_V2_ONLY)
+            if v2only:
+                raise ctx.err(w, f"key {v2only[0]!r} (JSON path {jf}.{v2only[0]}) needs format "
+                              'version 2 ("faultmesh_dataset": 2)')
+        ctx.obj(fd, w, jf, _FAULT_KEYS if version == 1 else _FAULT_KEYS_V2)
         fname = ctx.string(ctx.need(fd, "name", w), w + " name")
         w = f"fault {_short(fname)}"
         if fname in seen:
             raise ctx.err(w, "repeated fault name")
         seen.add(fname)
-        kind = ctx.need(fd, "kind", w)
-        if kind not in ("normal", "reverse"):
-            raise ctx.err(w + " kind", f"must be 'normal' or 'reverse', got {_short(kind)}")
+        # Version 2: kind may be left out (or null): derived from the data.
+        kind = ctx.need(fd, "kind", w) if version == 1 else fd.get("kind")
+        if kind is not None or version == 1:
+            if kind not in ("normal", "reverse"):
+                raise ctx.err(w + " kind", f"must be 'normal' or 'reverse'"
+                              + (" (or left out: derived from the data)" if version == 2 else "")
+                              + f", got {_short(kind)}")
         group = fd.get("group")
         if group is not None:
             group = ctx.string(group, w + " group")
         tips = ctx.xy_list(fd.get("tips", []), w + " tips")
-        tds = ctx.lst(ctx.need(fd, "traces", w), w + " traces")
-        if not tds:
-            raise ctx.err(w + " traces", "needs at least one trace")
+        fpoints = fsticks = fsurface = throw = None
+        if version == 2:
+            fpoints, fsticks, fsurface, throw = _load_fault_data(fd, w, jf, ctx)
+        if version == 1:
+            tds = ctx.lst(ctx.need(fd, "traces", w), w + " traces")
+            if not tds:
+                raise ctx.err(w + " traces", "needs at least one trace")
+        else:
+            tds = ctx.lst(fd.get("traces", []), w + " traces")
+            if not tds and fpoints is None and fsurface is None:
+                raise ctx.err(w, "needs its geometry: 'traces' (at least one), 'points' (a CSV "
+                              "of points on the fault) or 'surface' (a GOCAD TSurf)")
         traces: List[Trace] = []
         for j, td in enumerate(tds):
             tw = f"{w} trace {j + 1}"
@@ -1853,11 +2057,12 @@ def load_dataset(path, *, snap: Optional[float] = None,
                 tl[lay] = {side: ctx.polyline(ctx.need(sides, side, lw), f"{lw} {side}", sec)
                            for side in ("foot", "hanging")}
             traces.append(Trace(sname, plane, tl))
-        faults.append(Fault(fname, kind, group, tips, traces))
+        faults.append(Fault(fname, kind, group, tips, traces, points=fpoints, sticks=fsticks,
+                            surface=fsurface, throw=throw))
 
     ds = Dataset(name=name, layers=layers, boundary=ring, boreholes=boreholes, points=points,
                  sections=sections, faults=faults, crs=crs, path=p, snap_distance=snap_key,
-                 point_sources=sources)
+                 point_sources=sources, drillholes=drillholes)
     # The data checks first (on every row, inside the area or not), then the
     # tolerance policy; messages of the checks name the CSV and its rows.
     try:
@@ -1897,59 +2102,177 @@ def _trace_points(arr: np.ndarray, sec: Optional[Section], section_coords: bool)
     return [[float(a), float(b), float(c)] for a, b, c in arr]
 
 
-def save_dataset(ds: Dataset, path, *, section_coords: bool = False) -> Path:
-    """Write ``ds`` in format v1; see :meth:`Dataset.save`."""
+def _check_csv_field(v, what: str, first_column: bool = False) -> None:
+    """A text field :meth:`Dataset.save` writes into a CSV must read back as
+    itself: not empty, no surrounding spaces (the reader strips them), no
+    comma, quote or line break, and in the first column no leading '#' (the
+    reader takes such a line for a comment)."""
+    v = str(v)
+    if any(c in v for c in ',"\n\r') or v != v.strip() or not v \
+            or (first_column and v.startswith("#")):
+        raise DatasetError(f"Dataset.save: {what} {_short(v)} cannot be written to CSV (empty, "
+                           "surrounding spaces, comma, quote or newline"
+                           + (", or starting with '#', read as a comment" if first_column else "")
+                           + ")")
+
+
+def _tables_give_boreholes(ds: Dataset) -> bool:
+    """Do the drillhole tables kept on ``ds`` still give its boreholes (the
+    tops desurveyed from them, after the input policy under ``ds``'s boundary
+    and snap distance)? False when the boreholes were changed in memory after
+    loading (then the tables no longer describe them)."""
+    if ds.drillholes is None:
+        return False
+    try:
+        tops = ds.drillholes.tops(ds.layers)
+    except DatasetError:
+        return False           # a unit is no longer a layer
+    from dataclasses import replace
+    probe = replace(ds, boreholes=tops, points={}, faults=[], adjustments=[])
+    return apply_boundary_policy(probe).boreholes == ds.boreholes
+
+
+def _v2_only(ds: Dataset) -> List[str]:
+    """What in ``ds`` format version 1 cannot hold (empty: v1 can)."""
+    out = []
+    for f in ds.faults:
+        fw = f"fault {f.name!r}"
+        if f.kind is None:
+            out.append(f"{fw} has no kind (derived from the data)")
+        if f.points is not None:
+            out.append(f"{fw} has fault points")
+        if f.surface is not None:
+            out.append(f"{fw} has a fault surface")
+        if f.throw is not None:
+            out.append(f"{fw} has a throw")
+        if not f.traces:
+            out.append(f"{fw} has no trace")
+    return out
+
+
+def _plain_table_problem(b: Boreholes, ds: Dataset) -> Optional[str]:
+    """Why the boreholes cannot be written as a ``hole_id,x,y,layer,z``
+    table (the rows of one hole at different XY, as desurveyed tops of a
+    deviated hole are), or None."""
+    if not b.desurveyed:
+        return None
+    from dataclasses import replace
+    try:
+        check_hole_positions(replace(ds, boreholes=replace(b, desurveyed=False)))
+    except DatasetError as e:
+        return str(e)
+    return None
+
+
+def save_dataset(ds: Dataset, path, *, section_coords: bool = False,
+                 version: Optional[int] = None) -> Path:
+    """Write ``ds`` in format ``version`` (1, 2 or None: 1 unless the
+    dataset needs 2); see :meth:`Dataset.save`."""
+    v2_only = _v2_only(ds)
+    tables = _tables_give_boreholes(ds)
+    if version is None:
+        version = 2 if (v2_only or tables) else 1
+    if isinstance(version, bool) or version not in FORMAT_VERSIONS:
+        raise DatasetError(f"Dataset.save: version must be one of {list(FORMAT_VERSIONS)} (or "
+                           f"None: the lowest that holds the dataset), got {_short(version)}")
+    if version == 1 and v2_only:
+        raise DatasetError(f"Dataset.save: format version 1 cannot hold this dataset: "
+                           + "; ".join(v2_only[:3]) + (" ..." if len(v2_only) > 3 else "")
+                           + "; save with version=2")
+    write_tables = tables and version == 2
+    if not write_tables:
+        why = _plain_table_problem(ds.boreholes, ds)
+        if why:
+            raise DatasetError(
+                "Dataset.save: the boreholes are tops desurveyed along deviated holes and cannot "
+                "be written as a hole_id,x,y,layer,z table (" + why + ")"
+                + ("; the drillhole tables they were loaded from no longer give them (the "
+                   "boreholes were changed after loading)" if ds.drillholes is not None and not
+                   tables else "")
+                + ("; save with version=2 to write the drillhole tables" if tables else ""))
+
     path = Path(path)
     if path.suffix.lower() == ".json":
         folder, jname, prefix = path.parent, path.name, path.stem + "_"
     else:
         folder, jname, prefix = path, "dataset.json", ""
-    folder.mkdir(parents=True, exist_ok=True)
 
     files: Dict[str, str] = {}  # file name -> content
-    b = ds.boreholes
-    lines = [",".join(_BOREHOLE_COLUMNS)]
-    for h, (x, y), lay, z in zip(b.hole_id, b.xy, b.layer, b.z):
-        for v, what in ((h, "hole_id"), (lay, "layer")):
-            if any(c in str(v) for c in ',"\n\r') or str(v) != str(v).strip() or not str(v) \
-                    or (what == "hole_id" and str(v).startswith("#")):
-                raise DatasetError(f"Dataset.save: borehole {what} {_short(str(v))} cannot be "
-                                   "written to CSV (empty, surrounding spaces, comma, quote or "
-                                   "newline, or a hole_id starting with '#', read as a comment)")
-        lines.append(f"{h},{_fmt(x)},{_fmt(y)},{lay},{_fmt(z)}")
-    bname = prefix + "boreholes.csv"
-    files[bname] = "\n".join(lines) + "\n"
-    pmap: Dict[str, str] = {}
-    used = {bname}
-    for lay, arr in ds.points.items():
-        fname = f"{prefix}points_{_safe(lay)}.csv"
+    used = set()
+
+    def name_for(stem: str, ext: str) -> str:
+        fname = f"{prefix}{stem}.{ext}"
         k = 2
-        while fname in used:
-            fname = f"{prefix}points_{_safe(lay)}_{k}.csv"
+        while fname in used or fname == jname:
+            fname = f"{prefix}{stem}_{k}.{ext}"
             k += 1
         used.add(fname)
+        return fname
+
+    b = ds.boreholes
+    bspec: Any = None
+    if write_tables:
+        ctext, stext, itext = ds.drillholes.csv_texts()
+        bspec = {"collars": name_for("collars", "csv")}
+        files[bspec["collars"]] = ctext
+        if stext is not None:
+            bspec["surveys"] = name_for("surveys", "csv")
+            files[bspec["surveys"]] = stext
+        bspec["intervals"] = name_for("intervals", "csv")
+        files[bspec["intervals"]] = itext
+        if ds.drillholes.other_units:
+            bspec["other_units"] = list(ds.drillholes.other_units)
+    elif version == 1 or len(b):
+        lines = [",".join(_BOREHOLE_COLUMNS)]
+        for v in np.unique(b.hole_id).tolist():
+            _check_csv_field(v, "borehole hole_id", first_column=True)
+        for v in np.unique(b.layer).tolist():
+            _check_csv_field(v, "borehole layer")
+        rep = float.__repr__
+        lines += [f"{h},{rep(x)},{rep(y)},{lay},{rep(z)}" for h, (x, y), lay, z in
+                  zip(b.hole_id.tolist(), b.xy.tolist(), b.layer.tolist(), b.z.tolist())]
+        bspec = name_for("boreholes", "csv")
+        files[bspec] = "\n".join(lines) + "\n"
+    pmap: Dict[str, str] = {}
+    for lay, arr in ds.points.items():
+        fname = name_for(f"points_{_safe(lay)}", "csv")
         pmap[lay] = fname
         files[fname] = "x,y,z\n" + "".join(f"{_fmt(x)},{_fmt(y)},{_fmt(z)}\n" for x, y, z in arr)
+    fault_files: Dict[str, Dict[str, str]] = {}
+    for f in ds.faults:
+        ff = fault_files.setdefault(f.name, {})
+        if f.points is not None:
+            ff["points"] = name_for(f"fault_{_safe(f.name)}_points", "csv")
+            files[ff["points"]] = _fault_points_csv(f)
+        if f.surface is not None:
+            ff["surface"] = name_for(f"fault_{_safe(f.name)}_surface", "ts")
+            files[ff["surface"]] = _fault_surface_ts(f, ds.crs)
 
-    doc = {"faultmesh_dataset": FORMAT_VERSION, "name": ds.name}
+    doc = {"faultmesh_dataset": version, "name": ds.name}
     if ds.crs:
         doc["crs"] = ds.crs
     if ds.snap_distance is not None:
         doc["snap_distance"] = float(ds.snap_distance)
     doc["layers"] = list(ds.layers)
     doc["boundary"] = [[float(x), float(y)] for x, y in ds.boundary]
-    doc["boreholes"] = bname
+    if bspec is not None:
+        doc["boreholes"] = bspec
     if pmap:
         doc["points"] = pmap
     doc["sections"] = [{"name": s.name, "origin": [float(s.origin[0]), float(s.origin[1])],
                         "azimuth": float(s.azimuth)} for s in ds.sections.values()]
     fl = []
     for f in ds.faults:
-        fd = {"name": f.name, "kind": f.kind}
+        fd = {"name": f.name}
+        if f.kind is not None:
+            fd["kind"] = f.kind
         if f.group is not None:
             fd["group"] = f.group
         if len(f.tips):
             fd["tips"] = [[float(x), float(y)] for x, y in f.tips]
+        fd.update(fault_files[f.name])
+        if f.throw is not None:
+            fd["throw"] = {k: float(v) for k, v in f.throw.items()}
         tl = []
         for t in f.traces:
             sec = ds.sections.get(t.section) if t.section is not None else None
@@ -1962,10 +2285,12 @@ def save_dataset(ds: Dataset, path, *, section_coords: bool = False) -> Path:
                                       for side in ("foot", "hanging")}
                                 for lay, sides in t.layers.items()}
             tl.append(td)
-        fd["traces"] = tl
+        if tl or version == 1:
+            fd["traces"] = tl
         fl.append(fd)
     doc["faults"] = fl
     files[jname] = _json_dump(doc)
+    folder.mkdir(parents=True, exist_ok=True)
 
     # One atomic multi-file write (formats._common.AtomicFiles, as for model
     # files): every file goes to a temporary name beside its target, and they
@@ -1978,6 +2303,36 @@ def save_dataset(ds: Dataset, path, *, section_coords: bool = False) -> Path:
         for fname in sorted(files, key=lambda n: n == jname):
             out.open(folder / fname).write(files[fname])
     return folder / jname
+
+
+def _fault_points_csv(f: Fault) -> str:
+    """A fault's points as the CSV ``x,y,z[,stick]`` that
+    :func:`faultmesh.fault_inputs.read_fault_points` reads."""
+    rep = float.__repr__
+    P = np.asarray(f.points, dtype=np.float64).reshape(-1, 3).tolist()
+    if f.sticks is None:
+        return "x,y,z\n" + "".join(f"{rep(x)},{rep(y)},{rep(z)}\n" for x, y, z in P)
+    labels = [str(v) for v in np.asarray(f.sticks).reshape(-1).tolist()]
+    for v in set(labels):
+        _check_csv_field(v, f"fault {f.name!r} stick label")
+    return "x,y,z,stick\n" + "".join(f"{rep(x)},{rep(y)},{rep(z)},{k}\n"
+                                     for (x, y, z), k in zip(P, labels))
+
+
+def _fault_surface_ts(f: Fault, crs: str) -> str:
+    """A fault's surface as a GOCAD TSurf (faultmesh's GOCAD writer: shortest
+    round-trip decimals, so the vertices read back bit for bit)."""
+    from .formats.gocad import model_lines
+    from .model import Model, Surface
+
+    V, T = f.surface
+    surf = Surface(_safe(f.name), V, T, kind="fault", metadata={"kind": f.kind or ""})
+    try:
+        lines = model_lines(Model(name=_safe(f.name), surfaces={}, faults={surf.name: surf},
+                                  crs=crs))
+    except ValueError as e:
+        raise DatasetError(f"Dataset.save: fault {f.name!r} surface: {e}") from None
+    return "\n".join(lines) + "\n"
 
 
 def _json_dump(doc) -> str:

@@ -1,6 +1,6 @@
 """Drillholes: collar, survey and interval tables, desurveying, layer tops.
 
-Dataset format v2 (draft, docs/dataset_v2_drillholes.md) may give the
+Dataset format v2 (docs/dataset.md, "Drillhole tables") may give the
 boreholes as the three tables that drillhole databases export (Leapfrog,
 acQuire, Micromine, GemPy's ``subsurface``):
 
@@ -32,11 +32,11 @@ from typing import Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .dataset import Boreholes, DatasetError, _csv_numbers, _Ctx, _read_csv
+from .dataset import Boreholes, DatasetError, _check_csv_field, _csv_numbers, _Ctx, _read_csv
 
-__all__ = ["CollarTable", "SurveyTable", "IntervalTable", "Drillholes", "read_collars",
-           "read_surveys", "read_intervals", "load_drillholes", "TOUCH_TOLERANCE",
-           "HORIZONTAL_DIP"]
+__all__ = ["CollarTable", "SurveyTable", "IntervalTable", "Drillholes", "DrillholeTables",
+           "read_collars", "read_surveys", "read_intervals", "read_drillholes", "load_drillholes",
+           "TOUCH_TOLERANCE", "HORIZONTAL_DIP"]
 
 #: Two depths closer than this (metres) are the same depth: consecutive
 #: intervals that close to each other touch (no gap, no overlap), and an
@@ -689,7 +689,9 @@ class Drillholes:
         so :meth:`Dataset.layer_points` keeps one hit per hole and layer as
         for v1), ``xy`` and ``z`` the desurveyed position of the top (a
         deviated hole's tops have their own x, y), ``layer`` the unit. Rows
-        are ordered by hole (collar table order), then by depth.
+        are ordered by hole (collar table order), then by depth. ``source``
+        is the interval table's file and ``rows`` the line of the interval
+        each top starts; ``desurveyed`` is True.
         """
         layers = [str(v) for v in layers]
         other = [str(v) for v in other_units]
@@ -708,7 +710,7 @@ class Drillholes:
             raise DatasetError(f"{_where(it.file, it.lines[k], 'unit')}: unknown unit "
                                f"{_r(it.unit[k])}; layers are {layers}{extra}")
         empty = Boreholes(np.zeros(0, dtype=str), np.zeros((0, 2)), np.zeros(0, dtype=str),
-                          np.zeros(0))
+                          np.zeros(0), str(it.file), np.zeros(0, dtype=np.int64), True)
         if not len(it):
             return empty
         r = np.array([rank[u] for u in it.unit], dtype=np.int64)
@@ -750,7 +752,22 @@ class Drillholes:
         p = pos[keep]
         hole = h[cand][keep]
         lay = np.array(layers, dtype=str)[unit_rank]
-        return Boreholes(self.collars.hole_id[hole], p[:, :2], lay, p[:, 2])
+        # Each top names the interval row it starts (for the input policy's
+        # and the checks' messages).
+        return Boreholes(self.collars.hole_id[hole], p[:, :2], lay, p[:, 2], str(it.file),
+                         it.lines[rows[cand][keep]], True)
+
+
+def read_drillholes(collars, surveys, intervals, *, ctx: Optional[_Ctx] = None,
+                    labels: Sequence[str] = ("boreholes collars", "boreholes surveys",
+                                             "boreholes intervals")) -> Drillholes:
+    """Read the three tables (``surveys`` may be None: every hole vertical)
+    and check them against each other. ``ctx`` and ``labels`` name the JSON
+    keys in the message of a missing file."""
+    ct = read_collars(collars, ctx=ctx, label=labels[0])
+    st = read_surveys(surveys, ctx=ctx, label=labels[1]) if surveys is not None else None
+    it = read_intervals(intervals, ctx=ctx, label=labels[2])
+    return Drillholes(ct, st, it)
 
 
 def load_drillholes(collars, surveys, intervals, layers: Sequence[str], *,
@@ -758,7 +775,52 @@ def load_drillholes(collars, surveys, intervals, layers: Sequence[str], *,
     """Read the three tables (``surveys`` may be None: every hole vertical),
     check them and return the layer tops as :class:`~faultmesh.dataset.Boreholes`
     (see :meth:`Drillholes.tops`)."""
-    ct = read_collars(collars, ctx=ctx)
-    st = read_surveys(surveys, ctx=ctx) if surveys is not None else None
-    it = read_intervals(intervals, ctx=ctx)
-    return Drillholes(ct, st, it).tops(layers, other_units)
+    return read_drillholes(collars, surveys, intervals, ctx=ctx).tops(layers, other_units)
+
+
+@dataclass(eq=False)
+class DrillholeTables:
+    """The drillhole tables a dataset's boreholes come from (format v2
+    ``"boreholes": {"collars": ..., "surveys": ..., "intervals": ...}``):
+    ``holes`` (:class:`Drillholes`, the three tables checked and desurveyed)
+    and ``other_units`` (interval units that are not layers). Kept on the
+    :class:`~faultmesh.dataset.Dataset` (``drillholes``) so that
+    :meth:`~faultmesh.dataset.Dataset.save` writes the tables back."""
+
+    holes: Drillholes
+    other_units: Tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        self.other_units = tuple(str(u) for u in self.other_units)
+
+    def tops(self, layers: Sequence[str]) -> Boreholes:
+        """The layer tops (:meth:`Drillholes.tops`)."""
+        return self.holes.tops(layers, self.other_units)
+
+    def csv_texts(self) -> Tuple[str, Optional[str], str]:
+        """The collar, survey and interval tables as CSV text, every number as
+        its shortest round-trip decimal (read back bit for bit, so the tops
+        desurveyed again are the same); rows in table order. The survey text
+        is None when no hole has a survey station."""
+        rep = float.__repr__
+        c, s, i = self.holes.collars, self.holes.surveys, self.holes.intervals
+        for ids, f in ((c.hole_id, "collar hole_id"), (s.hole_id, "survey hole_id"),
+                       (i.hole_id, "interval hole_id"), (i.unit, "interval unit")):
+            for v in np.unique(ids).tolist():
+                _check_csv_field(v, f, first_column=f.endswith("hole_id"))
+        md = ["" if np.isnan(v) else rep(v) for v in c.max_depth.tolist()]
+        has_md = any(md)
+        ct = ["hole_id,x,y,z" + (",max_depth" if has_md else "")]
+        ct += [f"{h},{rep(x)},{rep(y)},{rep(z)}" + (f",{m}" if has_md else "")
+               for h, (x, y, z), m in zip(c.hole_id.tolist(), c.xyz.tolist(), md)]
+        st = None
+        if len(s):
+            st = ["hole_id,depth,azimuth,dip"]
+            st += [f"{h},{rep(d)},{rep(a)},{rep(p)}" for h, d, a, p in
+                   zip(s.hole_id.tolist(), s.depth.tolist(), s.azimuth.tolist(), s.dip.tolist())]
+        it = ["hole_id,from,to,unit"]
+        it += [f"{h},{rep(a)},{rep(b)},{u}" for h, a, b, u in
+               zip(i.hole_id.tolist(), i.depth_from.tolist(), i.depth_to.tolist(),
+                   i.unit.tolist())]
+        return ("\n".join(ct) + "\n", None if st is None else "\n".join(st) + "\n",
+                "\n".join(it) + "\n")

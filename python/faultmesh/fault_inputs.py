@@ -1,4 +1,4 @@
-"""Readers of a fault's geometry given as data (dataset format v2, draft).
+"""Readers of a fault's geometry given as data (dataset format v2, docs/dataset.md).
 
 Besides hand-drawn ``traces``, a v2 fault may give its geometry as
 
@@ -15,12 +15,14 @@ CSV, the row (1-based line, header = 1) and the field.
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import NamedTuple, Optional
 
 import numpy as np
 
-from .dataset import DatasetError, _csv_numbers, _Ctx, _read_csv
+from .dataset import (_QUOTE_MAX, DatasetError, _csv_numbers, _Ctx, _read_csv,
+                      _read_regular_file)
 
 __all__ = ["FaultPoints", "FaultSurface", "read_fault_points", "read_fault_surface"]
 
@@ -135,12 +137,20 @@ def read_fault_surface(path, *, ctx: Optional[_Ctx] = None,
     from .formats.gocad import read_ts
 
     file = Path(path)
-    if not file.is_file():
-        raise (ctx if ctx is not None else _Ctx(file)).err(label, f"file {str(file)!r} not found")
+    # The file's type first, with the loader's messages (missing, a folder, a
+    # FIFO -- which must not be opened --, a dangling symlink ...).
+    _read_regular_file(file, f"{(ctx if ctx is not None else _Ctx(file)).file}: {label}")
     try:
         model = read_ts(file, atoms="merge")
     except ModelFileError as e:
-        raise DatasetError(str(e)) from None
+        # The GOCAD reader quotes the line it could not read; a dataset's
+        # messages quote no line of a file (the path may name a file that is
+        # not a fault surface) and at most _QUOTE_MAX characters of a token.
+        where = f"{file}, line {e.line}" if e.line is not None else str(file)
+        why = str(e)[len(f"{e.path}, line {e.line}: " if e.line is not None else f"{e.path}: "):]
+        why = why.split(", got ")[0]
+        why = re.sub(r"'([^']{%d})[^']+'" % _QUOTE_MAX, r"'\1...'", why)
+        raise DatasetError(f"{where}: {why}") from None
     except (OSError, ValueError) as e:
         raise DatasetError(f"{file}: cannot read as a GOCAD TSurf file: {e}") from None
     # Patches marked as faults (GEOLOGICAL_TYPE fault) first, then the others,
