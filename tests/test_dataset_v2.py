@@ -400,23 +400,28 @@ def test_v1_files_load_unchanged(tmp_path):
 # ---------------------------------------------------------------------------
 # build_model on faults to derive
 # ---------------------------------------------------------------------------
-def test_build_refuses_a_fault_without_cutoffs_naming_it():
+def test_build_derives_what_a_fault_lacks():
+    from faultmesh.derive import derive_faults
+
     ds = synthetic(0, n_boreholes=20)
     f = ds.faults[0]
     pts = np.vstack([t.plane for t in f.traces])
-    plane_only = replace(f, traces=[replace(t, layers={}) for t in f.traces], points=pts)
-    with pytest.raises(DatasetError, match=r"fault 'F1' has no cutoffs.*needs faultmesh\.derive"):
-        fm.build_model(replace(ds, faults=[plane_only]))
-    with pytest.raises(DatasetError, match=r"fault 'F1' has no cutoffs"):
-        fm.build_model(replace(ds, faults=[replace(f, traces=[], points=pts)]))
-    with pytest.raises(DatasetError, match=r"fault 'F1' has no kind.*faultmesh\.derive"):
-        fm.build_model(replace(ds, faults=[replace(f, kind=None)]))
-    # Fault points beside hand-drawn cutoffs: the cutoffs are used.
-    m = fm.build_model(replace(ds, faults=[replace(f, points=pts, throw={"max": 30.0})]),
-                       evaluate=False)
-    ref = fm.build_model(ds, evaluate=False)
-    for lay in ds.layers:
-        np.testing.assert_array_equal(m.surfaces[lay].vertices, ref.surfaces[lay].vertices)
+    # Without cutoffs (plane traces and points, points only) or without kind:
+    # build_model derives them (faultmesh.derive) and the model checks.
+    for fault in (replace(f, traces=[replace(t, layers={}) for t in f.traces], points=pts),
+                  replace(f, traces=[], points=pts), replace(f, kind=None)):
+        m = fm.build_model(replace(ds, faults=[fault]), evaluate=False)
+        m.check()
+        assert m.metadata["derived_faults"]["F1"]["kind"] == f.kind
+    # Fault points beside hand-drawn cutoffs: the hand-drawn cutoffs win (every
+    # trace of the input is in the derived dataset as it was).
+    d = derive_faults(replace(ds, faults=[replace(f, points=pts, throw={"max": 30.0})]))
+    g = d.faults[0]
+    for t in f.traces:
+        assert any(u.section == t.section and list(u.layers) == list(t.layers)
+                   and all(np.array_equal(u.layers[lay][side], t.layers[lay][side])
+                           for lay in t.layers for side in ("foot", "hanging"))
+                   for u in g.traces), t.section
 
 
 # ---------------------------------------------------------------------------

@@ -14,7 +14,7 @@ from pathlib import Path as _Path
 if _os.environ.get("FAULTMESH_DEV_BUILD"):
     __path__.insert(0, _os.environ["FAULTMESH_DEV_BUILD"])  # type: ignore[name-defined]
 
-from ._core import *  # noqa: E402,F401,F403  (C++ kernels, see DESIGN.md "Python API")
+from ._core import *  # noqa: E402,F401,F403  (C++ kernels, docs/design.md §7)
 from ._core import GeometryError, __version__  # noqa: E402,F401
 
 

@@ -1,4 +1,4 @@
-"""The modelling workflow: :func:`build_model` (docs/design.md, "Workflow").
+"""The modelling workflow: :func:`build_model` (docs/design.md §4).
 
 Steps 2 and 3 -- stratum TINs and the layer-crossing repair -- are the C++
 :class:`faultmesh.LayerTin` and :func:`faultmesh.repair_crossings`
@@ -146,7 +146,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                 stitch_order: str = "quality", bridge: str = "extreme", repair: bool = True,
                 max_repair_rounds: int = 50, spacing: Optional[float] = None,
                 evaluate: bool = True, clearance: Optional[float] = None) -> Model:
-    """Build the faulted multi-layer model of ``dataset`` (DESIGN.md steps 2-7).
+    """Build the faulted multi-layer model of ``dataset`` (docs/design.md §4).
     Faults without layer cutoffs (given by points, a surface or plane traces
     only) get them from :func:`faultmesh.derive.derive_faults` first (its
     report: ``metadata["derived_faults"]``).

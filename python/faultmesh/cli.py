@@ -6,7 +6,6 @@ Every sub-command reports errors as one line on stderr and exits with status 2
 from __future__ import annotations
 
 import argparse
-import inspect
 import sys
 import time
 from pathlib import Path
@@ -160,26 +159,28 @@ def _build_model_fn():
 
 def _build(dataset, args, progress: _Progress):
     build_model = _build_model_fn()
-    wanted: Dict[str, object] = {}
-    # CLI option -> build_model keyword (faultmesh.build.build_model).
+    # CLI option -> build_model keyword (faultmesh.build.build_model): every
+    # option a user may set (_add_build_options).
+    kw: Dict[str, object] = {"progress": progress}
     if getattr(args, "plain_order", False):
-        wanted["stitch_order"] = "plain"
+        kw["stitch_order"] = "plain"
     if getattr(args, "no_refine", False):
-        wanted["refine"] = False
-    if getattr(args, "loft", None):
-        wanted["loft_method"] = args.loft
-    params = inspect.signature(build_model).parameters
-    takes_kwargs = any(p.kind == p.VAR_KEYWORD for p in params.values())
-    for k in wanted:
-        if k not in params and not takes_kwargs:
-            raise CliError(f"build_model of this faultmesh has no option {k!r} "
-                           f"(options: {', '.join(p for p in params if p != 'dataset')})")
-    kw = dict(wanted)
-    if "progress" in params or takes_kwargs:
-        kw["progress"] = progress
+        kw["refine"] = False
+    for opt, key in (("loft", "loft_method"), ("bridge", "bridge"), ("spacing", "spacing"),
+                     ("clearance", "clearance"), ("max_repair_rounds", "max_repair_rounds")):
+        if getattr(args, opt, None) is not None:
+            kw[key] = getattr(args, opt)
+    if getattr(args, "no_repair", False):
+        kw["repair"] = False
+    if getattr(args, "no_evaluate", False):
+        kw["evaluate"] = False
     t0 = time.perf_counter()
     try:
         model = build_model(dataset, **kw)
+    except ValueError as e:  # an option value build_model refuses (GeometryError is raised on)
+        if type(e) is ValueError:
+            raise CliError(str(e)) from None
+        raise
     finally:
         progress.close()
     return model, time.perf_counter() - t0
@@ -498,16 +499,64 @@ def _add_dataset_options(p: argparse.ArgumentParser) -> None:
                         "paths, '..', symlinks leading out)")
 
 
+def _positive(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (v > 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return v
+
+
+def _non_negative(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (v >= 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text!r}")
+    return v
+
+
+def _rounds(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {v}")
+    return v
+
+
 def _add_build_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--plain-order", action="store_true",
+    """Every option of faultmesh.build_model a user may set."""
+    g = p.add_argument_group("model building (faultmesh.build_model)")
+    g.add_argument("--plain-order", action="store_true",
                    help="clip the ears of each gap in the paper's plain (Eberly) order instead "
                         "of the best-ear-first quality order")
-    p.add_argument("--no-refine", action="store_true",
+    g.add_argument("--no-refine", action="store_true",
                    help="keep the ear-clipped gap triangles as they are (no constrained-"
                         "Delaunay edge flips); with --plain-order this is the paper's method")
-    p.add_argument("--loft", choices=("min_area", "shortest_diagonal"),
+    g.add_argument("--bridge", choices=("extreme", "eberly"),
+                   help="how a gap's holes are bridged: the paper's extreme-point rule "
+                        "(default; Eberly's method as the fallback) or Eberly's method only")
+    g.add_argument("--loft", choices=("min_area", "shortest_diagonal"),
                    help="rule for lofting the fault-model polylines: min_area (Fuchs-Kedem-"
                         "Uselton, default) or shortest_diagonal")
+    g.add_argument("--clearance", type=_non_negative, metavar="M",
+                   help="the removed region grows until its boundary vertices are at least M "
+                        "metres from the fault patch (default: 0.4 x the layer's data spacing; "
+                        "0: only the triangles touching the patch, the paper's rule)")
+    g.add_argument("--spacing", type=_positive, metavar="M",
+                   help="spacing of the vertices on the study-area boundary (default: about "
+                        "the layer's data spacing)")
+    g.add_argument("--no-repair", action="store_true",
+                   help="skip the layer-crossing repair (layers may then cross)")
+    g.add_argument("--max-repair-rounds", type=_rounds, metavar="N",
+                   help="rounds of the layer-crossing repair before it gives up (default 50)")
+    g.add_argument("--no-evaluate", action="store_true",
+                   help="do not compare the model with the ground truth of a built-in dataset")
 
 
 def make_parser() -> argparse.ArgumentParser:

@@ -1,4 +1,4 @@
-"""Datasets: boreholes, section lines and fault traces (DESIGN.md "Dataset format").
+"""Datasets: boreholes, section lines and fault traces (docs/design.md §3, docs/dataset.md).
 
 The data classes here are the contract between the loader and the modelling
 workflow (:func:`faultmesh.build_model`). Loading and saving of formats v1

@@ -1,4 +1,4 @@
-"""Fine fault models (DESIGN.md step 4, paper 2.3.2).
+"""Fine fault models (docs/design.md §4.6, paper 2.3.2).
 
 Per fault and per layer, each trace gives ONE polyline in section order:
 the footwall polyline (far end -> footwall cutoff), the fault-plane trace
