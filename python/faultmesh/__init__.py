@@ -42,3 +42,4 @@ from . import datasets  # noqa: E402
 from .io import load_model  # noqa: E402
 from .model import Model, Surface, Gap  # noqa: E402
 from .build import build_model  # noqa: E402
+from .ensemble import ensemble, Perturbation  # noqa: E402  (Dask is imported only when used)
