@@ -103,8 +103,11 @@ def _start_client(client, workers: Optional[int]):
         return Client(client, timeout="30s"), None, True
     k = workers if workers is not None else (len(os.sched_getaffinity(0))
                                              if hasattr(os, "sched_getaffinity") else os.cpu_count())
+    # dashboard_address ":0": the scheduler's HTTP server (health, metrics and,
+    # with bokeh installed, the dashboard) on a free port; None would still
+    # try the default port 8787 and warn when another cluster holds it.
     cluster = LocalCluster(n_workers=int(k), threads_per_worker=1, processes=True,
-                           dashboard_address=None)
+                           dashboard_address=":0")
     return Client(cluster), cluster, True
 
 
