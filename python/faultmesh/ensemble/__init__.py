@@ -254,7 +254,8 @@ def ensemble(dataset: Dataset, n: int, perturbation: Optional[Perturbation] = No
             "build_seconds_median": float(reducer.build_time.quantile(0.5)[0]),
             "build_seconds_mean": float(reducer.build_time.mean()[0]),
             "sample_seconds_median": float(reducer.sample_time.quantile(0.5)[0]),
-            "sample_seconds_mean": float(reducer.sample_time.mean()[0])})
+            "sample_seconds_mean": float(reducer.sample_time.mean()[0]),
+            "worker_cpu_seconds_median": float(reducer.cpu_time.quantile(0.5)[0])})
     failures.sort(key=lambda f: f["index"])
     return EnsembleResult(dataset=data, n=n, seed=seed, perturbation=perturbation,
                           sampler=sampler, reducer=reducer, failures=failures,

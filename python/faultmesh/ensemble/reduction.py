@@ -218,6 +218,7 @@ class Reducer:
         # Per-realization times on the workers (their median, P10, P90).
         self.build_time = StreamingStats(1)
         self.sample_time = StreamingStats(1)
+        self.cpu_time = StreamingStats(1)
         self.succeeded = 0
 
     def add(self, s: Samples) -> None:
@@ -239,6 +240,7 @@ class Reducer:
                     acc += hit
         self.build_time.add(np.array([s.build_seconds]))
         self.sample_time.add(np.array([s.sample_seconds]))
+        self.cpu_time.add(np.array([s.cpu_seconds]))
         self.succeeded += 1
 
     @property

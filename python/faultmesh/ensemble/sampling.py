@@ -169,8 +169,9 @@ class Samples:
     sides: Optional[np.ndarray] = None         # (L, F, N) int8 SIDE_*
     sections: Optional[np.ndarray] = None      # (S, L, M) upper sheet along each section
     points: Optional[np.ndarray] = None        # (L, K)
-    build_seconds: float = 0.0
-    sample_seconds: float = 0.0
+    build_seconds: float = 0.0                 # perturb + build_model, wall clock on the worker
+    sample_seconds: float = 0.0                # sample_model, wall clock
+    cpu_seconds: float = 0.0                   # the worker thread's CPU time for all of it
     error: Optional[str] = None
 
     @property
@@ -267,6 +268,7 @@ def run_realization(dataset: Dataset, sampler: Sampler, perturbation: Perturbati
     from ..build import build_model
 
     t0 = time.perf_counter()
+    c0 = time.thread_time()
     try:
         ds = realization_dataset(dataset, perturbation, seed, index)
         model = build_model(ds, evaluate=False, **(build_options or {}))
@@ -277,5 +279,7 @@ def run_realization(dataset: Dataset, sampler: Sampler, perturbation: Perturbati
         tb = traceback.extract_tb(e.__traceback__)
         where = f" (at {tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno})" if tb else ""
         return Samples(index=index, error=f"{type(e).__name__}: {e}{where}",
-                       build_seconds=time.perf_counter() - t0)
-    return Samples(index=index, build_seconds=t1 - t0, sample_seconds=t2 - t1, **arrays)
+                       build_seconds=time.perf_counter() - t0,
+                       cpu_seconds=time.thread_time() - c0)
+    return Samples(index=index, build_seconds=t1 - t0, sample_seconds=t2 - t1,
+                   cpu_seconds=time.thread_time() - c0, **arrays)
