@@ -32,7 +32,7 @@ from .sampling import Grid, Sampler, Samples, SectionLine, run_realization
 
 __all__ = ["ensemble", "Perturbation", "FaultPerturbation", "Grid", "EnsembleResult",
            "perturb", "realization_dataset", "realization_seed", "StreamingStats",
-           "run_realization"]
+           "run_realization", "reduce_in_order"]
 
 # Quantile estimator settings (docs/ensemble.md "Quantiles"): the first 64
 # samples of a node are kept and give exact quantiles; then 17 P-squared
@@ -109,6 +109,51 @@ def _start_client(client, workers: Optional[int]):
     cluster = LocalCluster(n_workers=int(k), threads_per_worker=1, processes=True,
                            dashboard_address=":0")
     return Client(cluster), cluster, True
+
+
+def reduce_in_order(submit: Callable[[int], Any], n: int, window: int,
+                    result_of: Callable[[int, Any], Any], take: Callable[[Any], None],
+                    arrived: Optional[Callable[[int], None]] = None) -> int:
+    """Run tasks 0..n-1 (``submit(i)`` -> a Dask future) and hand their
+    results to ``take`` in index order as they arrive
+    (``distributed.as_completed``). At most ``window`` tasks beyond the
+    oldest one not yet taken are submitted, so if that one is slow (or its
+    worker died and Dask runs it again) at most ``window`` results wait for
+    it. ``result_of(i, future)`` turns a future into a result; ``arrived(k)``
+    is called after the k-th arrival. Returns the largest number of results
+    that waited at once."""
+    from distributed import as_completed
+
+    index_of: Dict[str, int] = {}
+
+    def go(i: int):
+        fut = submit(i)
+        index_of[fut.key] = i
+        return fut
+
+    nxt = min(window, n)
+    ac = as_completed([go(i) for i in range(nxt)])
+    waiting: Dict[int, Any] = {}
+    expect = 0
+    most = 0
+    done = 0
+    for fut in ac:
+        i = index_of.pop(fut.key)
+        waiting[i] = result_of(i, fut)
+        fut.release()
+        most = max(most, len(waiting))
+        while expect in waiting:
+            take(waiting.pop(expect))
+            expect += 1
+        while nxt < n and nxt < expect + window:
+            ac.add(go(nxt))
+            nxt += 1
+        done += 1
+        if arrived is not None:
+            arrived(done)
+    if expect != n or waiting:  # pragma: no cover - as_completed yields every future
+        raise RuntimeError(f"ensemble: {n - expect} realizations never arrived")
+    return most
 
 
 def ensemble(dataset: Dataset, n: int, perturbation: Optional[Perturbation] = None, *,
@@ -189,10 +234,6 @@ def ensemble(dataset: Dataset, n: int, perturbation: Optional[Perturbation] = No
             if progress is not None:
                 progress(done, n, len(failures))
     else:
-        try:
-            from distributed import as_completed
-        except ImportError as e:
-            raise _dask_missing(e) from None
         cl, cluster, own = _start_client(client, workers)
         try:
             nthreads = cl.nthreads()
@@ -204,43 +245,28 @@ def ensemble(dataset: Dataset, n: int, perturbation: Optional[Perturbation] = No
             ds_f = cl.scatter(data, broadcast=True, hash=False)
             sm_f = cl.scatter(sampler, broadcast=True, hash=False)
             token = uuid.uuid4().hex[:12]
-            index_of: Dict[str, int] = {}
 
             def submit(i: int):
-                fut = cl.submit(run_realization, ds_f, sm_f, perturbation, seed, i, build_options,
-                                key=f"faultmesh-realization-{token}-{i}", pure=False)
-                index_of[fut.key] = i
-                return fut
+                return cl.submit(run_realization, ds_f, sm_f, perturbation, seed, i, build_options,
+                                 key=f"faultmesh-realization-{token}-{i}", pure=False)
 
-            nxt = min(w, n)
-            ac = as_completed([submit(i) for i in range(nxt)])
-            waiting: Dict[int, Samples] = {}
-            expect = 0
-            for fut in ac:
-                i = index_of.pop(fut.key)
+            def result_of(i: int, fut) -> Samples:
                 if fut.status == "finished":
-                    res = fut.result()
-                else:   # the task itself failed in Dask (e.g. KilledWorker)
-                    try:
-                        exc = fut.exception()
-                        err = f"{type(exc).__name__}: {exc}"
-                    except Exception as e:  # pragma: no cover - cancelled futures
-                        err = f"{type(e).__name__}: {e}"
-                    res = Samples(index=i, error=err)
-                fut.release()
-                if nxt < n:
-                    ac.add(submit(nxt))
-                    nxt += 1
-                # Reduce in realization order (bit-identical for any number of
-                # workers); early arrivals wait, at most `w` of them.
-                waiting[i] = res
-                while expect in waiting:
-                    take(waiting.pop(expect))
-                    expect += 1
-                done += 1
+                    return fut.result()
+                try:    # the task itself failed in Dask (e.g. KilledWorker)
+                    exc = fut.exception()
+                    err = f"{type(exc).__name__}: {exc}"
+                except Exception as e:  # pragma: no cover - cancelled futures
+                    err = f"{type(e).__name__}: {e}"
+                return Samples(index=i, error=err)
+
+            def arrived(done_: int) -> None:
+                nonlocal done
+                done = done_
                 if progress is not None:
                     progress(done, n, len(failures))
-            assert expect == n and not waiting
+
+            info["most_waiting"] = reduce_in_order(submit, n, w, result_of, take, arrived)
         finally:
             if own:
                 cl.close()

@@ -106,10 +106,13 @@ class StreamingStats:
             fi = idx[first]
             self._buf[c[first] - 1, fi] = xv[first]
             full = fi[c[first] == self.B]
-            if len(full):
-                srt = np.sort(self._buf[:, full], axis=0)
-                self._q[:, full] = srt[self._rank0 - 1]
-                self._n[:, full] = self._rank0.astype(np.float64)[:, None]
+            # In chunks of nodes: a sorted copy of the whole buffer would
+            # double its memory for a moment.
+            for k in range(0, len(full), 4096):
+                part = full[k:k + 4096]
+                srt = np.sort(self._buf[:, part], axis=0)
+                self._q[:, part] = srt[self._rank0 - 1]
+                self._n[:, part] = self._rank0.astype(np.float64)[:, None]
         rest = ~first
         if rest.any():
             self._p2(idx[rest], xv[rest], c[rest])
@@ -208,9 +211,10 @@ class Reducer:
         if lower_sheet:
             self.shape["grid_lower"] = (L, N)
             self.stats["grid_lower"] = StreamingStats(L * N, **kw)
-        self.repeated = np.zeros((L, N), dtype=np.int64)
-        self.hanging = np.zeros((L, F, N), dtype=np.int64)
-        self.foot = np.zeros((L, F, N), dtype=np.int64)
+        # Counts of realizations: int32 holds 2**31 - 1 of them.
+        self.repeated = np.zeros((L, N), dtype=np.int32)
+        self.hanging = np.zeros((L, F, N), dtype=np.int32)
+        self.foot = np.zeros((L, F, N), dtype=np.int32)
         # Fault blocks: code = sum_f side_f * 3**f (int64 holds 39 faults).
         self.track_blocks = F <= 39
         self._pow3 = (3 ** np.arange(F, dtype=np.int64)) if self.track_blocks else None
@@ -235,7 +239,7 @@ class Reducer:
                 hit = (code == c) & valid
                 acc = self.blocks.get(int(c))
                 if acc is None:
-                    self.blocks[int(c)] = hit.astype(np.int64)
+                    self.blocks[int(c)] = hit.astype(np.int32)
                 else:
                     acc += hit
         self.build_time.add(np.array([s.build_seconds]))
