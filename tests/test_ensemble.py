@@ -142,9 +142,7 @@ def test_two_workers_and_one_give_bit_identical_statistics(cluster, paper):
     _all_equal(two, one)
     inproc = faultmesh.ensemble(paper, 8, PERT, workers=0, **kw)
     _all_equal(two, inproc)
-    # Different seeds give different statistics.
-    other = faultmesh.ensemble(paper, 3, PERT, workers=0, **dict(kw, seed=8))
-    assert not _same(two.grid("p10"), other.grid("p10"))
+    assert np.nanmax(two.grid("std")) > 0      # the realizations differ
 
 
 def test_failed_realizations_are_counted_with_seed_and_error(cluster, paper):
