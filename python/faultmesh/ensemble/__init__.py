@@ -49,7 +49,15 @@ def _dask_missing(e: ImportError) -> ImportError:
 
 def _sections_of(dataset: Dataset, sections, samples: int) -> List[SectionLine]:
     if sections is None:
-        chosen = list(dataset.sections.values())
+        # The dataset's sections that cross the study area (one that misses
+        # it has nothing to sample; asked for by name it is an error).
+        out = []
+        for s in dataset.sections.values():
+            try:
+                out.append(SectionLine.across(s, dataset.boundary, samples))
+            except ValueError:
+                continue
+        return out
     else:
         if isinstance(sections, (str, Section)):
             sections = [sections]
