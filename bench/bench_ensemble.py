@@ -13,8 +13,8 @@ On the built-in paper-like dataset (faultmesh.datasets.paper_like_path(),
 * the per-realization overhead (scheduling, transfer, reduction): wall time
   per realization per worker (wall x K / n) minus the median perturb +
   build + sample time measured on the worker, against that time;
-* peak memory of the client process for two n (--memory-n, default 50 and
-  200) on a 2-worker cluster, each in a fresh subprocess: tracemalloc's peak
+* peak memory of the client process for several n (--memory-n, default 50,
+  200 and 400) on a 2-worker cluster, each in a fresh subprocess: tracemalloc's peak
   of the ensemble() call (Python and numpy allocations of the client: the
   statistics, the samples waiting to be reduced) and the process's VmHWM
   (the LocalCluster's scheduler runs in the client process and is counted).
@@ -70,9 +70,11 @@ def main() -> int:
     ap.add_argument("--runs", type=int, default=5, help="ensembles per cluster size (median)")
     ap.add_argument("--n", type=int, default=40, help="realizations per timed ensemble")
     ap.add_argument("--grid", type=int, default=100, help="grid nodes along the longer side")
-    ap.add_argument("--memory-n", type=int, nargs=2, default=[50, 200], metavar=("N1", "N2"))
+    ap.add_argument("--memory-n", type=int, nargs="+", default=[50, 200, 400], metavar="N",
+                    help="n of the client-memory runs (default 50 200 400: below and above "
+                         "the quantile estimator's 64-sample start-up)")
     ap.add_argument("--quick", action="store_true",
-                    help="small: n=8, 1 run, 40-node grid, memory for n=10 and 30; no docs")
+                    help="small: n=8, 1 run, 40-node grid, memory for n=10 and 80; no docs")
     ap.add_argument("--no-write", action="store_true", help="do not write docs/bench/ensemble.md")
     ap.add_argument("--memory-child", type=int, help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -80,14 +82,17 @@ def main() -> int:
         memory_child(args.memory_child, args.grid)
         return 0
     if args.quick:
-        args.n, args.grid, args.memory_n = 8, 40, [10, 30]
+        args.n, args.grid, args.memory_n = 8, 40, [10, 80]
         if "--runs" not in sys.argv:
             args.runs = 1
     if args.runs < 1 or args.n < 1:
         ap.error("--runs and --n must be >= 1")
 
+    import os
+
     from distributed import Client, LocalCluster
 
+    load0 = os.getloadavg()
     ds = _dataset()
     kw = dict(grid=args.grid, seed=0)
     clusters = {}
@@ -164,9 +169,16 @@ def main() -> int:
     for k, nn, nr, rt, work, build, cpu, red, over, rel in rows:
         lines.append(f"| {k} | {nn} | {nr} | {rt:.0f} | {work:.3f} | {build:.3f} | {cpu:.3f} | "
                      f"{red:.4f} | {over:+.3f} | {100 * rel:+.0f} % |")
+    load1 = os.getloadavg()
     lines += ["", f"Speed-up of 2 workers over 1: **{rate[2] / rate[1]:.2f}x** (target 1.7x). "
-              f"Statistics of the 1- and 2-worker runs bit-identical: {'yes' if same else 'NO'}.",
-              "", "Client memory (fresh process, 2-worker local cluster, same grid):", "",
+              f"Statistics of the 1- and 2-worker runs bit-identical: {'yes' if same else 'NO'}. "
+              f"Load average (1 min) at the start and the end of the timed runs: {load0[0]:.1f}, "
+              f"{load1[0]:.1f} on {os.cpu_count()} cores (other jobs' processes wanting a core "
+              "make the workers wait: compare the work wall time with the worker CPU time).",
+              "", "Client memory (fresh process, 2-worker local cluster, same grid). The "
+              "quantile estimator keeps the first 64 samples of every node (exact quantiles) "
+              "and frees them once every node has 64; its markers are sorted out of them at the "
+              "64th realization, the moment of the peak for n >= 64:", "",
               "| n | succeeded | wall s | tracemalloc peak MiB | statistics MiB | VmHWM MiB | RSS "
               "before MiB |", "|---:|---:|---:|---:|---:|---:|---:|"]
     for m in mem:
