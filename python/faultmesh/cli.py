@@ -402,7 +402,7 @@ def cmd_plot(args) -> int:
 
 def _fault_overrides(specs) -> Dict[str, Dict[str, float]]:
     """``--fault NAME:key=value[,key=value]`` options -> per-fault sigmas."""
-    keys = {"z": None, "position": "sigma_position", "position-trace": "sigma_position_trace",
+    keys = {"position": "sigma_position", "position-trace": "sigma_position_trace",
             "position_trace": "sigma_position_trace", "dip": "sigma_dip", "throw": "sigma_throw"}
     out: Dict[str, Dict[str, float]] = {}
     for spec in specs or []:
