@@ -43,3 +43,4 @@ from .io import load_model  # noqa: E402
 from .formats.pv import from_pyvista  # noqa: E402  (needs faultmesh[viz] when called)
 from .model import Model, Surface, Gap  # noqa: E402
 from .build import build_model  # noqa: E402
+from .ensemble import ensemble, Perturbation  # noqa: E402  (Dask is imported only when used)

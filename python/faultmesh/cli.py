@@ -27,6 +27,9 @@ examples:
   faultmesh convert out/site.3dt site.ml     (GOCAD Model3d; also .ts .vtu .vtk .vtp
                                              .obj .ply .omf .epc .geoh5)
   faultmesh plot out/site.3dt --png model.png
+  faultmesh ensemble paper_like -n 200 -o ens --sigma-z 2 --sigma-position 15
+                                             200 perturbed realizations on Dask: mean,
+                                             std, P10/P50/P90 maps and section fans
 
 Datasets: a JSON file of format v1 or v2 (docs/dataset.md) or a built-in name
 (paper_like, synthetic). Models: .3dt (faultmesh's own, keeps everything),
@@ -474,6 +477,95 @@ def cmd_plot(args) -> int:
     return 0
 
 
+def _fault_overrides(specs) -> Dict[str, Dict[str, float]]:
+    """``--fault NAME:key=value[,key=value]`` options -> per-fault sigmas."""
+    keys = {"position": "sigma_position", "position-trace": "sigma_position_trace",
+            "position_trace": "sigma_position_trace", "dip": "sigma_dip", "throw": "sigma_throw"}
+    out: Dict[str, Dict[str, float]] = {}
+    for spec in specs or []:
+        name, sep, rest = spec.rpartition(":")
+        if not sep or not name or not rest:
+            raise CliError(f"--fault {spec!r}: expected NAME:key=value[,key=value] (keys: "
+                           "position, position-trace, dip, throw)")
+        d = out.setdefault(name, {})
+        for item in rest.split(","):
+            k, eq, v = item.partition("=")
+            k = k.strip()
+            if not eq or keys.get(k) is None:
+                raise CliError(f"--fault {spec!r}: unknown or malformed item {item!r} (keys: "
+                               "position, position-trace, dip, throw)")
+            try:
+                d[keys[k]] = float(v)
+            except ValueError:
+                raise CliError(f"--fault {spec!r}: {v!r} is not a number") from None
+    return out
+
+
+def cmd_ensemble(args) -> int:
+    from .ensemble import FaultPerturbation, Grid, Perturbation, ensemble
+
+    ds, _ = _load_dataset(args.dataset, args)
+    if args.n < 1:
+        raise CliError(f"-n must be at least 1, got {args.n}")
+    if args.workers is not None and args.workers < 1:
+        raise CliError(f"--workers must be at least 1, got {args.workers}")
+    pert = Perturbation(sigma_z=args.sigma_z, sigma_z_points=args.sigma_z_points,
+                        sigma_position=args.sigma_position,
+                        sigma_position_trace=args.sigma_position_trace,
+                        sigma_dip=args.sigma_dip, sigma_throw=args.sigma_throw,
+                        faults={k: FaultPerturbation(**v)
+                                for k, v in _fault_overrides(args.fault).items()})
+    if pert.is_zero:
+        _info(args, "note: every sigma is 0: all realizations are the unperturbed model")
+    if args.sections is None or args.sections == "all":
+        sections = None
+    elif args.sections == "none":
+        sections = ()
+    else:
+        sections = [s for s in args.sections.split(",") if s]
+    grid = Grid.over(ds, spacing=args.spacing) if args.spacing else args.grid
+    client = args.scheduler
+    where = f"the Dask scheduler at {client}" if client else \
+        f"a local Dask cluster of {args.workers or 'all cores as'} worker processes"
+    _info(args, f"ensemble of {args.n} realizations of {ds.name!r} on {where} ...")
+    bar = None
+    if not _quiet(args):
+        from tqdm import tqdm
+
+        bar = tqdm(total=args.n, desc="realizations", unit="", file=sys.stderr,
+                   dynamic_ncols=True, disable=None)
+
+    def progress(done: int, n: int, failed: int) -> None:
+        if bar is not None:
+            bar.n = done
+            if failed:
+                bar.set_postfix_str(f"{failed} failed", refresh=False)
+            bar.refresh()
+
+    try:
+        res = ensemble(ds, args.n, pert, client=client, seed=args.seed, grid=grid,
+                       sections=sections, points="boreholes" if args.boreholes else None,
+                       lower_sheet=args.lower_sheet, workers=args.workers, progress=progress)
+    finally:
+        if bar is not None:
+            bar.close()
+    if res.succeeded == 0:
+        first = res.failures[0]["error"] if res.failures else "?"
+        raise CliError(f"every realization failed (first: {first}); nothing written")
+    files = res.save(args.output, pictures=not args.no_plots)
+    t = res.timings
+    _echo(f"ensemble of {ds.name!r}: {res.succeeded} of {res.n} realizations succeeded, "
+          f"{res.failed} failed, in {t['wall_seconds']:.1f} s; written to "
+          f"{Path(args.output).resolve()}/")
+    for f in res.failures[:10]:
+        _echo(f"  failed: realization {f['index']} (seed {f['seed']}): {f['error']}")
+    if res.failed > 10:
+        _echo(f"  ... {res.failed - 10} more in summary.json")
+    for f in files:
+        _echo(f"  {f}")
+    return 0
+
+
 # ----------------------------------------------------------------------------
 # parser
 # ----------------------------------------------------------------------------
@@ -670,6 +762,65 @@ def make_parser() -> argparse.ArgumentParser:
                         "drawing pictures; needs 'pip install faultmesh[viz]' and a display")
     _add_common(p)
     p.set_defaults(func=cmd_plot)
+
+    p = sub.add_parser("ensemble", formatter_class=fmt,
+                       help="many perturbed realizations on Dask: mean, std, P10/P50/P90, "
+                            "fault-block probabilities",
+                       description="Build N realizations of DATASET, each from the data perturbed "
+                       "by Gaussian errors (sigmas below; all 0 by default), on a local Dask "
+                       "cluster or the cluster at --scheduler, and write DIR/ensemble.nc "
+                       "(CF-NetCDF: mean, std, p10, p50, p90, min, max of each layer's elevation "
+                       "on a grid, fault-side and fault-block probabilities, section envelopes), "
+                       "std_<layer>.png, section_<name>.png and summary.json. A realization "
+                       "that fails is reported with its seed; see docs/ensemble.md. Needs "
+                       "pip install 'faultmesh[ensemble]'.",
+                       epilog="examples:\n  faultmesh ensemble paper_like -n 200 -o ens "
+                              "--sigma-z 2 --sigma-position 15 --sigma-dip 5 --sigma-throw 0.2\n"
+                              "  faultmesh ensemble site/dataset.json -n 5000 -o ens "
+                              "--scheduler tcp://10.0.0.5:8786 --sigma-z 1\n"
+                              "  faultmesh ensemble paper_like -n 100 -o ens --sigma-position 10 "
+                              "--fault F22:position=40,dip=8")
+    p.add_argument("dataset", metavar="DATASET",
+                   help="dataset JSON (docs/dataset.md) or a built-in name: paper_like, synthetic")
+    _add_dataset_options(p)
+    p.add_argument("-n", type=int, required=True, metavar="N", help="number of realizations")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, metavar="K",
+                       help="worker processes of the local Dask cluster (default: the cores)")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786")
+    p.add_argument("--seed", type=int, default=0, metavar="S",
+                   help="seed: realization i uses SeedSequence(S, spawn_key=(i,)) (default 0)")
+    p.add_argument("--sigma-z", type=float, default=0.0, metavar="M",
+                   help="elevation error of each borehole row, m (default 0)")
+    p.add_argument("--sigma-z-points", type=float, default=None, metavar="M",
+                   help="elevation error of each extra data point, m (default: --sigma-z)")
+    p.add_argument("--sigma-position", type=float, default=0.0, metavar="M",
+                   help="position of each fault across its strike, m; all its traces move "
+                        "together (default 0)")
+    p.add_argument("--sigma-position-trace", type=float, default=0.0, metavar="M",
+                   help="extra shift of each trace across strike, m (default 0)")
+    p.add_argument("--sigma-dip", type=float, default=0.0, metavar="DEG",
+                   help="change of each fault's dip, degrees (default 0)")
+    p.add_argument("--sigma-throw", type=float, default=0.0, metavar="R",
+                   help="relative error of each fault's throw, e.g. 0.2 (default 0)")
+    p.add_argument("--fault", action="append", metavar="NAME:KEY=V[,KEY=V]",
+                   help="per-fault sigmas overriding the ones above; keys position, "
+                        "position-trace, dip, throw (repeatable)")
+    p.add_argument("--grid", type=int, default=100, metavar="NODES",
+                   help="grid nodes along the longer side of the study area (default 100)")
+    p.add_argument("--spacing", type=float, default=None, metavar="M",
+                   help="grid spacing in m (instead of --grid)")
+    p.add_argument("--sections", default=None, metavar="LIST",
+                   help="sections sampled: all (default), none, or a comma-separated list of names")
+    p.add_argument("--boreholes", action="store_true",
+                   help="also sample every layer at the borehole collars (point_* variables)")
+    p.add_argument("--lower-sheet", action="store_true",
+                   help="also keep statistics of the lower sheet where a layer is repeated")
+    p.add_argument("--no-plots", action="store_true", help="write no pictures")
+    _add_common(p)
+    p.set_defaults(func=cmd_ensemble)
     return parser
 
 
