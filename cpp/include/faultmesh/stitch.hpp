@@ -58,6 +58,7 @@
 
 #include <faultmesh/aabb_tree.hpp>
 #include <faultmesh/ear_clipping.hpp>
+#include <faultmesh/overlap.hpp>
 
 namespace faultmesh {
 
@@ -112,9 +113,11 @@ struct StitchedMesh {
     std::vector<std::int64_t> triangle_map; // stitcher row -> compacted row or -1
 };
 
+class LayerStitcher;
 namespace detail {
 struct StitcherState;
-}
+StitcherState& state_of(LayerStitcher& st);  // internal: the step tests reach the state
+}  // namespace detail
 
 class LayerStitcher {
 public:
@@ -161,6 +164,7 @@ public:
     const std::vector<std::string>& patch_names() const;
 
 private:
+    friend detail::StitcherState& detail::state_of(LayerStitcher& st);
     std::unique_ptr<detail::StitcherState> s_;
 };
 
@@ -178,9 +182,10 @@ StitchResult stitch(const double* vertices, std::size_t n_vertices, const std::i
 
 // Rows of the triangles (vertices with `stride` 2 or 3 doubles) whose CLOSED
 // XY projection meets the CLOSED region given by rings (even-odd rule;
-// interleaved x, y; ring r is points ring_offsets[r] .. ring_offsets[r+1]).
-// Exact (orient2d only). Used to clip one fault patch by another of the same
-// group (T- and X-crossings) and by the stitcher's overlap stage.
+// interleaved x, y; ring r is points ring_offsets[r] .. ring_offsets[r+1]):
+// the closed-contact predicate of overlap.hpp (OverlapPredicate), the one the
+// stitcher's overlap step uses. Exact (orient2d only). Used to clip one fault
+// patch by another of the same group (T- and X-crossings).
 std::vector<std::int64_t> triangles_touching_region(const double* vertices, std::size_t n_vertices,
                                                     std::size_t stride,
                                                     const std::int64_t* triangles,
