@@ -50,8 +50,10 @@ inline bool segments_meet(const double* a, const double* b, const double* c, con
     return false;
 }
 
-// True iff the closed segment [p, q] meets the OPEN triangle (a, b, c), which
-// must be counter-clockwise with non-zero area. Separating axes: a triangle
+// True iff the closed segment [p, q] (p != q) meets the OPEN triangle
+// (a, b, c), which must be counter-clockwise with non-zero area. (A single
+// point p == q has no line to separate by: test it with orient2d directly.)
+// Separating axes: a triangle
 // edge with p and q on its closed outer side, or the segment's line with a,
 // b, c on one closed side.
 inline bool segment_meets_open_triangle(const double* p, const double* q, const double* a,
