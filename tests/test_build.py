@@ -115,6 +115,40 @@ def test_patch_triangles_of_a_gap_come_from_the_kinds(paper_model):
     assert np.array_equal(patch_triangles(bare, g), _patch_triangles_guess(s, g))
 
 
+def test_stitching_records_survive_a_3dt_file(paper_model, tmp_path):
+    from faultmesh.plots import patch_triangles
+
+    m = paper_model
+    p = tmp_path / "m.3dt"
+    m.save(p)
+    text = p.read_text(encoding="utf-8")
+    assert text.startswith("3DT 2\n") and "\nOWNERS\n" in text
+    assert 'PATCH layer="coal 8" id=2 name="2F1-4F2" faults=["2F1","4F2"]' in text
+    r = faultmesh.load_model(p)
+    for name, s in m.surfaces.items():
+        assert np.array_equal(r.surfaces[name].kinds, s.kinds) and r.surfaces[name].kinds.dtype == np.int8
+        assert np.array_equal(r.surfaces[name].owner, s.owner)
+    assert r.patches == m.patches
+    assert [(g.id, g.patches) for g in r.gaps] == [(g.id, g.patches) for g in m.gaps]
+    for a, b in zip(m.gaps, r.gaps):
+        assert np.array_equal(patch_triangles(m, a), patch_triangles(r, b))
+    # Written again: the same bytes.
+    r.save(tmp_path / "again.3dt")
+    assert (tmp_path / "again.3dt").read_bytes() == p.read_bytes()
+    # A bad kind names its line; an array where a number belongs is an error.
+    lines = text.splitlines()
+    at = lines.index("OWNERS") + 1
+    bad = lines.copy()
+    bad[at] = "7 -1"
+    (tmp_path / "bad.3dt").write_text("\n".join(bad), encoding="utf-8")
+    with pytest.raises(faultmesh.io.ModelFileError, match=f"line {at + 1}: SURFACE .*OWNERS row 0: kind 7"):
+        faultmesh.load_model(tmp_path / "bad.3dt")
+    bad = [ln.replace("id=2 name=", "id=[2] name=") for ln in lines]
+    (tmp_path / "bad2.3dt").write_text("\n".join(bad), encoding="utf-8")
+    with pytest.raises(faultmesh.io.ModelFileError, match="PATCH: id must be a single value, got an array"):
+        faultmesh.load_model(tmp_path / "bad2.3dt")
+
+
 def test_surface_kinds_and_owner_are_checked():
     V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
     T = np.array([[0, 1, 2]])
