@@ -43,10 +43,6 @@ Box2 seg_box(const Seg& s) {
     return {std::min(s.p[0], s.q[0]), std::min(s.p[1], s.q[1]), std::max(s.p[0], s.q[0]),
             std::max(s.p[1], s.q[1])};
 }
-Box2 tri_box(const double* a, const double* b, const double* c) {
-    return {std::min({a[0], b[0], c[0]}), std::min({a[1], b[1], c[1]}), std::max({a[0], b[0], c[0]}),
-            std::max({a[1], b[1], c[1]})};
-}
 void extend(Box2& b, const Box2& x) {
     b.xmin = std::min(b.xmin, x.xmin);
     b.ymin = std::min(b.ymin, x.ymin);
@@ -216,7 +212,7 @@ std::size_t Region::slab_of(double y) const {
 }
 
 bool Region::meets_open_triangle(const double* a, const double* b, const double* c) const {
-    const Box2 tb = tri_box(a, b, c);
+    const Box2 tb = triangle_box(a, b, c);
     if (edges_.empty() || !boxes_meet(tb, bounds_)) return false;
     if (tree_.any_of(tb, [&](std::int64_t i) {
             const Seg& s = edges_[static_cast<std::size_t>(i)];
@@ -227,7 +223,7 @@ bool Region::meets_open_triangle(const double* a, const double* b, const double*
 }
 
 bool Region::meets_closed_triangle(const double* a, const double* b, const double* c) const {
-    const Box2 tb = tri_box(a, b, c);
+    const Box2 tb = triangle_box(a, b, c);
     if (nothing_drawn() || !boxes_meet(tb, drawn_bounds_)) return false;
     auto touches = [&](const std::vector<Seg>& segs) {
         return [&, a, b, c](std::int64_t i) {
@@ -868,7 +864,7 @@ std::vector<std::int64_t> run_overlap(const AabbTree* tree, const double* V, std
             const double* a = V + stride * static_cast<std::size_t>(T[3 * t]);
             const double* b = V + stride * static_cast<std::size_t>(T[3 * t + 1]);
             const double* c = V + stride * static_cast<std::size_t>(T[3 * t + 2]);
-            if (boxes_meet(tri_box(a, b, c), rb)) cand.push_back(static_cast<std::int64_t>(t));
+            if (boxes_meet(triangle_box(a, b, c), rb)) cand.push_back(static_cast<std::int64_t>(t));
         }
     }
     // Stage 2: exact tests.

@@ -51,6 +51,7 @@
 #include <faultmesh/aabb_tree.hpp>
 #include <faultmesh/overlap.hpp>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -71,6 +72,12 @@ inline double ring_area2(const std::vector<const double*>& pts) {
         s += (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]);
     }
     return s;
+}
+
+// The XY box of triangle (a, b, c).
+inline Box2 triangle_box(const double* a, const double* b, const double* c) {
+    return {std::min(a[0], std::min(b[0], c[0])), std::min(a[1], std::min(b[1], c[1])),
+            std::max(a[0], std::max(b[0], c[0])), std::max(a[1], std::max(b[1], c[1]))};
 }
 
 struct Seg {

@@ -32,11 +32,6 @@ std::string patch_label(const StitcherState& s, std::int64_t id) {
     return "#" + std::to_string(id);
 }
 
-Box2 tri_box(const double* a, const double* b, const double* c) {
-    return {std::min(a[0], std::min(b[0], c[0])), std::min(a[1], std::min(b[1], c[1])),
-            std::max(a[0], std::max(b[0], c[0])), std::max(a[1], std::max(b[1], c[1]))};
-}
-
 }  // namespace
 
 void find_overlap(StitcherState& s, StitchJob& job) {
@@ -52,7 +47,7 @@ void find_overlap(StitcherState& s, StitchJob& job) {
         const std::size_t r1 = std::min(s.n_base, r0 + kBlock);
         for (std::size_t r = r0; r < r1; ++r) {
             const std::int64_t* t = &s.tri[3 * r];
-            if (boxes_meet(tri_box(s.v(t[0]), s.v(t[1]), s.v(t[2])), rb))
+            if (boxes_meet(triangle_box(s.v(t[0]), s.v(t[1]), s.v(t[2])), rb))
                 cand.push_back(static_cast<std::int64_t>(r));
         }
     });
