@@ -128,7 +128,7 @@ def test_3dt_hand_written_file_with_comments_and_blank_lines(tmp_path):
 
 
 @pytest.mark.parametrize("old, new, line, fragment", [
-    ("3DT 1", "3DT 2", 1, "unsupported .3dt version 2"),
+    ("3DT 1", "3DT 3", 1, "unsupported .3dt version 3"),
     ("3DT 1", "TSURF 1", 1, "not a .3dt file"),
     ('MODEL name="m" crs="" surfaces=1 gaps=1', 'MODEL crs="" surfaces=1 gaps=1', 3,
      "missing attribute name="),

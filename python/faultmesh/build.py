@@ -15,10 +15,10 @@ from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 
-from ._core import AabbTree, GeometryError, LayerTin, Stitcher, StudyArea, repair_crossings
+from ._core import LayerTin, Stitcher, StudyArea, TriangleKind, repair_crossings
 from . import report as _report
 from .dataset import prepare_for_build
-from .model import Gap, Model, Surface
+from .model import Gap, Model, StitchedPatch, Surface
 
 __all__ = ["build_model", "continuous_layers", "stratum_tins", "LayerTin", "repair_crossings",
            "gap_quality", "fault_accuracy", "surface_z"]
@@ -215,13 +215,13 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     t0 = time.perf_counter()
     groups = dataset.fault_groups()
     ends = {f.name: fm.fault_ends(f) for f in dataset.faults}
-    group_names = []
-    for g in groups:
-        group_names.append(g[0].group if len(g) > 1 and g[0].group else "+".join(f.name for f in g))
-    patches: Dict[str, List[Tuple[str, np.ndarray, np.ndarray]]] = {lay: [] for lay in layers}
+    # The patch of each group, named after the group: its "group" value, else
+    # its members' names joined with "+" (a display name; the members stay a list).
+    group_names = [g[0].group if len(g) > 1 and g[0].group else "+".join(f.name for f in g)
+                   for g in groups]
+    patches: Dict[str, List[Tuple[str, List[str], np.ndarray, np.ndarray]]] = {lay: [] for lay in layers}
     fault_meta: Dict[str, Any] = {f.name: {"kind": f.kind, "layers": {}} for f in dataset.faults}
-    end_moves: Dict[str, List[Optional[Tuple[str, np.ndarray]]]] = {f.name: [None, None]
-                                                                     for f in dataset.faults}
+    end_moves: Dict[str, List[Optional[fm.EndMove]]] = {f.name: [None, None] for f in dataset.faults}
     for gi, (group, gname) in enumerate(zip(groups, group_names)):
         prog("fault models", gi, len(groups))
         for lay in layers:
@@ -248,20 +248,20 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                 for e in (0, 1):
                     if p.ends[e] == "extended" and end_moves[p.fault][e] is None:
                         if p.metadata.get(f"end{e}_extended_to") == "boundary":
-                            end_moves[p.fault][e] = ("ray", ends[p.fault].directions[e])
+                            end_moves[p.fault][e] = fm.EndMove.ray(ends[p.fault].directions[e])
                         else:
-                            end_moves[p.fault][e] = ("shift", ends[p.fault].directions[e]
-                                                     * p.metadata[f"end{e}_extension"])
+                            end_moves[p.fault][e] = fm.EndMove.shift(ends[p.fault].directions[e]
+                                                                     * p.metadata[f"end{e}_extension"])
                     elif p.ends[e] == "synthetic_tip" and end_moves[p.fault][e] is None:
-                        end_moves[p.fault][e] = ("shift", ends[p.fault].directions[e]
-                                                 * 0.5 * ends[p.fault].spacing)
+                        end_moves[p.fault][e] = fm.EndMove.shift(ends[p.fault].directions[e]
+                                                                 * 0.5 * ends[p.fault].spacing)
             if len(plist) == 1:
                 V, T = plist[0].vertices, plist[0].triangles
             else:
                 V, T, info = fm.group_patch(plist)
                 meta.setdefault("groups", {}).setdefault(gname, {})[lay] = info
             if len(T):
-                patches[lay].append((gname, V, T))
+                patches[lay].append((gname, [p.fault for p in plist], V, T))
     prog("fault models", len(groups), len(groups))
     fault_surfaces: Dict[str, Surface] = {}
     for f in dataset.faults:
@@ -276,6 +276,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     t0 = time.perf_counter()
     surfaces: Dict[str, Surface] = {}
     gaps: List[Gap] = []
+    stitched: List[StitchedPatch] = []
     stitch_meta: Dict[str, Any] = {}
     n_jobs = sum(len(v) for v in patches.values())
     job = 0
@@ -284,58 +285,50 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         st = Stitcher(V, T, boundary=ring, halfedges=halfedges[lay], name=lay, refine=refine,
                       order=stitch_order,
                       bridge=bridge, clearance=_clearance(clearance, tins[lay]))
-        gap_info: Dict[int, Dict[str, Any]] = {}
-        patch_group: List[str] = []
+        live_gaps: Dict[int, Tuple[Any, float]] = {}  # gap id -> (StitchGap, seconds)
+        layer_patches: Dict[int, StitchedPatch] = {}
         stitch_meta[lay] = []
-        for gname, PV, PT in patches[lay]:
+        for gname, members, PV, PT in patches[lay]:
             prog("stitching", job, n_jobs)
             job += 1
             ts = time.perf_counter()
             rep = st.stitch(PV, PT, name=gname)
             secs = time.perf_counter() - ts
-            patch_group.append(gname)
-            for g in rep["merged_gaps"]:
-                gap_info.pop(int(g), None)
-            for g in rep["gaps"]:
-                gap_info[int(g["id"])] = {"n_vertices": int(g["n_vertices"]),
-                                          "n_holes": int(g["n_holes"]),
-                                          "patches": [int(p) for p in g["patches"]],
-                                          "merged": [int(m) for m in g["merged_gaps"]],
-                                          "seconds": secs / max(1, len(rep["gaps"]))}
-            stitch_meta[lay].append({"fault": gname, "removed": int(len(rep["removed"])),
-                                     "candidates": int(rep["n_candidates"]),
-                                     "grow_rounds": int(rep["grow_rounds"]),
-                                     "gaps": len(rep["gaps"]),
-                                     "merged_gaps": int(len(rep["merged_gaps"])),
-                                     "patch_flipped": bool(rep["patch_flipped"]),
+            layer_patches[rep.patch_id] = StitchedPatch(layer=lay, id=int(rep.patch_id), name=gname,
+                                                        faults=list(members), n_triangles=int(len(PT)))
+            for g in rep.merged_gaps:
+                live_gaps.pop(int(g), None)
+            for g in rep.gaps:
+                live_gaps[int(g.id)] = (g, secs / max(1, len(rep.gaps)))
+            stitch_meta[lay].append({"fault": gname, "removed": int(len(rep.removed)),
+                                     "candidates": int(rep.n_candidates),
+                                     "grow_rounds": int(rep.grow_rounds),
+                                     "gaps": len(rep.gaps),
+                                     "merged_gaps": int(len(rep.merged_gaps)),
+                                     "patch_flipped": bool(rep.patch_flipped),
                                      "seconds": secs})
         mesh = st.mesh()
-        kinds = np.asarray(mesh["kinds"])
-        owners = np.asarray(mesh["owners"])
-        surf = Surface(lay, mesh["vertices"], mesh["triangles"], kind="layer",
-                       metadata={"n_patch_triangles": int(np.sum(kinds == 1)),
-                                 "n_gap_triangles": int(np.sum(kinds == 2))})
-        surf.metadata["_kinds"] = kinds  # private: dropped before returning
+        surf = Surface(lay, mesh.vertices, mesh.triangles, kind="layer", kinds=mesh.kinds, owner=mesh.owners,
+                       metadata={"n_patch_triangles": int(np.sum(mesh.kinds == TriangleKind.patch)),
+                                 "n_gap_triangles": int(np.sum(mesh.kinds == TriangleKind.gap))})
         surfaces[lay] = surf
-        for gid, info in sorted(gap_info.items()):
-            rows = np.flatnonzero((kinds == 2) & (owners == gid))
-            names = []
-            for p in info["patches"]:
-                for n in patch_group[p].split("+"):
-                    if n not in names:
-                        names.append(n)
-            fault_name = "+".join(patch_group[p] for p in info["patches"]) or "?"
-            gaps.append(Gap(fault=fault_name, layer=lay, triangles=rows.astype(np.int64),
-                            n_vertices=info["n_vertices"], n_holes=info["n_holes"],
-                            seconds=info["seconds"],
-                            metadata={"faults": names, "merged_gaps": len(info["merged"])}))
+        for gid, (g, secs) in sorted(live_gaps.items()):
+            rows = np.flatnonzero((surf.kinds == TriangleKind.gap) & (surf.owner == gid))
+            owners = [layer_patches[int(p)] for p in g.patches]
+            names = list(dict.fromkeys(f for p in owners for f in p.faults))
+            gaps.append(Gap(fault="+".join(p.name for p in owners) or "?", layer=lay,
+                            triangles=rows.astype(np.int64), n_vertices=int(g.n_vertices),
+                            n_holes=int(g.n_holes), seconds=secs,
+                            metadata={"faults": names, "merged_gaps": len(g.merged_gaps)},
+                            id=gid, patches=[p.id for p in owners]))
+        stitched.extend(layer_patches.values())
     prog("stitching", n_jobs, n_jobs)
     timings["stitching"] = time.perf_counter() - t0
     meta["stitch"] = stitch_meta
 
     model = Model(name=dataset.name, surfaces=surfaces, faults=fault_surfaces, boundary=ring,
                   crs=getattr(dataset, "crs", ""), gaps=gaps,
-                  truth=getattr(dataset, "truth", None), metadata=meta)
+                  truth=getattr(dataset, "truth", None), metadata=meta, patches=stitched)
     t0 = time.perf_counter()
     meta["quality"] = _report.gap_quality(model)
     if evaluate and model.truth is not None:
@@ -344,8 +337,6 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         except Exception as e:  # pragma: no cover - evaluation must never break a build
             meta["accuracy"] = {"error": f"{type(e).__name__}: {e}"}
     timings["evaluation"] = time.perf_counter() - t0
-    for s in surfaces.values():
-        s.metadata.pop("_kinds", None)
     timings["total"] = time.perf_counter() - t_start
     meta["timings"] = timings
     return model

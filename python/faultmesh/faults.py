@@ -42,6 +42,7 @@ tip by the end plane trace moved to the tip, and extended like the layers.
 """
 from __future__ import annotations
 
+import enum
 import math
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Sequence, Tuple
@@ -50,8 +51,8 @@ import numpy as np
 
 from ._core import GeometryError, StudyArea, boundary_contours, loft, triangles_touching_region
 
-__all__ = ["LayerPatch", "FaultEnds", "fault_ends", "trace_polyline", "layer_patch",
-           "fault_surface", "group_patch", "patch_outline"]
+__all__ = ["LayerPatch", "FaultEnds", "EndMove", "EndMoveKind", "fault_ends", "trace_polyline",
+           "layer_patch", "fault_surface", "group_patch", "patch_outline"]
 
 
 @dataclass
@@ -62,6 +63,32 @@ class FaultEnds:
     tips: List[Optional[np.ndarray]]
     directions: List[np.ndarray]
     spacing: float
+
+
+class EndMoveKind(enum.Enum):
+    """How :func:`fault_surface` extends one end of a fault plane like the
+    layers' patches were extended there (see :class:`EndMove`)."""
+
+    ray = "ray"      # each point of the end trace carried along a direction onto the study-area boundary
+    shift = "shift"  # the end trace moved by a vector (to the extended end or a synthetic tip)
+
+
+@dataclass(frozen=True, eq=False)
+class EndMove:
+    """One end move of a fault plane: ``kind`` and its ``vector`` (2,) -- the
+    direction of the ray (``EndMoveKind.ray``) or the displacement
+    (``EndMoveKind.shift``)."""
+
+    kind: EndMoveKind
+    vector: np.ndarray
+
+    @classmethod
+    def ray(cls, direction) -> "EndMove":
+        return cls(EndMoveKind.ray, np.asarray(direction, dtype=np.float64).reshape(2))
+
+    @classmethod
+    def shift(cls, offset) -> "EndMove":
+        return cls(EndMoveKind.shift, np.asarray(offset, dtype=np.float64).reshape(2))
 
 
 @dataclass
@@ -405,16 +432,17 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
 
 
 def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
-                  end_moves: Optional[Sequence[Optional[Tuple[str, np.ndarray]]]] = None):
+                  end_moves: Optional[Sequence[Optional[EndMove]]] = None):
     """(vertices, triangles) of the fault surface lofted from its plane
     traces, or None with fewer than two polylines.
 
     A tip end is closed by the end plane trace moved to the tip (by the
     offset from the cutoff midpoint of the layer whose cutoff line passes
-    closest to the tip). ``end_moves`` (per end, None, ``("ray", d)``: each
-    point carried along d onto the study-area boundary, or ``("shift", v)``:
-    the trace moved by v) extends an end like the layers' patches. An end
-    plane trace that already lies on the boundary stays as it is."""
+    closest to the tip). ``end_moves`` (per end, None or an :class:`EndMove`:
+    ``EndMove.ray(d)``, each point carried along d onto the study-area
+    boundary, or ``EndMove.shift(v)``, the trace moved by v) extends an end
+    like the layers' patches. An end plane trace that already lies on the
+    boundary stays as it is."""
     area = as_study_area(ring)
     seq = [np.asarray(tr.plane, dtype=np.float64).reshape(-1, 3) for tr in fault.traces]
     seq = [p for p in seq if len(p) >= 1]
@@ -434,14 +462,17 @@ def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
         elif area.on_boundary(plane[:, :2]).all():
             moved = None
         elif end_moves is not None and end_moves[end] is not None:
-            how, vec = end_moves[end]
-            if how == "ray":
-                moved, t = _to_boundary(area, plane, np.asarray(vec, dtype=np.float64), None)
+            move = end_moves[end]
+            if not isinstance(move, EndMove):
+                raise TypeError(f"fault_surface: end_moves[{end}] must be an EndMove or None, "
+                                f"got {type(move).__name__}")
+            if move.kind is EndMoveKind.ray:
+                moved, t = _to_boundary(area, plane, move.vector, None)
                 miss = ~np.isfinite(t)
                 moved[miss] = plane[miss]
             else:
                 moved = plane.copy()
-                moved[:, :2] += np.asarray(vec, dtype=np.float64)[None, :]
+                moved[:, :2] += move.vector[None, :]
         if moved is not None:
             # Keep it inside the study area (halve the move where it leaves).
             inside = area.contains(moved[:, :2])
