@@ -118,7 +118,20 @@ def _merge_tol(p: np.ndarray) -> float:
 def trace_polyline(trace, layer: str) -> Optional[Tuple[np.ndarray, float]]:
     """(polyline (k, 3), throw distance) of ``layer`` on ``trace``: footwall
     -> strip (plane points strictly between the cutoffs) -> hanging wall,
-    consecutive coincident points merged. None if the trace lacks the layer."""
+    consecutive coincident points merged. None if the trace lacks the layer.
+    :func:`trace_cutoffs` gives the cutoffs' positions in the polyline."""
+    r = _trace_polyline(trace, layer)
+    return None if r is None else (r[0], r[1])
+
+
+def trace_cutoffs(trace, layer: str) -> Optional[Tuple[int, int]]:
+    """Indices in :func:`trace_polyline` of the footwall and the hanging-wall
+    cutoff (equal for a zero-throw trace)."""
+    r = _trace_polyline(trace, layer)
+    return None if r is None else r[2]
+
+
+def _trace_polyline(trace, layer: str):
     sides = trace.layers.get(layer)
     if sides is None:
         return None
@@ -134,15 +147,18 @@ def trace_polyline(trace, layer: str) -> Optional[Tuple[np.ndarray, float]]:
     # From the footwall cutoff to the hanging-wall cutoff.
     strip = strip[np.argsort(-strip[:, 2])] if cf[2] > ch[2] else strip[np.argsort(strip[:, 2])]
     pts = np.vstack([foot, strip, hang])
+    i_fw, i_hw = len(foot) - 1, len(foot) + len(strip)
     tol = _merge_tol(pts)
     keep = [0]
+    pos = np.zeros(len(pts), dtype=np.int64)  # position of each point in the merged polyline
     for i in range(1, len(pts)):
         if np.linalg.norm(pts[i] - pts[keep[-1]]) > tol:
             keep.append(i)
+        pos[i] = len(keep) - 1
     pts = pts[keep]
     if throw <= tol:
         throw = 0.0
-    return np.ascontiguousarray(pts), throw
+    return np.ascontiguousarray(pts), throw, (int(pos[i_fw]), int(pos[i_hw]))
 
 
 def _cut_mid(trace, layer: str) -> Optional[np.ndarray]:
@@ -329,8 +345,17 @@ def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
 # ---------------------------------------------------------------------------
 # Assembly
 # ---------------------------------------------------------------------------
-def _assemble(seq: List[np.ndarray], method: str) -> Tuple[np.ndarray, np.ndarray]:
+def _assemble(seq: List[np.ndarray], method: str,
+              cuts: Optional[List[Optional[Tuple[int, int]]]] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Loft consecutive polylines of ``seq`` into one patch.
+
+    ``cuts`` (per polyline, or None): the positions of its footwall and
+    hanging-wall cutoffs. Between two polylines that both have them, the
+    footwall parts, the fault strips and the hanging-wall parts are lofted
+    separately, so the cutoff lines run from cutoff to cutoff: the folded
+    band of a reverse fault (or the strip of a normal one) is then exactly
+    the band between the cutoff lines the data give, whatever diagonals the
+    loft would choose across a whole polyline.
 
     Consecutive polylines share vertices where they have the same point at
     the same position (an end trace that already lies on the study-area
@@ -356,13 +381,28 @@ def _assemble(seq: List[np.ndarray], method: str) -> Tuple[np.ndarray, np.ndarra
         Vs.append(p)
         n += len(p)
         index.append(idx)
+
+    def pieces(i: int) -> List[Tuple[int, int]]:
+        c = cuts[i] if cuts is not None else None
+        k = len(seq[i])
+        if c is None:
+            return [(0, k)]
+        fw, hw = c
+        return [(0, fw + 1), (fw, hw + 1), (hw, k)]
+
     tris = []
     for i in range(len(seq) - 1):
-        a, b = seq[i], seq[i + 1]
-        t = np.asarray(loft(a, b, method=method), dtype=np.int64)
-        k = len(a)
-        tris.append(np.where(t < k, index[i][np.minimum(t, k - 1)],
-                             index[i + 1][np.maximum(t - k, 0)]))
+        pa, pb = pieces(i), pieces(i + 1)
+        if len(pa) != len(pb):
+            pa, pb = [(0, len(seq[i]))], [(0, len(seq[i + 1]))]
+        for (a0, a1), (b0, b1) in zip(pa, pb):
+            a, b = seq[i][a0:a1], seq[i + 1][b0:b1]
+            ia, ib = index[i][a0:a1], index[i + 1][b0:b1]
+            if len(a) == 1 and len(b) == 1:
+                continue  # a zero-width piece (zero throw on both traces)
+            t = np.asarray(loft(a, b, method=method), dtype=np.int64)
+            k = len(a)
+            tris.append(np.where(t < k, ia[np.minimum(t, k - 1)], ib[np.maximum(t - k, 0)]))
     T = np.vstack(tris) if tris else np.zeros((0, 3), dtype=np.int64)
     T = T[(T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 2] != T[:, 0])]
     V = np.vstack(Vs) if Vs else np.zeros((0, 3))
@@ -387,9 +427,10 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
     with_layer = [tr for tr in fault.traces if layer in tr.layers]
     if not with_layer:
         return None
-    polys = [trace_polyline(tr, layer) for tr in with_layer]
-    seq = [p for p, _ in polys]
-    throws = [t for _, t in polys]
+    polys = [_trace_polyline(tr, layer) for tr in with_layer]
+    seq = [p for p, _, _ in polys]
+    throws = [t for _, t, _ in polys]
+    cuts: List[Optional[Tuple[int, int]]] = [c for _, _, c in polys]
     if max_extension is None:
         max_extension = max(1.5 * ends.spacing, 0.25 * math.sqrt(abs(_area(area.ring))))
     kinds, abuts, meta = [], [], {}
@@ -423,11 +464,16 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 add = np.array([[xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])]])
                 kinds.append("synthetic_tip")
         if add is not None:
+            # An extension is the end polyline carried point by point: its
+            # cutoffs sit where the end polyline's do. A tip is one point.
+            c = (cuts[0] if end == 0 else cuts[-1]) if len(add) == len(poly) else None
             if end == 0:
                 seq.insert(0, add)
+                cuts.insert(0, c)
             else:
                 seq.append(add)
-    V, T = _assemble(seq, loft_method)
+                cuts.append(c)
+    V, T = _assemble(seq, loft_method, cuts)
     return LayerPatch(fault.name, layer, V, T, kinds, abuts, meta)
 
 
