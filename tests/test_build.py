@@ -302,9 +302,15 @@ def test_overlapping_fault_patches_are_an_error(paper):
             for k in sides:
                 sides[k] = sides[k] + shift
     ds.faults.append(f)
-    with pytest.raises(faultmesh.GeometryError,
-                       match=r"layer 'coal 8': fault patch '2F4b' overlaps \(or touches\) fault patch '2F4'"):
+    # Two faults of different groups whose zones overlap: the dataset cannot
+    # be built as it is -- a DatasetError naming both faults and the layer,
+    # the stitcher's own error (naming the patches and where) as its cause.
+    with pytest.raises(faultmesh.DatasetError,
+                       match=r"faults too close: fault '2F4' and fault '2F4b' overlap in layer 'coal 8'") as ei:
         faultmesh.build_model(ds)
+    cause = ei.value.__cause__
+    assert isinstance(cause, faultmesh.PatchOverlapError) and isinstance(cause, faultmesh.GeometryError)
+    assert (cause.layer, cause.patch, cause.other) == ("coal 8", "2F4b", "2F4")
 
 
 # ---------------------------------------------------------------------------

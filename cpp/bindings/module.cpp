@@ -26,7 +26,23 @@ PYBIND11_MODULE(_core, m) {
               "boundary loops, ear clipping, lofting, stitching)";
     m.attr("__version__") = FAULTMESH_VERSION;
     // GeometryError is a ValueError so callers that catch ValueError see it too.
-    pybind11::register_exception<faultmesh::GeometryError>(m, "GeometryError", PyExc_ValueError);
+    auto& geometry_error =
+        pybind11::register_exception<faultmesh::GeometryError>(m, "GeometryError", PyExc_ValueError);
+    // PatchOverlapError (a GeometryError) carries the names of what overlaps:
+    // .layer, .patch, .other (errors.hpp).
+    static pybind11::exception<faultmesh::PatchOverlapError> patch_overlap(m, "PatchOverlapError",
+                                                                          geometry_error.ptr());
+    pybind11::register_exception_translator([](std::exception_ptr p) {
+        try {
+            if (p) std::rethrow_exception(p);
+        } catch (const faultmesh::PatchOverlapError& e) {
+            pybind11::object inst = pybind11::reinterpret_borrow<pybind11::object>(patch_overlap.ptr())(e.what());
+            inst.attr("layer") = e.layer;
+            inst.attr("patch") = e.patch;
+            inst.attr("other") = e.other;
+            PyErr_SetObject(patch_overlap.ptr(), inst.ptr());
+        }
+    });
     fb::bind_predicates(m);
     fb::bind_delaunay(m);
     fb::bind_aabb_tree(m);

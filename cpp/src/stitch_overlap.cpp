@@ -63,11 +63,15 @@ void find_overlap(StitcherState& s, StitchJob& job) {
         if (!region.meets_closed_triangle(s.v(t[0]), s.v(t[1]), s.v(t[2]))) continue;
         if (s.kind[static_cast<std::size_t>(r)] == static_cast<std::int8_t>(TriangleKind::patch)) {
             const std::string other = patch_label(s, s.owner[static_cast<std::size_t>(r)]);
-            throw GeometryError("stitch: layer '" + s.name + "': fault patch '" + job.patch_name +
+            const std::int64_t oid = s.owner[static_cast<std::size_t>(r)];
+            const std::string other_name =
+                oid >= 0 && static_cast<std::size_t>(oid) < s.patch_names.size() ? s.patch_names[static_cast<std::size_t>(oid)] : other;
+            throw PatchOverlapError("stitch: layer '" + s.name + "': fault patch '" + job.patch_name +
                                 "' overlaps (or touches) fault patch " + other + " in XY (triangle " +
                                 std::to_string(r) + " of " + other + " near " + fmt_point(s.v(t[0])) +
                                 " meets the outline of '" + job.patch_name +
-                                "'); model crossing faults together (same group) or separate them");
+                                "'); model crossing faults together (same group) or separate them",
+                                s.name, job.patch_name, other_name);
         }
         D.add(r);
     }

@@ -15,9 +15,9 @@ from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 
-from ._core import LayerTin, Stitcher, StudyArea, TriangleKind, repair_crossings
+from ._core import LayerTin, PatchOverlapError, Stitcher, StudyArea, TriangleKind, repair_crossings
 from . import report as _report
-from .dataset import prepare_for_build
+from .dataset import DatasetError, prepare_for_build
 from .model import Gap, Model, StitchedPatch, Surface
 
 __all__ = ["build_model", "continuous_layers", "stratum_tins", "LayerTin", "repair_crossings",
@@ -94,6 +94,19 @@ def fault_accuracy(model: Model, continuous: Dict[str, Surface], truth=None, nea
 # ---------------------------------------------------------------------------
 # build_model
 # ---------------------------------------------------------------------------
+def _zones_overlap(e: PatchOverlapError, members: Dict[str, List[str]]) -> DatasetError:
+    """The dataset error for two fault patches of different groups that meet
+    in a layer: their faults' zones overlap, which the data must resolve
+    (model them together, as one group, or move them apart)."""
+    def names(patch: str) -> str:
+        fs = members.get(patch, [patch])
+        return f"fault {fs[0]!r}" if len(fs) == 1 else "faults " + " and ".join(repr(f) for f in fs)
+
+    return DatasetError(f"faults too close: {names(e.other)} and {names(e.patch)} overlap in layer "
+                        f"{e.layer!r} (their fault zones meet in map view); give them one 'group' "
+                        f"if they cross (T or X), or check their traces -- {e}")
+
+
 def _clearance(clearance: Optional[float], tin: "LayerTin") -> float:
     if clearance is not None:
         if not clearance >= 0.0:
@@ -288,11 +301,15 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         live_gaps: Dict[int, Tuple[Any, float]] = {}  # gap id -> (StitchGap, seconds)
         layer_patches: Dict[int, StitchedPatch] = {}
         stitch_meta[lay] = []
+        patch_members = {gname: members for gname, members, _, _ in patches[lay]}
         for gname, members, PV, PT in patches[lay]:
             prog("stitching", job, n_jobs)
             job += 1
             ts = time.perf_counter()
-            rep = st.stitch(PV, PT, name=gname)
+            try:
+                rep = st.stitch(PV, PT, name=gname)
+            except PatchOverlapError as e:
+                raise _zones_overlap(e, patch_members) from e
             secs = time.perf_counter() - ts
             layer_patches[rep.patch_id] = StitchedPatch(layer=lay, id=int(rep.patch_id), name=gname,
                                                         faults=list(members), n_triangles=int(len(PT)))
