@@ -40,3 +40,12 @@ def test_surveyors_rounding_on_the_boundary_builds_and_checks():
     model = faultmesh.build_model(ds)
     model.check()
     assert "snapped" in model.metadata["input"]["summary"]
+
+
+@pytest.mark.parametrize("name", ["reverse-short-hanging-wall", "reverse-ends-pinch"])
+def test_reverse_fault_polylines_that_stop_inside_the_band(name):
+    # A reverse fault repeats the layer between its cutoffs; a hanging-wall
+    # polyline that ends inside that band (or a footwall one that starts in
+    # it) is carried on past it, so the patch's outline stays simple in XY.
+    model = faultmesh.build_model(faultmesh.load_dataset(REPRO / name / "dataset.json"))
+    model.check()

@@ -271,7 +271,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
             if len(plist) == 1:
                 V, T = plist[0].vertices, plist[0].triangles
             else:
-                V, T, info = fm.group_patch(plist)
+                V, T, info = fm.group_patch(plist, area)
                 meta.setdefault("groups", {}).setdefault(gname, {})[lay] = info
             if len(T):
                 patches[lay].append((gname, [p.fault for p in plist], V, T))

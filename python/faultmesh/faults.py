@@ -49,7 +49,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ._core import GeometryError, StudyArea, boundary_contours, loft, triangles_touching_region
+from ._core import AabbTree, GeometryError, StudyArea, boundary_contours, loft, triangles_touching_region
 
 __all__ = ["LayerPatch", "FaultEnds", "EndMove", "EndMoveKind", "fault_ends", "trace_polyline",
            "layer_patch", "fault_surface", "group_patch", "patch_outline"]
@@ -131,6 +131,43 @@ def trace_cutoffs(trace, layer: str) -> Optional[Tuple[int, int]]:
     return None if r is None else r[2]
 
 
+def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """Where a reverse fault repeats the layer (the hanging-wall cutoff lies
+    behind the footwall cutoff along the section: the overlap band), the
+    footwall polyline must start before the band and the hanging-wall one end
+    after it, or the patch's far end lies over the patch itself and its
+    outline crosses itself in XY (a hanging-wall line drawn 42 m long across
+    a 54 m band: grounds seed 4). A polyline that stops inside (or just at
+    the edge of) the band is carried on along its last segment's slope to one
+    band width beyond it. Sections are drawn as lines: the direction along
+    the section is that of the footwall polyline (else the hanging-wall one)."""
+    fc, hc = foot[-1, :2], hang[0, :2]
+    d = fc - foot[0, :2] if len(foot) > 1 else hang[-1, :2] - hc
+    n = float(np.hypot(d[0], d[1]))
+    if n == 0.0:
+        return foot, hang
+    d = d / n
+    band = float((fc - hc) @ d)      # > 0: the hanging-wall cutoff is behind (a fold)
+    if not band > _merge_tol(np.vstack([foot, hang])):
+        return foot, hang
+
+    def carried(end: np.ndarray, inner: np.ndarray, target_u: float) -> np.ndarray:
+        u_end = float((end[:2] - fc) @ d)
+        du = target_u - u_end
+        # z along the polyline's last segment (its slope along the section).
+        seg_u = float((end[:2] - inner[:2]) @ d)
+        slope = (end[2] - inner[2]) / seg_u if abs(seg_u) > 0.0 else 0.0
+        return np.r_[end[:2] + du * d, end[2] + slope * du]
+
+    if float((hang[-1, :2] - fc) @ d) < band:
+        inner = hang[-2] if len(hang) > 1 else (foot[-2] if len(foot) > 1 else hang[-1])
+        hang = np.vstack([hang, carried(hang[-1], inner, band)])
+    if float((foot[0, :2] - fc) @ d) > -2.0 * band:
+        inner = foot[1] if len(foot) > 1 else (hang[1] if len(hang) > 1 else foot[0])
+        foot = np.vstack([carried(foot[0], inner, -2.0 * band), foot])
+    return foot, hang
+
+
 def _trace_polyline(trace, layer: str):
     sides = trace.layers.get(layer)
     if sides is None:
@@ -139,6 +176,7 @@ def _trace_polyline(trace, layer: str):
     hang = np.asarray(sides["hanging"], dtype=np.float64).reshape(-1, 3)
     if len(foot) == 0 or len(hang) == 0:
         return None
+    foot, hang = _reach_past_the_band(foot, hang)
     cf, ch = foot[-1], hang[0]
     throw = float(np.linalg.norm(ch - cf))
     plane = np.asarray(trace.plane, dtype=np.float64).reshape(-1, 3)
@@ -619,8 +657,51 @@ def _triangles_near_region(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray]
     return np.unique(np.flatnonzero(near) // 3)
 
 
+def _outline_crossings(V: np.ndarray, T: np.ndarray, area: Optional[StudyArea] = None) -> np.ndarray:
+    """Rows of the triangles whose outline edges meet another outline edge of
+    the patch in XY (exactly; edges sharing a vertex do not count), except
+    pairs lying wholly on the study-area boundary (a reverse fault that runs
+    out of the area folds along it, which the stitcher allows)."""
+    from .dataset import _segments_intersect
+
+    c = boundary_contours(T, n_vertices=len(V))
+    loops = [np.asarray(l, dtype=np.int64) for l in c.loops]
+    if not loops:
+        return np.zeros(0, dtype=np.int64)
+    S = np.vstack([np.column_stack([l, np.roll(l, -1)]) for l in loops])
+    tree = AabbTree.from_segments(V[:, :2], S)
+    xy = V[:, :2]
+    boxes = np.column_stack([np.minimum(xy[S[:, 0]], xy[S[:, 1]]), np.maximum(xy[S[:, 0]], xy[S[:, 1]])])
+    off, idx = (np.asarray(a) for a in tree.query(boxes))
+    i = np.repeat(np.arange(len(S)), np.diff(off))
+    j = idx
+    pair = (i < j) & (S[i, 0] != S[j, 0]) & (S[i, 0] != S[j, 1]) & (S[i, 1] != S[j, 0]) & (S[i, 1] != S[j, 1])
+    i, j = i[pair], j[pair]
+    if len(i) == 0:
+        return np.zeros(0, dtype=np.int64)
+    hit = _segments_intersect(xy[S[i, 0]], xy[S[i, 1]], xy[S[j, 0]], xy[S[j, 1]])
+    i, j = i[hit], j[hit]
+    if area is not None and len(i):
+        onb = area.on_boundary(xy)
+        both = onb[S[i, 0]] & onb[S[i, 1]] & onb[S[j, 0]] & onb[S[j, 1]]
+        i, j = i[~both], j[~both]
+    if len(i) == 0:
+        return np.zeros(0, dtype=np.int64)
+    # The triangle of each outline edge (the edge a -> b of an outline loop is
+    # a directed edge of exactly one triangle).
+    n = len(V)
+    H = np.column_stack([T.reshape(-1), T[:, [1, 2, 0]].reshape(-1)])
+    key = H[:, 0] * n + H[:, 1]
+    order = np.argsort(key)
+    edges = np.unique(np.r_[i, j])
+    want = S[edges, 0] * n + S[edges, 1]
+    pos = np.searchsorted(key[order], want)
+    return np.unique(order[np.minimum(pos, len(order) - 1)] // 3)
+
+
 def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
-               max_rounds: int = 50, tol: Optional[float] = None) -> Tuple[np.ndarray, np.ndarray]:
+               max_rounds: int = 50, tol: Optional[float] = None,
+               area: Optional[StudyArea] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Remove the triangles whose closed XY projection touches the region
     ``rings`` (exactly) or comes within ``tol`` of its outline, then the
     triangles at pinch vertices until every piece has simple boundary loops.
@@ -647,14 +728,24 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
     if tol > 0.0:
         keep[_triangles_near_region(V, T, rings, tol)] = False
     T = T[keep]
+    # Clean-up: triangles at pinch vertices, then -- a folded (reverse-fault)
+    # patch is clipped sheet by sheet at different places, and the outlines
+    # of its sheets can cross in XY where they meet the partner -- the
+    # triangles at crossing outline edges, until the outline is simple.
     for _ in range(max_rounds):
         if len(T) == 0:
             break
         c = boundary_contours(T, n_vertices=len(V))
         bad = np.asarray(c.pinch_vertices, dtype=np.int64)
-        if bad.size == 0:
+        if bad.size:
+            T = T[~np.isin(T, bad).any(axis=1)]
+            continue
+        rows = _outline_crossings(V, T, area)
+        if rows.size == 0:
             break
-        T = T[~np.isin(T, bad).any(axis=1)]
+        keep = np.ones(len(T), dtype=bool)
+        keep[rows] = False
+        T = T[keep]
     else:
         raise GeometryError("clip_patch: could not clean up the clipped patch")
     if len(T) == 0:
@@ -662,7 +753,8 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
     return _compact(V, T)
 
 
-def group_patch(patches: List[LayerPatch]) -> Tuple[np.ndarray, np.ndarray, Dict[str, Any]]:
+def group_patch(patches: List[LayerPatch], area: Optional[StudyArea] = None
+                ) -> Tuple[np.ndarray, np.ndarray, Dict[str, Any]]:
     """One patch per layer for a group of crossing faults (module doc).
 
     Order: faults that abut no partner first (in the given order), then the
@@ -677,7 +769,7 @@ def group_patch(patches: List[LayerPatch]) -> Tuple[np.ndarray, np.ndarray, Dict
         V, T = p.vertices, p.triangles
         n0 = len(T)
         if rings:
-            V, T = clip_patch(V, T, rings)
+            V, T = clip_patch(V, T, rings, area=area)
         info["pieces"][p.fault] = {"triangles": int(len(T)), "clipped": int(n0 - len(T))}
         if len(T) == 0:
             continue
