@@ -1,5 +1,5 @@
 // faultmesh/layer_tin.hpp -- the continuous stratum TIN of one layer over the
-// whole study area (docs/design.md, "Stratum TINs"; paper 2.3), and the
+// whole study area (docs/design.md §4.4; paper 2.3), and the
 // layer-crossing repair between two of them (paper 3.2, Figure 6).
 //
 // A LayerTin is the Delaunay TIN (tin.hpp) of the layer's data points plus

@@ -1,6 +1,6 @@
 // faultmesh/overlap.hpp -- overlap detection between a layer TIN and a region
 // R in XY (paper section 2.4), and growth of the removed set into a
-// topological disk (docs/design.md, workflow step 5).
+// topological disk (docs/design.md §4.7, steps 2 and 3).
 //
 // The region R is given as closed rings (interleaved x, y; ring r is the
 // points ring_offsets[r] .. ring_offsets[r+1]; the first point is not

@@ -1,5 +1,5 @@
 // faultmesh/stitch.hpp -- stitching fine fault models into a layer TIN
-// (paper sections 2.4-2.6; docs/design.md, workflow steps 5-7).
+// (paper sections 2.4-2.6; docs/design.md §4.7).
 //
 // A LayerStitcher owns one layer surface and stitches fault patches into it
 // one after another. Each stitch is LOCAL: it touches only the triangles
