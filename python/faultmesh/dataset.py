@@ -1248,7 +1248,8 @@ def check_hole_positions(ds: Dataset, tol: Optional[float] = None) -> None:
     if tol is None:
         tol = ds.snap_distance if ds.snap_distance is not None else \
             default_snap_distance(ds.boundary)
-    ids, first, inv = np.unique(b.hole_id, return_index=True, return_inverse=True)
+    _, _, hcode, _ = b.codes
+    _, first, inv = np.unique(hcode, return_index=True, return_inverse=True)
     ref = b.xy[first[inv]]
     d = np.hypot(*(b.xy - ref).T)
     bad = np.flatnonzero(d > tol)
@@ -1289,14 +1290,11 @@ def check_layer_order(ds: Dataset) -> List[Adjustment]:
     ok = lay_idx >= 0
     H = np.full((len(hole_names), len(layers)), -np.inf)
     np.maximum.at(H, (hole_idx[ok], lay_idx[ok]), b.z[ok])
-    # The row of each hole's shallowest hit of each layer, for messages.
-    R = np.full(H.shape, -1, dtype=np.int64)
-    o = np.lexsort((b.z, lay_idx, hole_idx))
-    o = o[ok[o]]
-    key = hole_idx[o] * len(layers) + lay_idx[o]
-    last = np.ones(len(o), dtype=bool)                      # the last of each group is its max
-    last[:-1] = key[1:] != key[:-1]
-    R[hole_idx[o[last]], lay_idx[o[last]]] = o[last]
+    def row_of(h: int, i: int) -> int:
+        """The row of hole h's shallowest hit of layer i (for messages only)."""
+        rows = np.flatnonzero((hole_idx == h) & (lay_idx == i))
+        return int(rows[np.argmax(b.z[rows])])
+
     warnings: List[Adjustment] = []
     problems = []
     n_pairs = 0
@@ -1315,7 +1313,7 @@ def check_layer_order(ds: Dataset) -> List[Adjustment]:
         worst = disagree[np.argsort(up[disagree] - lo[disagree])][:_NAME_HOLES]
         names = "; ".join(
             f"hole {_short(str(hole_names[h]))}: {U!r} at z {up[h]:.2f} "
-            f"({_hole_rows(b, [R[h, i]])}), {L!r} at z {lo[h]:.2f} ({_hole_rows(b, [R[h, i + 1]])})"
+            f"({_hole_rows(b, [row_of(h, i)])}), {L!r} at z {lo[h]:.2f} ({_hole_rows(b, [row_of(h, i + 1)])})"
             for h in worst)
         more = f" and {disagree.size - len(worst)} more" if disagree.size > len(worst) else ""
         counts = (f"{disagree.size} of the {agree.size + disagree.size} holes that hit both "
