@@ -34,8 +34,7 @@ import sys
 import time
 import tracemalloc
 
-from _common import (ROOT, command_line, machine, proc_status_mib, table_header, today,
-                     use_dev_build)
+from _common import (ROOT, machine, proc_status_mib, table_header, use_dev_build)
 
 use_dev_build()
 import faultmesh  # noqa: E402

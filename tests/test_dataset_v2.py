@@ -8,7 +8,6 @@ from __future__ import annotations
 import json
 import math
 import re
-import shutil
 from dataclasses import replace
 from pathlib import Path
 
@@ -20,8 +19,7 @@ from hypothesis import strategies as st
 from helpers import fuzz_settings
 
 import faultmesh as fm
-from faultmesh.dataset import (Boreholes, Dataset, DatasetError, Fault, Trace,
-                               apply_boundary_policy, load_dataset)
+from faultmesh.dataset import (Boreholes, Dataset, DatasetError, Fault, apply_boundary_policy, load_dataset)
 from faultmesh.datasets import synthetic
 from faultmesh.model import Model, Surface
 
@@ -572,7 +570,7 @@ def test_deviated_drillholes_give_the_same_model_as_the_plain_table(tmp_path):
     contacts = trace(geo, holes, TOTAL)
     assert sum(c[3] for cs in contacts.values() for c in cs) >= 4   # contacts at the fault
     d = tmp_path / "ds"
-    js = ds.save(d)                               # the v1 dataset, hand-drawn fault traces
+    ds.save(d)                               # the v1 dataset, hand-drawn fault traces
     write_tables(d, geo.layers, holes, contacts, TOTAL)
     # The equivalent plain table: the exact tops (contacts found to 1e-12 m
     # on the ground, positions by independent minimum-curvature arcs), at full

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import faultmesh
-from faultmesh.dataset import Fault, Trace, points_in_polygon
-from faultmesh.ensemble import Perturbation, perturb, realization_dataset, realization_seed
+from faultmesh.dataset import Fault, Trace
+from faultmesh.ensemble import Perturbation, realization_dataset, realization_seed
 from faultmesh.ensemble.perturbation import _enforce_inside, _plane_xy_at, _shear_dip, fault_frame
 
 

@@ -37,10 +37,10 @@ def include_dir() -> str:
     return str(_Path(__file__).resolve().parent / "include")
 
 
-from .dataset import Dataset, DatasetError, load_dataset  # noqa: E402
-from . import datasets  # noqa: E402
-from .io import load_model  # noqa: E402
-from .formats.pv import from_pyvista  # noqa: E402  (needs faultmesh[viz] when called)
-from .model import Model, Surface, Gap  # noqa: E402
-from .build import build_model  # noqa: E402
-from .ensemble import ensemble, Perturbation  # noqa: E402  (Dask is imported only when used)
+from .dataset import Dataset, DatasetError, load_dataset  # noqa: E402,F401  (re-exported)
+from . import datasets  # noqa: E402,F401  (re-exported)
+from .io import load_model  # noqa: E402,F401  (re-exported)
+from .formats.pv import from_pyvista  # noqa: E402,F401  (needs faultmesh[viz] when called)
+from .model import Model, Surface, Gap  # noqa: E402,F401  (re-exported)
+from .build import build_model  # noqa: E402,F401  (re-exported)
+from .ensemble import ensemble, Perturbation  # noqa: E402,F401  (Dask is imported only when used)

@@ -9,7 +9,6 @@ bridging, ear clipping, merge), one fault group after another.
 """
 from __future__ import annotations
 
-import math
 import time
 from typing import Any, Callable, Dict, List, Optional, Tuple
 

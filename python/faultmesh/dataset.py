@@ -2010,7 +2010,7 @@ def load_dataset(path, *, snap: Optional[float] = None,
         kind = ctx.need(fd, "kind", w) if version == 1 else fd.get("kind")
         if kind is not None or version == 1:
             if kind not in ("normal", "reverse"):
-                raise ctx.err(w + " kind", f"must be 'normal' or 'reverse'"
+                raise ctx.err(w + " kind", "must be 'normal' or 'reverse'"
                               + (" (or left out: derived from the data)" if version == 2 else "")
                               + f", got {_short(kind)}")
         group = fd.get("group")
@@ -2174,7 +2174,7 @@ def save_dataset(ds: Dataset, path, *, section_coords: bool = False,
         raise DatasetError(f"Dataset.save: version must be one of {list(FORMAT_VERSIONS)} (or "
                            f"None: the lowest that holds the dataset), got {_short(version)}")
     if version == 1 and v2_only:
-        raise DatasetError(f"Dataset.save: format version 1 cannot hold this dataset: "
+        raise DatasetError("Dataset.save: format version 1 cannot hold this dataset: "
                            + "; ".join(v2_only[:3]) + (" ..." if len(v2_only) > 3 else "")
                            + "; save with version=2")
     write_tables = tables and version == 2

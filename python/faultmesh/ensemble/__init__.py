@@ -15,18 +15,17 @@ with ``from faultmesh.ensemble import Perturbation, ...``.
 """
 from __future__ import annotations
 
-import math
 import os
 import time
 import uuid
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Union
 
 import numpy as np
 
 from ..dataset import Dataset, Section
 from .perturbation import (FaultPerturbation, Perturbation, _copy_dataset, perturb,
                            realization_dataset, realization_seed)
-from .reduction import QUANTILES, Reducer, StreamingStats
+from .reduction import QUANTILES, Reducer, StreamingStats  # noqa: F401  (QUANTILES re-exported)
 from .result import EnsembleResult
 from .sampling import Grid, Sampler, Samples, SectionLine, run_realization
 

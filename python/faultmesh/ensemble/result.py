@@ -8,7 +8,7 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
-from .reduction import QUANTILES, Reducer
+from .reduction import Reducer
 from .sampling import SIDE_FOOT, SIDE_HANGING, Sampler
 
 __all__ = ["EnsembleResult"]

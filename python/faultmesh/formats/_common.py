@@ -432,7 +432,7 @@ def split_merged(path, points: np.ndarray, triangles: np.ndarray,
     pa = {k: np.asarray(v) for k, v in point_arrays.items() if len(v) == len(P)}
     ca = {k: np.asarray(v) for k, v in cell_arrays.items() if len(v) == len(T)}
     sid = pa.pop("surface_id", None)
-    ca_sid = ca.pop("surface_id", None)
+    ca.pop("surface_id", None)  # the per-vertex ids decide; a cell copy is not an array to keep
     kind_c = ca.pop("kind", None) if sid is not None else None
 
     def meta(vsel, tsel) -> Dict[str, object]:

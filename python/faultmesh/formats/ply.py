@@ -154,7 +154,6 @@ def _read_binary(path, data, pos, el, order):
 
 
 def _read_ascii(path, tokens, pos, el):
-    cols = []
     width = 0
     for name, t in el.props:
         width += 4 if isinstance(t, tuple) else 1
