@@ -28,13 +28,20 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
    (exact) labels every layer datum hanging wall (+1, the block above the
    fault) or footwall (-1).
 3. **Side surfaces** (:class:`SideSurface`): each side of each layer is
-   interpolated from that side's data only (the fault is a barrier): linear
-   in the Delaunay TIN of the side's data where its triangles are local
-   (edges up to three data spacings), and towards and past the fault by
-   local inverse-distance weighted plane fits to the ``k`` nearest
-   same-side data (batched: one SVD per query point, all at once). With
-   crossing faults (a ``group``), a section's data are further restricted to
-   its fault block: the same side of every partner fault.
+   interpolated from that side's data only (the fault is a barrier): a
+   minimum-curvature grid (:func:`_min_curvature`; a smoothing thin-plate
+   spline on a grid in the fault's frame, cells of half a data spacing,
+   one sparse solve) that follows the data closely, is smooth between sparse
+   data and, towards and past the fault, continues their trend with its
+   slope relaxing over a tension length (:data:`TENSION` data spacings)
+   towards the layer's regional slope. Where neither side has data within
+   two data spacings of its cutoff on a section (a data gap at the fault),
+   both sides there come from one surface through both sides' data, the
+   hanging wall's raised by a throw that varies smoothly along strike
+   (:func:`_joint_sides`): two extrapolations across a gap are unrelated,
+   their difference is no throw. With crossing faults (a ``group``), a
+   section's data are further restricted to its fault block: the same side
+   of every partner fault.
 4. **Cutoffs**: sections across strike every ``spacing`` where the fault's
    extent crosses the study area; on each, the fault surface (skirt
    included) cut by the vertical plane is a polyline; the footwall and
@@ -76,13 +83,14 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
 carry these traces; its ``derivation`` is a :class:`DeriveReport` (per fault:
 kind derived and given, warnings, throw profile, tips, cutoff lines).
 
-Limitations: the side surfaces are local (TIN and planes), so a side whose
-data stop far from the fault is extrapolated linearly from the slope at the
-data's edge, which misses drag or rollover near the fault (Claudius with
-every pick within 300 m of the fault withheld: median error 17 m at those
-picks, tests/test_derive_claudius.py); with sparse boreholes (about
-350 m apart) the error near faults is 1.6-3.4x that of a model built from the
-exact cutoffs, at about 160 m 0.7-1.25x.
+Accuracy and limitations (docs/derive.md): on generated grounds the
+error near faults is 0.45-0.90x that of the model built from the exact
+cutoffs with boreholes about 160 m apart, 0.72-1.25x with boreholes 350 m
+apart, except a fault curved by 150 m in map view (2.3x: its hanging wall
+bends away from the fault where the nearest holes are, and is extrapolated
+with that bend). A side whose data stop far from the fault cannot show drag
+or rollover there: Claudius with every pick within 300 m (3D) of a fault
+point withheld, median error 11.8 m at those picks (examples/claudius).
 """
 from __future__ import annotations
 
@@ -93,7 +101,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ._core import (BEYOND_FAULT, GeometryError, Tin, boundary_loops, delaunay, fault_side,
+from ._core import (BEYOND_FAULT, GeometryError, boundary_loops, delaunay, fault_side,
                     triangulate_polygon)
 from .dataset import Dataset, Fault, Section, Trace, points_in_polygon
 
@@ -198,13 +206,14 @@ def _line_interval(origin: np.ndarray, d: np.ndarray, ring: np.ndarray, s0: floa
 #: than about 2 pi x 0.05 = a third of the data spacing are smoothed (none
 #: are resolved by the data), longer ones follow the data.
 SMOOTHING = 0.05
-#: Tension length of the side surfaces, in data spacings. Measured on the
-#: generated grounds with 60 boreholes (350 m apart; ten grounds, normal and
-#: reverse, dips 35-85, a curved fault), error near the fault against the
-#: model from the exact cutoffs: 0.73-1.35x (one curved ground 2.65x)
-#: without tension, 0.77-1.29x (curved 2.12x) with 2 spacings, 0.87-1.54x
-#: (1.79x) with 1 spacing, 0.72-1.23x (2.39x) with 4.
-TENSION = 2.0
+#: Tension length of the side surfaces, in data spacings (None: no
+#: tension). Measured on ten generated grounds with 60 boreholes (350 m
+#: apart; normal and reverse, dips 35-85, one fault curved in map view),
+#: error near the fault against the model from the exact cutoffs: no
+#: tension 0.73-1.35x (curved 2.65x); 1 spacing 0.77-1.58x (1.85x); 2
+#: spacings 0.76-1.31x (2.17x); 3 spacings 0.72-1.25x (2.33x); 5 spacings
+#: 0.72-1.24x (2.48x).
+TENSION: Optional[float] = 3.0
 
 
 @dataclass
@@ -395,7 +404,8 @@ class SideSurface:
     minimum-curvature surface, bilinear in each cell. By default the one of
     this side's data (:func:`_min_curvature` with smoothing length ``ell``,
     default a twentieth of the data spacing, so that it follows the data
-    closely, and ``tension``, default twice the data spacing). Between
+    closely, and ``tension``, default :data:`TENSION` data spacings, towards
+    the layer's regional slope). Between
     sparse data it is smooth where a TIN would be linear (on generated
     grounds with boreholes 350 m apart: about half the TIN's error near the
     fault); towards and past the fault it continues the data's trend, its
@@ -431,7 +441,7 @@ class SideSurface:
         if nodes is None:
             inside = frame.inside(data[:, :2])
             if inside.sum() >= 3:
-                t = TENSION * self.spacing if tension is None else float(tension)
+                t = (TENSION * self.spacing if TENSION else None) if tension is None else float(tension)
                 self.nodes = _min_curvature(frame, data[inside, :2], data[inside, 2], self.ell, t,
                                             slope)[0]
 
@@ -1231,7 +1241,7 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
                 for nm in ("foot", "hanging"):
                     roots[nm][j] = _roots([traces[i]], joint[nm], joint[nm].nearest)[0]
         res[lay] = {"sides": sides, "roots": roots, "near": near, "spacing": spacing_data,
-                    "sec_sides": sec_sides,
+                    "sec_sides": sec_sides, "joint_secs": {i for _, i in gap_secs},
                     "data": D, "split": split, "side": ext,
                     "spoiled": _spoiled_vertices(fs, lay, ds.layer_points(lay), ring)}
 
@@ -1331,7 +1341,9 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
             if hint is None:
                 warn.append(f"fault {fault.name!r}, layer {lay!r}, section at u={lines[i]['u']:.0f}: "
                             f"no {side}-wall data within {r['near']:.0f} m of the cutoff; "
-                            "extrapolated (give a throw hint to use instead)")
+                            + ("bridged by one surface through both sides' data and a throw "
+                               "profile" if i in r["joint_secs"] else "extrapolated")
+                            + " (give a throw hint to use instead)")
                 continue
             use_shifted(lay, i, side, -sgn * hint if side == "hanging" else sgn * hint,
                         f"no {side}-wall data near the cutoff; used the throw hint {hint:g} m")
