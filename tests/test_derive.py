@@ -270,6 +270,86 @@ def test_fault_fields_validated():
 
 
 # ---------------------------------------------------------------------------
+# Side surfaces: minimum-curvature grids
+# ---------------------------------------------------------------------------
+def test_min_curvature_grid_reproduces_a_plane_and_follows_data():
+    """A plane has no curvature: the grid reproduces it everywhere (also
+    far from the data, with tension towards its own slope); a smooth
+    surface is followed closely at and between the data."""
+    rng = np.random.default_rng(5)
+    xy = rng.uniform(0.0, 1000.0, size=(200, 2)) + np.array([512000.0, 4100000.0])
+    frame = derive.GridFrame.around(xy.mean(axis=0), (np.cos(0.3), np.sin(0.3)),
+                                    (-900.0, 900.0), (-900.0, 900.0), 25.0)
+    plane = 3.0 + 0.02 * (xy[:, 0] - 512000.0) - 0.05 * (xy[:, 1] - 4100000.0)
+    q = np.stack(np.meshgrid(np.linspace(-600, 600, 9), np.linspace(-600, 600, 9)), -1).reshape(-1, 2)
+    q = q + xy.mean(axis=0)
+    want = 3.0 + 0.02 * (q[:, 0] - 512000.0) - 0.05 * (q[:, 1] - 4100000.0)
+    for tension in (None, 150.0):
+        slope = derive._regional_slope(np.column_stack([xy, plane]), frame)
+        nodes, _ = derive._min_curvature(frame, xy, plane, 2.0, tension, slope)
+        got = frame.bilinear(q) @ nodes
+        # Bilinear cells reproduce a plane exactly; the solve is accurate to
+        # about 1e-9 of the values (tens of metres): 1e-6 m.
+        assert np.allclose(got, want, atol=1e-6), tension
+    # A smooth surface (wavelength 700 m) from 200 points: close at the data
+    # (smoothing length 2 m) and between them.
+    wave = 20.0 * np.sin((xy[:, 0] - 512000.0) / 110.0) * np.cos((xy[:, 1] - 4100000.0) / 160.0)
+    surf = derive.SideSurface(np.column_stack([xy, wave]), frame=frame, ell=2.0)
+    assert np.abs(surf(xy) - wave).max() < 1.0
+
+
+def test_tension_keeps_a_dipping_layer_level_across_a_gap():
+    """Regression (found on paper_like(0): 4F2 came out reverse): with
+    tension towards flat, each side of a dipping, unfaulted layer relaxes
+    to level across a data gap at a fault and the two sides meet it at
+    different elevations -- a spurious throw. The tension pulls towards the
+    layer's regional slope instead: no step."""
+    rng = np.random.default_rng(8)
+    xy = rng.uniform(0.0, 2000.0, size=(400, 2))
+    z = -500.0 + 0.05 * xy[:, 0] + 0.01 * xy[:, 1]
+    D = np.column_stack([xy, z])
+    foot, hang = xy[:, 0] < 800.0, xy[:, 0] > 1200.0     # a 400 m gap at x = 1000
+    frame = derive.GridFrame.around((1000.0, 1000.0), (0.0, 1.0), (-1000.0, 1000.0),
+                                    (-1000.0, 1000.0), 40.0)
+    split = {"foot": foot, "hanging": hang}
+    sides = derive._side_surfaces(D[foot | hang], {k: v[foot | hang] for k, v in split.items()},
+                                  frame, 12)
+    at = np.column_stack([np.full(5, 1000.0), np.linspace(300.0, 1700.0, 5)])
+    step = sides["foot"](at) - sides["hanging"](at)
+    assert np.abs(step).max() < 0.05, step
+    # The same sides relaxing towards flat (no regional slope) open a step
+    # of metres: what the regional slope is for.
+    flat = {k: derive.SideSurface(D[m], 12, frame, tension=3.0 * derive._median_spacing(D[m]))
+            for k, m in split.items()}
+    assert np.abs(flat["foot"](at) - flat["hanging"](at)).min() > 2.0
+
+
+def test_side_frame_covers_both_sides_of_the_fault():
+    """Regression: the grid's second axis is the strike vector turned by
+    +90 degrees (up dip here); measuring the fault's footprint and the
+    study area down dip instead mirrored the clipped box about the fault:
+    for a fault near the study area's edge, the grid stopped short of the
+    fault on the wide side."""
+    # A N-S fault dipping 60 degrees east, 300 m from the east edge of a
+    # 3 km x 2 km study area.
+    ring = np.array([[0.0, 0.0], [3000.0, 0.0], [3000.0, 2000.0], [0.0, 2000.0]]) + 5e5
+    y = np.linspace(200.0, 1800.0, 9)
+    z = np.linspace(-100.0, -400.0, 7)
+    Y, Z = np.meshgrid(y, z)
+    X = 2700.0 + (-100.0 - Z) / np.tan(np.radians(60.0)) - 150.0
+    P = np.column_stack([X.ravel() + 5e5, Y.ravel() + 5e5, Z.ravel()])
+    fs = derive.fault_surface(Fault("F", points=P), ring, (-500.0, 0.0), reach=0.0)
+    pad = 400.0
+    frame = derive._side_frame(fs, ring, pad, 20.0)
+    V, _ = fs.own
+    # Points up to 0.9 pad from the footprint across strike, both ways,
+    # inside the study area: all on the grid.
+    q = np.vstack([V[:, :2] + t * np.array([1.0, 0.0]) for t in (-0.9 * pad, -0.5 * pad, 0.5 * pad)])
+    q = q[points_in_polygon(q, ring)]
+    assert len(q) > 0 and frame.inside(q).all()
+
+
+# ---------------------------------------------------------------------------
 # Grounds
 # ---------------------------------------------------------------------------
 GROUNDS = {

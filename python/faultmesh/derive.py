@@ -1001,19 +1001,21 @@ def _spoiled_vertices(fs: "FaultSurface", layer: str, data: np.ndarray,
 
 def _side_frame(fs: "FaultSurface", ring: np.ndarray, pad: float, h: float) -> GridFrame:
     """The grid of a layer's side surfaces near the fault: in the fault's
-    frame (along strike, down dip), over the extent's along-strike range and
+    frame (along strike, across it), over the extent's along-strike range and
     the fault's map footprint, each widened by ``pad`` (how far from the
     fault the derived polylines reach), clipped to the study area's box."""
     V, _ = fs.own
-    u = fs.u(V[:, :2])
-    w = (V[:, :2] - fs.centre[:2]) @ fs.dip_dir
-    ru = fs.u(ring)
-    rw = (ring - fs.centre[:2]) @ fs.dip_dir
+    e_u = fs.strike
+    e_w = np.array([-e_u[1], e_u[0]])  # GridFrame's second axis
+    u = (V[:, :2] - fs.centre[:2]) @ e_u
+    w = (V[:, :2] - fs.centre[:2]) @ e_w
+    ru = (ring - fs.centre[:2]) @ e_u
+    rw = (ring - fs.centre[:2]) @ e_w
     u_lim = (max(u.min() - pad, ru.min()), min(u.max() + pad, ru.max()))
     w_lim = (max(w.min() - pad, rw.min()), min(w.max() + pad, rw.max()))
     if not (u_lim[1] > u_lim[0] and w_lim[1] > w_lim[0]):
         u_lim, w_lim = (ru.min(), ru.max()), (rw.min(), rw.max())
-    return GridFrame.around(fs.centre[:2], fs.strike, u_lim, w_lim, h)
+    return GridFrame.around(fs.centre[:2], e_u, u_lim, w_lim, h)
 
 
 def _side_surfaces(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame,
