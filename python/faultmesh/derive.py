@@ -51,11 +51,12 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
    reverse. A layer is cut on a section when both cutoffs lie within the
    fault's extent and the study area, and displaced when its throw reaches
    ``min_throw`` on some section (other layers stay uncut).
-   The kind is the sign of the median, over sections and displaced layers,
-   of the cutoff throw where both sides have data within two data spacings
-   of their cutoffs, else of the layer's offset across the fault at the
-   fault's scale (:func:`_regional_throw`): extrapolated across a data gap,
-   each side's local slope can bend either way. A given ``kind`` that the
+   The kind: per section and displaced layer the cutoff throw where both
+   sides have data within two data spacings of their cutoffs, else the
+   layer's offset across the fault at the fault's scale
+   (:func:`_regional_throw`; extrapolated across a data gap, each side's
+   local slope can bend either way); per layer the median over its
+   sections; the sign of the sum of these medians over the layers. A given ``kind`` that the
    data contradict is a warning (the fault keeps the given kind, its
    geometry follows the data). Sections whose throw has the other sign get
    zero throw (warning). A side with no data within ``near`` of its cutoff
