@@ -217,6 +217,13 @@ def _wait_for(p, cond, deadline):
         time.sleep(0.0005)
 
 
+def _has_files(folder: Path) -> bool:
+    try:
+        return any(folder.iterdir())
+    except OSError:         # renamed away or not a folder yet
+        return False
+
+
 def test_sigkill_while_writing_leaves_the_old_or_the_new_run(tmp_path):
     """Runs killed with SIGKILL at seeded moments: during the swap, while
     writing into the staging folder, at any moment; after each the folder
@@ -230,6 +237,14 @@ def test_sigkill_while_writing_leaves_the_old_or_the_new_run(tmp_path):
     js = str(datasets.synthetic(0).save(tmp_path / "ds"))
     FULL = ["build", js, "-q"]
     SMALLER = ["build", js, "-q", "--formats", "3dt,vtu", "--loft", "shortest_diagonal"]
+    # The kill moments scale with this machine's speed: "any" kills inside
+    # the measured duration of a run, "writing" right after the first file
+    # of the staging folder appears (a fixed sleep let fast runs finish first).
+    t0 = time.monotonic()
+    r = subprocess.run([sys.executable, "-m", "faultmesh"] + SMALLER + ["-o", str(tmp_path / "t")],
+                       env=_env(), capture_output=True, text=True, timeout=300)
+    t_smaller = time.monotonic() - t0
+    assert r.returncode == 0, r.stderr
     r = subprocess.run([sys.executable, "-m", "faultmesh"] + FULL + ["-o", str(out)],
                        env=_env(), capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
@@ -240,13 +255,16 @@ def test_sigkill_while_writing_leaves_the_old_or_the_new_run(tmp_path):
         p = _start(argv, out)
         deadline = time.monotonic() + 120
         if mode == "any":
-            time.sleep(rng.uniform(0.2, 3.0))
+            time.sleep(rng.uniform(0.2, 0.8) * t_smaller)
         else:
             # This run's own staging folder (a killed run's may still be there).
-            _wait_for(p, lambda: any(runs._STAGING_NAME.match(q.name) and q.name not in seen
-                                     for q in out.iterdir()), deadline)
+            def staging():
+                return [q for q in out.iterdir()
+                        if runs._STAGING_NAME.match(q.name) and q.name not in seen]
+            _wait_for(p, lambda: bool(staging()), deadline)
             if mode == "writing":
-                time.sleep(rng.uniform(0.0, 1.0))
+                _wait_for(p, lambda: any(_has_files(s) for s in staging()), deadline)
+                time.sleep(rng.uniform(0.0, 0.01))
             else:
                 _wait_for(p, lambda: os.path.lexists(out / SWAP), deadline)
         if p.poll() is None:
