@@ -270,26 +270,3 @@ def assert_holds(out):
     if out["coverage_min"] is not None:
         assert out["coverage_min"] >= gr.COVERAGE_THRESHOLD, what
     assert out["ok"], what
-
-
-# ---------------------------------------------------------------------------
-# the four datasets of the robustness issue (tests/data/repro/README.md)
-# ---------------------------------------------------------------------------
-REPRO = {
-    "boundary-fault-local": "stitch: a patch vertex the builder computed lies 5e-10 m outside the "
-                            "study area (boundary fault, local coordinates)",
-    "boundary-fault-utm-zero-area": "check(): a zero-area triangle in layer 'L0' (boundary fault, UTM)",
-    "boundary-fault-utm-duplicates": "check(): duplicate vertices in fault surface 'F0' (boundary fault, UTM)",
-    "boundary-rounding": "load_dataset: trace points on the boundary written to 0.1 mm lie 0.03 mm "
-                         "outside a boundary written to full precision",
-}
-
-
-@pytest.mark.parametrize("name", [
-    pytest.param(n, marks=pytest.mark.xfail(strict=True, raises=(DatasetError, fm.GeometryError), reason=r))
-    for n, r in REPRO.items()])
-def test_repro_dataset_builds_and_checks(name):
-    ds = fm.load_dataset(DATA / name)
-    model = fm.build_model(ds, evaluate=False)
-    model.check()
-    assert len(model.surfaces) == len(ds.layers) and set(model.faults) == {f.name for f in ds.faults}

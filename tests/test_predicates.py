@@ -62,3 +62,51 @@ def test_nearly_collinear_grid_of_ulps():
 def test_shape_errors_name_the_argument():
     with pytest.raises(ValueError, match=r"orient2d: b must have shape \(n, 2\)"):
         faultmesh.orient2d(np.zeros((3, 2)), np.zeros((3, 3)), np.zeros((3, 2)))
+
+
+# ---------------------------------------------------------------------------
+# orient3d
+# ---------------------------------------------------------------------------
+def exact_orient3d(a, b, c, d):
+    r = [[Fraction(p[i]) - Fraction(d[i]) for i in range(3)] for p in (a, b, c)]
+    det = (r[0][2] * (r[1][0] * r[2][1] - r[2][0] * r[1][1])
+           + r[1][2] * (r[2][0] * r[0][1] - r[0][0] * r[2][1])
+           + r[2][2] * (r[0][0] * r[1][1] - r[1][0] * r[0][1]))
+    return (det > 0) - (det < 0)
+
+
+# UTM-like magnitudes with sub-nanometre offsets, and general coordinates.
+near3 = st.floats(min_value=-1.0, max_value=1.0, allow_nan=False)
+point3 = st.one_of(
+    st.tuples(near3.map(lambda t: 551234.5 + t * 1e-9), near3.map(lambda t: 7817654.25 + t * 1e-9),
+              near3.map(lambda t: -10234.125 + t * 1e-9)),
+    st.tuples(*[st.floats(min_value=-1e6, max_value=1e6, allow_nan=False)] * 3))
+
+
+@settings(max_examples=400, deadline=None)
+@given(point3, point3, point3, point3)
+def test_orient3d_sign_is_exact(a, b, c, d):
+    got = faultmesh.orient3d(np.array([a]), np.array([b]), np.array([c]), np.array([d]))[0]
+    assert np.sign(got) == exact_orient3d(a, b, c, d)
+
+
+@settings(max_examples=300, deadline=None)
+@given(point3, point3, point3, st.floats(0.0, 1.0), st.floats(0.0, 1.0),
+       st.sampled_from([0.0, 1e-12, -1e-12, 1e-9]))
+def test_orient3d_near_coplanar_is_exact(a, b, c, s, t, dz):
+    # d on the plane through a, b, c up to rounding (and a tiny lift): the
+    # floating-point determinant is unreliable here, the exact stages decide.
+    a, b, c = (np.array(p) for p in (a, b, c))
+    d = a + s * (b - a) + t * (1.0 - s) * (c - a) + np.array([0.0, 0.0, dz])
+    got = faultmesh.orient3d(a[None], b[None], c[None], d[None])[0]
+    assert np.sign(got) == exact_orient3d(a, b, c, d)
+
+
+def test_orient3d_convention_and_shape_errors():
+    # d below the counter-clockwise (seen from +z) triangle: positive.
+    o = faultmesh.orient3d([[0, 0, 0.0]], [[1, 0, 0.0]], [[0, 1, 0.0]], [[0.2, 0.2, -1.0]])
+    assert o[0] > 0
+    with pytest.raises(ValueError, match=r"orient3d: c must have shape \(n, 3\)"):
+        faultmesh.orient3d(np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((2, 2)), np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="same number of rows"):
+        faultmesh.orient3d(np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((3, 3)), np.zeros((2, 3)))

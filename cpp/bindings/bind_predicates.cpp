@@ -49,6 +49,32 @@ void bind_predicates(py::module_& m) {
         py::arg("a"), py::arg("b"), py::arg("c"), py::arg("d"),
         "Exact in-circle test per row: > 0 if d is inside the circle through the\n"
         "counter-clockwise a, b, c; < 0 outside; exactly 0 cocircular.");
+    m.def(
+        "orient3d",
+        [](const py::handle& a, const py::handle& b, const py::handle& c, const py::handle& d) {
+            auto pa = as_points(a, "orient3d", "a", 3, 3);
+            auto pb = as_points(b, "orient3d", "b", 3, 3);
+            auto pc = as_points(c, "orient3d", "c", 3, 3);
+            auto pd = as_points(d, "orient3d", "d", 3, 3);
+            const py::ssize_t n = pa.shape(0);
+            if (pb.shape(0) != n || pc.shape(0) != n || pd.shape(0) != n)
+                throw std::invalid_argument("orient3d: a, b, c and d must have the same number of rows");
+            // Copies: the arrays may be changed by other threads while the GIL is released.
+            std::vector<double> A(pa.data(), pa.data() + 3 * n), B(pb.data(), pb.data() + 3 * n),
+                C(pc.data(), pc.data() + 3 * n), D(pd.data(), pd.data() + 3 * n);
+            std::vector<double> out(static_cast<size_t>(n));
+            {
+                py::gil_scoped_release release;
+                for (py::ssize_t i = 0; i < n; ++i)
+                    out[i] = orient3d(&A[3 * i], &B[3 * i], &C[3 * i], &D[3 * i]);
+            }
+            return to_numpy(std::move(out));
+        },
+        py::arg("a"), py::arg("b"), py::arg("c"), py::arg("d"),
+        "Exact orientation of each row quadruple (a, b, c, d), arrays (n, 3): > 0 if d lies\n"
+        "below the plane through a, b, c (a, b, c counter-clockwise seen from above, +z),\n"
+        "< 0 above, exactly 0 coplanar (Shewchuk's convention). The value approximates six\n"
+        "times the signed volume; its sign is always exact.");
 }
 
 }  // namespace faultmesh::bindings

@@ -7,6 +7,9 @@
 //             -> C (first-order tail correction) -> exact.
 //   incircle: A (filter, inline) -> B (exact products of rounded differences)
 //             -> exact on the raw coordinates when a difference was inexact.
+//   orient3d: A (filter, inline) -> B (exact products of rounded differences)
+//             -> C (first-order tail correction) -> exact on the differences
+//             carried as two-term expansions.
 #include <faultmesh/predicates.hpp>
 
 namespace faultmesh {
@@ -195,6 +198,75 @@ double incircle_exact(const double* pa, const double* pb, const double* pc, cons
     return deter[n - 1];
 }
 
+// ---- orient3d (kept in its own block) -------------------------------------
+constexpr double kO3dErrBoundB = (3.0 + 28.0 * kEpsilon) * kEpsilon;
+constexpr double kO3dErrBoundC = (26.0 + 288.0 * kEpsilon) * kEpsilon * kEpsilon;
+
+// a - b exactly, as an expansion of one or two components; returns the length.
+inline int difference_expansion(double a, double b, double* h) {
+    double x, y;
+    two_diff(a, b, x, y);
+    if (y == 0.0) {
+        h[0] = x;
+        return 1;
+    }
+    h[0] = y;
+    h[1] = x;
+    return 2;
+}
+
+// h = e * f for an expansion e of at most 16 components and f of one or two
+// (h holds up to 4 * elen components); returns the length of h.
+int product_by_short(int elen, const double* e, int flen, const double* f, double* h) {
+    double t0[32], t1[32];
+    const int l0 = scale_expansion(elen, e, f[0], t0);
+    if (flen == 1) {
+        for (int i = 0; i < l0; ++i) h[i] = t0[i];
+        return l0;
+    }
+    const int l1 = scale_expansion(elen, e, f[1], t1);
+    return expansion_sum(l0, t0, l1, t1, h);
+}
+
+// p * q - r * s for expansions of one or two components (up to 16 out).
+int two_by_two_minor(int pl, const double* p, int ql, const double* q, int rl, const double* r, int sl,
+                     const double* s, double* h) {
+    double pq[8], rs[8];
+    const int a = product_by_short(pl, p, ql, q, pq);
+    const int b = product_by_short(rl, r, sl, s, rs);
+    for (int i = 0; i < b; ++i) rs[i] = -rs[i];
+    return expansion_sum(a, pq, b, rs, h);
+}
+
+// The exact orient3d determinant: every coordinate difference is carried
+// exactly (two components), so no rounding enters anywhere.
+double orient3d_exact(const double* pa, const double* pb, const double* pc, const double* pd) {
+    double adx[2], bdx[2], cdx[2], ady[2], bdy[2], cdy[2], adz[2], bdz[2], cdz[2];
+    const int adxl = difference_expansion(pa[0], pd[0], adx);
+    const int bdxl = difference_expansion(pb[0], pd[0], bdx);
+    const int cdxl = difference_expansion(pc[0], pd[0], cdx);
+    const int adyl = difference_expansion(pa[1], pd[1], ady);
+    const int bdyl = difference_expansion(pb[1], pd[1], bdy);
+    const int cdyl = difference_expansion(pc[1], pd[1], cdy);
+    const int adzl = difference_expansion(pa[2], pd[2], adz);
+    const int bdzl = difference_expansion(pb[2], pd[2], bdz);
+    const int cdzl = difference_expansion(pc[2], pd[2], cdz);
+
+    double bc[16], ca[16], ab[16];
+    const int bcl = two_by_two_minor(bdxl, bdx, cdyl, cdy, cdxl, cdx, bdyl, bdy, bc);
+    const int cal = two_by_two_minor(cdxl, cdx, adyl, ady, adxl, adx, cdyl, cdy, ca);
+    const int abl = two_by_two_minor(adxl, adx, bdyl, bdy, bdxl, bdx, adyl, ady, ab);
+    double adet[64], bdet[64], cdet[64];
+    const int al = product_by_short(bcl, bc, adzl, adz, adet);
+    const int bl = product_by_short(cal, ca, bdzl, bdz, bdet);
+    const int cl = product_by_short(abl, ab, cdzl, cdz, cdet);
+    double abdet[128], fin[192];
+    const int abdl = expansion_sum(al, adet, bl, bdet, abdet);
+    const int n = expansion_sum(abdl, abdet, cl, cdet, fin);
+    return fin[n - 1];
+}
+// ---------------------------------------------------------------------------
+
 }  // namespace
 
 double orient2d_adapt(const double* pa, const double* pb, const double* pc, double detsum) {
@@ -265,6 +337,55 @@ double incircle_adapt(const double* pa, const double* pb, const double* pc, cons
     // significant component carries the sign.
     if (exact_differences) return fin[fl - 1];
     return incircle_exact(pa, pb, pc, pd);
+}
+
+double orient3d_adapt(const double* pa, const double* pb, const double* pc, const double* pd,
+                      double permanent) {
+    const double adx = pa[0] - pd[0], bdx = pb[0] - pd[0], cdx = pc[0] - pd[0];
+    const double ady = pa[1] - pd[1], bdy = pb[1] - pd[1], cdy = pc[1] - pd[1];
+    const double adz = pa[2] - pd[2], bdz = pb[2] - pd[2], cdz = pc[2] - pd[2];
+
+    // Stage B: exact products of the rounded differences.
+    double bc[4], ca[4], ab[4];
+    cross_expansion(bdx, cdy, cdx, bdy, bc);
+    cross_expansion(cdx, ady, adx, cdy, ca);
+    cross_expansion(adx, bdy, bdx, ady, ab);
+    double adet[8], bdet[8], cdet[8];
+    const int al = scale_expansion(4, bc, adz, adet);
+    const int bl = scale_expansion(4, ca, bdz, bdet);
+    const int cl = scale_expansion(4, ab, cdz, cdet);
+    double abdet[16], fin[24];
+    const int abl = expansion_sum(al, adet, bl, bdet, abdet);
+    const int fl = expansion_sum(abl, abdet, cl, cdet, fin);
+    double det = estimate(fl, fin);
+    double errbound = kO3dErrBoundB * permanent;
+    if (det >= errbound || -det >= errbound) return det;
+
+    double adxtail, bdxtail, cdxtail, adytail, bdytail, cdytail, adztail, bdztail, cdztail;
+    two_diff_tail(pa[0], pd[0], adx, adxtail);
+    two_diff_tail(pb[0], pd[0], bdx, bdxtail);
+    two_diff_tail(pc[0], pd[0], cdx, cdxtail);
+    two_diff_tail(pa[1], pd[1], ady, adytail);
+    two_diff_tail(pb[1], pd[1], bdy, bdytail);
+    two_diff_tail(pc[1], pd[1], cdy, cdytail);
+    two_diff_tail(pa[2], pd[2], adz, adztail);
+    two_diff_tail(pb[2], pd[2], bdz, bdztail);
+    two_diff_tail(pc[2], pd[2], cdz, cdztail);
+    // Exact differences: `fin` is the exact determinant.
+    if (adxtail == 0.0 && bdxtail == 0.0 && cdxtail == 0.0 && adytail == 0.0 && bdytail == 0.0 &&
+        cdytail == 0.0 && adztail == 0.0 && bdztail == 0.0 && cdztail == 0.0)
+        return fin[fl - 1];
+
+    // Stage C: first-order correction by the differences' rounding errors.
+    errbound = kO3dErrBoundC * permanent + kResultErrBound * std::fabs(det);
+    det += (adz * ((bdx * cdytail + cdy * bdxtail) - (bdy * cdxtail + cdx * bdytail)) +
+            adztail * (bdx * cdy - bdy * cdx)) +
+           (bdz * ((cdx * adytail + ady * cdxtail) - (cdy * adxtail + adx * cdytail)) +
+            bdztail * (cdx * ady - cdy * adx)) +
+           (cdz * ((adx * bdytail + bdy * adxtail) - (ady * bdxtail + bdx * adytail)) +
+            cdztail * (adx * bdy - ady * bdx));
+    if (det >= errbound || -det >= errbound) return det;
+    return orient3d_exact(pa, pb, pc, pd);
 }
 
 int incircle_perturbed_tie(const double* pa, const double* pb, const double* pc, const double* pd) {
