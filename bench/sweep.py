@@ -268,7 +268,7 @@ def mark_rejects(outs: List[Dict]) -> None:
 
 
 def render(outs: List[Dict], meta: Dict[str, Any]) -> str:
-    L = [f"## Random grounds: how often faultmesh holds", "", f"Command: `{meta['command']}`  ",
+    L = ["## Random grounds: how often faultmesh holds", "", f"Command: `{meta['command']}`  ",
          f"Date: {meta['date']}  ", f"Machine: {meta['machine']}  "]
     seeds = [o["seed"] for o in outs]
     L += [f"Seeds: {min(seeds)}-{max(seeds)} ({len(seeds)}), {meta['jobs']} processes, "

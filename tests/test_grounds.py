@@ -13,7 +13,7 @@ import pytest
 
 import faultmesh as fm
 from faultmesh import grounds as gr
-from faultmesh.dataset import DatasetError, points_in_polygon
+from faultmesh.dataset import points_in_polygon
 
 DATA = Path(__file__).resolve().parent / "data" / "repro"
 
