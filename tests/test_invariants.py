@@ -43,6 +43,21 @@ def test_translated_utm_magnitudes_pass():
     check_surface(S(V, T), SQ + off)
 
 
+@pytest.mark.parametrize("seed", range(5))
+def test_area_at_big_offsets_passes(seed):
+    """A star polygon of 5 km with random (unrounded) vertices at 3.8e7 m:
+    the study area's own shoelace sum must not err by more than the check
+    allows (sweep seeds 13, 98, 108: products x*y of 1.5e14 m^2 rounded by
+    0.02 m^2 each made good layers fail 'area')."""
+    rng = np.random.default_rng(seed)
+    ang = np.sort(rng.uniform(0.0, 2.0 * np.pi, 40))
+    r = rng.uniform(1500.0, 2500.0, 40)
+    ring = np.column_stack([r * np.cos(ang), r * np.sin(ang)]) + [38428624.6, 3349209.05]
+    tri = faultmesh.triangulate_polygon([ring])
+    V = np.column_stack([ring, rng.uniform(-50.0, 0.0, len(ring))])
+    check_surface(S(V, tri), ring)
+
+
 @pytest.mark.parametrize("breakage,invariant,element", [
     ("index", "conforming", "triangle 3"),
     ("repeat", "conforming", "repeats a vertex"),

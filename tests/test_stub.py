@@ -7,6 +7,7 @@ from __future__ import annotations
 import ast
 import subprocess
 import sys
+import sysconfig
 from pathlib import Path
 
 import faultmesh
@@ -67,14 +68,19 @@ def test_a_type_checker_accepts_code_using_the_kernels(tmp_path):
         "inside = area.contains(xy)\n"
         "kind: faultmesh.TriangleKind = faultmesh.TriangleKind.gap\n")
     stubdir = STUB.parent.parent
+    env = {"PATH": "/usr/bin:/bin"}
+    # An installed package is found by mypy itself (py.typed; mypy refuses a
+    # site-packages folder on MYPYPATH); the source tree has to be named.
+    if str(stubdir) not in {sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]}:
+        env["MYPYPATH"] = str(stubdir)
     r = subprocess.run([sys.executable, "-m", "mypy", "--ignore-missing-imports", "--follow-imports=silent",
                         "--no-error-summary", str(code)],
                        capture_output=True, text=True, cwd=tmp_path,
-                       env={"MYPYPATH": str(stubdir), "PATH": "/usr/bin:/bin"})
+                       env=env)
     assert r.returncode == 0, r.stdout + r.stderr
     bad = tmp_path / "bad.py"
     bad.write_text("import faultmesh\nfaultmesh.delaunay(1, 2, 3, 4)\n")
     r = subprocess.run([sys.executable, "-m", "mypy", "--ignore-missing-imports", "--follow-imports=silent",
                         str(bad)], capture_output=True, text=True, cwd=tmp_path,
-                       env={"MYPYPATH": str(stubdir), "PATH": "/usr/bin:/bin"})
+                       env=env)
     assert r.returncode != 0 and "delaunay" in r.stdout, r.stdout

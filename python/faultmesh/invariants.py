@@ -94,7 +94,11 @@ def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.n
 
 
 def _signed_area(poly: np.ndarray) -> float:
-    x, y = poly[:, 0], poly[:, 1]
+    # Relative to the first vertex: at UTM-sized or bigger coordinates the
+    # products x*y of absolute coordinates (1e14 m^2 and more) would each be
+    # rounded by about 0.01 m^2, more than the area check allows.
+    d = poly - poly[0]
+    x, y = d[:, 0], d[:, 1]
     return 0.5 * math.fsum(x * np.roll(y, -1) - np.roll(x, -1) * y)
 
 
