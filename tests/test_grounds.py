@@ -270,3 +270,18 @@ def assert_holds(out):
     if out["coverage_min"] is not None:
         assert out["coverage_min"] >= gr.COVERAGE_THRESHOLD, what
     assert out["ok"], what
+
+
+# One seed per kind of ground that holds (bench/sweep.py, docs/bench/sweep.md):
+# UTM, a reverse fault across the area with ends on the boundary (0); a
+# polygon with a gentle reverse fault inside (1); a T-crossing pair whose
+# branch abuts (3); big coordinate offsets, an L-shaped area (4); a too-close
+# pair that must be rejected (14); a rectangle (17); a U (37); an X-crossing
+# pair (56); and the layers at 3.8e7 m that failed the 'area' check until its
+# shoelace sum was taken relative to a local origin (13, 98, 108).
+HOLDING_SEEDS = [0, 1, 3, 4, 14, 17, 37, 56, 13, 98, 108]
+
+
+@pytest.mark.parametrize("seed", HOLDING_SEEDS)
+def test_ground_holds(seed, tmp_path_factory):
+    assert_holds(outcome(seed, tmp_path_factory))
