@@ -2,8 +2,8 @@
 
     python bench/run.py [NAME ...] [--runs N] [--quick] [--build-dir DIR] [--dry-run]
 
-NAME: any of delaunay, polygon, aabb, boundary, compare, scale, ensemble, sweep
-(default: all, in that order). Each benchmark is its own script (bench/bench_<name>.py,
+NAME: any of delaunay, polygon, aabb, boundary, compare, scale, model, ensemble,
+sweep (default: all, in that order). Each benchmark is its own script (bench/bench_<name>.py,
 bench/compare.py), run here as a subprocess with the same Python and
 environment (set FAULTMESH_DEV_BUILD=$PWD/build/<dir> to bench a development
 build); see bench/README.md for what each one measures.
@@ -52,6 +52,11 @@ BENCHMARKS: Dict[str, Tuple[str, str, List[str], List[str]]] = {
     # 200 faults stitched into a 1M-point layer, and the locality check.
     "scale": ("bench_scale.py", "--repeat", ["--locality", "--docs"],
               ["--points", "100000", "--faults", "20", "--out", str(QUICK_OUT / "scale")]),
+    # build_model against the Delaunay triangulations of its layers' points
+    # (5 layers x 100k points: target ratio 2; 10 x 1M x 200 faults: pass
+    # --sizes to bench_model.py directly, its dataset takes long to generate).
+    "model": ("bench_model.py", "--repeat", ["--docs", "--sizes", "3x10000x3", "5x100000x3",
+                                             "5x100000x30"], ["--quick"]),
     # faultmesh.ensemble on local Dask clusters of 1 and 2 workers: throughput,
     # overhead per realization, client memory for two n.
     "ensemble": ("bench_ensemble.py", "--runs", [], ["--quick"]),
