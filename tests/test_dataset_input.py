@@ -503,3 +503,31 @@ def test_adjustment_records_are_plain_json():
     assert json.loads(json.dumps(a.to_dict())) == {"what": "snapped", "item": "x",
                                                   "before": [1.0, 2.0], "after": [1.0, 2.5],
                                                   "distance": 0.5, "note": ""}
+
+
+def test_a_repeated_trace_point_is_merged_and_reported(tmp_path):
+    """A trace point written twice (digitised twice, or two points that a
+    surveyor's rounding made equal: sweep seed 69) is merged into one and
+    recorded as dropped; the model builds. Was: a DatasetError."""
+    d = tmp_path / "paper"
+    shutil.copytree(Path(datasets.paper_like_path()).parent, d)
+    doc = json.loads((d / "dataset.json").read_text())
+    tr = doc["faults"][0]["traces"][0]
+    tr["plane"].insert(3, list(tr["plane"][2]))
+    foot = next(iter(tr["layers"].values()))["foot"]
+    foot.insert(1, list(foot[1]))
+    (d / "dataset.json").write_text(json.dumps(doc))
+    ds = fm.load_dataset(d)
+    ref = fm.load_dataset(datasets.paper_like_path())
+    name = doc["faults"][0]["name"]
+    merged = [a for a in ds.adjustments if a.what == "dropped" and a.item.startswith(f"fault {name!r}")]
+    assert [a.note for a in merged] == ["repeats point 3", "repeats point 2"], merged
+    assert "plane point 4" in merged[0].item and "point 3" in merged[1].item
+    np.testing.assert_array_equal(ds.faults[0].traces[0].plane, ref.faults[0].traces[0].plane)
+    fm.build_model(ds, evaluate=False).check()
+    # Nothing left of a polyline once merged is still an error naming it.
+    tr["plane"] = [tr["plane"][0], list(tr["plane"][0])]
+    (d / "dataset.json").write_text(json.dumps(doc))
+    with pytest.raises(fm.DatasetError, match=r"trace 1 plane: a trace polyline needs at least two "
+                                               r"distinct points"):
+        fm.load_dataset(d)

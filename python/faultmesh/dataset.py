@@ -1438,6 +1438,9 @@ class _Ctx:
         self.file = file
         self.base = file.parent
         self.allow_outside = allow_outside_paths
+        # Changes the reader itself makes (repeated trace points merged);
+        # they join Dataset.adjustments.
+        self.adjustments: List[Adjustment] = []
 
     def err(self, where: str, msg: str) -> DatasetError:
         return DatasetError(f"{self.file}: {where}: {msg}" if where else f"{self.file}: {msg}")
@@ -1529,10 +1532,20 @@ class _Ctx:
             i = int(np.flatnonzero(big)[0])
             raise self.err(f"{where} point {i + 1}", "is beyond the coordinate range "
                            f"(|value| <= {COORD_MAX:g}) once placed on its section")
+        # A point repeating the one before it (digitised twice, or two points
+        # that a surveyor's rounding made equal) carries no information: it
+        # is merged into the first and reported. Only exact repeats: points
+        # that differ at all are the data and stay.
         same = np.all(out[1:] == out[:-1], axis=1)
         if same.any():
-            i = int(np.flatnonzero(same)[0])
-            raise self.err(where, f"points {i + 1} and {i + 2} coincide")
+            for i in np.flatnonzero(same):
+                self.adjustments.append(Adjustment(
+                    "dropped", f"{where} point {int(i) + 2}", _xy(out[i + 1]), None, None,
+                    note=f"repeats point {int(i) + 1}"))
+            out = out[np.r_[True, ~same]]
+            if len(out) < 2:
+                raise self.err(where, "a trace polyline needs at least two distinct points, "
+                               f"got {len(out)}")
         return out
 
     def data_file(self, v, label: str) -> Tuple[Path, str]:
@@ -2065,7 +2078,7 @@ def load_dataset(path, *, snap: Optional[float] = None,
     # tolerance policy; messages of the checks name the CSV and its rows.
     try:
         check_hole_positions(ds, snap if snap is not None else None)
-        ds.adjustments = check_layer_order(ds)
+        ds.adjustments = ctx.adjustments + check_layer_order(ds)
     except DatasetError as e:
         raise DatasetError(f"{p}: {e}") from None
     ds = apply_boundary_policy(ds, snap)
