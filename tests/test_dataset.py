@@ -512,3 +512,27 @@ def test_header_only_boreholes_with_points_and_boundary(small_copy):
 def test_header_only_boreholes_need_a_boundary(small_copy):
     expect_error(_points_only(small_copy, with_boundary=False), "boundary",
                  "no borehole rows")
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_shallowest_hit_per_hole_and_layer_matches_its_definition(seed):
+    """Boreholes.shallowest (one sort for the whole table) marks, per hole and
+    layer, the row with the largest z, the first such row on ties; subsets
+    and moved copies keep the string codes and give the same answer."""
+    from faultmesh.dataset import Boreholes
+
+    rng = np.random.default_rng(seed)
+    n = 400
+    holes = np.array([f"H{i}" for i in rng.integers(0, 40, n)])
+    layers = np.array([f"L{i}" for i in rng.integers(0, 3, n)])
+    z = rng.integers(0, 5, n).astype(float)          # many ties
+    b = Boreholes(holes, rng.uniform(0, 100, (n, 2)), layers, z)
+    want = np.zeros(n, dtype=bool)
+    for key in set(zip(holes, layers)):
+        rows = np.flatnonzero((holes == key[0]) & (layers == key[1]))
+        want[rows[np.argmax(z[rows])]] = True         # argmax: the first maximum
+    np.testing.assert_array_equal(b.shallowest, want)
+    keep = rng.random(n) < 0.6
+    sub = b.moved(b.xy + 1.0).subset(keep)
+    fresh = Boreholes(holes[keep], b.xy[keep] + 1.0, layers[keep], z[keep])
+    np.testing.assert_array_equal(sub.shallowest, fresh.shallowest)

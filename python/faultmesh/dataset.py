@@ -254,11 +254,49 @@ class Boreholes:
             return f"{self.source} row {int(self.rows[i])} ({what})"
         return f"borehole row {i + 1} ({what})"
 
+    @property
+    def shallowest(self):
+        """bool (n,): the rows that are their hole's shallowest hit of their
+        layer (ties: the first such row), computed once like :attr:`codes`.
+        One sort of the whole table: per layer it would cost a sort each."""
+        cache = self.__dict__.get("_shallowest")
+        if cache is None:
+            _, lc, hc, holes = self.codes
+            cache = np.zeros(len(lc), dtype=bool)
+            if len(lc):
+                # Groups (layer, hole) by one stable integer sort (a lexsort
+                # with z as a third key costs 8x more), the group maxima of z
+                # by reduceat, then the first row of each group at its maximum.
+                order = np.argsort(lc * np.int64(len(holes)) + hc, kind="stable")
+                key = (lc * np.int64(len(holes)) + hc)[order]
+                start = np.r_[True, key[1:] != key[:-1]]
+                grp = np.cumsum(start) - 1
+                zs = self.z[order]
+                top = np.flatnonzero(zs == np.maximum.reduceat(zs, np.flatnonzero(start))[grp])
+                g = grp[top]
+                cache[order[top[np.r_[True, g[1:] != g[:-1]]]]] = True
+            self.__dict__["_shallowest"] = cache
+        return cache
+
+    def moved(self, xy: np.ndarray) -> "Boreholes":
+        """The same rows at the positions ``xy`` (n, 2) (string codes kept)."""
+        out = Boreholes(self.hole_id, xy, self.layer, self.z, self.source, self.rows,
+                        self.desurveyed)
+        out.__dict__["_codes"] = self.codes
+        return out
+
     def subset(self, keep: np.ndarray) -> "Boreholes":
         """The rows where ``keep`` (bool (n,)) is True, with their source rows."""
-        return Boreholes(self.hole_id[keep], self.xy[keep], self.layer[keep], self.z[keep],
-                         self.source, None if self.rows is None else self.rows[keep],
-                         self.desurveyed)
+        out = Boreholes(self.hole_id[keep], self.xy[keep], self.layer[keep], self.z[keep],
+                        self.source, None if self.rows is None else self.rows[keep],
+                        self.desurveyed)
+        # The string columns' codes stay valid for a subset (a hole left with
+        # no rows keeps its code): computed once for the whole table and
+        # carried (np.unique of strings is the slowest step of preparing a
+        # 500k-row table, and the input policy takes several subsets).
+        names, lc, hc, holes = self.codes
+        out.__dict__["_codes"] = (names, lc[keep], hc[keep], holes)
+        return out
 
     def __len__(self) -> int:
         return int(len(self.hole_id))
@@ -411,19 +449,11 @@ class Dataset:
             raise DatasetError(f"dataset {self.name!r}: unknown layer {layer!r}; "
                                f"layers are {self.layers}")
         b = self.boreholes
-        names, lcode, hcode, _ = b.codes
-        sel = np.flatnonzero(lcode == names.index(layer)) if layer in names else np.zeros(0, np.int64)
+        names, lcode, _, _ = b.codes
         out = np.zeros((0, 3))
-        if sel.size:
-            ids = hcode[sel]
-            # Sort by hole, then by decreasing z: the first row of each hole is
-            # its shallowest hit.
-            order = np.lexsort((-b.z[sel], ids))
-            sel = sel[order]
-            ids = ids[order]
-            first = np.ones(len(sel), dtype=bool)
-            first[1:] = ids[1:] != ids[:-1]
-            sel = np.sort(sel[first])  # back to file order
+        if layer in names:
+            # Each hole's shallowest hit of the layer, in file order.
+            sel = np.flatnonzero((lcode == names.index(layer)) & b.shallowest)
             out = np.column_stack([b.xy[sel], b.z[sel]])
         extra = self.points.get(layer)
         if extra is not None and len(extra):
@@ -985,8 +1015,7 @@ def apply_boundary_policy(ds: Dataset, snap: Optional[float] = None) -> Dataset:
     for i in np.flatnonzero(~inside):
         adj.append(Adjustment("dropped", b.row_label(int(i)), _xy(b.xy[i]), None, float(dist[i]),
                               "beyond the study-area boundary"))
-    boreholes = Boreholes(b.hole_id, new_xy, b.layer, b.z, b.source, b.rows,
-                          b.desurveyed).subset(inside) \
+    boreholes = b.moved(new_xy).subset(inside) \
         if (moved.any() or not inside.all()) else b
 
     # Extra points.
