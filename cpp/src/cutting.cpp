@@ -15,6 +15,8 @@
 #include <utility>
 #include <vector>
 
+#include "linear_interpolation.hpp"
+
 namespace faultmesh {
 namespace detail {
 namespace {
@@ -82,11 +84,15 @@ public:
             if (contains(t, p)) best = t;
         });
         inside = best >= 0;
-        if (!inside) {
-            double d2 = 0.0;
-            best = nearest_boundary_triangle(p, d2);
-            inside = d2 <= tol * tol;
+        if (inside) {
+            // In the closed triangle: a convex combination of its z (exact
+            // predicates, see linear_interpolation.hpp).
+            return interpolate_in_triangle(v(best, 0), v(best, 1), v(best, 2), p, v(best, 0)[2], v(best, 1)[2],
+                                           v(best, 2)[2]);
         }
+        double d2 = 0.0;
+        best = nearest_boundary_triangle(p, d2);
+        inside = d2 <= tol * tol;
         return plane_z(best, p);
     }
 
@@ -100,8 +106,8 @@ private:
         return (o1 >= 0 && o2 >= 0 && o3 >= 0) || (o1 <= 0 && o2 <= 0 && o3 <= 0);
     }
 
-    // Linear interpolation (extrapolation outside) in the plane of triangle t,
-    // by barycentric weights from the three sub-areas.
+    // Linear extrapolation (p outside t) in the plane of triangle t, by
+    // barycentric weights from the three sub-areas.
     double plane_z(Index t, const double* p) const {
         const double* a = v(t, 0);
         const double* b = v(t, 1);
