@@ -395,3 +395,56 @@ def test_random_patches_keep_invariants(seed, x0, y0, length, width, reverse, n_
         assert len(g["rows"]) == g["n_vertices"] + 2 * g["n_holes"] - 2
     o = orient_xy(S.vertices, S.triangles)
     assert ((o < 0).sum() > 0) == reverse
+
+
+def test_patch_names_and_every_property_of_stitcher():
+    """Regression (issue 10): Stitcher.patch_names always raised TypeError (no
+    STL caster for std::vector<std::string>)."""
+    V, T = tin()
+    st = faultmesh.Stitcher(V, T, SQUARE, name="L")
+    assert st.patch_names == []
+    PV, PT = reverse_patch()
+    st.stitch(PV, PT, name="F1")
+    assert st.patch_names == ["F1"]
+    assert st.name == "L"
+    assert st.n_vertices == len(V) + len(PV)
+    assert st.n_live_triangles < st.n_triangles
+    props = sorted(k for k in dir(faultmesh.Stitcher) if isinstance(getattr(faultmesh.Stitcher, k), property))
+    assert props == ["n_live_triangles", "n_triangles", "n_vertices", "name", "patch_names"]
+
+
+def test_coordinates_beyond_the_limit_are_value_errors():
+    """Regression (issue 10): one coordinate limit (1e60), named in the message."""
+    V, T = tin()
+    big = V.copy()
+    big[7, 0] = 1e70
+    with pytest.raises(ValueError, match=r"Stitcher\('layer'\): vertices row 7 has a coordinate beyond \+-1e\+60"):
+        faultmesh.Stitcher(big, T, SQUARE)
+    with pytest.raises(ValueError, match=r"boundary row 2 has a coordinate beyond"):
+        faultmesh.Stitcher(V, T, SQUARE * [1, 1e70])
+    st = faultmesh.Stitcher(V, T, SQUARE)
+    PV, PT = reverse_patch()
+    bad = PV.copy()
+    bad[3, 1] = np.inf
+    with pytest.raises(ValueError, match=r"patch_vertices row 3 has a non-finite coordinate \(y = inf\)"):
+        st.stitch(bad, PT, name="F")
+    with pytest.raises(ValueError, match=r"triangles_touching_region: ring point 1 has a coordinate beyond"):
+        faultmesh.triangles_touching_region(V, T, [np.array([[0, 0], [1e61, 0], [0, 1.0]])])
+    st.stitch(PV, PT, name="F")  # nothing changed by the failures
+
+
+def test_stitcher_owns_its_inputs():
+    """The stitcher copies what it keeps: changing the caller's arrays later
+    changes nothing (and float index arrays must hold integers)."""
+    V, T = tin()
+    st = faultmesh.Stitcher(V, T, SQUARE)
+    ref = st.mesh()
+    V[:] = np.nan
+    T[:] = 10**12
+    m = st.mesh()
+    assert np.array_equal(m["triangles"], ref["triangles"])
+    assert np.array_equal(m["vertices"], ref["vertices"])
+    V2, T2 = tin()
+    with pytest.raises(ValueError, match=r"Stitcher: triangles row 0 has the value 0.5, not an integer"):
+        faultmesh.Stitcher(V2, np.where(np.arange(T2.size).reshape(T2.shape) == 0, 0.5, T2), SQUARE)
+    faultmesh.Stitcher(V2, T2.astype(float), SQUARE)  # exact integers as floats are fine

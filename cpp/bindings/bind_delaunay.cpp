@@ -126,13 +126,11 @@ void bind_delaunay(py::module_& m) {
         .def(
             "set_z",
             [](PyTin& t, const py::handle& vertices, const py::handle& z) {
-                IndexArray v = IndexArray::ensure(vertices);
-                DoubleArray zz = DoubleArray::ensure(z);
-                if (!v || v.ndim() != 1)
-                    throw std::invalid_argument("Tin.set_z: vertices must be a 1-D int64 array");
-                if (!zz || zz.ndim() != 1 || zz.shape(0) != v.shape(0))
-                    throw std::invalid_argument("Tin.set_z: z must be a 1-D float64 array with one value per "
-                                                "vertex index (" + std::to_string(v.shape(0)) + ")");
+                IndexArray v = as_indices(vertices, "Tin.set_z", "vertices", 0);
+                DoubleArray zz = as_values(z, "Tin.set_z", "z");
+                if (zz.shape(0) != v.shape(0))
+                    throw std::invalid_argument("Tin.set_z: z must have one value per vertex index (" +
+                                                std::to_string(v.shape(0)) + "), got " + shape_str(zz));
                 const std::size_t n = static_cast<std::size_t>(v.shape(0));
                 py::gil_scoped_release release;
                 std::unique_lock<std::shared_mutex> lock(t.mu);

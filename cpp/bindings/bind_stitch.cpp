@@ -2,30 +2,13 @@
 // the one-shot stitch() and triangles_touching_region().
 #include <faultmesh/stitch.hpp>
 
+#include <pybind11/stl.h>  // patch_names: std::vector<std::string> -> list
+
 #include "common.hpp"
 
 namespace faultmesh::bindings {
 
 namespace {
-
-void gather_rings_st(const py::handle& rings, const char* fn, std::vector<double>& xy,
-                     std::vector<std::int64_t>& offsets) {
-    offsets.assign(1, 0);
-    auto add = [&](const py::handle& obj, const std::string& what) {
-        DoubleArray a = as_points(obj, fn, what.c_str(), 2, 2);
-        xy.insert(xy.end(), a.data(), a.data() + 2 * a.shape(0));
-        offsets.push_back(offsets.back() + a.shape(0));
-    };
-    if (py::isinstance<py::array>(rings) && py::reinterpret_borrow<py::array>(rings).ndim() == 2) {
-        add(rings, "rings");
-        return;
-    }
-    if (!py::isinstance<py::sequence>(rings) || py::isinstance<py::str>(rings))
-        throw std::invalid_argument(std::string(fn) + ": rings must be a list of (k, 2) arrays");
-    py::sequence seq = py::reinterpret_borrow<py::sequence>(rings);
-    for (py::ssize_t i = 0; i < static_cast<py::ssize_t>(seq.size()); ++i)
-        add(seq[i], "rings[" + std::to_string(i) + "]");
-}
 
 StitchOptions make_options(bool refine, const std::string& order, const std::string& bridge,
                            double tol, double clearance, const char* fn) {
@@ -114,12 +97,7 @@ local merge with shared vertices. mesh() returns the compacted surface.
                  }
                  IndexArray H;
                  const bool has_h = !halfedges.is_none();
-                 if (has_h) {
-                     H = IndexArray::ensure(halfedges);
-                     if (!H || H.ndim() != 1 || H.shape(0) != 3 * T.shape(0))
-                         throw std::invalid_argument("Stitcher: halfedges must have shape (3 m,) = (" +
-                                                     std::to_string(3 * T.shape(0)) + ",)");
-                 }
+                 if (has_h) H = as_links(halfedges, fn, "halfedges", 3 * T.shape(0));
                  const std::int64_t* he = has_h ? H.data() : nullptr;
                  StitchOptions opt = make_options(refine, order, bridge, tol, clearance, fn);
                  py::gil_scoped_release release;
@@ -211,9 +189,9 @@ local merge with shared vertices. mesh() returns the compacted surface.
             const char* fn = "triangles_touching_region";
             auto V = as_points(vertices, fn, "vertices", 2, 3);
             auto T = as_indices(triangles, fn, "triangles", 3);
-            std::vector<double> xy;
-            std::vector<std::int64_t> off;
-            gather_rings_st(rings, fn, xy, off);
+            RingsData R = as_rings(rings, fn, 2, 0);
+            const std::vector<double>& xy = R.xy;
+            const std::vector<std::int64_t>& off = R.offsets;
             std::vector<std::int64_t> out;
             {
                 py::gil_scoped_release release;

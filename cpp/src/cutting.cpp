@@ -168,10 +168,11 @@ void check_input(const double* xyz, std::size_t n, const Index* tri, std::size_t
                 throw std::invalid_argument("cut_layer: " + std::string(tname) + " row " + std::to_string(t) +
                                             " has vertex index " + std::to_string(v) + " outside [0, " +
                                             std::to_string(n) + ")");
+            // z enters the side tests and the crossing points: all three are checked.
             const double* q = xyz + 3 * v;
-            if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2]))
-                throw std::invalid_argument("cut_layer: " + std::string(vname) + " row " + std::to_string(v) +
-                                            " is not finite");
+            for (int k = 0; k < 3; ++k)
+                if (!coordinate_in_range(q[k]))
+                    throw_coordinate_error("cut_layer", std::string(vname) + " row " + std::to_string(v), k, q[k]);
         }
 }
 

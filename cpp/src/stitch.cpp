@@ -210,6 +210,10 @@ struct StudyBoundary {
     double perimeter() const { return cum.back(); }
 
     void init(std::vector<double> pts, double tolerance) {
+        for (std::size_t i = 0; i < pts.size(); ++i)
+            if (!coordinate_in_range(pts[i]))
+                throw_coordinate_error("LayerStitcher", "boundary row " + std::to_string(i / 2), static_cast<int>(i % 2),
+                                       pts[i]);
         // Drop a repeated closing point and consecutive duplicates.
         std::vector<double> q;
         const std::size_t n = pts.size() / 2;
@@ -222,8 +226,6 @@ struct StudyBoundary {
         while (q.size() >= 4 && q[0] == q[q.size() - 2] && q[1] == q[q.size() - 1]) q.resize(q.size() - 2);
         if (q.size() < 6)
             throw std::invalid_argument("LayerStitcher: boundary must have at least 3 distinct points");
-        for (double v : q)
-            if (!std::isfinite(v)) throw std::invalid_argument("LayerStitcher: boundary has a non-finite coordinate");
         std::vector<const double*> ptrs;
         for (std::size_t i = 0; i < q.size() / 2; ++i) ptrs.push_back(q.data() + 2 * i);
         const double a2 = ring_area2(ptrs);
@@ -460,9 +462,10 @@ LayerStitcher::LayerStitcher(const double* vertices, std::size_t n_vertices,
                                             std::to_string(r[k]) + " outside [0, " +
                                             std::to_string(n_vertices) + ")");
     }
+    // x and y within the coordinate limit of predicates.hpp; z only finite.
     for (std::size_t i = 0; i < 3 * n_vertices; ++i)
-        if (!std::isfinite(s.xyz[i]))
-            throw std::invalid_argument(fn + ": vertex " + std::to_string(i / 3) + " has a non-finite coordinate");
+        if (i % 3 == 2 ? !std::isfinite(s.xyz[i]) : !coordinate_in_range(s.xyz[i]))
+            throw_coordinate_error(fn, "vertices row " + std::to_string(i / 3), static_cast<int>(i % 3), s.xyz[i]);
     s.adj.reserve(3 * (n_triangles + spare_t));
     if (halfedges) {
         s.adj.assign(halfedges, halfedges + 3 * n_triangles);
@@ -564,9 +567,8 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
     if (npt == 0) throw std::invalid_argument(fn + ": the patch has no triangles");
     if (pv == nullptr || pt == nullptr) throw std::invalid_argument(fn + ": null array");
     for (std::size_t i = 0; i < 3 * npv; ++i)
-        if (!std::isfinite(pv[i]))
-            throw std::invalid_argument(fn + ": patch vertex " + std::to_string(i / 3) +
-                                        " has a non-finite coordinate");
+        if (i % 3 == 2 ? !std::isfinite(pv[i]) : !coordinate_in_range(pv[i]))
+            throw_coordinate_error(fn, "patch_vertices row " + std::to_string(i / 3), static_cast<int>(i % 3), pv[i]);
     std::vector<std::int64_t> ptri(pt, pt + 3 * npt);
     for (std::size_t t = 0; t < npt; ++t)
         for (int k = 0; k < 3; ++k) {
@@ -1285,8 +1287,9 @@ std::vector<std::int64_t> triangles_touching_region(const double* vertices, std:
             throw std::invalid_argument(std::string(fn) + ": ring_offsets must be non-decreasing");
     const std::size_t np = static_cast<std::size_t>(ring_offsets[n_rings]);
     std::vector<double> xy(ring_xy, ring_xy + 2 * np);
-    for (double v : xy)
-        if (!std::isfinite(v)) throw std::invalid_argument(std::string(fn) + ": a ring coordinate is not finite");
+    for (std::size_t i = 0; i < xy.size(); ++i)
+        if (!coordinate_in_range(xy[i]))
+            throw_coordinate_error(fn, "ring point " + std::to_string(i / 2), static_cast<int>(i % 2), xy[i]);
     std::vector<std::int64_t> off(ring_offsets, ring_offsets + n_rings + 1);
     detail::Rings region(std::move(xy), std::move(off));
     std::vector<std::int64_t> out;
@@ -1300,9 +1303,11 @@ std::vector<std::int64_t> triangles_touching_region(const double* vertices, std:
         const double* a = vertices + stride * static_cast<std::size_t>(r[0]);
         const double* b = vertices + stride * static_cast<std::size_t>(r[1]);
         const double* c = vertices + stride * static_cast<std::size_t>(r[2]);
-        if (!std::isfinite(a[0] + a[1] + b[0] + b[1] + c[0] + c[1]))
-            throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
-                                        " has a non-finite vertex");
+        for (const double* p : {a, b, c})
+            for (int k = 0; k < 2; ++k)
+                if (!coordinate_in_range(p[k]))
+                    throw_coordinate_error(fn, "vertices row " + std::to_string((p - vertices) / static_cast<std::ptrdiff_t>(stride)) +
+                                               " (used by triangle row " + std::to_string(t) + ")", k, p[k]);
         if (region.closed_triangle_meets(a, b, c)) out.push_back(static_cast<std::int64_t>(t));
     }
     return out;
