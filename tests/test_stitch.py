@@ -448,3 +448,34 @@ def test_stitcher_owns_its_inputs():
     with pytest.raises(ValueError, match=r"Stitcher: triangles row 0 has the value 0.5, not an integer"):
         faultmesh.Stitcher(V2, np.where(np.arange(T2.size).reshape(T2.shape) == 0, 0.5, T2), SQUARE)
     faultmesh.Stitcher(V2, T2.astype(float), SQUARE)  # exact integers as floats are fine
+
+
+def test_concurrent_stitches_into_one_layer_are_serialised():
+    """stitch() runs with the GIL released and a LayerStitcher is not
+    thread-safe: the binding locks, so patches stitched from several Python
+    threads into one layer give a valid surface (no data race)."""
+    import threading
+    V, T = tin(n_side=31, jitter=600)
+    st = faultmesh.Stitcher(V, T, SQUARE)
+    patches = [reverse_patch(x0=x0, y0=y0, y1=y0 + 12, ty=4.0)
+               for x0 in (5.0, 50.0) for y0 in (10.0, 60.0)]
+    errors = []
+
+    def work(k):
+        try:
+            PV, PT = patches[k]
+            st.stitch(PV, PT, name=f"F{k}")
+            for _ in range(3):
+                st.mesh()
+                st.patch_names
+        except Exception as exc:  # surfaced below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(len(patches))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    assert sorted(st.patch_names) == [f"F{k}" for k in range(len(patches))]
+    check_surface(surface_of(st)[0], SQUARE)

@@ -4,11 +4,33 @@
 
 #include <pybind11/stl.h>  // patch_names: std::vector<std::string> -> list
 
+#include <mutex>
+#include <shared_mutex>
+
 #include "common.hpp"
 
 namespace faultmesh::bindings {
 
 namespace {
+
+// A LayerStitcher shared with Python. It is not thread-safe and stitch()
+// runs with the GIL released, so two Python threads could otherwise stitch
+// into one layer at the same time (a data race on its arrays): stitch() takes
+// the lock exclusively, mesh() and the accessors share it. As for Tin, the
+// lock is taken after the GIL is released and the GIL is never needed while
+// it is held.
+struct PyStitcher {
+    explicit PyStitcher(LayerStitcher&& s) : st(std::move(s)) {}
+    LayerStitcher st;
+    mutable std::shared_mutex mu;
+};
+
+template <class F>
+auto read_locked(const PyStitcher& p, F&& f) {
+    py::gil_scoped_release release;
+    std::shared_lock<std::shared_mutex> lock(p.mu);
+    return f(p.st);
+}
 
 StitchOptions make_options(bool refine, const std::string& order, const std::string& bridge,
                            double tol, double clearance, const char* fn) {
@@ -69,7 +91,7 @@ py::dict mesh_dict(StitchedMesh&& m) {
 }  // namespace
 
 void bind_stitch(py::module_& m) {
-    py::class_<LayerStitcher>(m, "Stitcher", R"doc(
+    py::class_<PyStitcher>(m, "Stitcher", R"doc(
 Stitches fault patches into one layer surface, one after another (paper 2.4-2.6).
 
 Stitcher(vertices (n, 3), triangles (m, 3) CCW TIN, boundary=None (k, 2) study area,
@@ -101,9 +123,9 @@ local merge with shared vertices. mesh() returns the compacted surface.
                  const std::int64_t* he = has_h ? H.data() : nullptr;
                  StitchOptions opt = make_options(refine, order, bridge, tol, clearance, fn);
                  py::gil_scoped_release release;
-                 return new LayerStitcher(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
-                                          static_cast<std::size_t>(T.shape(0)), bxy.empty() ? nullptr : bxy.data(),
-                                          bxy.size() / 2, he, name, opt);
+                 return new PyStitcher(LayerStitcher(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
+                                                     static_cast<std::size_t>(T.shape(0)),
+                                                     bxy.empty() ? nullptr : bxy.data(), bxy.size() / 2, he, name, opt));
              }),
              py::arg("vertices"), py::arg("triangles"), py::arg("boundary") = py::none(),
              py::arg("halfedges") = py::none(), py::arg("name") = "layer", py::arg("refine") = true,
@@ -111,14 +133,15 @@ local merge with shared vertices. mesh() returns the compacted surface.
              py::arg("clearance") = 0.0)
         .def(
             "stitch",
-            [](LayerStitcher& st, const py::handle& pv, const py::handle& pt, const std::string& name) {
+            [](PyStitcher& p, const py::handle& pv, const py::handle& pt, const std::string& name) {
                 const char* fn = "Stitcher.stitch";
                 auto V = as_points(pv, fn, "patch_vertices", 3, 3);
                 auto T = as_indices(pt, fn, "patch_triangles", 3);
                 StitchReport r;
                 {
                     py::gil_scoped_release release;
-                    r = st.stitch(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
+                    std::unique_lock<std::shared_mutex> lock(p.mu);
+                    r = p.st.stitch(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
                                   static_cast<std::size_t>(T.shape(0)), name);
                 }
                 return report_dict(std::move(r));
@@ -132,22 +155,24 @@ local merge with shared vertices. mesh() returns the compacted surface.
             "earlier patch; nothing changes on error.")
         .def(
             "mesh",
-            [](const LayerStitcher& st) {
-                StitchedMesh mm;
-                {
-                    py::gil_scoped_release release;
-                    mm = st.mesh();
-                }
+            [](const PyStitcher& p) {
+                StitchedMesh mm = read_locked(p, [](const LayerStitcher& st) { return st.mesh(); });
                 return mesh_dict(std::move(mm));
             },
             "The compacted surface: dict with vertices (n, 3), triangles (m, 3), kinds (m,) int8\n"
             "(0 layer, 1 patch, 2 gap), owners (m,) (patch id / gap id / -1), vertex_map and\n"
             "triangle_map (stitcher numbering -> compacted, -1 if gone).")
-        .def_property_readonly("n_vertices", &LayerStitcher::n_vertices)
-        .def_property_readonly("n_triangles", &LayerStitcher::n_triangles)
-        .def_property_readonly("n_live_triangles", &LayerStitcher::n_live_triangles)
-        .def_property_readonly("name", &LayerStitcher::name)
-        .def_property_readonly("patch_names", &LayerStitcher::patch_names);
+        .def_property_readonly("n_vertices",
+                               [](const PyStitcher& p) { return read_locked(p, [](const LayerStitcher& st) { return st.n_vertices(); }); })
+        .def_property_readonly("n_triangles",
+                               [](const PyStitcher& p) { return read_locked(p, [](const LayerStitcher& st) { return st.n_triangles(); }); })
+        .def_property_readonly("n_live_triangles", [](const PyStitcher& p) {
+            return read_locked(p, [](const LayerStitcher& st) { return st.n_live_triangles(); });
+        })
+        .def_property_readonly("name", [](const PyStitcher& p) { return p.st.name(); })  // set once, never changed
+        .def_property_readonly("patch_names", [](const PyStitcher& p) {
+            return read_locked(p, [](const LayerStitcher& st) { return st.patch_names(); });  // a copy
+        });
 
     m.def(
         "stitch",
