@@ -208,7 +208,7 @@ def test_errors_name_the_problem():
         faultmesh.Stitcher(V[:, :2], T, SQUARE)
     bad = T.copy()
     bad[5, 1] = len(V) + 3
-    with pytest.raises(ValueError, match="triangle row 5 has vertex index"):
+    with pytest.raises(ValueError, match="triangles row 5 has vertex index"):
         faultmesh.Stitcher(V, bad, SQUARE)
     with pytest.raises(ValueError, match="halfedges must have shape"):
         faultmesh.Stitcher(V, T, SQUARE, halfedges=np.zeros(5, np.int64))
@@ -216,7 +216,7 @@ def test_errors_name_the_problem():
         faultmesh.Stitcher(V, T, SQUARE, order="best")
     st = faultmesh.Stitcher(V, T, SQUARE, name="L")
     PV, PT = reverse_patch()
-    with pytest.raises(ValueError, match="patch triangle row 0 has vertex index"):
+    with pytest.raises(ValueError, match="patch_triangles row 0 has vertex index"):
         st.stitch(PV, PT + 1000, name="F")
     # Outside the study area.
     with pytest.raises(faultmesh.GeometryError, match="lies outside the study area"):

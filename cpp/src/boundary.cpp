@@ -31,10 +31,10 @@ std::size_t check_triangles(const char* fn, const std::int64_t* tri, std::size_t
         for (std::size_t t = 0; t < m; ++t) {
             const std::int64_t a = tri[3 * t], b = tri[3 * t + 1], c = tri[3 * t + 2];
             if (a < 0 || b < 0 || c < 0)
-                throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
+                throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(t) +
                                             " has a negative vertex index");
             if (a == b || b == c || c == a)
-                throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
+                throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(t) +
                                             " repeats vertex " + std::to_string(a == b || a == c ? a : b));
         }
     }
@@ -44,7 +44,7 @@ std::size_t check_triangles(const char* fn, const std::int64_t* tri, std::size_t
     } else if (mx >= 0 && static_cast<std::size_t>(mx) >= n) {
         for (std::size_t t = 0; t < 3 * m; ++t)
             if (tri[t] == mx)
-                throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t / 3) +
+                throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(t / 3) +
                                             " has vertex index " + std::to_string(mx) + " out of range [0, " +
                                             std::to_string(n) + ")");
     }
@@ -503,7 +503,7 @@ BoundaryContours sort_segments(const std::int64_t* segments, std::size_t n_segme
     std::int64_t mx = -1;
     for (std::size_t e = 0; e < 2 * n_segments; ++e) {
         if (segments[e] < 0)
-            throw std::invalid_argument("sort_segments: segment row " + std::to_string(e / 2) +
+            throw std::invalid_argument("sort_segments: segments row " + std::to_string(e / 2) +
                                         " has a negative vertex index");
         mx = std::max(mx, segments[e]);
     }

@@ -325,7 +325,7 @@ void check_mesh(const double* V, std::size_t n, std::size_t stride, const std::i
     check_coordinates(V, n, stride, 2, kFn, "vertices");
     for (std::size_t t = 0; t < 3 * m; ++t)
         if (T[t] < 0 || static_cast<std::uint64_t>(T[t]) >= n)
-            throw std::invalid_argument(std::string(kFn) + ": triangle row " + std::to_string(t / 3) +
+            throw std::invalid_argument(std::string(kFn) + ": triangles row " + std::to_string(t / 3) +
                                         " has vertex index " + std::to_string(T[t]) +
                                         " out of range [0, " + std::to_string(n) + ")");
 }

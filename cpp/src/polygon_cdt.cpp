@@ -36,12 +36,12 @@ void check_inputs(const char* fn, const double* xy, std::size_t n_points, const 
         throw std::invalid_argument(std::string(fn) + ": triangles must hold 3 indices per triangle");
     for (std::size_t i = 0; i < triangles.size(); ++i)
         if (triangles[i] < 0 || static_cast<std::size_t>(triangles[i]) >= n_points)
-            throw std::invalid_argument(std::string(fn) + ": triangle " + std::to_string(i / 3) +
+            throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(i / 3) +
                                         " has vertex index " + std::to_string(triangles[i]) +
                                         " out of range [0, " + std::to_string(n_points) + ")");
     for (std::size_t i = 0; i < 2 * n_constrained; ++i)
         if (constrained_edges[i] < 0 || static_cast<std::size_t>(constrained_edges[i]) >= n_points)
-            throw std::invalid_argument(std::string(fn) + ": constrained edge " + std::to_string(i / 2) +
+            throw std::invalid_argument(std::string(fn) + ": constrained_edges row " + std::to_string(i / 2) +
                                         " has vertex index " + std::to_string(constrained_edges[i]) +
                                         " out of range [0, " + std::to_string(n_points) + ")");
 }

@@ -458,7 +458,7 @@ LayerStitcher::LayerStitcher(const double* vertices, std::size_t n_vertices,
         const std::int64_t* r = &s.tri[3 * t];
         for (int k = 0; k < 3; ++k)
             if (r[k] < 0 || static_cast<std::size_t>(r[k]) >= n_vertices)
-                throw std::invalid_argument(fn + ": triangle row " + std::to_string(t) + " has vertex index " +
+                throw std::invalid_argument(fn + ": triangles row " + std::to_string(t) + " has vertex index " +
                                             std::to_string(r[k]) + " outside [0, " +
                                             std::to_string(n_vertices) + ")");
     }
@@ -574,7 +574,7 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
         for (int k = 0; k < 3; ++k) {
             const std::int64_t i = ptri[3 * t + k];
             if (i < 0 || static_cast<std::size_t>(i) >= npv)
-                throw std::invalid_argument(fn + ": patch triangle row " + std::to_string(t) +
+                throw std::invalid_argument(fn + ": patch_triangles row " + std::to_string(t) +
                                             " has vertex index " + std::to_string(i) + " outside [0, " +
                                             std::to_string(npv) + ")");
         }
@@ -1297,7 +1297,7 @@ std::vector<std::int64_t> triangles_touching_region(const double* vertices, std:
         const std::int64_t* r = triangles + 3 * t;
         for (int k = 0; k < 3; ++k)
             if (r[k] < 0 || static_cast<std::size_t>(r[k]) >= n_vertices)
-                throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
+                throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(t) +
                                             " has vertex index " + std::to_string(r[k]) + " outside [0, " +
                                             std::to_string(n_vertices) + ")");
         const double* a = vertices + stride * static_cast<std::size_t>(r[0]);
