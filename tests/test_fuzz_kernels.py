@@ -189,6 +189,7 @@ def index_presentation(draw, t, n):
 
 
 # ------------------------------------------------------------ predicates
+@pytest.mark.fuzz
 @fuzz_settings(200)
 @given(data=st.data(), n=st.integers(0, 4))
 def test_fuzz_orient2d_incircle(data, n):
@@ -258,6 +259,7 @@ def check_delaunay(P, T):
     assert not np.any(inc > 0), "a vertex inside a circumcircle"
 
 
+@pytest.mark.fuzz
 @fuzz_settings(300)
 @given(data=st.data(), info=st.booleans())
 def test_fuzz_delaunay(data, info):
@@ -304,6 +306,7 @@ def check_queries(tin, q):
     assert np.all(np.isnan(z[~inside]))
 
 
+@pytest.mark.fuzz
 @fuzz_settings(150)
 @given(data=st.data())
 def test_fuzz_tin_insert_locate_interpolate(data):
@@ -402,6 +405,7 @@ POLY_NAMES = ["triangulate_polygon", "join_holes", "check_polygon"]
 POLY_ARGS = ["rings", "ring "]
 
 
+@pytest.mark.fuzz
 @fuzz_settings(300)
 @given(rings=ring_sets(), refine=st.booleans(), order=st.sampled_from(["quality", "plain"]),
        bridge=st.sampled_from(["extreme", "eberly"]), strict=st.booleans())
@@ -487,6 +491,7 @@ def box_meets_triangle_exact(box, a, b, c) -> bool:
                for i in range(3) for j in range(4))
 
 
+@pytest.mark.fuzz
 @fuzz_settings(150)
 @given(data=st.data(), kind=st.sampled_from(["triangles", "segments", "boxes"]))
 def test_fuzz_aabb_tree(data, kind):
@@ -567,6 +572,7 @@ def directed_edges(T):
     return [(int(t[k]), int(t[(k + 1) % 3])) for t in T for k in range(3)]
 
 
+@pytest.mark.fuzz
 @fuzz_settings(250)
 @given(data=st.data(), nv=st.sampled_from([None, None, "exact", "small", 3.5, "huge"]))
 def test_fuzz_boundary(data, nv):
@@ -609,6 +615,7 @@ def test_fuzz_boundary(data, nv):
 
 
 # ------------------------------------------------------------ overlap
+@pytest.mark.fuzz
 @fuzz_settings(120)
 @given(data=st.data(), grow=st.booleans(), use_tree=st.booleans())
 def test_fuzz_overlapping_triangles(data, grow, use_tree):
@@ -660,6 +667,7 @@ def loft_edges_used_once(k, l, t, closed):
     return all(uses[e] == 1 for e in want)
 
 
+@pytest.mark.fuzz
 @fuzz_settings(200)
 @given(data=st.data(), method=st.sampled_from(["min_area", "shortest_diagonal"]), closed=st.booleans(),
        cols=st.sampled_from([2, 3]))
@@ -735,6 +743,7 @@ def patches(draw, scale, offset):
     return V, T.astype(np.int64)
 
 
+@pytest.mark.fuzz
 @fuzz_settings(60)
 @given(data=st.data(), scale=st.sampled_from([1.0, 1.0, 1e-3, 1e3]), offset=st.sampled_from([0.0, 5.5e5, 7.8e6]),
        n_patches=st.integers(1, 3))
@@ -769,6 +778,7 @@ def test_fuzz_stitcher(data, scale, offset, n_patches):
 
 
 # ------------------------------------------------------------ cut_layer
+@pytest.mark.fuzz
 @fuzz_settings(80)
 @given(data=st.data(), refine=st.booleans(), displacement=st.sampled_from([0.0, -3.0, 2.5]),
        taper=st.sampled_from([0.0, 10.0]))
