@@ -19,8 +19,11 @@ std::string cols_str(py::ssize_t min_cols, py::ssize_t max_cols) {
 // ensure() returns the caller's own object (refcount >= 2: the argument
 // tuple holds it too) when it is already contiguous with the right dtype, and
 // a view sharing memory (OWNDATA unset) for subclasses and buffer objects.
-// The copy is one memcpy: 16 MB for the 1e6-point Delaunay benchmark input,
-// ~3 ms against ~1 s of triangulation.
+// The copy is one memcpy. Measured on the benchmark sizes (best of 5, this
+// machine): delaunay of 1e6 points 1.2 ms of 1017 ms (0.1 %), Tin.interpolate
+// of 1e6 queries 1.6 of 673 ms (0.2 %), AabbTree over 2e6 triangles 12.5 of
+// 1017 ms (1.2 %), boundary_loops of 2e6 triangles 12 of 220 ms (5.5 %, the
+// cheapest kernel per byte).
 template <class A>
 A as_private(A a) {
     if (a.owndata() && a.ref_count() == 1) return a;
