@@ -163,7 +163,7 @@ def index_presentation(draw, t, n):
         b = t.astype(np.int32)  # wraps beyond 2^31: the binding sees the wrapped values
         return b, b.astype(np.int64)
     if how == "list":
-        return t.tolist(), t
+        return t.tolist(), (t if t.size else None)  # [] has shape (0,)
     if t.size == 0:
         return t, t
     i = draw(st.integers(0, t.size - 1))

@@ -361,12 +361,15 @@ double incircle_exact_integer(const double* pa, const double* pb, const double* 
 }
 
 // A non-zero coordinate below `limit` in magnitude: products in the exact
-// stages may then be subnormal (see predicates.hpp).
-bool has_tiny(double limit, std::initializer_list<const double*> pts) {
-    for (const double* p : pts)
-        for (int i = 0; i < 2; ++i)
-            if (p[i] != 0.0 && std::fabs(p[i]) < limit) return true;
-    return false;
+// stages may then be subnormal (see predicates.hpp). Branch-free: called on
+// every exactly-zero in-circle result (cocircular grid points).
+inline bool tiny(double v, double limit) { return (v != 0.0) & (std::fabs(v) < limit); }
+inline bool has_tiny(double limit, const double* a, const double* b, const double* c) {
+    return tiny(a[0], limit) | tiny(a[1], limit) | tiny(b[0], limit) | tiny(b[1], limit) | tiny(c[0], limit) |
+           tiny(c[1], limit);
+}
+inline bool has_tiny(double limit, const double* a, const double* b, const double* c, const double* d) {
+    return has_tiny(limit, a, b, c) | tiny(d[0], limit) | tiny(d[1], limit);
 }
 constexpr double kTinyOrient = 0x1p-400;    // 4 differences' quanta >= 2^-452: products >= 2^-904
 constexpr double kTinyIncircle = 0x1p-200;  // degree 4: products >= 2^-1008 > DBL_MIN = 2^-1022
@@ -381,12 +384,12 @@ bool finite_points(std::initializer_list<const double*> pts) {
 }
 
 double certify_orient2d(double r, const double* pa, const double* pb, const double* pc) {
-    if (r >= kCertified || -r >= kCertified || !has_tiny(kTinyOrient, {pa, pb, pc})) return r;
+    if (r >= kCertified || -r >= kCertified || !has_tiny(kTinyOrient, pa, pb, pc)) return r;
     return orient2d_exact_integer(pa, pb, pc);
 }
 
 double certify_incircle(double r, const double* pa, const double* pb, const double* pc, const double* pd) {
-    if (r >= kCertified || -r >= kCertified || !has_tiny(kTinyIncircle, {pa, pb, pc, pd})) return r;
+    if (r >= kCertified || -r >= kCertified || !has_tiny(kTinyIncircle, pa, pb, pc, pd)) return r;
     return incircle_exact_integer(pa, pb, pc, pd);
 }
 
@@ -468,7 +471,7 @@ double orient2d_small(const double* pa, const double* pb, const double* pc) {
     const double detright = (pa[1] - pc[1]) * (pb[0] - pc[0]);
     const double det = detleft - detright;
     if (!finite_points({pa, pb, pc})) return det;  // NaN / inf in, NaN / inf out
-    if (has_tiny(kTinyOrient, {pa, pb, pc})) return orient2d_exact_integer(pa, pb, pc);
+    if (has_tiny(kTinyOrient, pa, pb, pc)) return orient2d_exact_integer(pa, pb, pc);
     // No product can have underflowed: the products are exact zeros or normal
     // doubles, and Shewchuk's filter applies as it stands.
     double detsum;
@@ -494,7 +497,7 @@ double incircle_small(const double* pa, const double* pb, const double* pc, cons
                (bdx * bdx + bdy * bdy) * (cdx * ady - adx * cdy) +
                (cdx * cdx + cdy * cdy) * (adx * bdy - bdx * ady);
     }
-    if (has_tiny(kTinyIncircle, {pa, pb, pc, pd})) return incircle_exact_integer(pa, pb, pc, pd);
+    if (has_tiny(kTinyIncircle, pa, pb, pc, pd)) return incircle_exact_integer(pa, pb, pc, pd);
     // No underflow possible: the permanent is 0 (then so is the determinant,
     // every product having a zero factor) or a normal double, and the adaptive
     // stages are exact.

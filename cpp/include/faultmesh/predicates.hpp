@@ -86,8 +86,10 @@ double incircle_small(const double* pa, const double* pb, const double* pc, cons
 // Twice the signed area of triangle (a, b, c): > 0 if a, b, c are in
 // counter-clockwise order, < 0 if clockwise, exactly 0 if collinear.
 inline double orient2d(const double* pa, const double* pb, const double* pc) {
-    const double detleft = (pa[0] - pc[0]) * (pb[1] - pc[1]);
-    const double detright = (pa[1] - pc[1]) * (pb[0] - pc[0]);
+    const double acx = pa[0] - pc[0], bcy = pb[1] - pc[1];
+    const double acy = pa[1] - pc[1], bcx = pb[0] - pc[0];
+    const double detleft = acx * bcy;
+    const double detright = acy * bcx;
     const double det = detleft - detright;
     double detsum;
     // Where the signs of the two products decide, |det| is their magnitude
@@ -100,6 +102,10 @@ inline double orient2d(const double* pa, const double* pb, const double* pc) {
         detsum = -detleft - detright;
     } else {
         if (det >= detail::kUnderflowGuard || -det >= detail::kUnderflowGuard) return det;
+        // Both products zero through a zero factor (collinear grid points):
+        // exactly 0, no underflow involved. (Differences of doubles are 0
+        // only for equal operands.)
+        if (det == 0.0 && (acx == 0.0 || bcy == 0.0) && (acy == 0.0 || bcx == 0.0)) return 0.0;
         return detail::orient2d_small(pa, pb, pc);
     }
     if (!(detsum >= detail::kUnderflowGuard)) return detail::orient2d_small(pa, pb, pc);
