@@ -1307,7 +1307,7 @@ std::vector<std::int64_t> triangles_touching_region(const double* vertices, std:
             for (int k = 0; k < 2; ++k)
                 if (!coordinate_in_range(p[k]))
                     throw_coordinate_error(fn, "vertices row " + std::to_string((p - vertices) / static_cast<std::ptrdiff_t>(stride)) +
-                                               " (used by triangle row " + std::to_string(t) + ")", k, p[k]);
+                                               " (used by triangles row " + std::to_string(t) + ")", k, p[k]);
         if (region.closed_triangle_meets(a, b, c)) out.push_back(static_cast<std::int64_t>(t));
     }
     return out;
