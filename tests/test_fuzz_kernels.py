@@ -612,6 +612,17 @@ def test_fuzz_boundary(data, nv):
     sseq = [e for l in srep.loops for e in zip(l.tolist(), np.roll(l, -1).tolist())]
     sseq += [e for c in srep.open_chains for e in zip(c[:-1].tolist(), c[1:].tolist())]
     assert sorted(sseq) == bnd
+    # ... and on arbitrary segments (all edges, duplicates, hostile arrays).
+    S = np.array(directed_edges(T), dtype=np.int64).reshape(-1, 2)[data.draw(st.sampled_from([slice(None), slice(0, 5)]))]
+    sarg, Seff = index_presentation(data.draw, S, T.max() + 1 if T.size else 0)
+    srep, err = call(["sort_segments"], ["segments", "n_vertices"], fm.sort_segments, sarg)
+    if err is not None:
+        assert Seff is None or np.any(Seff < 0), err
+    else:
+        assert Seff is not None and np.all(Seff >= 0)
+        sseq = [e for l in srep.loops for e in zip(l.tolist(), np.roll(l, -1).tolist())]
+        sseq += [e for c in srep.open_chains for e in zip(c[:-1].tolist(), c[1:].tolist())]
+        assert sorted(sseq) == sorted(map(tuple, Seff.tolist())), "every segment once"
 
 
 # ------------------------------------------------------------ overlap
