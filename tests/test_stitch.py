@@ -479,3 +479,17 @@ def test_concurrent_stitches_into_one_layer_are_serialised():
     assert not errors
     assert sorted(st.patch_names) == [f"F{k}" for k in range(len(patches))]
     check_surface(surface_of(st)[0], SQUARE)
+
+
+def test_patch_triangle_repeating_a_vertex_is_named():
+    """Regression (fuzzing, issue 10): a patch triangle (2, 2, 0) was reported
+    by the outline extraction as 'boundary_contours: triangles row 1 repeats
+    vertex 2', naming neither the stitch nor the patch."""
+    V, T = tin()
+    st = faultmesh.Stitcher(V, T, SQUARE, name="L")
+    PV, PT = reverse_patch()
+    bad = PT.copy()
+    bad[1] = [2, 2, 0]
+    with pytest.raises(ValueError, match=r"stitch: layer 'L', patch 'F': patch_triangles row 1 repeats vertex 2"):
+        st.stitch(PV, bad, name="F")
+    st.stitch(PV, PT, name="F")

@@ -577,6 +577,11 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
                 throw std::invalid_argument(fn + ": patch_triangles row " + std::to_string(t) +
                                             " has vertex index " + std::to_string(i) + " outside [0, " +
                                             std::to_string(npv) + ")");
+            // Checked here so that the message names the patch (the outline
+            // extraction below would report it as boundary_contours').
+            if (i == ptri[3 * t + (k + 1) % 3])
+                throw std::invalid_argument(fn + ": patch_triangles row " + std::to_string(t) + " repeats vertex " +
+                                            std::to_string(i));
         }
     auto P = [&](std::int64_t i) { return pv + 3 * i; };
 
