@@ -493,3 +493,23 @@ def test_patch_triangle_repeating_a_vertex_is_named():
     with pytest.raises(ValueError, match=r"stitch: layer 'L', patch 'F': patch_triangles row 1 repeats vertex 2"):
         st.stitch(PV, bad, name="F")
     st.stitch(PV, PT, name="F")
+
+
+def test_patch_triangle_collinear_in_3d_is_rejected():
+    """Regression (fuzzing, issue 10): a tip point on the line of its trace
+    lofts into triangles whose vertices are collinear in 3D; they were
+    stitched into the layer, which then failed check() ('zero area'). The
+    stitch now raises GeometryError naming the row; nothing changes."""
+    V, T = tin()
+    st = faultmesh.Stitcher(V, T, SQUARE, name="L")
+    a = np.array([[40.0, 50.0, 0.0], [45.0, 50.0, 0.0], [50.0, 50.0, 0.0]])
+    b = a + [0.0, 3.0, -1.0]
+    tip = np.array([[35.0, 50.0, 0.0]])  # on the line of a
+    PV, PT = patch([a, b], tips=(tip[0], None))
+    before = st.mesh()
+    with pytest.raises(faultmesh.GeometryError, match=r"patch 'F': patch_triangles row 0 is degenerate"):
+        st.stitch(PV, PT, name="F")
+    assert np.array_equal(st.mesh()["triangles"], before["triangles"])
+    PV2, PT2 = patch([a, b], tips=([35.0, 49.0, 0.0], None))
+    st.stitch(PV2, PT2, name="F")
+    check_surface(surface_of(st)[0], SQUARE)

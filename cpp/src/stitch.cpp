@@ -566,8 +566,9 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
     const std::string fn = "stitch: layer '" + s.name + "', patch '" + patch_name + "'";
     if (npt == 0) throw std::invalid_argument(fn + ": the patch has no triangles");
     if (pv == nullptr || pt == nullptr) throw std::invalid_argument(fn + ": null array");
+    // All three coordinates: z enters the degeneracy test below.
     for (std::size_t i = 0; i < 3 * npv; ++i)
-        if (i % 3 == 2 ? !std::isfinite(pv[i]) : !coordinate_in_range(pv[i]))
+        if (!coordinate_in_range(pv[i]))
             throw_coordinate_error(fn, "patch_vertices row " + std::to_string(i / 3), static_cast<int>(i % 3), pv[i]);
     std::vector<std::int64_t> ptri(pt, pt + 3 * npt);
     for (std::size_t t = 0; t < npt; ++t)
@@ -584,6 +585,23 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
                                             std::to_string(i));
         }
     auto P = [&](std::int64_t i) { return pv + 3 * i; };
+    // A triangle whose vertices are collinear in 3D would end up in the layer
+    // as a zero-area triangle (fuzzing: a tip point on the line of its trace).
+    // Exact: the 3D cross product vanishes iff its three components -- the
+    // orientations of the xy, yz and zx projections -- are all zero.
+    for (std::size_t t = 0; t < npt; ++t) {
+        const double* a = P(ptri[3 * t]);
+        const double* b = P(ptri[3 * t + 1]);
+        const double* c = P(ptri[3 * t + 2]);
+        bool flat = orient2d(a, b, c) == 0.0;
+        for (int k = 1; flat && k < 3; ++k) {
+            const double pa[2] = {a[k], a[(k + 1) % 3]}, pb[2] = {b[k], b[(k + 1) % 3]}, pc[2] = {c[k], c[(k + 1) % 3]};
+            flat = orient2d(pa, pb, pc) == 0.0;
+        }
+        if (flat)
+            throw GeometryError(fn + ": patch_triangles row " + std::to_string(t) +
+                                " is degenerate (its vertices are collinear in 3D)");
+    }
 
     StitchReport rep;
     // ---- 1. orientation and outline
