@@ -192,8 +192,10 @@ void bind_delaunay(py::module_& m) {
             },
             py::arg("xy"),
             "z at each point xy (k, 2) (z ignored if (k, 3)) by linear interpolation in the\n"
-            "containing triangle; NaN outside the convex hull. float64 (k,). A query equal to\n"
-            "a vertex gets that vertex's z exactly.")
+            "containing triangle; NaN outside the convex hull. float64 (k,). Containment and\n"
+            "weights come from the exact predicates: z is a convex combination of the triangle's\n"
+            "z (a query equal to a vertex gets that vertex's z exactly, one on an edge depends\n"
+            "on the edge's two vertices only).")
         .def_property_readonly(
             "vertices",
             [](const PyTin& t) {
