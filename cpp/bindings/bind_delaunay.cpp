@@ -84,7 +84,7 @@ void bind_delaunay(py::module_& m) {
         "perturbation, so the result is canonical (independent of the row order) and\n"
         "equal to CGAL's Delaunay_triangulation_2. With return_info=True returns a\n"
         "DelaunayInfo (triangles, halfedges, vertex_of_input, n_duplicates).\n\n"
-        "Raises ValueError for a wrong shape or a NaN/inf coordinate (naming the row),\n"
+        "Raises ValueError for a wrong shape or a NaN/inf coordinate or one beyond 1e60 (naming the row),\n"
         "faultmesh.GeometryError for fewer than 3 distinct points or all collinear.");
 
     py::class_<PyTin>(m, "Tin",
@@ -104,7 +104,7 @@ void bind_delaunay(py::module_& m) {
              }),
              py::arg("xyz"),
              "Builds the TIN of the points xyz (n, 3). Raises ValueError for a wrong shape or\n"
-             "a NaN/inf x or y (naming the row), faultmesh.GeometryError for fewer than 3\n"
+             "a NaN/inf x or y or one beyond 1e60 (naming the row), faultmesh.GeometryError for fewer than 3\n"
              "distinct XY points or all collinear.")
         .def(
             "insert",
@@ -122,7 +122,7 @@ void bind_delaunay(py::module_& m) {
             py::arg("xyz"),
             "Inserts the points xyz (k, 3) into the TIN; returns int64 (k,): the vertex each\n"
             "row maps to (a new vertex, or the existing vertex with the same XY, whose z is\n"
-            "kept). Raises ValueError for NaN/inf before changing anything.")
+            "kept). Raises ValueError for NaN/inf (or beyond 1e60) before changing anything.")
         .def(
             "set_z",
             [](PyTin& t, const py::handle& vertices, const py::handle& z) {
@@ -170,7 +170,7 @@ void bind_delaunay(py::module_& m) {
             },
             py::arg("xy"),
             "Index of a triangle containing each point xy (k, 2) (z ignored if (k, 3));\n"
-            "-1 outside the convex hull or for a NaN/inf query. int64 (k,).")
+            "-1 outside the convex hull or for a NaN/inf query or one beyond 1e60. int64 (k,).")
         .def(
             "interpolate",
             [](const PyTin& t, const py::handle& xy) {
