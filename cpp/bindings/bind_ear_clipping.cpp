@@ -56,7 +56,7 @@ void bind_ear_clipping(py::module_& m) {
         py::arg("bridge") = "extreme", py::arg("strict") = false, py::arg("threads") = 0,
         py::arg("split_min") = 4096,
         "Triangulate a polygon with holes by ear clipping.\n\n"
-        "rings: list of (k, 2) arrays, the outer ring first, then the holes (any orientation;\n"
+        "rings: list of (k, 2) arrays, the outer ring first (at least 3 rows), then the holes (any orientation;\n"
         "a closing point equal to the first and consecutive duplicates are ignored).\n"
         "Returns (m, 3) int64 triangles, counter-clockwise, indexing the rings' points\n"
         "concatenated. A valid polygon with n vertices and h holes gives n + 2h - 2 triangles.\n"
