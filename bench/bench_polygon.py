@@ -42,8 +42,13 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "python"))
+sys.path.insert(0, str(ROOT / "bench"))
+from _common import use_dev_build  # noqa: E402
 
+# Only a dev build loads the package from python/; otherwise the installed one
+# (importers such as the tests then keep a sys.path that subprocesses, e.g.
+# dask workers, can inherit safely).
+use_dev_build()
 import faultmesh as fm  # noqa: E402
 
 try:

@@ -156,11 +156,11 @@ def stitch_all(V: np.ndarray, T: np.ndarray, halfedges: np.ndarray, boundary: np
         a = time.perf_counter()
         rep = st.stitch(pv, pt, name=name)
         per.append(time.perf_counter() - a)
-        removed.append(len(rep["removed"]))
+        removed.append(len(rep.removed))
     t2 = time.perf_counter()
     mesh = st.mesh()
     t3 = time.perf_counter()
-    nt = len(mesh["triangles"])
+    nt = len(mesh.triangles)
     return {"build": t1 - t0, "stitches": per, "mesh": t3 - t2, "total": t3 - t0,
             "removed": removed, "triangles_out": nt}
 

@@ -7,7 +7,7 @@ README can link one page.
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-ORDER = ["delaunay", "polygon", "aabb", "boundary", "compare", "scale"]
+ORDER = ["delaunay", "polygon", "aabb", "boundary", "compare", "scale", "ensemble"]
 
 
 def main() -> None:

@@ -2,7 +2,7 @@
 
     python bench/run.py [NAME ...] [--runs N] [--quick] [--build-dir DIR] [--dry-run]
 
-NAME: any of delaunay, polygon, aabb, boundary, compare, scale (default: all,
+NAME: any of delaunay, polygon, aabb, boundary, compare, scale, ensemble (default: all,
 in that order). Each benchmark is its own script (bench/bench_<name>.py,
 bench/compare.py), run here as a subprocess with the same Python and
 environment (set FAULTMESH_DEV_BUILD=$PWD/build/<dir> to bench a development
@@ -52,6 +52,9 @@ BENCHMARKS: Dict[str, Tuple[str, str, List[str], List[str]]] = {
     # 200 faults stitched into a 1M-point layer, and the locality check.
     "scale": ("bench_scale.py", "--repeat", ["--locality", "--docs"],
               ["--points", "100000", "--faults", "20", "--out", str(QUICK_OUT / "scale")]),
+    # faultmesh.ensemble on local Dask clusters of 1 and 2 workers: throughput,
+    # overhead per realization, client memory for two n.
+    "ensemble": ("bench_ensemble.py", "--runs", [], ["--quick"]),
 }
 
 

@@ -7,7 +7,8 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 cd "$here"
 
-need=(cmake g++ ninja-build libcgal-dev libgtest-dev)
+# libgl1/libegl1: VTK (pyvista) renders off screen in the interactive-view test
+need=(cmake g++ ninja-build libcgal-dev libgtest-dev libgl1 libegl1)
 missing=()
 for p in "${need[@]}"; do dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p"); done
 if [ ${#missing[@]} -gt 0 ]; then
@@ -21,6 +22,9 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 python3 -m pip install --quiet ".[test]"
+# geoh5py pins exact minors of numpy/Pillow/pydantic (pyproject.toml, test
+# extra); it runs with the versions above, so it comes without its pins.
+python3 -m pip install --quiet --no-deps "geoh5py==0.12.2"
 
 echo "== C++ tests (ctest)"
 cmake -S . -B build/ctest -G Ninja -DCMAKE_BUILD_TYPE=Release \

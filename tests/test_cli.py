@@ -110,7 +110,8 @@ def test_plot_command(model_file, tmp_path):
 
 @pytest.mark.parametrize("argv, fragment", [
     (["quality", "/no/such/model.3dt"], "quality: error: model '/no/such/model.3dt': no such file"),
-    (["convert", "{model}", "{tmp}/m.stl"], "convert: error: save_model: unknown format '.stl'"),
+    (["convert", "{model}", "{tmp}/m.xyz"], "convert: error: save_model: unknown format '.xyz'"),
+    (["convert", "{model}", "{tmp}/m.stl"], "convert: error: save_model: .stl is read-only"),
     (["section", "{bad}", "--origin", "0", "0", "--azimuth", "0"], "bad.3dt, line 1: not a .3dt file"),
     (["build", "no_such_dataset", "-o", "{tmp}/o"], "build: error: dataset 'no_such_dataset': no such file"),
     (["section", "{model}", "--origin", "0", "0", "--azimuth", "nan"], "azimuth must be a finite number"),
@@ -173,6 +174,40 @@ def test_build_command_with_options(tmp_path, capsys):
                "--loft", "shortest_diagonal", "-q"])
     assert rc == 0, capsys.readouterr().err
     files = sorted(p.name for p in (tmp_path / "b").iterdir())
-    assert files == ["paper_like.3dt", "paper_like.ts", "quality.csv", "quality.json", "quality.md"]
+    assert files == ["paper_like.3dt", "paper_like.ts", "paper_like_boundary.pl", "quality.csv",
+                     "quality.json", "quality.md", "run.json"]
     m = load_model(tmp_path / "b" / "paper_like.3dt")
     assert np.all(np.isfinite(m.surfaces[next(iter(m.surfaces))].vertices))
+
+
+def test_every_build_model_option_has_a_cli_option(tmp_path, monkeypatch):
+    # Each keyword of build_model a user may set reaches it from `faultmesh
+    # build`: run the command with every build option set and check what
+    # build_model received (a new keyword without a CLI option fails here).
+    import inspect
+
+    import faultmesh.build as fb
+
+    seen = {}
+    real = fb.build_model
+
+    def spy(dataset, **kw):
+        seen.update(kw)
+        return real(dataset, **kw)
+
+    monkeypatch.setattr(fb, "build_model", spy)
+    rc = main(["build", "paper_like", "-o", str(tmp_path / "b"), "--formats", "3dt", "-q",
+               "--plain-order", "--no-refine", "--bridge", "eberly", "--loft", "shortest_diagonal",
+               "--clearance", "0", "--spacing", "40", "--no-repair", "--max-repair-rounds", "3",
+               "--no-evaluate"])
+    assert rc == 0
+    params = set(inspect.signature(real).parameters) - {"dataset", "progress"}
+    assert params <= set(seen), f"build_model options without a CLI option: {params - set(seen)}"
+    assert seen["stitch_order"] == "plain" and seen["refine"] is False and seen["bridge"] == "eberly"
+    assert seen["loft_method"] == "shortest_diagonal" and seen["clearance"] == 0.0
+    assert seen["spacing"] == 40.0 and seen["repair"] is False and seen["max_repair_rounds"] == 3
+    assert seen["evaluate"] is False
+    # Bad values: a one-line error, exit 2.
+    with pytest.raises(SystemExit) as e:
+        main(["build", "paper_like", "-o", str(tmp_path / "c"), "--spacing", "-1"])
+    assert e.value.code == 2

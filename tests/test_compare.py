@@ -35,12 +35,12 @@ def stitched_model(order: str, refine: bool, n_points=6000, n_faults=4, seed=3) 
                                        throw=rng.uniform(5, 25), kind=("normal", "reverse")[k % 2],
                                        length=200.0, reach=60.0)
         rep = st.stitch(V, F, name=f"F{k}")
-        gaps += [(f"F{k}", g) for g in rep["gaps"]]
+        gaps += [(f"F{k}", g) for g in rep.gaps]
     mesh = st.mesh()
-    tmap = np.asarray(mesh["triangle_map"])
-    surf = Surface("layer", mesh["vertices"], mesh["triangles"])
-    model_gaps = [Gap(fault=f, layer="layer", triangles=tmap[np.asarray(g["rows"])],
-                      n_vertices=int(g["n_vertices"]), n_holes=int(g["n_holes"]))
+    surf = Surface("layer", mesh.vertices, mesh.triangles, kinds=mesh.kinds, owner=mesh.owners)
+    model_gaps = [Gap(fault=f, layer="layer", triangles=mesh.triangle_map[g.triangles],
+                      n_vertices=int(g.n_vertices), n_holes=int(g.n_holes), id=int(g.id),
+                      patches=[int(p) for p in g.patches])
                   for f, g in gaps]
     assert all((g.triangles >= 0).all() for g in model_gaps)
     return Model(name="synthetic", surfaces={"layer": surf}, gaps=model_gaps)

@@ -173,10 +173,11 @@ def test_points_csv_without_header_and_inline_points(small_copy):
     assert fm.load_dataset(small_copy).points["seam_b"].shape == (2, 3)
 
 
-def test_unknown_top_level_key_warns(small_copy):
+def test_unknown_top_level_key_is_an_error_with_a_suggestion(small_copy):
+    # Was a warning only; an unknown key is now an error at every depth
+    # (test_dataset_input.py has the nested ones).
     edit_json(small_copy, lambda d: d.update({"boundry": [[0, 0], [1, 0], [1, 1]]}))
-    with pytest.warns(UserWarning, match="boundry"):
-        fm.load_dataset(small_copy)
+    expect_error(small_copy, "unknown key 'boundry'", "did you mean 'boundary'?")
 
 
 def test_points_in_polygon_exact_on_boundary():
@@ -273,17 +274,33 @@ def test_error_layer_polyline_with_one_point(small_copy):
     expect_error(small_copy, "fault 'F2' trace 1 layer 'seam_b' hanging", "at least two points")
 
 
-def test_error_fault_outside_study_area():
-    expect_error(INVALID / "outside.json", "outside.json", "fault 'FX'", "tip 1",
-                 "outside the study-area boundary")
+def test_fault_tip_outside_study_area_is_dropped_and_recorded():
+    # Was an error ("outside the study-area boundary"); the input policy
+    # drops a tip beyond the boundary (that end then reaches the boundary).
+    ds = fm.load_dataset(INVALID / "outside.json")
+    assert ds.fault("FX").tips.shape == (0, 2)
+    (a,) = ds.adjustments
+    assert (a.what, a.item, a.before, a.after) == ("dropped", "fault 'FX' tip 1", (1200.0, 500.0),
+                                                   None)
+    assert a.distance == pytest.approx(200.0)
 
 
-def test_error_trace_point_outside_study_area(small_copy):
+def test_trace_polyline_leaving_the_study_area_is_clipped(small_copy):
     def f(d):
         d["faults"][1]["traces"][0]["layers"]["seam_b"]["hanging"][1] = [710, 880, -131]
     edit_json(small_copy, f)
-    expect_error(small_copy, "fault 'F2'", "trace 1 layer 'seam_b' hanging point 2",
-                 "(710.000, 880.000)", "outside")
+    ds = fm.load_dataset(small_copy)
+    hang = ds.fault("F2").traces[0].layers["seam_b"]["hanging"]
+    # Cut at y = 800 (the boundary), z interpolated along the segment.
+    t = (800 - 630) / (880 - 630)
+    assert hang[0].tolist() == [703, 630, -130]
+    assert hang[1, 1] == 800.0
+    assert hang[1, 0] == pytest.approx(703 + 7 * t) and hang[1, 2] == pytest.approx(-130 - t)
+    kinds = sorted(a.what for a in ds.adjustments)
+    assert kinds == ["clipped", "dropped"]
+    clip = next(a for a in ds.adjustments if a.what == "clipped")
+    assert clip.item == "fault 'F2' trace 1 layer 'seam_b' hanging between points 1 and 2"
+    assert clip.before == (710.0, 880.0) and clip.distance == pytest.approx(80.0)
 
 
 def test_error_missing_files(tmp_path, small_copy):
@@ -299,7 +316,7 @@ def test_error_unknown_section(small_copy):
     expect_error(small_copy, "fault 'F1' trace 2", "unknown section 'L9'", "['L1', 'L2']")
 
 
-@pytest.mark.parametrize("version", [2, 0, "1", True, None])
+@pytest.mark.parametrize("version", [3, 0, "1", True, None, 2.0])
 def test_error_wrong_version(small_copy, version):
     edit_json(small_copy, lambda d: d.update({"faultmesh_dataset": version}))
     expect_error(small_copy, "dataset.json", "faultmesh_dataset", "unsupported format version")
@@ -444,7 +461,7 @@ def test_save_is_atomic_when_a_rename_fails(tmp_path, monkeypatch):
 
     def flaky(a, b):
         calls["n"] += 1
-        if calls["n"] == 4:  # after the first CSV was swapped in
+        if calls["n"] == 2:  # after the first CSV was swapped in
             raise OSError("disk went away")
         return real(a, b)
 

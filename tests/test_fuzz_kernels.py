@@ -772,7 +772,9 @@ def test_fuzz_stitcher(data, scale, offset, n_patches):
                       name=f"F{k}")
         after = st_.mesh()
         if err is not None:
-            assert all(np.array_equal(before[key], after[key]) for key in before), "a failed stitch changed the layer"
+            assert all(np.array_equal(getattr(before, key), getattr(after, key))
+                       for key in ("vertices", "triangles", "kinds", "owners", "vertex_map", "triangle_map")), \
+                "a failed stitch changed the layer"
             if not isinstance(err, fm.GeometryError):
                 assert PVeff is None or PTeff is None or PVeff.ndim != 2 or PVeff.shape[1] != 3 or \
                     not in_range(PVeff) or len(PTeff) == 0 or \
@@ -784,8 +786,8 @@ def test_fuzz_stitcher(data, scale, offset, n_patches):
         # tiny area it loses more than its tolerance to cancellation. The
         # translation back to the local origin is exact (Sterbenz), so the
         # invariants are checked on the same geometry.
-        local = after["vertices"] - [offset, offset, 0.0]
-        check_surface(Surface("L", local, after["triangles"]), square - offset)
+        local = after.vertices - [offset, offset, 0.0]
+        check_surface(Surface("L", local, after.triangles), square - offset)
 
 
 # ------------------------------------------------------------ cut_layer
@@ -843,18 +845,32 @@ def test_every_property_of_every_bound_class():
     """Every property of every class the C++ module binds can be read (issue
     10: Stitcher.patch_names always raised TypeError). A new class without an
     instance here fails the test."""
+    import enum
+
     import faultmesh._core as core
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 1]], float)
     t = np.array([[0, 1, 2], [1, 3, 2]])
     st_ = fm.Stitcher(v, t)
+    LV, LT = layer_tin(np.random.default_rng(0), 6, 10, 1.0, 0.0)
+    layer = fm.Stitcher(LV, LT, name="L")
+    report = layer.stitch(np.array([[40, 40, 0], [60, 40, 0], [60, 60, 0], [40, 60, 0.0]]),
+                          np.array([[0, 1, 2], [0, 2, 3]]), name="F")
+    square = np.array([[0, 0], [100, 0], [100, 100], [0, 100.0]])
     instances = {
         "AabbTree": fm.AabbTree(v, t),
         "BoundaryContours": fm.boundary_contours(t),
         "DelaunayInfo": fm.delaunay(v[:, :2], return_info=True),
+        "LayerTin": fm.LayerTin("L", np.c_[LV[:, :2], LV[:, 2]], square),
+        "StitchGap": report.gaps[0],
+        "StitchReport": report,
+        "StitchedMesh": layer.mesh(),
         "Stitcher": st_,
+        "StudyArea": fm.StudyArea(square),
         "Tin": fm.Tin(v),
     }
-    classes = {k for k, c in vars(core).items() if isinstance(c, type) and not issubclass(c, BaseException)}
+    # Enums (TriangleKind) are Python's own enum classes, with no bound properties.
+    classes = {k for k, c in vars(core).items()
+               if isinstance(c, type) and not issubclass(c, (BaseException, enum.Enum))}
     assert classes == set(instances), "a bound class has no instance in this test"
     for name, obj in instances.items():
         props = [k for k in dir(type(obj)) if isinstance(getattr(type(obj), k), property)]

@@ -128,7 +128,7 @@ def test_3dt_hand_written_file_with_comments_and_blank_lines(tmp_path):
 
 
 @pytest.mark.parametrize("old, new, line, fragment", [
-    ("3DT 1", "3DT 2", 1, "unsupported .3dt version 2"),
+    ("3DT 1", "3DT 3", 1, "unsupported .3dt version 3"),
     ("3DT 1", "TSURF 1", 1, "not a .3dt file"),
     ('MODEL name="m" crs="" surfaces=1 gaps=1', 'MODEL crs="" surfaces=1 gaps=1', 3,
      "missing attribute name="),
@@ -189,13 +189,19 @@ def test_ts_round_trip_is_exact(tmp_path):
     assert r.name == m.name and r.crs == "EPSG:2385"
     assert np.array_equal(r.boundary, m.boundary)
     text = p.read_text(encoding="utf-8")
-    assert text.startswith("GOCAD TSurf 1\nHEADER {\nname: \"top soil\"\n")
-    assert text.count("GOCAD TSurf 1") == 3 and text.count("GOCAD PLine 1") == 1
-    assert "ZPOSITIVE Elevation" in text and "GEOLOGICAL_TYPE fault" in text
-    assert "TRGL 1 " in text or "TRGL" in text
-    # 1-based ids: the smallest TRGL id is 1, the largest the vertex count.
-    ids = [int(t) for ln in text.splitlines() if ln.startswith("TRGL") for t in ln.split()[1:]]
-    assert min(ids) == 1
+    # Names bare as SKUA writes them; the boundary in its own file.
+    assert text.startswith("GOCAD TSurf 1\nHEADER {\nname:top soil\n")
+    assert text.count("GOCAD TSurf 1") == 3 and "PLine" not in text
+    assert "NAME EPSG:2385" in text and "ZPOSITIVE Elevation" in text
+    assert "GEOLOGICAL_TYPE fault" in text and "GEOLOGICAL_TYPE top" in text
+    pl = (tmp_path / "m_boundary.pl").read_text(encoding="utf-8")
+    assert pl.startswith("GOCAD PLine 1") and pl.count("SEG ") == 4
+    # Every object numbers its vertices from 1 to its vertex count.
+    for obj, surf in zip(text.split("GOCAD TSurf 1")[1:], list(m.surfaces.values()) + [m.faults["F22"]]):
+        vids = [int(ln.split()[1]) for ln in obj.splitlines() if ln.startswith("VRTX")]
+        assert vids == list(range(1, surf.n_vertices + 1))
+        tids = [int(t) for ln in obj.splitlines() if ln.startswith("TRGL") for t in ln.split()[1:]]
+        assert min(tids) == 1 and max(tids) <= surf.n_vertices
 
 
 FOREIGN_TS = """\
@@ -265,7 +271,8 @@ def test_ts_reads_files_of_other_tools(tmp_path):
     assert props["dip"].tolist() == [45, 46, 47, 50, 48] and props["is_latest"].tolist() == [1, 1, 0, 0, 1]
     b = m.surfaces["horizon B"]
     assert b.vertices.shape == (5, 3) and b.triangles.tolist() == [[0, 1, 2], [2, 3, 4]]
-    assert m.crs == " gocad Local"
+    # GOCAD's quoting: '" gocad Local"' is the name "gocad Local".
+    assert m.crs == "gocad Local"
     # atoms="merge": the ATOM is the vertex it references.
     mm = load_model(p, atoms="merge")
     assert mm.surfaces["horizon B"].triangles.tolist() == [[0, 1, 2], [2, 1, 3]]
@@ -312,26 +319,14 @@ def test_ts_missing_end_and_no_surface(tmp_path):
 # meshio formats and folders
 # --------------------------------------------------------------------------
 
-@pytest.mark.parametrize("suffix", [".vtu", ".vtk", ".ply"])
-def test_meshio_merged_round_trip_keeps_every_surface(tmp_path, suffix):
+@pytest.mark.parametrize("suffix", [".vtu", ".vtp", ".vtk", ".ply", ".obj"])
+def test_merged_mesh_formats_round_trip_with_names_and_kinds(tmp_path, suffix):
     m = make_model()
     p = tmp_path / f"m{suffix}"
     m.save(p)
     r = load_model(p)
-    assert_same_geometry(m, r, names=False)
-    assert list(r.surfaces)[0] == "surface_0"
-    if suffix in (".vtu", ".vtk"):   # cell data keeps the kind
-        assert list(r.faults) == ["surface_2"]
-
-
-def test_obj_merged_file_keeps_counts_and_coordinates(tmp_path):
-    m = make_model()
-    m.save(tmp_path / "m.obj")
-    r = load_model(tmp_path / "m.obj")
-    (s,) = r.surfaces.values()
-    allv = np.vstack([s.vertices for s in list(m.surfaces.values()) + list(m.faults.values())])
-    assert np.array_equal(s.vertices, allv)
-    assert s.n_triangles == sum(x.n_triangles for x in list(m.surfaces.values()) + list(m.faults.values()))
+    assert_same_geometry(m, r)          # names and kinds too
+    assert r.name == m.name and r.crs == m.crs
 
 
 def test_folder_target_writes_every_format_and_reads_back(tmp_path):
@@ -340,22 +335,25 @@ def test_folder_target_writes_every_format_and_reads_back(tmp_path):
     files = save_model(m, out)
     names = sorted(str(f.relative_to(out)) for f in files)
     stem = "test_model"
-    assert names == sorted([f"{stem}.3dt", f"{stem}.ts", f"{stem}.vtu",
+    assert names == sorted([f"{stem}.3dt", f"{stem}.ts", f"{stem}_boundary.pl", f"{stem}.vtu",
                             "obj/00_layer_top_soil.obj", "obj/01_layer_coal_8.obj",
                             "obj/02_fault_F22.obj", "ply/00_layer_top_soil.ply",
                             "ply/01_layer_coal_8.ply", "ply/02_fault_F22.ply"])
     assert all(f.is_file() for f in files)
     assert not [p for p in out.rglob(".*")], "temporary files left behind"
     assert_same_geometry(m, load_model(out))           # the folder's .3dt
+    assert (out / f"{stem}_boundary.pl").is_file() and out / f"{stem}_boundary.pl" in files
     for sub in ("obj", "ply"):
-        r = load_model(out / sub)
-        assert list(r.surfaces) == ["top_soil", "coal_8"] and list(r.faults) == ["F22"]
-        assert_same_geometry(m, r, names=False)
+        r = load_model(out / sub)       # names kept inside the files
+        assert list(r.surfaces) == ["top soil", "coal 8"] and list(r.faults) == ["F22"]
+        assert_same_geometry(m, r)
 
 
 def test_unknown_suffix_and_missing_file(tmp_path):
     m = make_model()
-    with pytest.raises(ValueError, match=r"save_model: unknown format '.stl'"):
+    with pytest.raises(ValueError, match=r"save_model: unknown format '.xyz'"):
+        m.save(tmp_path / "m.xyz")
+    with pytest.raises(ValueError, match=r"save_model: .stl is read-only"):
         m.save(tmp_path / "m.stl")
     with pytest.raises(FileNotFoundError, match="no such file"):
         load_model(tmp_path / "nope.3dt")
@@ -389,22 +387,15 @@ def test_failed_folder_write_is_all_or_nothing(tmp_path, monkeypatch):
     out = tmp_path / "out"
     save_model(m, out, formats=["3dt", "ts"])
     before = _listing(out)
-    from faultmesh.formats import _meshio
+    from faultmesh.formats import ply
 
-    real = _meshio._meshio
+    def boom(*a, **k):
+        raise OSError("disk full (simulated)")
 
-    class Boom:
-        def __getattr__(self, name):
-            if name == "write":
-                def write(*a, **k):
-                    raise OSError("disk full (simulated)")
-                return write
-            return getattr(real(), name)
-
-    monkeypatch.setattr(_meshio, "_meshio", lambda: Boom())
+    monkeypatch.setattr(ply, "ply_bytes", boom)
     m2 = make_model(seed=8)
     with pytest.raises(OSError, match="disk full"):
-        save_model(m2, out)              # 3dt and ts are written before the meshio ones
+        save_model(m2, out)              # 3dt, ts, vtu and obj are written before the ply ones
     assert _listing(out) == before
 
 

@@ -1,18 +1,24 @@
-"""Real data: the Claudius seismic interpretation (tests/data/claudius; MIT,
-EUPL-1.2 licences there) converted by examples/claudius/make_dataset.py into
-a faultmesh dataset and built.
+"""Real data: Claudius (tests/data/claudius; MIT and EUPL-1.2 licences there)
+through examples/claudius/make_dataset.py, end to end: the four horizons'
+seismic picks and the 93 fault points written AS THEY ARE into a format-2
+dataset (no boreholes, sections, cutoffs or kind), read back, and built;
+the library derives the fault (faultmesh.derive).
 
-What is checked: the conversion's interpretation (layer order by elevation,
-fault plane fit, normal sense of offset), the dataset round trip through
-``Dataset.save``/``load_dataset``, ``Model.check()`` on the built model,
-interpolation of HELD-OUT real picks away from the fault (median |dz| within
-stated tolerances and no worse than the nearest-pick estimate), and that the
-fault was stitched into exactly the layers it cuts with a vertical step of
-the interpreted size across it.
+What is checked: the dataset file holds only the data; the layer order and
+the study area the library derives; the derived fault (dip, normal kind,
+the one layer it cuts, a tip at one end and the study-area boundary at the
+other); Model.check() and the stitched gaps; the built surface steps by the
+derived throw across the fault; and the held-out checks of the example --
+(a) 10 % of the picks withheld at random, (b) every pick within 300 m (3D)
+of a fault point withheld -- against the hand-made interpretation the
+example replaced (format v1, sections and cutoffs drawn by a script) and
+issue 11's target. The other distances and the map-view distance of check
+(b) are in examples/claudius/README.md (the full example takes ~30 s).
 """
 from __future__ import annotations
 
 import importlib.util
+import json
 import sys
 from pathlib import Path
 
@@ -21,17 +27,12 @@ import pytest
 from scipy.spatial import cKDTree
 
 import faultmesh
+from faultmesh import derive
+from faultmesh.dataset import Fault, points_in_polygon
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "claudius"
 EXAMPLE = ROOT / "examples" / "claudius" / "make_dataset.py"
-
-# Held-out accuracy tolerances (m), median |dz| per layer. Measured with
-# seed 0: 0.77, 0.68, 0.85, 2.90 (nearest remaining pick: 2.37, 2.57, 4.15,
-# 10.79); the deepest horizon (val_330) has the most
-# relief (a 700 m high anticline west of the fault) and the sparsest picks.
-MEDIAN_TOL = {"val_0": 1.5, "val_60": 1.5, "val_250": 1.5, "val_330": 4.5}
-P90_TOL = {"val_0": 4.0, "val_60": 4.0, "val_250": 5.0, "val_330": 20.0}
 
 
 def _load_example():
@@ -41,7 +42,7 @@ def _load_example():
         return sys.modules[name]
     spec = importlib.util.spec_from_file_location(name, EXAMPLE)
     mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod  # dataclasses look the module up while executing it
+    sys.modules[name] = mod
     spec.loader.exec_module(mod)
     return mod
 
@@ -52,147 +53,189 @@ def md():
 
 
 @pytest.fixture(scope="module")
-def built(md, tmp_path_factory):
-    """Held-out conversion (10 % of the picks farther than 500 m from the
-    fault withheld, seed 0), saved, reloaded and built."""
-    conv = md.convert(DATA, holdout=0.1, seed=0)
-    out = tmp_path_factory.mktemp("claudius")
-    js = conv.dataset.save(out)
-    ds = faultmesh.load_dataset(js)
-    model = faultmesh.build_model(ds)
-    return conv, ds, model
+def data(md):
+    return md.read_horizons(DATA), md.read_fault_points(DATA)
 
 
-def test_layers_ordered_top_down_by_elevation(md):
-    h = md.read_horizons(DATA)
-    assert sorted(h) == [0.0, 60.0, 250.0, 330.0]
-    order = md.order_layers(h)
-    med = [float(np.median(h[v][:, 2])) for v in order]
-    # Z is elevation (negative below datum): top layer has the largest Z.
-    assert med == sorted(med, reverse=True)
-    assert order == [0.0, 60.0, 250.0, 330.0]
+@pytest.fixture(scope="module")
+def full(md, data, tmp_path_factory):
+    """The whole dataset written (v2), read back, derived and built."""
+    h, fpts = data
+    ds = md.make_dataset(h, fpts)
+    js = ds.save(tmp_path_factory.mktemp("claudius") / "dataset", version=2)
+    loaded = faultmesh.load_dataset(js)
+    derived = derive.derive_faults(loaded)
+    model = faultmesh.build_model(derived)
+    return ds, js, loaded, derived, model
 
 
-def test_fault_plane_fit(md, built):
-    conv, _, _ = built
-    p = conv.plane
-    assert len(conv.fault_points) == 93
-    # A steep, west-dipping, roughly N-S striking plane; the points scatter
-    # about it by ~20 m RMS (the surface is gently curved).
-    assert 60.0 < p.dip < 78.0
-    assert 250.0 < p.dip_direction < 280.0
-    rms = float(np.sqrt(np.mean(p.residuals ** 2)))
-    assert rms < 30.0
-    # Every fault point is within 100 m of the plane.
-    assert float(np.abs(p.residuals).max()) < 100.0
+def test_layer_order_and_study_area(md, data):
+    h, _ = data
+    assert sorted(h) == ["val_0", "val_250", "val_330", "val_60"]
+    assert sum(len(p) for p in h.values()) == 21023  # every row with a val
+    # Z is elevation (negative below datum): the top layer has the largest Z.
+    assert derive.layer_order(h) == ["val_0", "val_60", "val_250", "val_330"]
+    ring = derive.study_area(h)
+    lo, hi = ring.min(axis=0), ring.max(axis=0)
+    for p in h.values():
+        assert (p[:, :2].min(axis=0) <= lo + 1e-9).all() and (p[:, :2].max(axis=0) >= hi - 1e-9).all()
 
 
-def test_interpretation(built):
-    conv, ds, _ = built
-    assert ds.layers == ["val_0", "val_60", "val_250", "val_330"]
-    (fault,) = ds.faults
-    # The hanging wall (west) is down: a normal fault.
-    assert fault.kind == "normal"
-    resolved = [v for s in conv.info["sections"] for v in s["layers"].values() if v["resolved"]]
-    assert len(resolved) >= 2
-    assert all(v["throw"] > 40.0 for v in resolved)
-    # The fault's interpreted depth range (-10920..-9695 m) holds only the
-    # deepest horizon; the three shallower ones pass above its upper tip.
-    cut = {lay for tr in fault.traces for lay in tr.layers}
-    assert cut == {"val_330"}
-    # One end closes at a tip inside the study area, the other reaches the
-    # study boundary (the fault points pass the southern edge of the picks).
-    assert len(fault.tips) == 1
-    closures = sorted(e["closure"] for e in conv.info["ends"].values())
-    assert closures == ["extended to the study boundary", "tip"]
-    # Every layer has picks near every side of the study area, except one
-    # known hole: val_250 has no picks in a C-shaped area that opens onto the
-    # east side (x > ~551,300 m, y ~7,818,000-7,821,000), so its surface is
-    # extrapolated there; val_330 has smaller holes (up to ~340 m from a
-    # pick) touching every side. Sides: south, east, north, west.
-    ring = np.asarray(ds.boundary)
-    sides = ["south", "east", "north", "west"]
-    assert np.allclose(ring[1] - ring[0], [ring[1, 0] - ring[0, 0], 0.0])  # side 0 runs east
-    t = np.linspace(0.0, 1.0, 41)[:, None]
-    for lay in ds.layers:
-        tree = cKDTree(ds.layer_points(lay)[:, :2])
-        for side, a, b in zip(sides, ring, np.roll(ring, -1, axis=0)):
-            d, _ = tree.query(a + t * (b - a))
-            if (lay, side) == ("val_250", "east"):
-                assert np.mean(d < 150.0) < 0.6 and d.max() > 500.0
-            else:
-                assert np.mean(d < 150.0) > 0.75 and d.max() < 400.0, (lay, side)
+def test_dataset_file_holds_the_data_as_they_are(full, data):
+    h, fpts = data
+    ds, js, loaded, _, _ = full
+    doc = json.loads(Path(js).read_text())
+    assert doc["faultmesh_dataset"] == 2
+    assert "boreholes" not in doc and not doc.get("sections")
+    (f,) = doc["faults"]
+    assert set(f) == {"name", "points"}  # no kind, traces, tips: derived
+    assert doc["layers"] == ["val_0", "val_60", "val_250", "val_330"]
+    (lf,) = loaded.faults
+    assert lf.kind is None and lf.traces == [] and np.array_equal(lf.points, fpts)
+    assert len(loaded.boreholes.z) == 0
+    ring = np.asarray(loaded.boundary)
+    for lay, p in h.items():
+        inside = points_in_polygon(p[:, :2], ring)
+        assert len(loaded.points[lay]) == int(inside.sum())
 
 
-def test_model_check_and_stitched_gaps(built):
-    conv, ds, model = built
+def test_picks_on_the_boundary_build(full, data):
+    """Regression: with the study area the exact box the picks cover, picks
+    lie ON its boundary; the layer repair failed there once ("boundary piece
+    ... is not an edge of the TIN") when the picks near the fault were
+    withheld, and the Claudius test used a box 40 m smaller instead. The
+    example now uses the exact box (here and with picks withheld, below)."""
+    h, _ = data
+    ds, _, loaded, _, model = full
+    ring = np.asarray(loaded.boundary)
+    on = 0
+    for p in loaded.points.values():
+        on += int(np.sum(np.any(p[:, :2] == ring.min(axis=0), axis=1)
+                         | np.any(p[:, :2] == ring.max(axis=0), axis=1)))
+    assert on > 0
+    model.check()
+
+
+def test_derived_fault(full):
+    _, _, _, derived, _ = full
+    fr = derived.derivation.faults["claudius_fault"]
+    s = fr.surface
+    # A steep, west-dipping, roughly N-S striking fault, triangulated along z.
+    assert 60.0 < s.dip < 78.0 and s.axis == 2
+    assert 250.0 < float(np.degrees(np.arctan2(*s.dip_dir)) % 360.0) < 280.0
+    assert fr.kind == "normal"
+    # Only the deepest horizon is cut: the others pass above the fault's
+    # upper tip (z -9695 m).
+    assert set(fr.cutoffs) == {"val_330"}
+    # North: the fault points stop inside the study area (a tip); south:
+    # they pass the picks' edge (the boundary).
+    assert fr.ends == ["tip", "boundary"] and len(derived.fault("claudius_fault").tips) == 1
+    t = fr.throw["val_330"]["throw"][fr.throw["val_330"]["cut"]]
+    assert (t >= 0).all() and t.max() > 80.0
+
+
+def test_model_check_and_stitched_gaps(full):
+    ds, _, _, _, model = full
     model.check()
     assert list(model.surfaces) == ds.layers
-    gap_layers = sorted({g.layer for g in model.gaps})
-    assert gap_layers == ["val_330"]
+    assert sorted({g.layer for g in model.gaps}) == ["val_330"]
     for g in model.gaps:
         assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2 > 0
-    assert model.surfaces["val_330"].metadata["n_gap_triangles"] > 0
-    assert model.surfaces["val_330"].metadata["n_patch_triangles"] > 0
     for lay in ("val_0", "val_60", "val_250"):
         assert model.surfaces[lay].metadata["n_gap_triangles"] == 0
     ends = model.metadata["faults"]["claudius_fault"]["layers"]["val_330"]["ends"]
-    assert sorted(ends) == ["extended", "tip"]
-    assert "claudius_fault" in model.faults
+    assert ends[0] == "tip"
 
 
-def test_step_across_the_fault(md, built):
-    """On each section with a resolved offset, the built val_330 surface just
-    outside the two cutoffs differs by about the interpreted throw."""
-    conv, ds, model = built
+def test_step_across_the_fault(full):
+    """On each derived section with a throw of more than 40 m, the built
+    val_330 surface 2 m outside the two cutoffs steps by the derived throw
+    (farther out each side's own slope adds to the step: D1, near the tip,
+    41.8 m at 2 m, 63 m at 30 m)."""
     from faultmesh.report import evaluate_surface
 
+    _, _, _, derived, model = full
     surf = model.surfaces["val_330"]
     checked = 0
-    for s in conv.info["sections"]:
-        v = s["layers"].get("val_330")
-        if v is None or not v["resolved"]:
+    for tr in derived.fault("claudius_fault").traces:
+        if "val_330" not in tr.layers:
             continue
-        sec = ds.sections[s["name"]]
-        tr = next(t for t in ds.faults[0].traces if t.section == s["name"])
-        foot, hang = tr.layers["val_330"]["foot"], tr.layers["val_330"]["hanging"]
-        sf = float(sec.to_s(foot[-1:, :2])[0])
-        sh = float(sec.to_s(hang[:1, :2])[0])
-        xy = sec.to_xy([sf - 30.0, sh + 30.0])
+        sides = tr.layers["val_330"]
+        throw = float(sides["foot"][-1, 2] - sides["hanging"][0, 2])
+        if throw < 40.0:
+            continue
+        sec = derived.sections[tr.section]
+        sf = float(sec.to_s(sides["foot"][-1:, :2])[0])
+        sh = float(sec.to_s(sides["hanging"][:1, :2])[0])
+        xy = sec.to_xy([sf - 2.0, sh + 2.0])
         lo, hi, nh = evaluate_surface(surf, xy[:, 0], xy[:, 1])
         assert (nh > 0).all()
-        # The trace lies on the section line, so these points sit on patch
-        # edges (two hits); the surface is continuous there (lo == hi).
-        z = 0.5 * (lo + hi)
-        step = float(z[0] - z[1])
-        assert step == pytest.approx(v["throw"], abs=0.35 * v["throw"]), s["name"]
+        step = float(0.5 * (lo[0] + hi[0]) - 0.5 * (lo[1] + hi[1]))
+        # Over 2 m each side's slope (up to 0.4 here) changes the step by
+        # under 2 m.
+        assert step == pytest.approx(throw, abs=2.0), tr.section
         checked += 1
-    assert checked >= 2
+    assert checked >= 3
 
 
-def test_held_out_picks(md, built):
-    conv, ds, model = built
-    mis = md.surface_misfit(model, conv.held_out)
-    assert set(mis) == set(ds.layers)
-    for lay, m in mis.items():
-        n_held = len(conv.held_out[lay])
-        assert n_held > 300
-        assert m["n"] == n_held  # every held-out pick lies inside the model
-        assert m["median"] < MEDIAN_TOL[lay], (lay, m)
-        assert m["p90"] < P90_TOL[lay], (lay, m)
+def test_random_holdout_no_worse_than_the_hand_made_dataset(md, data, full):
+    """Check (a): the same withheld picks as the hand-made interpretation's
+    test (seed 0, layers top down, 10 % of the picks farther than 500 m from
+    every fault point and 40 m inside the boundary)."""
+    h, fpts = data
+    ring = np.asarray(full[0].boundary)
+    used, held = md.random_holdout(h, fpts, ring)
+    r = md.run_check(h, fpts, ring, used, held)
+    assert r["kind"] == "normal" and r["cut"] == ["val_330"]
+    # Measured 0.76, 0.67, 0.82, 2.90 m; the hand-made dataset's 0.77, 0.68,
+    # 0.85, 2.90 m on the same picks (issue 11 rounds them to 0.8, 0.7, 0.8,
+    # 3.0).
+    hand_made = {"val_0": 0.77, "val_60": 0.68, "val_250": 0.85, "val_330": 2.90}
+    for lay, m in r["misfit"].items():
+        assert m["n"] > 400
+        assert m["median"] <= hand_made[lay] + 0.005, (lay, m)
         # No worse than taking the nearest remaining pick's z.
-        pts = ds.layer_points(lay)
-        _, i = cKDTree(pts[:, :2]).query(conv.held_out[lay][:, :2])
-        nn = float(np.median(np.abs(pts[i, 2] - conv.held_out[lay][:, 2])))
+        _, i = cKDTree(used[lay][:, :2]).query(held[lay][:, :2])
+        nn = float(np.median(np.abs(used[lay][i, 2] - held[lay][:, 2])))
         assert m["median"] <= nn, (lay, m["median"], nn)
 
 
-def test_full_conversion_round_trip(md, tmp_path):
-    """Without hold-out the dataset holds every pick inside the study area
-    and survives save/load unchanged."""
-    conv = md.convert(DATA)
-    js = conv.dataset.save(tmp_path / "claudius.json")
-    back = faultmesh.load_dataset(js)
-    assert back.allclose(conv.dataset, atol=1e-6)
-    for lay in conv.dataset.layers:
-        assert len(conv.dataset.points[lay]) == len(conv.horizons[lay])
+def test_picks_near_the_fault_withheld(md, data, full):
+    """Check (b) at 300 m (3D distance to the nearest fault point): the
+    derived kind and the deepest horizon's error at the withheld picks."""
+    h, fpts = data
+    ring = np.asarray(full[0].boundary)
+    used, held = md.near_fault_holdout(h, ring, md.distance_3d(fpts), 300.0)
+    assert len(held["val_330"]) > 200
+    r = md.run_check(h, fpts, ring, used, held)
+    # The hand-made interpretation labelled the fault reverse here (issue 11).
+    assert r["kind"] == "normal"
+    # Measured 12.0 m (before, each side extrapolated on its own by local
+    # plane fits: 16.4 m; the hand-made interpretation 24.8 m; LoopStructural
+    # 1.9 11.1 m). Issue 11's target is 11 m: NOT met. Of the 238 withheld
+    # picks, the 48 beyond the fault's northern tip (where the layer is
+    # continuous and the layer TIN bridges the 600 m hole linearly) have a
+    # median error of 39 m, the others 10.2 m (examples/claudius/README.md).
+    assert r["misfit"]["val_330"]["median"] <= 12.5, r["misfit"]
+
+
+def test_distance_2d_is_the_map_distance_to_the_contour():
+    """The example's map-view distance: to the contour of the fault surface
+    at the point's elevation; for a plane, |n . (p - c)| / |n_xy|; inf where
+    the surface does not reach that elevation."""
+    md = _load_example()
+    rng = np.random.default_rng(3)
+    # A plane dipping 60 degrees towards +x (a fine TIN of it).
+    g = np.linspace(0.0, 1000.0, 11)
+    X, Y = np.meshgrid(g, g)
+    Z = -np.tan(np.radians(60.0)) * X
+    V = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
+    T = np.asarray(faultmesh.delaunay(np.ascontiguousarray(V[:, :2])), dtype=np.int64).reshape(-1, 3)
+    P = np.column_stack([rng.uniform(100, 900, 50), rng.uniform(100, 900, 50),
+                         rng.uniform(-1500, -200, 50)])
+    # The contour at z lies at x = -z / tan 60 (115..866 m: inside the TIN).
+    want = np.abs(P[:, 0] + P[:, 2] / np.tan(np.radians(60.0)))
+    got = md.distance_2d(V, T, chunk=7)(P)
+    assert np.allclose(got, want, atol=1e-6)
+    # Above the surface's top (z 0): no contour.
+    assert np.isinf(md.distance_2d(V, T)(np.array([[500.0, 500.0, 100.0]])))[0]

@@ -68,7 +68,7 @@ def reverse_patch(x0=30.0, y0=40.0, y1=60.0, ty=10.0):
 
 def surface_of(st, name="L"):
     m = st.mesh()
-    return Surface(name, m["vertices"], m["triangles"]), m
+    return Surface(name, m.vertices, m.triangles, kinds=m.kinds, owner=m.owners), m
 
 
 def orient_xy(V, T):
@@ -83,21 +83,52 @@ def test_reverse_patch_stitched_folds_and_keeps_invariants():
     rep = st.stitch(PV, PT, name="F1")
     S, m = surface_of(st)
     check_surface(S, SQUARE)
-    (gap,) = rep["gaps"]
-    assert gap["n_holes"] == 1
-    assert len(gap["rows"]) == gap["n_vertices"] + 2 * gap["n_holes"] - 2
+    (gap,) = rep.gaps
+    assert gap.n_holes == 1
+    assert len(gap.triangles) == gap.n_vertices + 2 * gap.n_holes - 2
     # The fault strip of the reverse fault is clockwise in XY; the areas still
     # add up to the study area (footwall + strip - hanging wall cancel).
     o = orient_xy(S.vertices, S.triangles)
     assert (o < 0).sum() > 0
     assert abs(0.5 * o.sum() - 100.0 * 100.0) < 1e-6
     # Every patch vertex is in the surface, unchanged (shared, not copied).
-    kinds = np.asarray(m["kinds"])
-    assert (kinds == 1).sum() == len(PT)
-    got = S.vertices[m["vertex_map"][rep["patch_vertex_offset"]:]]
+    assert (m.kinds == faultmesh.TriangleKind.patch).sum() == len(PT)
+    got = S.vertices[m.vertex_map[rep.patch_vertex_offset:]]
     assert np.array_equal(got, PV)
     # Gap triangles use only existing vertices: layer or patch ones.
     assert len(S.vertices) <= len(V) + len(PV)
+
+
+def test_typed_report_and_mesh():
+    V, T = tin()
+    PV, PT = reverse_patch()
+    st = faultmesh.Stitcher(V, T, SQUARE, name="L")
+    rep = st.stitch(PV, PT, name="F1")
+    assert isinstance(rep, faultmesh.StitchReport)
+    assert (rep.patch_id, rep.patch_name, rep.patch_vertex_offset, rep.patch_triangle_offset) == \
+        (0, "F1", len(V), len(T))
+    assert isinstance(rep.patch_flipped, bool) and rep.grow_rounds >= 1 and rep.n_candidates > 0
+    assert rep.removed.dtype == np.int64 and np.all(np.diff(rep.removed) > 0)
+    assert rep.merged_gaps.dtype == np.int64 and len(rep.merged_gaps) == 0
+    (g,) = rep.gaps
+    assert isinstance(g, faultmesh.StitchGap)
+    assert g.id == 0 and g.triangles.dtype == np.int64 and list(g.patches) == [0]
+    assert "StitchReport(patch_id=0, patch_name='F1'" in repr(rep) and "StitchGap(id=0" in repr(g)
+    m = st.mesh()
+    assert isinstance(m, faultmesh.StitchedMesh)
+    assert m.vertices.shape[1] == 3 and m.triangles.shape[1] == 3
+    assert m.kinds.dtype == np.int8 and m.owners.dtype == np.int64 and len(m.kinds) == len(m.triangles)
+    # The kinds are TriangleKind values; the gap's rows map to its gap triangles.
+    K = faultmesh.TriangleKind
+    assert [int(k) for k in K] == [0, 1, 2] and [k.name for k in K] == ["layer", "patch", "gap"]
+    rows = m.triangle_map[g.triangles]
+    assert np.all(m.kinds[rows] == K.gap) and np.all(m.owners[rows] == g.id)
+    assert np.all(m.owners[m.kinds == K.layer] == -1)
+    assert np.all(m.owners[m.kinds == K.patch] == rep.patch_id)
+    # Regression: patch_names raised TypeError (no converter for a list of strings).
+    assert st.patch_names == ["F1"]
+    assert isinstance(S := Surface("L", m.vertices, m.triangles, kinds=m.kinds, owner=m.owners), Surface)
+    check_surface(S, SQUARE)
 
 
 def test_far_triangles_unchanged_and_locality():
@@ -107,7 +138,7 @@ def test_far_triangles_unchanged_and_locality():
     rep = st.stitch(PV, PT, name="F1")
     S, m = surface_of(st)
     check_surface(S, SQUARE)
-    removed = np.asarray(rep["removed"])
+    removed = rep.removed
     # Only triangles near the patch are touched: removed ones lie within a
     # small margin of the patch's box, and the AABB candidates are a small
     # fraction of the mesh.
@@ -115,11 +146,11 @@ def test_far_triangles_unchanged_and_locality():
     lo, hi = PV[:, :2].min(axis=0), PV[:, :2].max(axis=0)
     assert np.all((c >= lo - 10) & (c <= hi + 10))
     frac = float(np.prod(hi - lo)) / 100.0 ** 2
-    assert rep["n_candidates"] < 2.0 * frac * len(T) + 50
+    assert rep.n_candidates < 2.0 * frac * len(T) + 50
     # Triangles away from the patch are exactly the original ones, in order.
     keep = np.ones(len(T), bool)
     keep[removed] = False
-    tm = np.asarray(m["triangle_map"])[: len(T)]
+    tm = m.triangle_map[: len(T)]
     assert np.all(tm[keep] >= 0) and np.all(tm[removed] < 0)
     orig = V[T[keep]]
     now = S.vertices[S.triangles[tm[keep]]]
@@ -135,8 +166,8 @@ def test_overlapping_patches_raise_and_leave_the_mesh_unchanged():
     with pytest.raises(faultmesh.GeometryError, match=r"coal8.*'2F1'.*overlaps.*'2F4'"):
         st.stitch(PV + [5.0, 3.0, 0.0], PT, name="2F1")
     after = st.mesh()
-    assert np.array_equal(before["triangles"], after["triangles"])
-    assert np.array_equal(before["vertices"], after["vertices"])
+    assert np.array_equal(before.triangles, after.triangles)
+    assert np.array_equal(before.vertices, after.vertices)
     # Touching counts too: a patch sharing one outline point with the first.
     tip = PV[0].copy()
     QV = np.array([tip, tip + [10, -5, 0], tip + [12, 3, 0]])
@@ -155,13 +186,16 @@ def test_close_patches_merge_into_one_gap_with_two_holes():
     r2 = st.stitch(QV, QT, name="B")
     S, m = surface_of(st)
     check_surface(S, SQUARE)
-    assert list(r2["merged_gaps"]) == [r1["gaps"][0]["id"]]
-    (g,) = r2["gaps"]
-    assert g["n_holes"] == 2 and sorted(g["patches"]) == [0, 1]
-    kinds, owners = np.asarray(m["kinds"]), np.asarray(m["owners"])
-    rows = np.flatnonzero(kinds == 2)
-    assert len(rows) == g["n_vertices"] + 2 * 2 - 2
-    assert set(owners[rows]) == {g["id"]}
+    assert list(r2.merged_gaps) == [r1.gaps[0].id]
+    (g,) = r2.gaps
+    assert g.n_holes == 2 and sorted(g.patches) == [0, 1]
+    assert list(g.merged_gaps) == [r1.gaps[0].id]
+    rows = np.flatnonzero(m.kinds == faultmesh.TriangleKind.gap)
+    assert len(rows) == g.n_vertices + 2 * 2 - 2
+    assert set(m.owners[rows]) == {g.id}
+    # Both patches keep their own triangles, owned by their ids.
+    for r in (r1, r2):
+        assert (m.owners[m.kinds == faultmesh.TriangleKind.patch] == r.patch_id).sum() > 0
 
 
 @pytest.mark.parametrize("kind", ["normal", "reverse"])
@@ -178,9 +212,9 @@ def test_patch_reaching_the_boundary_keeps_it(kind):
     rep = st.stitch(PV, PT, name="F22")
     S, _ = surface_of(st)
     check_surface(S, SQUARE)
-    (g,) = rep["gaps"]
-    assert g["n_holes"] == 0
-    assert len(g["rows"]) == g["n_vertices"] - 2
+    (g,) = rep.gaps
+    assert g.n_holes == 0
+    assert len(g.triangles) == g.n_vertices - 2
     # The patch's boundary trace is part of the surface's outer boundary.
     (loop,) = faultmesh.boundary_loops(S.triangles)
     bxy = {tuple(p) for p in S.vertices[loop, :2]}
@@ -268,7 +302,7 @@ def test_given_halfedges_and_computed_adjacency_agree():
         st = faultmesh.Stitcher(V, T, SQUARE, halfedges=h)
         st.stitch(PV, PT)
         out.append(st.mesh())
-    assert np.array_equal(out[0]["triangles"], out[1]["triangles"])
+    assert np.array_equal(out[0].triangles, out[1].triangles)
 
 
 @pytest.mark.parametrize("refine,order", [(True, "quality"), (False, "plain"), (True, "plain"),
@@ -285,8 +319,8 @@ def test_ear_clipping_options_and_clearance(refine, order):
         check_surface(S, SQUARE)
         res[clearance] = rep
     # The clearance only ever removes more.
-    assert set(res[0.0]["removed"]) <= set(res[12.0]["removed"])
-    assert len(res[12.0]["removed"]) > len(res[0.0]["removed"])
+    assert set(res[0.0].removed) <= set(res[12.0].removed)
+    assert len(res[12.0].removed) > len(res[0.0].removed)
 
 
 def test_one_shot_stitch():
@@ -391,8 +425,8 @@ def test_random_patches_keep_invariants(seed, x0, y0, length, width, reverse, n_
     rep = st_.stitch(PV, PT, name="F")
     S, m = surface_of(st_)
     check_surface(S, SQUARE)
-    for g in rep["gaps"]:
-        assert len(g["rows"]) == g["n_vertices"] + 2 * g["n_holes"] - 2
+    for g in rep.gaps:
+        assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2
     o = orient_xy(S.vertices, S.triangles)
     assert ((o < 0).sum() > 0) == reverse
 
@@ -442,8 +476,8 @@ def test_stitcher_owns_its_inputs():
     V[:] = np.nan
     T[:] = 10**12
     m = st.mesh()
-    assert np.array_equal(m["triangles"], ref["triangles"])
-    assert np.array_equal(m["vertices"], ref["vertices"])
+    assert np.array_equal(m.triangles, ref.triangles)
+    assert np.array_equal(m.vertices, ref.vertices)
     V2, T2 = tin()
     with pytest.raises(ValueError, match=r"Stitcher: triangles row 0 has the value 0.5, not an integer"):
         faultmesh.Stitcher(V2, np.where(np.arange(T2.size).reshape(T2.shape) == 0, 0.5, T2), SQUARE)
@@ -509,7 +543,7 @@ def test_patch_triangle_collinear_in_3d_is_rejected():
     before = st.mesh()
     with pytest.raises(faultmesh.GeometryError, match=r"patch 'F': patch_triangles row 0 is degenerate"):
         st.stitch(PV, PT, name="F")
-    assert np.array_equal(st.mesh()["triangles"], before["triangles"])
+    assert np.array_equal(st.mesh().triangles, before.triangles)
     PV2, PT2 = patch([a, b], tips=([35.0, 49.0, 0.0], None))
     st.stitch(PV2, PT2, name="F")
     check_surface(surface_of(st)[0], SQUARE)

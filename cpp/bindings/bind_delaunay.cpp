@@ -4,8 +4,6 @@
 #include <faultmesh/tin.hpp>
 
 #include <memory>
-#include <mutex>
-#include <shared_mutex>
 
 #include "common.hpp"
 
@@ -19,23 +17,9 @@ struct DelaunayInfo {
     std::size_t n_duplicates = 0;
 };
 
-// A Tin shared with Python. Python threads may call it concurrently while the
-// GIL is released: readers (locate, interpolate, accessors) share the lock,
-// insert() takes it exclusively. The lock is always taken after the GIL is
-// released, and the GIL is never needed while it is held, so the two cannot
-// deadlock.
-struct PyTin {
-    PyTin(const double* xyz, std::size_t n) : tin(xyz, n) {}
-    Tin tin;
-    mutable std::shared_mutex mu;
-};
-
-template <class F>
-auto read_locked(const PyTin& t, F&& f) {
-    py::gil_scoped_release release;
-    std::shared_lock<std::shared_mutex> lock(t.mu);
-    return f(t.tin);
-}
+// A Tin shared with Python (common.hpp: readers -- locate, interpolate,
+// accessors -- share the lock, insert() and set_z() take it exclusively).
+using PyTin = Shared<Tin>;
 
 }  // namespace
 
@@ -112,11 +96,7 @@ void bind_delaunay(py::module_& m) {
                 auto pts = as_points(xyz, "Tin.insert", "xyz", 3, 3);
                 const std::size_t n = static_cast<std::size_t>(pts.shape(0));
                 std::vector<std::int64_t> out;
-                {
-                    py::gil_scoped_release release;
-                    std::unique_lock<std::shared_mutex> lock(t.mu);
-                    out = t.tin.insert(pts.data(), n);
-                }
+                out = write_locked(t, [&](Tin& tin) { return tin.insert(pts.data(), n); });
                 return to_numpy(std::move(out));
             },
             py::arg("xyz"),
@@ -132,9 +112,7 @@ void bind_delaunay(py::module_& m) {
                     throw std::invalid_argument("Tin.set_z: z must have one value per vertex index (" +
                                                 std::to_string(v.shape(0)) + "), got " + shape_str(zz));
                 const std::size_t n = static_cast<std::size_t>(v.shape(0));
-                py::gil_scoped_release release;
-                std::unique_lock<std::shared_mutex> lock(t.mu);
-                t.tin.set_z(v.data(), zz.data(), n);
+                write_locked(t, [&](Tin& tin) { tin.set_z(v.data(), zz.data(), n); });
             },
             py::arg("vertices"), py::arg("z"),
             "Sets the z of the given vertices (int64 (k,)) to z (float64 (k,)); XY and the\n"

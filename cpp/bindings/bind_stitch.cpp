@@ -2,10 +2,8 @@
 // the one-shot stitch() and triangles_touching_region().
 #include <faultmesh/stitch.hpp>
 
+#include <pybind11/native_enum.h>
 #include <pybind11/stl.h>  // patch_names: std::vector<std::string> -> list
-
-#include <mutex>
-#include <shared_mutex>
 
 #include "common.hpp"
 
@@ -13,24 +11,11 @@ namespace faultmesh::bindings {
 
 namespace {
 
-// A LayerStitcher shared with Python. It is not thread-safe and stitch()
-// runs with the GIL released, so two Python threads could otherwise stitch
-// into one layer at the same time (a data race on its arrays): stitch() takes
-// the lock exclusively, mesh() and the accessors share it. As for Tin, the
-// lock is taken after the GIL is released and the GIL is never needed while
-// it is held.
-struct PyStitcher {
-    explicit PyStitcher(LayerStitcher&& s) : st(std::move(s)) {}
-    LayerStitcher st;
-    mutable std::shared_mutex mu;
-};
-
-template <class F>
-auto read_locked(const PyStitcher& p, F&& f) {
-    py::gil_scoped_release release;
-    std::shared_lock<std::shared_mutex> lock(p.mu);
-    return f(p.st);
-}
+// A LayerStitcher shared with Python (common.hpp). It is not thread-safe and
+// stitch() runs with the GIL released, so two Python threads could otherwise
+// stitch into one layer at the same time (a data race on its arrays):
+// stitch() takes the lock exclusively, mesh() and the accessors share it.
+using PyStitcher = Shared<LayerStitcher>;
 
 StitchOptions make_options(bool refine, const std::string& order, const std::string& bridge,
                            double tol, double clearance, const char* fn) {
@@ -48,49 +33,109 @@ StitchOptions make_options(bool refine, const std::string& order, const std::str
     return o;
 }
 
-py::array_t<std::int64_t> idx(const std::vector<std::int64_t>& v) {
-    return to_numpy(std::vector<std::int64_t>(v));
-}
+// The typed results as Python sees them: the C++ vectors handed to numpy
+// once (no copy), as attributes of small record classes.
+struct PyStitchGap {
+    std::int64_t id, n_vertices, n_holes;
+    py::array_t<std::int64_t> triangles, patches, merged_gaps;
+};
 
-py::dict report_dict(StitchReport&& r) {
-    py::dict d;
-    d["patch_id"] = r.patch_id;
-    d["patch_vertex_offset"] = r.patch_vertex_offset;
-    d["patch_triangle_offset"] = r.patch_triangle_offset;
-    d["patch_flipped"] = r.patch_flipped;
+struct PyStitchReport {
+    std::int64_t patch_id, patch_vertex_offset, patch_triangle_offset, n_candidates, grow_rounds;
+    std::string patch_name;
+    bool patch_flipped;
     py::list gaps;
-    for (auto& g : r.gaps) {
-        py::dict gd;
-        gd["id"] = g.id;
-        gd["rows"] = idx(g.triangles);
-        gd["n_vertices"] = g.n_vertices;
-        gd["n_holes"] = g.n_holes;
-        gd["patches"] = idx(g.patches);
-        gd["merged_gaps"] = idx(g.merged_gaps);
-        gaps.append(gd);
-    }
-    d["gaps"] = gaps;
-    d["removed"] = to_numpy(std::move(r.removed));
-    d["merged_gaps"] = to_numpy(std::move(r.merged_gaps));
-    d["n_candidates"] = r.n_candidates;
-    d["grow_rounds"] = r.grow_rounds;
-    return d;
+    py::array_t<std::int64_t> removed, merged_gaps;
+};
+
+struct PyStitchedMesh {
+    py::array_t<double> vertices;
+    py::array_t<std::int64_t> triangles;
+    py::array_t<std::int8_t> kinds;
+    py::array_t<std::int64_t> owners, vertex_map, triangle_map;
+};
+
+PyStitchReport to_python(StitchReport&& r, const std::string& name) {
+    PyStitchReport p{r.patch_id, r.patch_vertex_offset, r.patch_triangle_offset, r.n_candidates, r.grow_rounds,
+                     name, r.patch_flipped, py::list(), to_numpy(std::move(r.removed)),
+                     to_numpy(std::move(r.merged_gaps))};
+    for (auto& g : r.gaps)
+        p.gaps.append(PyStitchGap{g.id, g.n_vertices, g.n_holes, to_numpy(std::move(g.triangles)),
+                                  to_numpy(std::move(g.patches)), to_numpy(std::move(g.merged_gaps))});
+    return p;
 }
 
-py::dict mesh_dict(StitchedMesh&& m) {
-    py::dict d;
-    d["vertices"] = to_numpy(std::move(m.vertices), 3);
-    d["triangles"] = to_numpy(std::move(m.triangles), 3);
-    d["kinds"] = to_numpy(std::move(m.kinds));
-    d["owners"] = to_numpy(std::move(m.owners));
-    d["vertex_map"] = to_numpy(std::move(m.vertex_map));
-    d["triangle_map"] = to_numpy(std::move(m.triangle_map));
-    return d;
+PyStitchedMesh to_python(StitchedMesh&& m) {
+    return {to_numpy(std::move(m.vertices), 3), to_numpy(std::move(m.triangles), 3), to_numpy(std::move(m.kinds)),
+            to_numpy(std::move(m.owners)), to_numpy(std::move(m.vertex_map)), to_numpy(std::move(m.triangle_map))};
+}
+
+void bind_results(py::module_& m) {
+    py::native_enum<TriangleKind>(m, "TriangleKind", "enum.IntEnum",
+                                  "Kind of a triangle of a stitched layer (StitchedMesh.kinds, Surface.kinds):\n"
+                                  "layer (the original TIN), patch (a fault patch; owner = patch id) or gap\n"
+                                  "(ear-clipped between the hole and the patch; owner = gap id).")
+        .value("layer", TriangleKind::layer)
+        .value("patch", TriangleKind::patch)
+        .value("gap", TriangleKind::gap)
+        .finalize();
+
+    py::class_<PyStitchGap>(m, "StitchGap", "One gap polygon created by a stitch (Stitcher.stitch).")
+        .def_readonly("id", &PyStitchGap::id, "gap id: the owner of its triangles")
+        .def_readonly("triangles", &PyStitchGap::triangles,
+                      "(g,) int64 rows of its triangles in the stitcher's (uncompacted) numbering; "
+                      "StitchedMesh.triangle_map maps them")
+        .def_readonly("n_vertices", &PyStitchGap::n_vertices, "vertices of the gap polygon, counted per ring")
+        .def_readonly("n_holes", &PyStitchGap::n_holes,
+                      "holes of the gap polygon (ear clipping gives n_vertices + 2 n_holes - 2 triangles)")
+        .def_readonly("patches", &PyStitchGap::patches, "int64 ids of the patches whose outline is part of it")
+        .def_readonly("merged_gaps", &PyStitchGap::merged_gaps, "int64 ids of earlier gaps it swallowed")
+        .def("__repr__", [](const PyStitchGap& g) {
+            return "StitchGap(id=" + std::to_string(g.id) + ", triangles=" + std::to_string(g.triangles.size()) +
+                   ", n_vertices=" + std::to_string(g.n_vertices) + ", n_holes=" + std::to_string(g.n_holes) + ")";
+        });
+
+    py::class_<PyStitchReport>(m, "StitchReport", "What one Stitcher.stitch did.")
+        .def_readonly("patch_id", &PyStitchReport::patch_id,
+                      "id of the stitched patch (the order of stitch calls from 0): the owner of its triangles")
+        .def_readonly("patch_name", &PyStitchReport::patch_name)
+        .def_readonly("patch_vertex_offset", &PyStitchReport::patch_vertex_offset,
+                      "patch vertex i is stitcher vertex patch_vertex_offset + i")
+        .def_readonly("patch_triangle_offset", &PyStitchReport::patch_triangle_offset,
+                      "stitcher row of the patch's first triangle")
+        .def_readonly("patch_flipped", &PyStitchReport::patch_flipped,
+                      "a piece of the patch was re-oriented (its outline was clockwise)")
+        .def_readonly("gaps", &PyStitchReport::gaps, "list of StitchGap: the gap polygons created")
+        .def_readonly("removed", &PyStitchReport::removed, "(k,) int64 layer rows removed, sorted")
+        .def_readonly("merged_gaps", &PyStitchReport::merged_gaps,
+                      "int64 ids of earlier gaps swallowed (they no longer exist)")
+        .def_readonly("n_candidates", &PyStitchReport::n_candidates, "AABB candidates of the overlap step")
+        .def_readonly("grow_rounds", &PyStitchReport::grow_rounds, "rounds of the growth step")
+        .def("__repr__", [](const PyStitchReport& r) {
+            return "StitchReport(patch_id=" + std::to_string(r.patch_id) + ", patch_name='" + r.patch_name +
+                   "', gaps=" + std::to_string(r.gaps.size()) + ", removed=" + std::to_string(r.removed.size()) +
+                   ", merged_gaps=" + std::to_string(r.merged_gaps.size()) + ")";
+        });
+
+    py::class_<PyStitchedMesh>(m, "StitchedMesh", "The compacted surface of a Stitcher (Stitcher.mesh()).")
+        .def_readonly("vertices", &PyStitchedMesh::vertices, "(n, 3) float64")
+        .def_readonly("triangles", &PyStitchedMesh::triangles, "(m, 3) int64")
+        .def_readonly("kinds", &PyStitchedMesh::kinds, "(m,) int8 TriangleKind values")
+        .def_readonly("owners", &PyStitchedMesh::owners, "(m,) int64: patch id / gap id / -1 (layer)")
+        .def_readonly("vertex_map", &PyStitchedMesh::vertex_map,
+                      "(stitcher vertices,) int64: compacted vertex or -1 if unused")
+        .def_readonly("triangle_map", &PyStitchedMesh::triangle_map,
+                      "(stitcher rows,) int64: compacted row or -1 if removed")
+        .def("__repr__", [](const PyStitchedMesh& mm) {
+            return "StitchedMesh(vertices=" + std::to_string(mm.vertices.shape(0)) +
+                   ", triangles=" + std::to_string(mm.triangles.shape(0)) + ")";
+        });
 }
 
 }  // namespace
 
 void bind_stitch(py::module_& m) {
+    bind_results(m);
     py::class_<PyStitcher>(m, "Stitcher", R"doc(
 Stitches fault patches into one layer surface, one after another (paper 2.4-2.6).
 
@@ -138,30 +183,28 @@ local merge with shared vertices. mesh() returns the compacted surface.
                 auto V = as_points(pv, fn, "patch_vertices", 3, 3);
                 auto T = as_indices(pt, fn, "patch_triangles", 3);
                 StitchReport r;
-                {
-                    py::gil_scoped_release release;
-                    std::unique_lock<std::shared_mutex> lock(p.mu);
-                    r = p.st.stitch(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
-                                  static_cast<std::size_t>(T.shape(0)), name);
-                }
-                return report_dict(std::move(r));
+                r = write_locked(p, [&](LayerStitcher& st) {
+                    return st.stitch(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
+                                     static_cast<std::size_t>(T.shape(0)), name);
+                });
+                return to_python(std::move(r), name);
             },
             py::arg("patch_vertices"), py::arg("patch_triangles"), py::arg("name") = "patch",
             "Stitch one patch (vertices (n, 3), triangles (m, 3), consistently oriented; several\n"
-            "disjoint components allowed). Returns a dict: patch_id, patch_vertex_offset,\n"
-            "patch_triangle_offset, patch_flipped, gaps (list of dicts: id, rows (stitcher rows),\n"
-            "n_vertices, n_holes, patches, merged_gaps), removed, merged_gaps, n_candidates,\n"
-            "grow_rounds. Raises GeometryError (naming both) if the patch overlaps or touches an\n"
-            "earlier patch; nothing changes on error.")
+            "disjoint components allowed). Returns a StitchReport: patch_id, patch_name,\n"
+            "patch_vertex_offset, patch_triangle_offset, patch_flipped, gaps (list of StitchGap: id,\n"
+            "triangles (stitcher rows), n_vertices, n_holes, patches, merged_gaps), removed,\n"
+            "merged_gaps, n_candidates, grow_rounds. Raises GeometryError (naming both) if the patch\n"
+            "overlaps or touches an earlier patch; nothing changes on error.")
         .def(
             "mesh",
             [](const PyStitcher& p) {
                 StitchedMesh mm = read_locked(p, [](const LayerStitcher& st) { return st.mesh(); });
-                return mesh_dict(std::move(mm));
+                return to_python(std::move(mm));
             },
-            "The compacted surface: dict with vertices (n, 3), triangles (m, 3), kinds (m,) int8\n"
-            "(0 layer, 1 patch, 2 gap), owners (m,) (patch id / gap id / -1), vertex_map and\n"
-            "triangle_map (stitcher numbering -> compacted, -1 if gone).")
+            "The compacted surface: a StitchedMesh with vertices (n, 3), triangles (m, 3), kinds (m,)\n"
+            "int8 (TriangleKind: layer, patch, gap), owners (m,) (patch id / gap id / -1), vertex_map\n"
+            "and triangle_map (stitcher numbering -> compacted, -1 if gone).")
         .def_property_readonly("n_vertices",
                                [](const PyStitcher& p) { return read_locked(p, [](const LayerStitcher& st) { return st.n_vertices(); }); })
         .def_property_readonly("n_triangles",
@@ -169,7 +212,7 @@ local merge with shared vertices. mesh() returns the compacted surface.
         .def_property_readonly("n_live_triangles", [](const PyStitcher& p) {
             return read_locked(p, [](const LayerStitcher& st) { return st.n_live_triangles(); });
         })
-        .def_property_readonly("name", [](const PyStitcher& p) { return p.st.name(); })  // set once, never changed
+        .def_property_readonly("name", [](const PyStitcher& p) { return p.obj.name(); })  // set once, never changed
         .def_property_readonly("patch_names", [](const PyStitcher& p) {
             return read_locked(p, [](const LayerStitcher& st) { return st.patch_names(); });  // a copy
         });

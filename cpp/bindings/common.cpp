@@ -1,6 +1,8 @@
 // The shared argument helpers of common.hpp.
 #include "common.hpp"
 
+#include <faultmesh/predicates.hpp>
+
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -106,6 +108,14 @@ DoubleArray as_points(const py::handle& obj, const char* fn, const char* what, p
         throw std::invalid_argument(std::string(fn) + ": " + what + " must have shape (n, " +
                                     cols_str(min_cols, max_cols) + "), got " + shape_str(a));
     return as_private(std::move(a));
+}
+
+DoubleArray as_coordinates(const py::handle& obj, const char* fn, const char* what, py::ssize_t min_cols,
+                           py::ssize_t max_cols, std::size_t dims) {
+    DoubleArray a = as_points(obj, fn, what, min_cols, max_cols);
+    const std::size_t cols = static_cast<std::size_t>(a.shape(1));
+    check_coordinates(a.data(), static_cast<std::size_t>(a.shape(0)), cols, dims < cols ? dims : cols, fn, what);
+    return a;
 }
 
 IndexArray as_indices(const py::handle& obj, const char* fn, const char* what, py::ssize_t cols,

@@ -23,6 +23,8 @@
 #include <pybind11/pybind11.h>
 
 #include <cstdint>
+#include <mutex>
+#include <shared_mutex>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -40,6 +42,13 @@ std::string shape_str(const py::array& a);
 // A (n, k) float64 array with k in [min_cols, max_cols], private to the caller.
 DoubleArray as_points(const py::handle& obj, const char* fn, const char* what, py::ssize_t min_cols,
                       py::ssize_t max_cols);
+
+// as_points, and the first `dims` columns of every row within the coordinate
+// limit (faultmesh::check_coordinates: finite, |c| <= kMaxCoordinate; the
+// ValueError names fn, what and the row). The one entry check of a kernel's
+// coordinate argument.
+DoubleArray as_coordinates(const py::handle& obj, const char* fn, const char* what, py::ssize_t min_cols,
+                           py::ssize_t max_cols, std::size_t dims);
 
 // A (m, cols) int64 array of non-negative integers (cols == 0: 1-D (m,)),
 // private to the caller. n_limit >= 0: every index must also be < n_limit
@@ -72,6 +81,35 @@ struct RingsData {
 // it needs at least 3"); holes of one or two points are the kernels' business
 // (Steiner points in earcut's fixtures).
 RingsData as_rings(const py::handle& rings, const char* fn, py::ssize_t max_cols, py::ssize_t min_outer);
+
+// An object shared with Python whose methods run with the GIL released (Tin,
+// Stitcher, LayerTin): Python threads may call it concurrently, so readers
+// share the lock and anything that changes it takes the lock exclusively.
+// The lock is always taken after the GIL is released, and the GIL is never
+// needed while it is held, so the two cannot deadlock.
+template <class T>
+struct Shared {
+    template <class... A>
+    explicit Shared(A&&... args) : obj(std::forward<A>(args)...) {}
+    T obj;
+    mutable std::shared_mutex mu;
+};
+
+// f(obj) under the shared lock, GIL released.
+template <class T, class F>
+auto read_locked(const Shared<T>& s, F&& f) {
+    py::gil_scoped_release release;
+    std::shared_lock<std::shared_mutex> lock(s.mu);
+    return f(static_cast<const T&>(s.obj));
+}
+
+// f(obj) under the exclusive lock, GIL released.
+template <class T, class F>
+auto write_locked(Shared<T>& s, F&& f) {
+    py::gil_scoped_release release;
+    std::unique_lock<std::shared_mutex> lock(s.mu);
+    return f(s.obj);
+}
 
 // Hand a vector to numpy without copying; shape (size / cols, cols), or 1-D if cols == 0.
 template <class T>

@@ -5,6 +5,8 @@
 #include <faultmesh/ear_clipping.hpp>
 #include <faultmesh/errors.hpp>
 #include <faultmesh/predicates.hpp>
+#include <faultmesh/segments.hpp>
+#include <faultmesh/triangle_adjacency.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -99,12 +101,7 @@ public:
 private:
     const double* v(Index t, int i) const { return xyz_ + 3 * tri_[3 * t + i]; }
 
-    bool contains(Index t, const double* p) const {
-        const double o1 = orient2d(v(t, 0), v(t, 1), p);
-        const double o2 = orient2d(v(t, 1), v(t, 2), p);
-        const double o3 = orient2d(v(t, 2), v(t, 0), p);
-        return (o1 >= 0 && o2 >= 0 && o3 >= 0) || (o1 <= 0 && o2 <= 0 && o3 <= 0);
-    }
+    bool contains(Index t, const double* p) const { return in_closed_triangle(p, v(t, 0), v(t, 1), v(t, 2)); }
 
     // Linear extrapolation (p outside t) in the plane of triangle t, by
     // barycentric weights from the three sub-areas.
@@ -239,38 +236,7 @@ CutResult cut_layer(const double* layer_xyz, std::size_t n_layer_vertices, const
                            " near the fault is not counter-clockwise in XY (or has zero area)");
     }
 
-    // ---- 2. Local edges and adjacency of the examined triangles.
-    std::vector<std::pair<std::pair<Index, Index>, Index>> he;  // ((min, max), 3k + i)
-    he.reserve(3 * nc);
-    for (std::size_t k = 0; k < nc; ++k)
-        for (int i = 0; i < 3; ++i) {
-            const Index a = T[3 * cand[k] + i], b = T[3 * cand[k] + (i + 1) % 3];
-            he.push_back({{std::min(a, b), std::max(a, b)}, static_cast<Index>(3 * k + i)});
-        }
-    std::sort(he.begin(), he.end());
-    std::vector<Edge> edges;
-    std::vector<Index> edge_of(3 * nc, -1), nbr(3 * nc, -1);  // nbr: half-edge slot across, -1 if none
-    for (std::size_t i = 0; i < he.size();) {
-        std::size_t j = i;
-        while (j < he.size() && he[j].first == he[i].first) ++j;
-        if (j - i > 2)
-            geometry_error("layer edge (" + std::to_string(he[i].first.first) + ", " +
-                           std::to_string(he[i].first.second) + ") is used by more than two triangles");
-        Edge e;
-        e.a = he[i].first.first;
-        e.b = he[i].first.second;
-        e.border = j - i == 1;
-        const Index id = static_cast<Index>(edges.size());
-        edges.push_back(e);
-        for (std::size_t q = i; q < j; ++q) edge_of[he[q].second] = id;
-        if (j - i == 2) {
-            nbr[he[i].second] = he[i + 1].second;
-            nbr[he[i + 1].second] = he[i].second;
-        }
-        i = j;
-    }
-
-    // ---- 3. Sides of the examined triangles' vertices.
+    // ---- 2. Sides of the examined triangles' vertices.
     std::vector<Index> verts;
     verts.reserve(3 * nc);
     for (Index t : cand)
@@ -287,6 +253,48 @@ CutResult cut_layer(const double* layer_xyz, std::size_t n_layer_vertices, const
         const double* p = vx(verts[i]);
         dval[i] = p[2] - field.z_at(p, inside);
     }
+
+    // ---- 3. Local edges and adjacency of the examined triangles: the twins
+    // (triangle_adjacency.hpp) of the examined triangles with their vertices
+    // numbered locally; nbr[3 k + i] is the half-edge slot across, -1 if none.
+    std::vector<Index> lt(3 * nc);
+    for (std::size_t k = 0; k < nc; ++k)
+        for (int i = 0; i < 3; ++i) lt[3 * k + i] = static_cast<Index>(local(T[3 * cand[k] + i]));
+    AdjacencyLabels labels;
+    labels.vertex_ids = verts.data();
+    labels.row_ids = cand.data();
+    labels.edge_word = "layer edge";
+    const std::vector<Index> nbr =
+        halfedge_twins(lt.data(), nc, verts.size(), EdgeOrientation::consistent, "cut_layer", labels);
+    // One Edge per undirected edge, ordered by its (smaller, larger) vertex.
+    std::vector<Edge> edges;
+    std::vector<Index> edge_of(3 * nc, -1);
+    for (std::size_t h = 0; h < 3 * nc; ++h) {
+        if (nbr[h] >= 0 && nbr[h] < static_cast<Index>(h)) continue;
+        const Index a = T[3 * cand[h / 3] + h % 3], b = T[3 * cand[h / 3] + (h % 3 + 1) % 3];
+        Edge e;
+        e.a = std::min(a, b);
+        e.b = std::max(a, b);
+        e.border = nbr[h] < 0;
+        edge_of[h] = static_cast<Index>(edges.size());
+        if (nbr[h] >= 0) edge_of[static_cast<std::size_t>(nbr[h])] = edge_of[h];
+        edges.push_back(e);
+    }
+    {
+        std::vector<Index> order(edges.size()), rank(edges.size());
+        std::iota(order.begin(), order.end(), Index{0});
+        std::sort(order.begin(), order.end(), [&](Index x, Index y) {
+            return edges[x].a != edges[y].a ? edges[x].a < edges[y].a : edges[x].b < edges[y].b;
+        });
+        std::vector<Edge> sorted(edges.size());
+        for (std::size_t i = 0; i < order.size(); ++i) {
+            sorted[i] = edges[order[i]];
+            rank[order[i]] = static_cast<Index>(i);
+        }
+        edges.swap(sorted);
+        for (Index& e : edge_of) e = rank[e];
+    }
+
     auto hanging = [&](Index v) { return dval[local(v)] > 0.0; };
 
     // ---- 4. Crossing points on the edges whose end points differ in side.

@@ -11,6 +11,7 @@
 #include <faultmesh/errors.hpp>
 #include <faultmesh/polygon_cdt.hpp>
 #include <faultmesh/predicates.hpp>
+#include <faultmesh/segments.hpp>
 
 #include <algorithm>
 #include <array>
@@ -308,13 +309,7 @@ struct SegGrid : GridFrame {
     }
 };
 
-inline bool same_point(const double* p, const double* q) { return p[0] == q[0] && p[1] == q[1]; }
-
-// q collinear with segment a-b (caller checked): is q strictly between a and b?
-inline bool strictly_between(const double* a, const double* b, const double* q) {
-    if (a[0] != b[0]) return (q[0] > std::min(a[0], b[0])) && (q[0] < std::max(a[0], b[0]));
-    return (q[1] > std::min(a[1], b[1])) && (q[1] < std::max(a[1], b[1]));
-}
+// same_point and strictly_between (collinear q strictly inside a-b): segments.hpp.
 // Collinear p, q1, q2 (checked by the caller): do q1 and q2 lie on the same side of p?
 inline bool same_direction(const double* p, const double* q1, const double* q2) {
     if (q1[0] != p[0] || q2[0] != p[0]) return (q1[0] > p[0]) == (q2[0] > p[0]) && q1[0] != p[0] && q2[0] != p[0];

@@ -1,14 +1,19 @@
 // Overlap detection (paper 2.4): AABB candidates + exact 2D tests, and the
-// growth of the removed set into a topological disk.
+// growth of the removed set into a topological disk. The region and the
+// grower are shared with the stitcher (overlap_growth.hpp).
 #include <faultmesh/errors.hpp>
 #include <faultmesh/overlap.hpp>
 #include <faultmesh/predicates.hpp>
+#include <faultmesh/segments.hpp>
+#include <faultmesh/triangle_adjacency.hpp>
+
+#include "overlap_growth.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <deque>
 #include <limits>
-#include <memory>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -19,49 +24,7 @@ namespace detail {
 namespace {
 
 constexpr const char* kFn = "overlapping_triangles";
-
-// ------------------------------------------------------------ exact helpers
-inline bool same_point(const double* p, const double* q) { return p[0] == q[0] && p[1] == q[1]; }
-
-// r strictly between p and q, given that p, q, r are collinear and p != q.
-inline bool strictly_between(const double* p, const double* q, const double* r) {
-    if (p[0] != q[0]) return (p[0] < r[0] && r[0] < q[0]) || (q[0] < r[0] && r[0] < p[0]);
-    return (p[1] < r[1] && r[1] < q[1]) || (q[1] < r[1] && r[1] < p[1]);
-}
-// r on the closed segment pq, given collinearity.
-inline bool on_closed(const double* p, const double* q, const double* r) {
-    return std::min(p[0], q[0]) <= r[0] && r[0] <= std::max(p[0], q[0]) &&
-           std::min(p[1], q[1]) <= r[1] && r[1] <= std::max(p[1], q[1]);
-}
-
-// Closed segments pq and rs share a point.
-bool segments_meet(const double* p, const double* q, const double* r, const double* s) {
-    const int o1 = orient2d_sign(p, q, r), o2 = orient2d_sign(p, q, s);
-    const int o3 = orient2d_sign(r, s, p), o4 = orient2d_sign(r, s, q);
-    if (o1 * o2 < 0 && o3 * o4 < 0) return true;
-    if (o1 == 0 && on_closed(p, q, r)) return true;
-    if (o2 == 0 && on_closed(p, q, s)) return true;
-    if (o3 == 0 && on_closed(r, s, p)) return true;
-    if (o4 == 0 && on_closed(r, s, q)) return true;
-    return false;
-}
-
-// Closed segment pq meets the open triangle abc (counter-clockwise, non-zero
-// area). Separating axes: a triangle edge with p and q on its closed outer
-// side, or the segment's line with a, b, c on one closed side.
-bool segment_meets_open_triangle(const double* p, const double* q, const double* a, const double* b,
-                                 const double* c) {
-    const double* t[3] = {a, b, c};
-    for (int e = 0; e < 3; ++e) {
-        const double* u = t[e];
-        const double* v = t[(e + 1) % 3];
-        if (orient2d_sign(u, v, p) <= 0 && orient2d_sign(u, v, q) <= 0) return false;
-    }
-    const int oa = orient2d_sign(p, q, a), ob = orient2d_sign(p, q, b), oc = orient2d_sign(p, q, c);
-    if (oa >= 0 && ob >= 0 && oc >= 0) return false;
-    if (oa <= 0 && ob <= 0 && oc <= 0) return false;
-    return true;
-}
+constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // Angular order of directions around a point o, from the +x axis
 // counter-clockwise, angles in [0, 2 pi). Exact: half-plane, then orient2d.
@@ -76,67 +39,19 @@ inline bool angle_less(const double* o, const double* x, const double* y) {
     return orient2d_sign(o, x, y) > 0;
 }
 
+Box2 seg_box(const Seg& s) {
+    return {std::min(s.p[0], s.q[0]), std::min(s.p[1], s.q[1]), std::max(s.p[0], s.q[0]),
+            std::max(s.p[1], s.q[1])};
+}
+void extend(Box2& b, const Box2& x) {
+    b.xmin = std::min(b.xmin, x.xmin);
+    b.ymin = std::min(b.ymin, x.ymin);
+    b.xmax = std::max(b.xmax, x.xmax);
+    b.ymax = std::max(b.ymax, x.ymax);
+}
+
+}  // namespace
 // ------------------------------------------------------------ the region
-struct Seg {
-    double p[2], q[2];
-};
-
-class Region {
-public:
-    Region(const double* ring_xy, const std::int64_t* ring_offsets, std::size_t n_rings);
-
-    bool empty() const { return edges_.empty(); }
-    const Box2& bounds() const { return bounds_; }
-
-    // The open triangle abc (CCW, non-zero area) meets R's interior.
-    bool meets_open_triangle(const double* a, const double* b, const double* c) const {
-        const Box2 tb{std::min({a[0], b[0], c[0]}), std::min({a[1], b[1], c[1]}),
-                      std::max({a[0], b[0], c[0]}), std::max({a[1], b[1], c[1]})};
-        if (!boxes_meet(tb, bounds_)) return false;
-        if (tree_.any_of(tb, [&](std::int64_t i) {
-                const Seg& s = edges_[static_cast<std::size_t>(i)];
-                return segment_meets_open_triangle(s.p, s.q, a, b, c);
-            }))
-            return true;
-        return wedge_parity(a, b);
-    }
-
-    // Parity (1 = inside R) of the points just counter-clockwise of the
-    // direction a -> b, arbitrarily close to a.
-    bool wedge_parity(const double* a, const double* b) const;
-
-    // The closed segment pq meets the closure of R.
-    bool segment_meets_closure(const double* p, const double* q) const {
-        const Box2 sb{std::min(p[0], q[0]), std::min(p[1], q[1]), std::max(p[0], q[0]),
-                      std::max(p[1], q[1])};
-        if (!boxes_meet(sb, bounds_)) return false;
-        if (tree_.any_of(sb, [&](std::int64_t i) {
-                const Seg& s = edges_[static_cast<std::size_t>(i)];
-                return segments_meet(p, q, s.p, s.q);
-            }))
-            return true;
-        // Not touching dR: the segment is in R iff its endpoint is (p is off
-        // dR, so the wedge parity in any direction is the parity of p).
-        return wedge_parity(p, q);
-    }
-
-private:
-    std::vector<Seg> edges_;
-    AabbTree tree_;
-    Box2 bounds_{};
-    // Horizontal slabs over [y0, y1] for the crossing count: an edge is listed
-    // in every slab its closed y-range touches.
-    double y0_ = 0, y1_ = 0, scale_ = 0;
-    std::size_t nslab_ = 0;
-    std::vector<std::uint32_t> slab_start_, slab_edges_;
-    std::size_t slab_of(double y) const {
-        double f = (y - y0_) * scale_;
-        if (!(f >= 0)) f = 0;
-        auto s = static_cast<std::size_t>(std::min(f, static_cast<double>(nslab_ - 1)));
-        return std::min(s, nslab_ - 1);
-    }
-};
-
 Region::Region(const double* ring_xy, const std::int64_t* ring_offsets, std::size_t n_rings) {
     // 1. Ring edges, without consecutive duplicates or a repeated closing point.
     std::vector<Seg> raw;
@@ -155,7 +70,16 @@ Region::Region(const double* ring_xy, const std::int64_t* ring_offsets, std::siz
             if (ring.empty() || !same_point(ring.back(), p)) ring.push_back(p);
         }
         while (ring.size() > 1 && same_point(ring.front(), ring.back())) ring.pop_back();
-        if (ring.size() < 2) continue;
+        if (ring.size() < 2) {
+            // A ring of one point bounds nothing, but it is drawn.
+            if (ring.size() == 1) {
+                Seg s;
+                s.p[0] = s.q[0] = ring[0][0];
+                s.p[1] = s.q[1] = ring[0][1];
+                extra_.push_back(s);
+            }
+            continue;
+        }
         for (std::size_t i = 0; i < ring.size(); ++i) {
             const double* p = ring[i];
             const double* q = ring[(i + 1) % ring.size()];
@@ -168,83 +92,93 @@ Region::Region(const double* ring_xy, const std::int64_t* ring_offsets, std::siz
             verts.push_back(p);
         }
     }
-    if (raw.empty()) return;
-
-    // 2. Split every edge at the ring vertices in its relative interior.
-    std::vector<Box2> boxes(raw.size());
-    for (std::size_t i = 0; i < raw.size(); ++i)
-        boxes[i] = {std::min(raw[i].p[0], raw[i].q[0]), std::min(raw[i].p[1], raw[i].q[1]),
-                    std::max(raw[i].p[0], raw[i].q[0]), std::max(raw[i].p[1], raw[i].q[1])};
-    std::vector<std::vector<const double*>> splits(raw.size());
-    {
-        AabbTree rt(boxes);
-        std::vector<std::int64_t> hits;
-        for (const double* v : verts) {
-            hits.clear();
-            rt.query(Box2{v[0], v[1], v[0], v[1]}, hits);
-            for (std::int64_t h : hits) {
-                const Seg& s = raw[static_cast<std::size_t>(h)];
-                if (orient2d_sign(s.p, s.q, v) == 0 && strictly_between(s.p, s.q, v))
-                    splits[static_cast<std::size_t>(h)].push_back(v);
+    std::vector<Box2> boxes;
+    if (!raw.empty()) {
+        // 2. Split every edge at the ring vertices in its relative interior.
+        boxes.resize(raw.size());
+        for (std::size_t i = 0; i < raw.size(); ++i) boxes[i] = seg_box(raw[i]);
+        std::vector<std::vector<const double*>> splits(raw.size());
+        {
+            AabbTree rt(boxes);
+            std::vector<std::int64_t> hits;
+            for (const double* v : verts) {
+                hits.clear();
+                rt.query(Box2{v[0], v[1], v[0], v[1]}, hits);
+                for (std::int64_t h : hits) {
+                    const Seg& s = raw[static_cast<std::size_t>(h)];
+                    if (orient2d_sign(s.p, s.q, v) == 0 && strictly_between(s.p, s.q, v))
+                        splits[static_cast<std::size_t>(h)].push_back(v);
+                }
             }
         }
-    }
-    // Undirected pieces, endpoints in lexicographic order.
-    std::vector<Seg> pieces;
-    for (std::size_t i = 0; i < raw.size(); ++i) {
-        const double* lo = raw[i].p;
-        const double* hi = raw[i].q;
-        if (lex_less(hi, lo)) std::swap(lo, hi);
-        auto& sp = splits[i];
-        // Collinear points on the open segment: lexicographic order is the
-        // order along the segment from lo to hi.
-        std::sort(sp.begin(), sp.end(), [](const double* x, const double* y) { return lex_less(x, y); });
-        sp.erase(std::unique(sp.begin(), sp.end(), [](const double* x, const double* y) { return same_point(x, y); }),
-                 sp.end());
-        const double* prev = lo;
-        for (std::size_t j = 0; j <= sp.size(); ++j) {
-            const double* nx = j < sp.size() ? sp[j] : hi;
-            Seg s;
-            s.p[0] = prev[0];
-            s.p[1] = prev[1];
-            s.q[0] = nx[0];
-            s.q[1] = nx[1];
-            pieces.push_back(s);
-            prev = nx;
+        // Pieces in the direction of their ring edge; `lo` is each piece's
+        // lexicographically smaller end (the key that finds equal pieces).
+        std::vector<Seg> pieces;
+        std::vector<char> reversed;  // piece runs from its larger to its smaller end
+        for (std::size_t i = 0; i < raw.size(); ++i) {
+            const bool rev = lex_less(raw[i].q, raw[i].p);
+            auto& sp = splits[i];
+            // Collinear points on the open segment: lexicographic order is the
+            // order along the segment from its smaller end.
+            std::sort(sp.begin(), sp.end(), [](const double* x, const double* y) { return lex_less(x, y); });
+            sp.erase(std::unique(sp.begin(), sp.end(), [](const double* x, const double* y) { return same_point(x, y); }),
+                     sp.end());
+            if (rev) std::reverse(sp.begin(), sp.end());
+            const double* prev = raw[i].p;
+            for (std::size_t j = 0; j <= sp.size(); ++j) {
+                const double* nx = j < sp.size() ? sp[j] : raw[i].q;
+                Seg s;
+                s.p[0] = prev[0];
+                s.p[1] = prev[1];
+                s.q[0] = nx[0];
+                s.q[1] = nx[1];
+                pieces.push_back(s);
+                reversed.push_back(rev);
+                prev = nx;
+            }
+        }
+        // 3. Equal pieces cancel in pairs (they do not change the parity); what
+        // cancels stays drawn.
+        auto lo = [&](std::size_t i) { return reversed[i] ? pieces[i].q : pieces[i].p; };
+        auto hi = [&](std::size_t i) { return reversed[i] ? pieces[i].p : pieces[i].q; };
+        std::vector<std::size_t> order(pieces.size());
+        for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+        auto key_less = [&](std::size_t x, std::size_t y) {
+            const double *xl = lo(x), *yl = lo(y), *xh = hi(x), *yh = hi(y);
+            if (xl[0] != yl[0]) return xl[0] < yl[0];
+            if (xl[1] != yl[1]) return xl[1] < yl[1];
+            if (xh[0] != yh[0]) return xh[0] < yh[0];
+            return xh[1] < yh[1];
+        };
+        auto key_eq = [&](std::size_t x, std::size_t y) {
+            return same_point(lo(x), lo(y)) && same_point(hi(x), hi(y));
+        };
+        std::stable_sort(order.begin(), order.end(), key_less);
+        for (std::size_t i = 0; i < order.size();) {
+            std::size_t j = i + 1;
+            while (j < order.size() && key_eq(order[i], order[j])) ++j;
+            ((j - i) % 2 == 1 ? edges_ : extra_).push_back(pieces[order[i]]);
+            i = j;
         }
     }
-    // 3. Equal pieces cancel in pairs (they do not change the parity).
-    auto key_less = [](const Seg& x, const Seg& y) {
-        if (x.p[0] != y.p[0]) return x.p[0] < y.p[0];
-        if (x.p[1] != y.p[1]) return x.p[1] < y.p[1];
-        if (x.q[0] != y.q[0]) return x.q[0] < y.q[0];
-        return x.q[1] < y.q[1];
-    };
-    auto key_eq = [](const Seg& x, const Seg& y) {
-        return same_point(x.p, y.p) && same_point(x.q, y.q);
-    };
-    std::sort(pieces.begin(), pieces.end(), key_less);
-    for (std::size_t i = 0; i < pieces.size();) {
-        std::size_t j = i + 1;
-        while (j < pieces.size() && key_eq(pieces[i], pieces[j])) ++j;
-        if ((j - i) % 2 == 1) edges_.push_back(pieces[i]);
-        i = j;
+    // 4. Trees over dR and over the other drawn pieces, and slabs for the
+    // crossing count.
+    bounds_ = {kInf, kInf, -kInf, -kInf};
+    boxes.resize(edges_.size());
+    for (std::size_t i = 0; i < edges_.size(); ++i) {
+        boxes[i] = seg_box(edges_[i]);
+        extend(bounds_, boxes[i]);
+    }
+    drawn_bounds_ = bounds_;
+    if (!extra_.empty()) {
+        std::vector<Box2> eb(extra_.size());
+        for (std::size_t i = 0; i < extra_.size(); ++i) {
+            eb[i] = seg_box(extra_[i]);
+            extend(drawn_bounds_, eb[i]);
+        }
+        extra_tree_ = AabbTree(eb);
     }
     if (edges_.empty()) return;
-
-    // 4. Tree over dR and slabs for the crossing count.
-    boxes.resize(edges_.size());
-    bounds_ = {std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-               -std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
-    for (std::size_t i = 0; i < edges_.size(); ++i) {
-        const Seg& s = edges_[i];
-        boxes[i] = {std::min(s.p[0], s.q[0]), std::min(s.p[1], s.q[1]), std::max(s.p[0], s.q[0]),
-                    std::max(s.p[1], s.q[1])};
-        bounds_.xmin = std::min(bounds_.xmin, boxes[i].xmin);
-        bounds_.ymin = std::min(bounds_.ymin, boxes[i].ymin);
-        bounds_.xmax = std::max(bounds_.xmax, boxes[i].xmax);
-        bounds_.ymax = std::max(bounds_.ymax, boxes[i].ymax);
-    }
     tree_ = AabbTree(boxes);
     y0_ = bounds_.ymin;
     y1_ = bounds_.ymax;
@@ -270,6 +204,73 @@ Region::Region(const double* ring_xy, const std::int64_t* ring_offsets, std::siz
             slab_edges_[fill[s]++] = static_cast<std::uint32_t>(i);
 }
 
+std::size_t Region::slab_of(double y) const {
+    double f = (y - y0_) * scale_;
+    if (!(f >= 0)) f = 0;
+    auto s = static_cast<std::size_t>(std::min(f, static_cast<double>(nslab_ - 1)));
+    return std::min(s, nslab_ - 1);
+}
+
+bool Region::meets_open_triangle(const double* a, const double* b, const double* c) const {
+    const Box2 tb = triangle_box(a, b, c);
+    if (edges_.empty() || !boxes_meet(tb, bounds_)) return false;
+    if (tree_.any_of(tb, [&](std::int64_t i) {
+            const Seg& s = edges_[static_cast<std::size_t>(i)];
+            return segment_meets_open_triangle(s.p, s.q, a, b, c);
+        }))
+        return true;
+    return wedge_parity(a, b);
+}
+
+bool Region::meets_closed_triangle(const double* a, const double* b, const double* c) const {
+    const Box2 tb = triangle_box(a, b, c);
+    if (nothing_drawn() || !boxes_meet(tb, drawn_bounds_)) return false;
+    auto touches = [&](const std::vector<Seg>& segs) {
+        return [&, a, b, c](std::int64_t i) {
+            const Seg& s = segs[static_cast<std::size_t>(i)];
+            return segment_meets_closed_triangle(s.p, s.q, a, b, c);
+        };
+    };
+    if (!edges_.empty() && tree_.any_of(tb, touches(edges_))) return true;
+    if (!extra_.empty() && extra_tree_.any_of(tb, touches(extra_))) return true;
+    // No contact: the triangle lies in one face of dR's arrangement, inside R
+    // iff its vertex a is (a is off dR: the wedge parity is a's own).
+    return wedge_parity(a, b);
+}
+
+bool Region::segment_meets_closure(const double* p, const double* q) const {
+    const Box2 sb{std::min(p[0], q[0]), std::min(p[1], q[1]), std::max(p[0], q[0]), std::max(p[1], q[1])};
+    if (edges_.empty() || !boxes_meet(sb, bounds_)) return false;
+    if (tree_.any_of(sb, [&](std::int64_t i) {
+            const Seg& s = edges_[static_cast<std::size_t>(i)];
+            return segments_meet(p, q, s.p, s.q);
+        }))
+        return true;
+    // Not touching dR: the segment is in R iff its endpoint is (p is off
+    // dR, so the wedge parity in any direction is the parity of p).
+    return wedge_parity(p, q);
+}
+
+double Region::distance(const double* p, double limit) const {
+    double best = limit;
+    const Box2 q{p[0] - limit, p[1] - limit, p[0] + limit, p[1] + limit};
+    auto visit = [&](const std::vector<Seg>& segs) {
+        return [&](std::int64_t i) {
+            const Seg& s = segs[static_cast<std::size_t>(i)];
+            const double* u = s.p;
+            const double* v = s.q;
+            const double dx = v[0] - u[0], dy = v[1] - u[1];
+            const double L2 = dx * dx + dy * dy;
+            double t = L2 > 0.0 ? ((p[0] - u[0]) * dx + (p[1] - u[1]) * dy) / L2 : 0.0;
+            t = std::min(1.0, std::max(0.0, t));
+            best = std::min(best, std::hypot(p[0] - (u[0] + t * dx), p[1] - (u[1] + t * dy)));
+        };
+    };
+    if (!edges_.empty()) tree_.visit(q, visit(edges_));
+    if (!extra_.empty()) extra_tree_.visit(q, visit(extra_));
+    return best;
+}
+
 bool Region::wedge_parity(const double* a, const double* b) const {
     if (edges_.empty() || a[1] < y0_ || a[1] > y1_) return false;
     // The point a + eps (1, eta), 0 < eta << 1, eps -> 0: its horizontal ray
@@ -289,7 +290,7 @@ bool Region::wedge_parity(const double* a, const double* b) const {
         bool through = p_at || q_at;
         if (!through && std::min(p[1], q[1]) <= a[1] && a[1] <= std::max(p[1], q[1])) {
             o = orient2d_sign(p, q, a);
-            through = o == 0 && on_closed(p, q, a);
+            through = o == 0 && in_segment_box(p, q, a);
         }
         if (through) {
             // Arms: to q if a is p, to p if a is q, both if a is inside.
@@ -317,162 +318,86 @@ bool Region::wedge_parity(const double* a, const double* b) const {
     return parity;
 }
 
-// ------------------------------------------------------------ inputs
-void check_mesh(const double* V, std::size_t n, std::size_t stride, const std::int64_t* T,
-                std::size_t m) {
-    if (stride != 2 && stride != 3)
-        throw std::invalid_argument(std::string(kFn) + ": vertices must have 2 or 3 columns");
-    check_coordinates(V, n, stride, 2, kFn, "vertices");
-    for (std::size_t t = 0; t < 3 * m; ++t)
-        if (T[t] < 0 || static_cast<std::uint64_t>(T[t]) >= n)
-            throw std::invalid_argument(std::string(kFn) + ": triangles row " + std::to_string(t / 3) +
-                                        " has vertex index " + std::to_string(T[t]) +
-                                        " out of range [0, " + std::to_string(n) + ")");
+// ------------------------------------------------------------ removed set
+const std::vector<std::int64_t>& GrowthHooks::group(std::int64_t g) const {
+    throw std::logic_error("GrowthHooks::group(" + std::to_string(g) + "): no atomic groups");
 }
 
-// ------------------------------------------------------------ mesh topology
-struct Topo {
-    std::vector<std::int32_t> nbr;        // 3 per triangle: across edge (t[e], t[e+1]), -1 = none
-    std::vector<char> boundary_vertex;    // on a mesh-boundary edge
-    std::vector<std::uint32_t> degree;    // number of triangles at each vertex
-};
-
-// Edge adjacency by the same counting sort as boundary.cpp: half-edges go to
-// the bucket of their smaller vertex (an 8-byte entry: other vertex, half-edge
-// id), and each bucket is matched with an O(d^2) scan (d is about six in a
-// TIN; large buckets are sorted).
-Topo build_topo(const std::int64_t* T, std::size_t m, std::size_t n) {
-    if (m > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()) / 3 ||
-        n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
-        throw std::invalid_argument(std::string(kFn) + ": grow_to_disk supports up to 715827882 triangles");
-    Topo topo;
-    topo.nbr.assign(3 * m, -1);
-    topo.degree.assign(n, 0);
-    std::vector<std::uint32_t> start(n + 1, 0);
-    for (std::size_t t = 0; t < m; ++t) {
-        const auto a = static_cast<std::uint32_t>(T[3 * t]), b = static_cast<std::uint32_t>(T[3 * t + 1]),
-                   c = static_cast<std::uint32_t>(T[3 * t + 2]);
-        ++start[std::min(a, b) + 1];
-        ++start[std::min(b, c) + 1];
-        ++start[std::min(c, a) + 1];
-        ++topo.degree[a];
-        ++topo.degree[b];
-        ++topo.degree[c];
-    }
-    for (std::size_t v = 0; v < n; ++v) start[v + 1] += start[v];
-    std::unique_ptr<std::uint64_t[]> ent(new std::uint64_t[3 * m + 1]);  // other << 32 | h
-    for (std::size_t h = 0; h < 3 * m; ++h) {
-        const auto u = static_cast<std::uint64_t>(T[h]), v = static_cast<std::uint64_t>(T[h % 3 == 2 ? h - 2 : h + 1]);
-        const std::uint64_t key = u < v ? u : v, other = u < v ? v : u;
-        ent[start[key]++] = (other << 32) | h;
-    }
-    for (std::size_t v = n; v > 0; --v) start[v] = start[v - 1];
-    start[0] = 0;
-    topo.boundary_vertex.assign(n, 0);
-    auto fail = [&](std::size_t v, std::uint64_t other, std::size_t cnt) {
-        throw GeometryError(std::string(kFn) + ": grow_to_disk needs a manifold mesh, but edge (" +
-                            std::to_string(v) + ", " + std::to_string(other) + ") is used by " +
-                            std::to_string(cnt) + " triangles");
-    };
-    for (std::size_t v = 0; v < n; ++v) {
-        std::uint64_t* b = ent.get() + start[v];
-        const std::size_t d = start[v + 1] - start[v];
-        if (d > 32) {
-            // Fan centres: sort by other vertex, then runs are the edges.
-            std::sort(b, b + d);
-            for (std::size_t i = 0; i < d;) {
-                std::size_t j = i + 1;
-                while (j < d && (b[j] >> 32) == (b[i] >> 32)) ++j;
-                if (j - i == 1) {
-                    topo.boundary_vertex[v] = 1;
-                    topo.boundary_vertex[static_cast<std::size_t>(b[i] >> 32)] = 1;
-                } else if (j - i == 2) {
-                    topo.nbr[b[i] & 0xffffffffULL] = static_cast<std::int32_t>((b[i + 1] & 0xffffffffULL) / 3);
-                    topo.nbr[b[i + 1] & 0xffffffffULL] = static_cast<std::int32_t>((b[i] & 0xffffffffULL) / 3);
-                } else {
-                    fail(v, b[i] >> 32, j - i);
-                }
-                i = j;
-            }
-            continue;
-        }
-        for (std::size_t i = 0; i < d; ++i) {
-            const std::uint64_t o = b[i] >> 32;
-            std::size_t cnt = 0, partner = i;
-            for (std::size_t j = 0; j < d; ++j)
-                if ((b[j] >> 32) == o) {
-                    ++cnt;
-                    if (j != i) partner = j;
-                }
-            if (cnt == 1) {
-                topo.boundary_vertex[v] = 1;
-                topo.boundary_vertex[static_cast<std::size_t>(o)] = 1;
-            } else if (cnt == 2) {
-                topo.nbr[b[i] & 0xffffffffULL] = static_cast<std::int32_t>((b[partner] & 0xffffffffULL) / 3);
-            } else {
-                fail(v, o, cnt);
-            }
-        }
-    }
-    return topo;
+GrowthHooks& RemovedSet::no_hooks() {
+    static GrowthHooks none;  // stateless: the defaults only
+    return none;
 }
 
 // ------------------------------------------------------------ growth
-class Grower {
-public:
-    Grower(const double* V, std::size_t stride, const std::int64_t* T, std::size_t m, std::size_t n,
-           const Region& R, const OverlapOptions& opt, std::vector<char>& in)
-        : V_(V), stride_(stride), T_(T), m_(m), n_(n), R_(R), opt_(opt), in_(in),
-          topo_(build_topo(T, m, n)) {}
-
-    void run();
-
-private:
-    const double* pt(std::int64_t v) const { return V_ + stride_ * static_cast<std::size_t>(v); }
-    std::int64_t vtx(std::int64_t t, int c) const { return T_[3 * static_cast<std::size_t>(t) + static_cast<std::size_t>(c)]; }
-    std::int64_t nb(std::int64_t t, int e) const { return topo_.nbr[3 * static_cast<std::size_t>(t) + static_cast<std::size_t>(e)]; }
-    void add(std::int64_t t) {
-        if (!in_[static_cast<std::size_t>(t)]) {
-            in_[static_cast<std::size_t>(t)] = 1;
-            members_.push_back(t);
-            changed_ = true;
+Grower::Grower(const GrowthMesh& mesh, RemovedSet& set, const Region& region, const GrowthRules& rules,
+               std::string fn)
+    : m_(mesh), S_(set), R_(region), rules_(rules), fn_(std::move(fn)) {
+    // The paper's rules look at the whole mesh: vertex degrees (fan walks)
+    // and mesh-boundary vertices, one O(m) pass.
+    const bool paper = rules_.pinch == PinchRule::keep_largest_kept_fan ||
+                       rules_.holes == HoleRule::absorb_kept_islands || !rules_.allow_mesh_boundary;
+    if (!paper) return;
+    degree_.assign(m_.n_vertices, 0);
+    boundary_vertex_.assign(m_.n_vertices, 0);
+    for (std::size_t h = 0; h < 3 * m_.n_triangles; ++h) {
+        ++degree_[static_cast<std::size_t>(m_.triangles[h])];
+        if (m_.twins[h] < 0) {
+            boundary_vertex_[static_cast<std::size_t>(m_.triangles[h])] = 1;
+            boundary_vertex_[static_cast<std::size_t>(m_.triangles[next_halfedge(static_cast<std::int64_t>(h))])] = 1;
         }
     }
-    void refresh_members() {
-        members_.clear();
-        for (std::size_t t = 0; t < m_; ++t)
-            if (in_[t]) members_.push_back(static_cast<std::int64_t>(t));
-    }
-    bool grow_touching();
-    bool join_components();
-    bool fix_pinches();
-    bool fill_kept_components();
-    void check_mesh_boundary() const;
-    // The star of v in fan order; cyclic tells whether it closes.
-    // The star of v (t0: a triangle at v) in fan order; cyclic tells whether
-    // it closes. False if the triangles at v are not one fan (a pinch of the
-    // mesh itself).
-    bool star(std::int64_t v, std::int64_t t0, std::vector<std::int64_t>& fan, bool& cyclic) const;
-    long euler() const;
+}
 
-    const double* V_;
-    std::size_t stride_;
-    const std::int64_t* T_;
-    std::size_t m_, n_;
-    const Region& R_;
-    const OverlapOptions& opt_;
-    std::vector<char>& in_;
-    Topo topo_;
-    std::vector<std::int64_t> members_;
-    bool changed_ = false;
-};
+template <class F>
+int Grower::walk_fan(std::int64_t v, std::int64_t t0, int slot, std::size_t max_steps, F&& f) const {
+    std::int64_t t = t0;
+    for (std::size_t step = 0; step < max_steps; ++step) {
+        const std::int64_t o = m_.twins[3 * t + slot];
+        if (o < 0) return 0;
+        const std::int64_t u = o / 3;
+        if (u == t0) return 1;
+        f(u);
+        // The other edge of u at v: the one before v's corner if v starts the
+        // edge we came in by, else the one after.
+        const int a = static_cast<int>(o % 3);
+        slot = vtx(u, a) == v ? (a + 2) % 3 : (a + 1) % 3;
+        t = u;
+    }
+    return 2;
+}
+
+void Grower::close_groups(std::size_t from) {
+    GrowthHooks& hooks = S_.hooks();
+    for (std::size_t i = from; i < S_.size(); ++i) {
+        const std::int64_t g = hooks.group_of(S_.members()[i]);
+        if (g < 0 || !merged_set_.insert(g).second) continue;
+        merged_.push_back(g);
+        for (std::int64_t q : hooks.group(g)) S_.add(q);
+    }
+}
+
+const Grower::Boundary& Grower::boundary() {
+    if (bnd_size_ == S_.size()) return bnd_;
+    bnd_.halfedges.clear();
+    bnd_.leaving.clear();
+    bnd_.pinches.clear();
+    for (std::int64_t r : S_.members())
+        for (int k = 0; k < 3; ++k) {
+            const std::int64_t h = 3 * r + k;
+            const std::int64_t o = m_.twins[h];
+            if (o >= 0 && in(o / 3)) continue;
+            bnd_.halfedges.push_back(h);
+            if (!bnd_.leaving.emplace(m_.triangles[h], h).second) bnd_.pinches.push_back(h);
+        }
+    bnd_size_ = S_.size();
+    return bnd_;
+}
 
 void Grower::check_mesh_boundary() const {
-    if (opt_.allow_mesh_boundary) return;
-    for (std::int64_t t : members_)
+    for (std::int64_t t : S_.members())
         for (int c = 0; c < 3; ++c)
-            if (topo_.boundary_vertex[static_cast<std::size_t>(vtx(t, c))])
-                throw GeometryError(std::string(kFn) + ": the removed set reaches the mesh boundary at vertex " +
+            if (boundary_vertex_[static_cast<std::size_t>(vtx(t, c))])
+                throw GeometryError(fn_ + ": the removed set reaches the mesh boundary at vertex " +
                                     std::to_string(vtx(t, c)) +
                                     " (the region reaches the study-area boundary), so it cannot be a "
                                     "disk strictly inside the mesh; pass allow_mesh_boundary=True");
@@ -481,27 +406,27 @@ void Grower::check_mesh_boundary() const {
 // Add the kept neighbour across every boundary edge of S whose closed
 // segment meets the closure of R (R must be in S's interior).
 bool Grower::grow_touching() {
-    changed_ = false;
+    const std::size_t before = S_.size();
     std::vector<std::int64_t> add_list;
-    for (std::int64_t t : members_)
+    for (std::int64_t t : S_.members())
         for (int e = 0; e < 3; ++e) {
             const std::int64_t u = nb(t, e);
-            if (u >= 0 && in_[static_cast<std::size_t>(u)]) continue;
+            if (u >= 0 && in(u)) continue;
             if (u < 0) continue;  // mesh boundary: handled by check_mesh_boundary / allowed
             if (R_.segment_meets_closure(pt(vtx(t, e)), pt(vtx(t, (e + 1) % 3)))) add_list.push_back(u);
         }
-    for (std::int64_t u : add_list) add(u);
-    return changed_;
+    for (std::int64_t u : add_list) S_.add(u);
+    return S_.size() != before;
 }
 
 // Join edge-connected components of S along shortest dual paths.
 bool Grower::join_components() {
-    changed_ = false;
+    const std::size_t before = S_.size(), m = m_.n_triangles;
     for (;;) {
-        std::vector<std::int64_t> comp(m_, -1);
+        std::vector<std::int64_t> comp(m, -1);
         std::int64_t ncomp = 0;
         std::vector<std::int64_t> q;
-        for (std::int64_t s : members_) {
+        for (std::int64_t s : S_.members()) {
             if (comp[static_cast<std::size_t>(s)] >= 0) continue;
             comp[static_cast<std::size_t>(s)] = ncomp;
             q.assign(1, s);
@@ -510,7 +435,7 @@ bool Grower::join_components() {
                 q.pop_back();
                 for (int e = 0; e < 3; ++e) {
                     const std::int64_t u = nb(t, e);
-                    if (u >= 0 && in_[static_cast<std::size_t>(u)] && comp[static_cast<std::size_t>(u)] < 0) {
+                    if (u >= 0 && in(u) && comp[static_cast<std::size_t>(u)] < 0) {
                         comp[static_cast<std::size_t>(u)] = ncomp;
                         q.push_back(u);
                     }
@@ -518,12 +443,12 @@ bool Grower::join_components() {
             }
             ++ncomp;
         }
-        if (ncomp <= 1) return changed_;
+        if (ncomp <= 1) return S_.size() != before;
         // BFS from component 0 through kept triangles to the nearest triangle
         // of another component.
-        std::vector<std::int64_t> from(m_, -2);
+        std::vector<std::int64_t> from(m, -2);
         std::deque<std::int64_t> bq;
-        for (std::int64_t s : members_)
+        for (std::int64_t s : S_.members())
             if (comp[static_cast<std::size_t>(s)] == 0) {
                 from[static_cast<std::size_t>(s)] = -1;
                 bq.push_back(s);
@@ -535,7 +460,7 @@ bool Grower::join_components() {
             for (int e = 0; e < 3 && hit < 0; ++e) {
                 const std::int64_t u = nb(t, e);
                 if (u < 0 || from[static_cast<std::size_t>(u)] != -2) continue;
-                if (in_[static_cast<std::size_t>(u)]) {
+                if (in(u)) {
                     if (comp[static_cast<std::size_t>(u)] != 0) {
                         hit = u;
                         hit_from = t;
@@ -547,63 +472,40 @@ bool Grower::join_components() {
             }
         }
         if (hit < 0)
-            throw GeometryError(std::string(kFn) + ": the region's parts lie in different "
+            throw GeometryError(fn_ + ": the region's parts lie in different "
                                 "connected pieces of the mesh; the removed set cannot be one disk");
-        for (std::int64_t t = hit_from; t >= 0 && !in_[static_cast<std::size_t>(t)]; t = from[static_cast<std::size_t>(t)])
-            add(t);
-        changed_ = true;
+        for (std::int64_t t = hit_from; t >= 0 && !in(t); t = from[static_cast<std::size_t>(t)]) S_.add(t);
     }
 }
 
+// The star of v (t0: a triangle at v) in fan order; cyclic tells whether it
+// closes. False if the triangles at v are not one fan (a pinch of the mesh
+// itself).
 bool Grower::star(std::int64_t v, std::int64_t t0, std::vector<std::int64_t>& fan, bool& cyclic) const {
-    const std::size_t deg = topo_.degree[static_cast<std::size_t>(v)];
+    const std::size_t deg = degree_[static_cast<std::size_t>(v)];
     fan.clear();
     cyclic = false;
-    // In triangle t, the edge index of {v, w}, and the third vertex.
-    auto edge_to = [&](std::int64_t t, std::int64_t w) {
-        for (int k = 0; k < 3; ++k) {
-            const std::int64_t x = vtx(t, k), y = vtx(t, (k + 1) % 3);
-            if ((x == v && y == w) || (x == w && y == v)) return k;
-        }
-        return -1;
-    };
-    auto other = [&](std::int64_t t, std::int64_t w) {  // vertex of t that is neither v nor w
-        for (int k = 0; k < 3; ++k)
-            if (vtx(t, k) != v && vtx(t, k) != w) return vtx(t, k);
-        return std::int64_t{-1};
-    };
-    std::int64_t w0 = -1;
-    for (int k = 0; k < 3; ++k)
-        if (vtx(t0, k) != v) {
-            w0 = vtx(t0, k);
-            break;
-        }
-    // Walk from t0 across {v, w0}'s opposite side to one end (or around).
-    // Step: in t, leave across the edge {v, x} where x != the vertex we came over.
-    auto walk = [&](std::int64_t t, std::int64_t came, std::vector<std::int64_t>& out) {
-        // returns true if the walk came back to t0
-        for (;;) {
-            const std::int64_t x = other(t, came);
-            const int k = edge_to(t, x);
-            const std::int64_t u = nb(t, k);
-            if (u < 0) return false;
-            if (u == t0) return true;
-            out.push_back(u);
-            if (out.size() > deg) return false;
-            came = x;
-            t = u;
-        }
-    };
+    // w0: the first corner of t0 that is not v; the edges of t0 at v are
+    // {v, w0} and {v, x0}.
+    int cv = 0;
+    while (cv < 3 && vtx(t0, cv) != v) ++cv;
+    int cw0 = 0;
+    while (vtx(t0, cw0) == v) ++cw0;
+    const int s_w0 = (cw0 == (cv + 1) % 3) ? cv : cw0;        // slot of edge {v, w0}
+    const int s_x0 = s_w0 == cv ? (cv + 2) % 3 : cv;          // slot of edge {v, x0}
     std::vector<std::int64_t> fwd, bwd;
-    // Forward: leave t0 across {v, other(t0, w0)}.
-    cyclic = walk(t0, w0, fwd);
+    auto push = [](std::vector<std::int64_t>& out) { return [&out](std::int64_t u) { out.push_back(u); }; };
+    // Forward: leave t0 across {v, x0}; more triangles than v's degree means
+    // the walk does not come back (not one fan).
+    const int end = walk_fan(v, t0, s_x0, deg + 1, push(fwd));
+    cyclic = end == 1;
+    if (end == 2) return false;
     if (cyclic) {
         fan.push_back(t0);
         fan.insert(fan.end(), fwd.begin(), fwd.end());
     } else {
         // Backward: leave t0 across {v, w0}.
-        const std::int64_t x0 = other(t0, w0);
-        walk(t0, x0, bwd);
+        if (walk_fan(v, t0, s_w0, deg + 1, push(bwd)) == 2) return false;
         fan.assign(bwd.rbegin(), bwd.rend());
         fan.push_back(t0);
         fan.insert(fan.end(), fwd.begin(), fwd.end());
@@ -613,14 +515,14 @@ bool Grower::star(std::int64_t v, std::int64_t t0, std::vector<std::int64_t>& fa
 
 // Around each vertex on S's boundary, S and the kept triangles must each be
 // at most one fan; the smaller gaps are absorbed into S.
-bool Grower::fix_pinches() {
-    changed_ = false;
+bool Grower::keep_largest_kept_fans() {
+    const std::size_t before = S_.size();
     // (vertex, a triangle of S at it) for the vertices of S's boundary edges.
     std::vector<std::pair<std::int64_t, std::int64_t>> verts;
-    for (std::int64_t t : members_)
+    for (std::int64_t t : S_.members())
         for (int e = 0; e < 3; ++e) {
             const std::int64_t u = nb(t, e);
-            if (u >= 0 && in_[static_cast<std::size_t>(u)]) continue;
+            if (u >= 0 && in(u)) continue;
             verts.push_back({vtx(t, e), t});
             verts.push_back({vtx(t, (e + 1) % 3), t});
         }
@@ -633,7 +535,7 @@ bool Grower::fix_pinches() {
     for (const auto& [v, t0] : verts) {
         bool cyclic;
         if (!star(v, t0, fan, cyclic))
-            throw GeometryError(std::string(kFn) + ": grow_to_disk needs a manifold mesh, but vertex " +
+            throw GeometryError(fn_ + ": grow_to_disk needs a manifold mesh, but vertex " +
                                 std::to_string(v) + " is a pinch of the mesh itself (its triangles form "
                                 "more than one fan)");
         const std::size_t d = fan.size();
@@ -647,13 +549,12 @@ bool Grower::fix_pinches() {
         if (cyclic) {
             // Rotate so that a run starts at position 0.
             std::size_t i = 0;
-            while (i < d && in_[static_cast<std::size_t>(fan[i])] == in_[static_cast<std::size_t>(fan[(i + d - 1) % d])]) ++i;
+            while (i < d && in(fan[i]) == in(fan[(i + d - 1) % d])) ++i;
             if (i == d) continue;  // all one kind
             start = i;
         }
         for (std::size_t k = 0; k < d; ++k) {
-            const std::int64_t t = fan[(start + k) % d];
-            const bool inside = in_[static_cast<std::size_t>(t)] != 0;
+            const bool inside = in(fan[(start + k) % d]);
             if (runs.empty() || runs.back().in != inside)
                 runs.push_back({k, 1, inside});
             else
@@ -691,20 +592,50 @@ bool Grower::fix_pinches() {
             }
         }
     }
-    for (std::int64_t t : to_add) add(t);
-    return changed_;
+    for (std::int64_t t : to_add) S_.add(t);
+    return S_.size() != before;
+}
+
+// The stitcher's star of the vertex that half-edge h0 leaves: every
+// triangle around it (frozen ones stay out), walking clockwise from h0 (across
+// the edge arriving at the vertex), then counter-clockwise (across h0's edge).
+void Grower::pull_star(std::int64_t h0) {
+    const std::int64_t v = m_.triangles[h0], t0 = h0 / 3;
+    const int k = static_cast<int>(h0 % 3);
+    // 100000 triangles around one vertex: a guard, never reached by a TIN.
+    constexpr std::size_t kMaxFan = 100000;
+    S_.add(t0);
+    walk_fan(v, t0, (k + 2) % 3, kMaxFan, [&](std::int64_t u) { S_.add(u); });
+    walk_fan(v, t0, k, kMaxFan, [&](std::int64_t u) { S_.add(u); });
+}
+
+// A vertex where S's boundary meets itself pulls in its star.
+bool Grower::pull_pinch_stars() {
+    const Boundary& b = boundary();
+    if (b.pinches.empty()) return false;
+    const std::size_t before = S_.size();
+    const std::vector<std::int64_t> pinches = b.pinches;
+    for (std::int64_t h0 : pinches) pull_star(h0);
+    if (S_.size() == before) {
+        const std::int64_t v = m_.triangles[pinches[0]];
+        char buf[96];
+        std::snprintf(buf, sizeof buf, "(%.10g, %.10g)", pt(v)[0], pt(v)[1]);
+        throw GeometryError(fn_ + ": the removed region meets itself at vertex " + std::to_string(v) + " " +
+                            buf + " and cannot grow there (an earlier fault patch is in the way)");
+    }
+    return true;
 }
 
 long Grower::euler() const {
     // V - E + F of S: E from the half-edges (boundary edges once, interior twice).
-    long F = static_cast<long>(members_.size()), bnd = 0;
+    long F = static_cast<long>(S_.size()), bnd = 0;
     std::vector<std::int64_t> vs;
-    vs.reserve(3 * members_.size());
-    for (std::int64_t t : members_)
+    vs.reserve(3 * S_.size());
+    for (std::int64_t t : S_.members())
         for (int e = 0; e < 3; ++e) {
             vs.push_back(vtx(t, e));
             const std::int64_t u = nb(t, e);
-            if (u < 0 || !in_[static_cast<std::size_t>(u)]) ++bnd;
+            if (u < 0 || !in(u)) ++bnd;
         }
     std::sort(vs.begin(), vs.end());
     const long V = static_cast<long>(std::unique(vs.begin(), vs.end()) - vs.begin());
@@ -716,19 +647,19 @@ long Grower::euler() const {
 // (islands) are absorbed; with allow_mesh_boundary, every kept component but
 // the largest is absorbed. O(m): only run when the local rules are done and
 // S is not yet a disk, or S touches the mesh boundary.
-bool Grower::fill_kept_components() {
-    changed_ = false;
+bool Grower::absorb_kept_islands() {
+    const std::size_t before = S_.size(), m = m_.n_triangles;
     bool touches = false;
-    for (std::int64_t t : members_)
+    for (std::int64_t t : S_.members())
         for (int c = 0; c < 3; ++c)
-            if (topo_.boundary_vertex[static_cast<std::size_t>(vtx(t, c))]) touches = true;
+            if (boundary_vertex_[static_cast<std::size_t>(vtx(t, c))]) touches = true;
     if (!touches && euler() == 1) return false;
-    std::vector<std::int64_t> comp(m_, -1);
+    std::vector<std::int64_t> comp(m, -1);
     std::vector<std::int64_t> size;
     std::vector<char> reaches;
     std::vector<std::int64_t> q;
-    for (std::size_t s = 0; s < m_; ++s) {
-        if (in_[s] || comp[s] >= 0) continue;
+    for (std::size_t s = 0; s < m; ++s) {
+        if (in(static_cast<std::int64_t>(s)) || comp[s] >= 0) continue;
         const auto c = static_cast<std::int64_t>(size.size());
         size.push_back(0);
         reaches.push_back(0);
@@ -744,7 +675,7 @@ bool Grower::fill_kept_components() {
                     reaches.back() = 1;
                     continue;
                 }
-                if (in_[static_cast<std::size_t>(u)] || comp[static_cast<std::size_t>(u)] >= 0) continue;
+                if (in(u) || comp[static_cast<std::size_t>(u)] >= 0) continue;
                 comp[static_cast<std::size_t>(u)] = c;
                 q.push_back(u);
             }
@@ -764,39 +695,143 @@ bool Grower::fill_kept_components() {
                 if (keep == size.size() || size[c] > size[keep]) keep = c;
         for (std::size_t c = 0; c < size.size(); ++c) absorb[c] = c != keep;
     }
-    for (std::size_t t = 0; t < m_; ++t)
-        if (!in_[t] && absorb[static_cast<std::size_t>(comp[t])]) add(static_cast<std::int64_t>(t));
-    return changed_;
+    for (std::size_t t = 0; t < m; ++t)
+        if (!in(static_cast<std::int64_t>(t)) && absorb[static_cast<std::size_t>(comp[t])])
+            S_.add(static_cast<std::int64_t>(t));
+    return S_.size() != before;
 }
 
-void Grower::run() {
-    refresh_members();
-    if (members_.empty()) return;
-    check_mesh_boundary();
-    for (;;) {
-        // Local rules to a fixed point, then the global one.
-        for (;;) {
-            bool local = grow_touching();
-            check_mesh_boundary();
-            local = join_components() || local;
-            local = fix_pinches() || local;
-            check_mesh_boundary();
-            if (!local) break;
+// Inner (clockwise) boundary loops of S: the triangles they enclose join S,
+// frozen ones stay (holes of S). S's boundary has no pinch here (level 1 ran
+// first), so each vertex has one leaving boundary half-edge.
+bool Grower::fill_inner_loops() {
+    const Boundary& b = boundary();
+    const std::size_t before = S_.size();
+    std::vector<std::vector<std::int64_t>> loops;
+    std::vector<double> loop_area;
+    std::unordered_set<std::int64_t> used;
+    for (std::int64_t h0 : b.halfedges) {
+        if (used.count(h0)) continue;
+        std::vector<std::int64_t> loop;
+        std::int64_t h = h0;
+        while (used.insert(h).second) {
+            loop.push_back(h);
+            auto it = b.leaving.find(m_.triangles[next_halfedge(h)]);
+            if (it == b.leaving.end())
+                throw GeometryError(fn_ + ": internal error: the removed region's boundary is open");
+            h = it->second;
         }
-        // Kept components are only inspected once the local rules are done;
-        // absorbing one may create new local work, hence the outer loop.
-        if (!fill_kept_components()) break;
-        check_mesh_boundary();
+        if (h != h0) throw GeometryError(fn_ + ": internal error: the removed region's boundary is not a loop");
+        std::vector<const double*> pts;
+        for (std::int64_t e : loop) pts.push_back(pt(m_.triangles[e]));
+        loop_area.push_back(ring_area2(pts));
+        loops.push_back(std::move(loop));
     }
-    // Verify: one component (join_components ran), no pinch (fix_pinches ran
-    // last without change), Euler characteristic 1.
-    if (members_.size() == m_ && !opt_.allow_mesh_boundary)
-        throw GeometryError(std::string(kFn) + ": the removed set grew to the whole mesh");
+    GrowthHooks& hooks = S_.hooks();
+    for (std::size_t li = 0; li < loops.size(); ++li) {
+        if (loop_area[li] >= 0.0) continue;
+        std::vector<std::int64_t> stack, enclosed;
+        std::unordered_set<std::int64_t> visited;
+        for (std::int64_t h : loops[li]) {
+            const std::int64_t o = m_.twins[h];
+            if (o < 0)
+                throw GeometryError(fn_ + ": internal error: a hole of the removed region "
+                                    "reaches the mesh boundary");
+            if (visited.insert(o / 3).second) stack.push_back(o / 3);
+        }
+        while (!stack.empty()) {
+            const std::int64_t r = stack.back();
+            stack.pop_back();
+            hooks.verify(r);
+            enclosed.push_back(r);
+            for (int k = 0; k < 3; ++k) {
+                const std::int64_t o = m_.twins[3 * r + k];
+                if (o < 0)
+                    throw GeometryError(fn_ + ": internal error: a hole of the removed region is "
+                                        "not enclosed (triangle " + std::to_string(r) +
+                                        " reaches the mesh boundary)");
+                const std::int64_t q = o / 3;
+                if (!in(q) && visited.insert(q).second) stack.push_back(q);
+            }
+        }
+        for (std::int64_t r : enclosed) S_.add(r);
+    }
+    return S_.size() != before;
+}
+
+// Clearance: the star of every boundary vertex of S (off the mesh boundary)
+// that lies closer than the clearance to R's drawn edges joins S.
+bool Grower::pull_clearance() {
+    const Boundary& b = boundary();
+    const std::size_t before = S_.size();
+    const std::vector<std::int64_t> halfedges = b.halfedges;
+    const double c = rules_.clearance;
+    for (std::int64_t h0 : halfedges) {
+        if (m_.twins[h0] < 0) continue;  // mesh boundary (the study-area boundary)
+        if (R_.distance(pt(m_.triangles[h0]), c) >= c) continue;
+        pull_star(h0);
+    }
+    return S_.size() != before;
+}
+
+bool Grower::apply(bool (Grower::*rule)()) {
+    if (!(this->*rule)()) return false;
+    if (!rules_.allow_mesh_boundary) check_mesh_boundary();
+    return true;
+}
+
+int Grower::run() {
+    if (S_.size() == 0) return 0;
+    if (!rules_.allow_mesh_boundary) check_mesh_boundary();
+    int rounds = 0;
+    for (int round = 0;; ++round) {
+        if (rules_.max_rounds > 0 && round >= rules_.max_rounds)
+            throw GeometryError(fn_ + ": the removed region did not become a disk after " +
+                                std::to_string(round) + " growth rounds");
+        rounds = round + 1;
+        const std::size_t before = S_.size();
+        // Level 1: every rule in turn.
+        bool grew = false;
+        if (rules_.grow_touching) grew = apply(&Grower::grow_touching) || grew;
+        if (rules_.join_components) grew = apply(&Grower::join_components) || grew;
+        if (rules_.pinch == PinchRule::keep_largest_kept_fan) grew = apply(&Grower::keep_largest_kept_fans) || grew;
+        if (rules_.pinch == PinchRule::pull_star) grew = apply(&Grower::pull_pinch_stars) || grew;
+        // Level 2, then level 3, only when nothing before them grew S.
+        if (!grew && rules_.holes == HoleRule::absorb_kept_islands) grew = apply(&Grower::absorb_kept_islands);
+        if (!grew && rules_.holes == HoleRule::fill_inner_loops) grew = apply(&Grower::fill_inner_loops);
+        if (!grew && rules_.clearance > 0.0) grew = apply(&Grower::pull_clearance);
+        if (!grew) break;
+        close_groups(before);
+    }
+    if (rules_.verify_disk) verify();
+    return rounds;
+}
+
+void Grower::verify() const {
+    // One component (join_components ran), no pinch (the pinch rule ran last
+    // without change), Euler characteristic 1.
+    if (S_.size() == m_.n_triangles && !rules_.allow_mesh_boundary)
+        throw GeometryError(fn_ + ": the removed set grew to the whole mesh");
     const long chi = euler();
     if (chi != 1)
-        throw GeometryError(std::string(kFn) + ": the removed set cannot be grown into a disk (Euler "
+        throw GeometryError(fn_ + ": the removed set cannot be grown into a disk (Euler "
                             "characteristic " + std::to_string(chi) +
                             "); the region probably surrounds a hole of the mesh");
+}
+
+// ------------------------------------------------------------ overlapping_triangles
+namespace {
+
+void check_mesh(const double* V, std::size_t n, std::size_t stride, const std::int64_t* T,
+                std::size_t m) {
+    if (stride != 2 && stride != 3)
+        throw std::invalid_argument(std::string(kFn) + ": vertices must have 2 or 3 columns");
+    check_coordinates(V, n, stride, 2, kFn, "vertices");
+    for (std::size_t t = 0; t < 3 * m; ++t)
+        if (T[t] < 0 || static_cast<std::uint64_t>(T[t]) >= n)
+            throw std::invalid_argument(std::string(kFn) + ": triangles row " + std::to_string(t / 3) +
+                                        " has vertex index " + std::to_string(T[t]) +
+                                        " out of range [0, " + std::to_string(n) + ")");
 }
 
 std::vector<std::int64_t> run_overlap(const AabbTree* tree, const double* V, std::size_t n,
@@ -807,9 +842,10 @@ std::vector<std::int64_t> run_overlap(const AabbTree* tree, const double* V, std
     if (n_rings > 0 && ring_offsets == nullptr)
         throw std::invalid_argument(std::string(kFn) + ": ring offsets missing");
     const Region R(ring_xy, ring_offsets, n_rings);
+    const bool open = opt.predicate == OverlapPredicate::open_interior;
     std::vector<std::int64_t> out;
-    if (R.empty() || m == 0) return out;
-    const Box2 rb = R.bounds();
+    if ((open ? R.empty() : R.nothing_drawn()) || m == 0) return out;
+    const Box2 rb = open ? R.bounds() : R.drawn_bounds();
     // Stage 1: candidates whose box meets R's box.
     std::vector<std::int64_t> cand;
     if (tree) {
@@ -825,9 +861,7 @@ std::vector<std::int64_t> run_overlap(const AabbTree* tree, const double* V, std
             const double* a = V + stride * static_cast<std::size_t>(T[3 * t]);
             const double* b = V + stride * static_cast<std::size_t>(T[3 * t + 1]);
             const double* c = V + stride * static_cast<std::size_t>(T[3 * t + 2]);
-            const Box2 tb{std::min({a[0], b[0], c[0]}), std::min({a[1], b[1], c[1]}),
-                          std::max({a[0], b[0], c[0]}), std::max({a[1], b[1], c[1]})};
-            if (boxes_meet(tb, rb)) cand.push_back(static_cast<std::int64_t>(t));
+            if (boxes_meet(triangle_box(a, b, c), rb)) cand.push_back(static_cast<std::int64_t>(t));
         }
     }
     // Stage 2: exact tests.
@@ -835,19 +869,32 @@ std::vector<std::int64_t> run_overlap(const AabbTree* tree, const double* V, std
         const double* a = V + stride * static_cast<std::size_t>(T[3 * t]);
         const double* b = V + stride * static_cast<std::size_t>(T[3 * t + 1]);
         const double* c = V + stride * static_cast<std::size_t>(T[3 * t + 2]);
-        const int s = orient2d_sign(a, b, c);
-        if (s == 0) continue;  // no interior
-        if (s < 0) std::swap(b, c);
-        if (R.meets_open_triangle(a, b, c)) out.push_back(t);
+        if (open) {
+            const int s = orient2d_sign(a, b, c);
+            if (s == 0) continue;  // no interior
+            if (s < 0) std::swap(b, c);
+        }
+        if (R.meets(a, b, c, opt.predicate)) out.push_back(t);
     }
     if (!opt.grow_to_disk) return out;
-    std::vector<char> in(m, 0);
-    for (std::int64_t t : out) in[static_cast<std::size_t>(t)] = 1;
-    Grower g(V, stride, T, m, n, R, opt, in);
-    g.run();
-    out.clear();
-    for (std::size_t t = 0; t < m; ++t)
-        if (in[t]) out.push_back(static_cast<std::int64_t>(t));
+    // The paper's growth rules (overlap.hpp) on an adjacency that accepts
+    // triangles of any orientation.
+    const std::vector<std::int64_t> twins =
+        halfedge_twins(T, m, n, EdgeOrientation::any, std::string(kFn) + " (grow_to_disk)");
+    std::vector<std::uint32_t> marks(m, 0);
+    RemovedSet S(marks, 1);
+    for (std::int64_t t : out) S.add(t);
+    GrowthMesh mesh{V, stride, n, T, twins.data(), m};
+    GrowthRules rules;
+    rules.grow_touching = true;
+    rules.join_components = true;
+    rules.pinch = PinchRule::keep_largest_kept_fan;
+    rules.holes = HoleRule::absorb_kept_islands;
+    rules.allow_mesh_boundary = opt.allow_mesh_boundary;
+    rules.verify_disk = true;
+    Grower(mesh, S, R, rules, kFn).run();
+    out = S.members();
+    std::sort(out.begin(), out.end());
     return out;
 }
 

@@ -7,6 +7,9 @@
 //             -> C (first-order tail correction) -> exact.
 //   incircle: A (filter, inline) -> B (exact products of rounded differences)
 //             -> exact on the raw coordinates when a difference was inexact.
+//   orient3d: A (filter, inline) -> B (exact products of rounded differences)
+//             -> C (first-order tail correction) -> exact on the differences
+//             carried as two-term expansions.
 #include <faultmesh/predicates.hpp>
 
 #include <charconv>
@@ -393,6 +396,102 @@ double certify_incircle(double r, const double* pa, const double* pb, const doub
     return incircle_exact_integer(pa, pb, pc, pd);
 }
 
+// ---- orient3d (kept in its own block) -------------------------------------
+constexpr double kO3dErrBoundB = (3.0 + 28.0 * kEpsilon) * kEpsilon;
+constexpr double kO3dErrBoundC = (26.0 + 288.0 * kEpsilon) * kEpsilon * kEpsilon;
+
+// a - b exactly, as an expansion of one or two components; returns the length.
+inline int difference_expansion(double a, double b, double* h) {
+    double x, y;
+    two_diff(a, b, x, y);
+    if (y == 0.0) {
+        h[0] = x;
+        return 1;
+    }
+    h[0] = y;
+    h[1] = x;
+    return 2;
+}
+
+// h = e * f for an expansion e of at most 16 components and f of one or two
+// (h holds up to 4 * elen components); returns the length of h.
+int product_by_short(int elen, const double* e, int flen, const double* f, double* h) {
+    double t0[32], t1[32];
+    const int l0 = scale_expansion(elen, e, f[0], t0);
+    if (flen == 1) {
+        for (int i = 0; i < l0; ++i) h[i] = t0[i];
+        return l0;
+    }
+    const int l1 = scale_expansion(elen, e, f[1], t1);
+    return expansion_sum(l0, t0, l1, t1, h);
+}
+
+// p * q - r * s for expansions of one or two components (up to 16 out).
+int two_by_two_minor(int pl, const double* p, int ql, const double* q, int rl, const double* r, int sl,
+                     const double* s, double* h) {
+    double pq[8], rs[8];
+    const int a = product_by_short(pl, p, ql, q, pq);
+    const int b = product_by_short(rl, r, sl, s, rs);
+    for (int i = 0; i < b; ++i) rs[i] = -rs[i];
+    return expansion_sum(a, pq, b, rs, h);
+}
+
+// The exact orient3d determinant: every coordinate difference is carried
+// exactly (two components), so no rounding enters anywhere.
+double orient3d_exact(const double* pa, const double* pb, const double* pc, const double* pd) {
+    double adx[2], bdx[2], cdx[2], ady[2], bdy[2], cdy[2], adz[2], bdz[2], cdz[2];
+    const int adxl = difference_expansion(pa[0], pd[0], adx);
+    const int bdxl = difference_expansion(pb[0], pd[0], bdx);
+    const int cdxl = difference_expansion(pc[0], pd[0], cdx);
+    const int adyl = difference_expansion(pa[1], pd[1], ady);
+    const int bdyl = difference_expansion(pb[1], pd[1], bdy);
+    const int cdyl = difference_expansion(pc[1], pd[1], cdy);
+    const int adzl = difference_expansion(pa[2], pd[2], adz);
+    const int bdzl = difference_expansion(pb[2], pd[2], bdz);
+    const int cdzl = difference_expansion(pc[2], pd[2], cdz);
+
+    double bc[16], ca[16], ab[16];
+    const int bcl = two_by_two_minor(bdxl, bdx, cdyl, cdy, cdxl, cdx, bdyl, bdy, bc);
+    const int cal = two_by_two_minor(cdxl, cdx, adyl, ady, adxl, adx, cdyl, cdy, ca);
+    const int abl = two_by_two_minor(adxl, adx, bdyl, bdy, bdxl, bdx, adyl, ady, ab);
+    double adet[64], bdet[64], cdet[64];
+    const int al = product_by_short(bcl, bc, adzl, adz, adet);
+    const int bl = product_by_short(cal, ca, bdzl, bdz, bdet);
+    const int cl = product_by_short(abl, ab, cdzl, cdz, cdet);
+    double abdet[128], fin[192];
+    const int abdl = expansion_sum(al, adet, bl, bdet, abdet);
+    const int n = expansion_sum(abdl, abdet, cl, cdet, fin);
+    return fin[n - 1];
+}
+
+// orient3d on the integers X = x * 2^1074 (see the exact-integer block above).
+double orient3d_exact_integer(const double* pa, const double* pb, const double* pc, const double* pd) {
+    const BigInt dx = from_double(pd[0]), dy = from_double(pd[1]), dz = from_double(pd[2]);
+    const BigInt adx = sub(from_double(pa[0]), dx), ady = sub(from_double(pa[1]), dy), adz = sub(from_double(pa[2]), dz);
+    const BigInt bdx = sub(from_double(pb[0]), dx), bdy = sub(from_double(pb[1]), dy), bdz = sub(from_double(pb[2]), dz);
+    const BigInt cdx = sub(from_double(pc[0]), dx), cdy = sub(from_double(pc[1]), dy), cdz = sub(from_double(pc[2]), dz);
+    const BigInt det = add(add(mul(adz, sub(mul(bdx, cdy), mul(cdx, bdy))), mul(bdz, sub(mul(cdx, ady), mul(adx, cdy)))),
+                           mul(cdz, sub(mul(adx, bdy), mul(bdx, ady))));
+    return to_double(det, 3 * 1074);
+}
+
+// Degree 3: with every non-zero coordinate >= 2^-280 the differences are
+// multiples of 2^-332 and every non-zero product of three in the exact stages
+// is >= 2^-996 > DBL_MIN = 2^-1022 (no underflow).
+constexpr double kTinyOrient3d = 0x1p-280;
+inline bool has_tiny3(double limit, const double* a, const double* b, const double* c, const double* d) {
+    bool t = false;
+    for (int k = 0; k < 3; ++k)
+        t |= tiny(a[k], limit) | tiny(b[k], limit) | tiny(c[k], limit) | tiny(d[k], limit);
+    return t;
+}
+
+double certify_orient3d(double r, const double* pa, const double* pb, const double* pc, const double* pd) {
+    if (r >= kCertified || -r >= kCertified || !has_tiny3(kTinyOrient3d, pa, pb, pc, pd)) return r;
+    return orient3d_exact_integer(pa, pb, pc, pd);
+}
+// ---------------------------------------------------------------------------
+
 }  // namespace
 
 double orient2d_adapt(const double* pa, const double* pb, const double* pc, double detsum) {
@@ -515,6 +614,79 @@ double incircle_small(const double* pa, const double* pb, const double* pc, cons
     const double errbound = kIccErrBoundA * permanent;
     if (det > errbound || -det > errbound) return det;
     return incircle_adapt(pa, pb, pc, pd, permanent);
+}
+
+double orient3d_adapt(const double* pa, const double* pb, const double* pc, const double* pd,
+                      double permanent) {
+    const double adx = pa[0] - pd[0], bdx = pb[0] - pd[0], cdx = pc[0] - pd[0];
+    const double ady = pa[1] - pd[1], bdy = pb[1] - pd[1], cdy = pc[1] - pd[1];
+    const double adz = pa[2] - pd[2], bdz = pb[2] - pd[2], cdz = pc[2] - pd[2];
+
+    // Stage B: exact products of the rounded differences.
+    double bc[4], ca[4], ab[4];
+    cross_expansion(bdx, cdy, cdx, bdy, bc);
+    cross_expansion(cdx, ady, adx, cdy, ca);
+    cross_expansion(adx, bdy, bdx, ady, ab);
+    double adet[8], bdet[8], cdet[8];
+    const int al = scale_expansion(4, bc, adz, adet);
+    const int bl = scale_expansion(4, ca, bdz, bdet);
+    const int cl = scale_expansion(4, ab, cdz, cdet);
+    double abdet[16], fin[24];
+    const int abl = expansion_sum(al, adet, bl, bdet, abdet);
+    const int fl = expansion_sum(abl, abdet, cl, cdet, fin);
+    double det = estimate(fl, fin);
+    double errbound = kO3dErrBoundB * permanent;
+    if (det >= errbound || -det >= errbound) return det;
+
+    double adxtail, bdxtail, cdxtail, adytail, bdytail, cdytail, adztail, bdztail, cdztail;
+    two_diff_tail(pa[0], pd[0], adx, adxtail);
+    two_diff_tail(pb[0], pd[0], bdx, bdxtail);
+    two_diff_tail(pc[0], pd[0], cdx, cdxtail);
+    two_diff_tail(pa[1], pd[1], ady, adytail);
+    two_diff_tail(pb[1], pd[1], bdy, bdytail);
+    two_diff_tail(pc[1], pd[1], cdy, cdytail);
+    two_diff_tail(pa[2], pd[2], adz, adztail);
+    two_diff_tail(pb[2], pd[2], bdz, bdztail);
+    two_diff_tail(pc[2], pd[2], cdz, cdztail);
+    // Exact differences: `fin` is the exact determinant.
+    if (adxtail == 0.0 && bdxtail == 0.0 && cdxtail == 0.0 && adytail == 0.0 && bdytail == 0.0 &&
+        cdytail == 0.0 && adztail == 0.0 && bdztail == 0.0 && cdztail == 0.0)
+        return certify_orient3d(fin[fl - 1], pa, pb, pc, pd);
+
+    // Stage C: first-order correction by the differences' rounding errors.
+    errbound = kO3dErrBoundC * permanent + kResultErrBound * std::fabs(det);
+    det += (adz * ((bdx * cdytail + cdy * bdxtail) - (bdy * cdxtail + cdx * bdytail)) +
+            adztail * (bdx * cdy - bdy * cdx)) +
+           (bdz * ((cdx * adytail + ady * cdxtail) - (cdy * adxtail + adx * cdytail)) +
+            bdztail * (cdx * ady - cdy * adx)) +
+           (cdz * ((adx * bdytail + bdy * adxtail) - (ady * bdxtail + bdx * adytail)) +
+            cdztail * (adx * bdy - ady * bdx));
+    if (det >= errbound || -det >= errbound) return det;
+    return certify_orient3d(orient3d_exact(pa, pb, pc, pd), pa, pb, pc, pd);
+}
+
+double orient3d_small(const double* pa, const double* pb, const double* pc, const double* pd) {
+    const double adx = pa[0] - pd[0], bdx = pb[0] - pd[0], cdx = pc[0] - pd[0];
+    const double ady = pa[1] - pd[1], bdy = pb[1] - pd[1], cdy = pc[1] - pd[1];
+    const double adz = pa[2] - pd[2], bdz = pb[2] - pd[2], cdz = pc[2] - pd[2];
+    const double bdxcdy = bdx * cdy, cdxbdy = cdx * bdy;
+    const double cdxady = cdx * ady, adxcdy = adx * cdy;
+    const double adxbdy = adx * bdy, bdxady = bdx * ady;
+    const double det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
+    bool finite = true;
+    for (const double* p : {pa, pb, pc, pd}) finite = finite && std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
+    if (!finite) return det;  // NaN / inf in, NaN / inf out
+    if (has_tiny3(kTinyOrient3d, pa, pb, pc, pd)) return orient3d_exact_integer(pa, pb, pc, pd);
+    // No product can have underflowed: the permanent is 0 (then so is the
+    // determinant, every product having a zero factor) or a normal double,
+    // and the adaptive stages are exact.
+    const double permanent = (std::fabs(bdxcdy) + std::fabs(cdxbdy)) * std::fabs(adz) +
+                             (std::fabs(cdxady) + std::fabs(adxcdy)) * std::fabs(bdz) +
+                             (std::fabs(adxbdy) + std::fabs(bdxady)) * std::fabs(cdz);
+    if (permanent == 0.0) return 0.0;
+    const double errbound = kO3dErrBoundA * permanent;
+    if (det > errbound || -det > errbound) return det;
+    return orient3d_adapt(pa, pb, pc, pd, permanent);
 }
 
 int incircle_perturbed_tie(const double* pa, const double* pb, const double* pc, const double* pd) {

@@ -234,6 +234,13 @@ const std::vector<std::int64_t>& Tin::vertex_of_input() const { return impl_->ve
 std::size_t Tin::n_duplicates() const { return impl_->n_dups; }
 std::vector<double> Tin::vertices() const { return impl_->xyz; }
 
+const std::vector<double>& Tin::vertex_array() const { return impl_->xyz; }
+
+void Tin::mesh(std::vector<std::int64_t>* triangles, std::vector<std::int64_t>* halfedges) const {
+    impl_->ensure_compact();
+    detail::export_mesh(impl_->core, impl_->compact, impl_->m, impl_->tin_of_id.data(), triangles, halfedges);
+}
+
 std::vector<std::int64_t> Tin::triangles() const {
     impl_->ensure_compact();
     std::vector<std::int64_t> t;

@@ -3,13 +3,20 @@
 #include <faultmesh/boundary.hpp>
 #include <faultmesh/errors.hpp>
 #include <faultmesh/overlap.hpp>
+#include <faultmesh/segments.hpp>
+#include <faultmesh/stitch.hpp>
+#include <faultmesh/triangle_adjacency.hpp>
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 #include <set>
+#include <string>
 #include <vector>
+
+#include "../src/overlap_growth.hpp"
 
 using faultmesh::OverlapOptions;
 using Idx = std::vector<std::int64_t>;
@@ -249,4 +256,302 @@ TEST(Overlap, BadInput) {
     o.grow_to_disk = true;
     EXPECT_THROW(faultmesh::overlapping_triangles(v, 5, 2, t.data(), 3, ring, off.data(), 1, o),
                  faultmesh::GeometryError);
+}
+
+// ---------------------------------------------------------------------------
+// One region, two predicates (overlap_growth.hpp: Region)
+// ---------------------------------------------------------------------------
+namespace {
+
+faultmesh::detail::Region region_of(const std::vector<std::vector<double>>& rings) {
+    static std::vector<double> xy;  // kept alive: the Region copies what it needs
+    Idx off{0};
+    xy.clear();
+    for (auto& r : rings) {
+        xy.insert(xy.end(), r.begin(), r.end());
+        off.push_back(static_cast<std::int64_t>(xy.size() / 2));
+    }
+    return faultmesh::detail::Region(xy.data(), off.data(), rings.size());
+}
+
+}  // namespace
+
+TEST(OverlapRegion, ClosedContactCountsTouchingAndDrawnPieces) {
+    // A square with a slit (spike) out of its left side: the spike is traced
+    // there and back, so it cancels from the boundary but stays drawn.
+    const auto R = region_of({{0, 0, 4, 0, 4, 4, 0, 4, 0, 2, -3, 2, 0, 2}});
+    const double a[] = {-2, 1.5}, b[] = {-1, 1.5}, c[] = {-1.5, 2.5};  // across the spike
+    EXPECT_TRUE(R.meets_closed_triangle(a, b, c));
+    EXPECT_FALSE(R.meets_open_triangle(a, b, c));
+    const double p[] = {-1.5, 2.2};
+    EXPECT_NEAR(R.distance(p, 10.0), 0.2, 1e-12);
+    // Touching the square at its corner only: contact, no interior overlap.
+    const double d[] = {4, 4}, e[] = {6, 4}, f[] = {5, 6};
+    EXPECT_TRUE(R.meets_closed_triangle(d, e, f));
+    EXPECT_FALSE(R.meets_open_triangle(d, e, f));
+    // Inside: both; far away: neither.
+    const double g[] = {1, 1}, h[] = {2, 1}, i[] = {1, 2};
+    EXPECT_TRUE(R.meets_closed_triangle(g, h, i));
+    EXPECT_TRUE(R.meets_open_triangle(g, h, i));
+    const double j[] = {10, 10}, k[] = {11, 10}, l[] = {10, 11};
+    EXPECT_FALSE(R.meets_closed_triangle(j, k, l));
+    EXPECT_FALSE(R.meets_open_triangle(j, k, l));
+    // A triangle containing the whole region (no contact with its edges).
+    const double m[] = {-10, -10}, n[] = {20, -10}, o[] = {-10, 20};
+    EXPECT_TRUE(R.meets_closed_triangle(m, n, o));
+    EXPECT_TRUE(R.meets_closed_triangle(m, o, n));  // closed contact: any orientation
+    // A degenerate triangle is its edges.
+    const double q0[] = {-1, 1}, q1[] = {1, 1}, q2[] = {3, 1};
+    EXPECT_TRUE(R.meets_closed_triangle(q0, q1, q2));
+}
+
+TEST(OverlapRegion, OnePointRingIsDrawnButBoundsNothing) {
+    const auto R = region_of({{10, 10}});
+    EXPECT_TRUE(R.empty());
+    EXPECT_FALSE(R.nothing_drawn());
+    const double a[] = {9, 9}, b[] = {12, 9}, c[] = {9, 12};
+    EXPECT_TRUE(R.meets_closed_triangle(a, b, c));
+    EXPECT_FALSE(R.meets_open_triangle(a, b, c));
+    const double d[] = {11, 11}, e[] = {12, 11}, f[] = {11, 12};
+    EXPECT_FALSE(R.meets_closed_triangle(d, e, f));
+}
+
+TEST(OverlapRegion, ClosedContactMatchesABruteForceReference) {
+    // Closed triangle meets closed region iff it meets a ring edge or a
+    // vertex of it lies inside (exact on these half-integer coordinates).
+    std::mt19937_64 rng(5);
+    std::uniform_int_distribution<int> u(0, 16);
+    const std::vector<std::vector<double>> rings = {{1, 1, 6, 1, 6, 6, 1, 6}, {2, 2, 3, 4, 5, 2}};
+    const auto R = region_of(rings);
+    auto inside = [&](const double* p) {  // even-odd over both rings, p off every edge
+        bool in = false;
+        for (const auto& r : rings)
+            for (std::size_t i = 0; i < r.size() / 2; ++i) {
+                const double* a = &r[2 * i];
+                const double* b = &r[(2 * i + 2) % r.size()];
+                if ((a[1] > p[1]) != (b[1] > p[1]) &&
+                    p[0] < a[0] + (p[1] - a[1]) * (b[0] - a[0]) / (b[1] - a[1]))
+                    in = !in;
+            }
+        return in;
+    };
+    for (int it = 0; it < 4000; ++it) {
+        double t[6];
+        for (double& x : t) x = 0.5 * u(rng);
+        bool contact = false;
+        for (const auto& r : rings)
+            for (std::size_t i = 0; i < r.size() / 2; ++i)
+                contact = contact || faultmesh::segment_meets_closed_triangle(&r[2 * i], &r[(2 * i + 2) % r.size()],
+                                                                             t, t + 2, t + 4);
+        const bool want = contact || inside(t);
+        EXPECT_EQ(R.meets_closed_triangle(t, t + 2, t + 4), want) << it;
+    }
+}
+
+TEST(OverlapRegion, PredicateOptionOfTheOverlapQuery) {
+    Grid g(10);
+    OverlapOptions closed;
+    closed.predicate = faultmesh::OverlapPredicate::closed_contact;
+    // The aligned square [2,5]x[3,6]: the closed test adds the ring of cells
+    // around it, less the two corner triangles that miss its corners.
+    const Idx got = g.overlap({rect(2, 3, 5, 6)}, closed);
+    Idx want = g.cells(1, 6, 2, 7);
+    want.erase(std::find(want.begin(), want.end(), 2 * (2 * 10 + 5)));      // lower-right of cell (5, 2)
+    want.erase(std::find(want.begin(), want.end(), 2 * (6 * 10 + 1) + 1));  // upper-left of cell (1, 6)
+    EXPECT_EQ(got, want);
+    // It is triangles_touching_region, as the stitcher uses it.
+    const std::vector<double> r = rect(2, 3, 5, 6);
+    const Idx off = {0, 4};
+    EXPECT_EQ(got, faultmesh::triangles_touching_region(g.v.data(), g.nv(), 3, g.t.data(), g.nt(), r.data(),
+                                                        off.data(), 1));
+    // Grown with the paper's rules it is already a disk strictly containing R.
+    closed.grow_to_disk = true;
+    EXPECT_EQ(g.overlap({rect(2, 3, 5, 6)}, closed), got);
+}
+
+// ---------------------------------------------------------------------------
+// One grower, rules as options (overlap_growth.hpp: Grower)
+// ---------------------------------------------------------------------------
+namespace {
+
+using faultmesh::detail::GrowthHooks;
+using faultmesh::detail::GrowthMesh;
+using faultmesh::detail::GrowthRules;
+using faultmesh::detail::Grower;
+using faultmesh::detail::RemovedSet;
+
+struct Growth {
+    Grid g;
+    Idx twins;
+    std::vector<std::uint32_t> marks;
+    faultmesh::detail::Region none;  // rules that need no region
+    explicit Growth(int n) : g(n) {
+        twins = faultmesh::halfedge_twins(g.t.data(), g.nt(), g.nv(), faultmesh::EdgeOrientation::consistent, "test");
+        marks.assign(g.nt(), 0);
+    }
+    GrowthMesh mesh() const { return {g.v.data(), 3, g.nv(), g.t.data(), twins.data(), g.nt()}; }
+    // The stitcher's rules.
+    static GrowthRules stitcher(double clearance = 0.0) {
+        GrowthRules r;
+        r.pinch = faultmesh::detail::PinchRule::pull_star;
+        r.holes = faultmesh::detail::HoleRule::fill_inner_loops;
+        r.allow_mesh_boundary = true;
+        r.clearance = clearance;
+        r.max_rounds = 100;
+        return r;
+    }
+    Idx sorted(const RemovedSet& S) const {
+        Idx m = S.members();
+        std::sort(m.begin(), m.end());
+        return m;
+    }
+    std::int64_t lower(int i, int j) const { return 2 * (j * g.N + i); }  // lower-right triangle of cell (i, j)
+    std::int64_t upper(int i, int j) const { return 2 * (j * g.N + i) + 1; }
+};
+
+struct FrozenSet : GrowthHooks {
+    std::set<std::int64_t> frozen_rows;
+    std::set<std::int64_t> verified;
+    Idx group_rows;
+    void verify(std::int64_t t) override { verified.insert(t); }
+    bool frozen(std::int64_t t) const override { return frozen_rows.count(t) > 0; }
+    std::int64_t group_of(std::int64_t t) const override {
+        return std::find(group_rows.begin(), group_rows.end(), t) != group_rows.end() ? 7 : -1;
+    }
+    const Idx& group(std::int64_t) const override { return group_rows; }
+};
+
+}  // namespace
+
+TEST(OverlapGrower, PinchVertexPullsInItsStar) {
+    Growth f(10);
+    RemovedSet S(f.marks, 1);
+    // Two triangles that share only the vertex (4, 4): D meets itself there.
+    S.add(f.lower(3, 3));
+    S.add(f.upper(4, 4));
+    Grower grow(f.mesh(), S, f.none, Growth::stitcher(), "test");
+    ASSERT_EQ(grow.boundary().pinches.size(), 1u);
+    const int rounds = grow.run();
+    EXPECT_EQ(rounds, 2);  // one round pulls the star, one finds nothing to do
+    expect_disk(f.g, f.sorted(S));
+    // Every triangle at (4, 4) joined (its star: 6 triangles in this grid).
+    const std::int64_t v = f.g.id(4, 4);
+    for (std::size_t t = 0; t < f.g.nt(); ++t)
+        if (f.g.t[3 * t] == v || f.g.t[3 * t + 1] == v || f.g.t[3 * t + 2] == v)
+            EXPECT_TRUE(S.contains(static_cast<std::int64_t>(t))) << t;
+    EXPECT_TRUE(grow.boundary().pinches.empty());
+}
+
+TEST(OverlapGrower, FrozenTrianglesStayOutAndAPinchTheyBlockIsAnError) {
+    Growth f(10);
+    FrozenSet hooks;
+    const std::int64_t v = f.g.id(4, 4);
+    for (std::size_t t = 0; t < f.g.nt(); ++t)
+        if (f.g.t[3 * t] == v || f.g.t[3 * t + 1] == v || f.g.t[3 * t + 2] == v)
+            hooks.frozen_rows.insert(static_cast<std::int64_t>(t));
+    RemovedSet S(f.marks, 1, &hooks);
+    hooks.frozen_rows.erase(f.lower(3, 3));
+    hooks.frozen_rows.erase(f.upper(4, 4));
+    S.add(f.lower(3, 3));
+    S.add(f.upper(4, 4));
+    Grower grow(f.mesh(), S, f.none, Growth::stitcher(), "test");
+    try {
+        grow.run();
+        FAIL() << "expected GeometryError";
+    } catch (const faultmesh::GeometryError& e) {
+        EXPECT_NE(std::string(e.what()).find("test: the removed region meets itself at vertex " + std::to_string(v)),
+                  std::string::npos) << e.what();
+    }
+    // Every triangle the walk looked at was verified first.
+    for (std::int64_t t : hooks.frozen_rows) EXPECT_TRUE(hooks.verified.count(t)) << t;
+}
+
+TEST(OverlapGrower, InnerLoopsAreFilledExceptFrozenTriangles) {
+    for (bool freeze : {false, true}) {
+        Growth f(12);
+        FrozenSet hooks;
+        const Idx hole = f.g.cells(5, 7, 5, 7);
+        if (freeze) hooks.frozen_rows.insert(hole.begin(), hole.end());
+        RemovedSet S(f.marks, 1, &hooks);
+        const Idx block = f.g.cells(4, 8, 4, 8);
+        for (std::int64_t t : block)
+            if (!std::binary_search(hole.begin(), hole.end(), t)) S.add(t);
+        Grower grow(f.mesh(), S, f.none, Growth::stitcher(), "test");
+        grow.run();
+        if (!freeze) {
+            EXPECT_EQ(f.sorted(S), block);  // the hole was filled
+            expect_disk(f.g, f.sorted(S));
+        } else {
+            // An earlier patch stays a hole of the removed region: an annulus.
+            EXPECT_EQ(S.size(), block.size() - hole.size());
+            for (std::int64_t t : hole) EXPECT_FALSE(S.contains(t));
+        }
+    }
+}
+
+TEST(OverlapGrower, AtomicGroupsJoinWholeAndAreRecorded) {
+    Growth f(10);
+    FrozenSet hooks;
+    hooks.group_rows = {f.lower(1, 1), f.upper(1, 1), f.lower(2, 1)};
+    RemovedSet S(f.marks, 1, &hooks);
+    S.add(f.upper(1, 1));
+    S.add(f.lower(5, 5));
+    Grower grow(f.mesh(), S, f.none, Growth::stitcher(), "test");
+    grow.close_groups(0);
+    EXPECT_EQ(grow.merged_groups(), (Idx{7}));
+    for (std::int64_t t : hooks.group_rows) EXPECT_TRUE(S.contains(t));
+    grow.close_groups(0);  // a group joins once
+    EXPECT_EQ(grow.merged_groups(), (Idx{7}));
+    EXPECT_EQ(S.size(), 4u);
+}
+
+TEST(OverlapGrower, ClearanceKeepsTheBoundaryAwayFromTheRegion) {
+    Growth f(16);
+    const auto R = region_of({{7.5, 7.5, 8.4, 7.5, 8.4, 8.4, 7.5, 8.4}});
+    auto grow_with = [&](double clearance) {
+        std::vector<std::uint32_t> marks(f.g.nt(), 0);
+        RemovedSet S(marks, 1);
+        for (std::size_t t = 0; t < f.g.nt(); ++t) {
+            const std::int64_t* r = &f.g.t[3 * t];
+            if (R.meets_closed_triangle(&f.g.v[3 * r[0]], &f.g.v[3 * r[1]], &f.g.v[3 * r[2]]))
+                S.add(static_cast<std::int64_t>(t));
+        }
+        Grower grow(f.mesh(), S, R, Growth::stitcher(clearance), "test");
+        grow.run();
+        for (std::int64_t h : grow.boundary().halfedges)
+            EXPECT_GE(R.distance(&f.g.v[3 * f.g.t[h]], clearance), clearance);
+        expect_disk(f.g, f.sorted(S));
+        return f.sorted(S);
+    };
+    const Idx plain = grow_with(0.0), wide = grow_with(2.0);
+    EXPECT_TRUE(std::includes(wide.begin(), wide.end(), plain.begin(), plain.end()));
+    EXPECT_GT(wide.size(), plain.size());
+}
+
+TEST(OverlapGrower, MeshBoundaryIsAnErrorUnlessAllowed) {
+    Growth f(8);
+    std::vector<std::uint32_t> marks(f.g.nt(), 0);
+    RemovedSet S(marks, 1);
+    S.add(f.lower(0, 3));
+    GrowthRules paper;
+    paper.join_components = true;
+    try {
+        Grower(f.mesh(), S, f.none, paper, "test").run();
+        FAIL() << "expected GeometryError";
+    } catch (const faultmesh::GeometryError& e) {
+        EXPECT_NE(std::string(e.what()).find("test: the removed set reaches the mesh boundary at vertex"),
+                  std::string::npos);
+    }
+    paper.allow_mesh_boundary = true;
+    EXPECT_EQ(Grower(f.mesh(), S, f.none, paper, "test").run(), 1);
+}
+
+TEST(OverlapGrower, RoundLimit) {
+    Growth f(10);
+    RemovedSet S(f.marks, 1);
+    S.add(f.lower(3, 3));
+    S.add(f.upper(4, 4));
+    GrowthRules r = Growth::stitcher();
+    r.max_rounds = 1;
+    EXPECT_THROW(Grower(f.mesh(), S, f.none, r, "test").run(), faultmesh::GeometryError);
 }

@@ -16,6 +16,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "../src/stitch_steps.hpp"
+
 namespace {
 
 using faultmesh::GeometryError;
@@ -247,4 +249,254 @@ TEST(Stitch, TrianglesTouchingRegion) {
     const std::int64_t t[] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11};
     auto got = faultmesh::triangles_touching_region(v, 12, 2, t, 4, ring, off, 1);
     EXPECT_EQ(got, (std::vector<std::int64_t>{0, 2, 3}));
+}
+
+// ---------------------------------------------------------------------------
+// The steps of one stitch, each on its own (stitch_steps.hpp)
+// ---------------------------------------------------------------------------
+namespace {
+
+namespace fd = faultmesh::detail;
+
+struct Steps {
+    Mesh L;
+    LayerStitcher st;
+    fd::StitcherState& s;
+    explicit Steps(Mesh layer, faultmesh::StitchOptions opt = {})
+        : L(std::move(layer)),
+          st(L.v.data(), L.v.size() / 3, L.t.data(), L.t.size() / 3, kSquare.data(), 4, nullptr, "L", opt),
+          s(fd::state_of(st)) {}
+    std::unique_ptr<fd::StitchJob> job(const Mesh& P, const std::string& name = "P") {
+        return std::make_unique<fd::StitchJob>(s, P.v.data(), P.v.size() / 3, P.t, name);
+    }
+    // Runs the steps up to and including `last` (1 outline ... 6 link).
+    std::unique_ptr<fd::StitchJob> run(const Mesh& P, int last, const std::string& name = "P") {
+        auto j = job(P, name);
+        if (last >= 1) fd::outline_patch(s, *j);
+        if (last >= 2) fd::find_overlap(s, *j);
+        if (last >= 3) fd::grow_removed_set(s, *j);
+        if (last >= 4) fd::build_gap_polygons(s, *j);
+        if (last >= 5) fd::clip_gap_polygons(s, *j);
+        if (last >= 6) fd::link_new_triangles(s, *j);
+        return j;
+    }
+    std::vector<std::int64_t> members(const fd::StitchJob& j) const {
+        std::vector<std::int64_t> m = j.removed->members();
+        std::sort(m.begin(), m.end());
+        return m;
+    }
+};
+
+Mesh boundary_patch() {
+    auto tr = [](double x) {
+        std::vector<double> p;
+        const double ys[] = {30, 35, 38, 45}, zs[] = {0, 0, -1, -1};
+        for (int i = 0; i < 4; ++i) p.insert(p.end(), {x, ys[i], zs[i]});
+        return p;
+    };
+    return loft_patch({{75.0, 37.0, 0.0}, tr(85.0), tr(100.0)});
+}
+
+Mesh reversed(Mesh m) {
+    for (std::size_t r = 0; r < m.t.size() / 3; ++r) std::swap(m.t[3 * r + 1], m.t[3 * r + 2]);
+    return m;
+}
+
+double patch_area2(const fd::StitchJob& j) {
+    double a = 0.0;
+    for (std::size_t r = 0; r < j.npt; ++r)
+        a += faultmesh::orient2d(j.P(j.ptri[3 * r]), j.P(j.ptri[3 * r + 1]), j.P(j.ptri[3 * r + 2]));
+    return a;
+}
+
+// The rows form a disk (one clean boundary loop) in the layer's current triangles.
+void expect_rows_disk(const fd::StitcherState& s, const std::vector<std::int64_t>& rows) {
+    std::vector<std::int64_t> sub;
+    for (std::int64_t r : rows) sub.insert(sub.end(), s.tri.begin() + 3 * r, s.tri.begin() + 3 * r + 3);
+    auto c = faultmesh::boundary_contours(sub.data(), rows.size(), s.xyz.size() / 3);
+    EXPECT_TRUE(c.clean());
+    EXPECT_EQ(c.loops.size(), 1u);
+}
+
+}  // namespace
+
+TEST(StitchSteps, OutlineOrientsThePatchAndFindsItsLoops) {
+    Steps f(grid_tin());
+    for (bool flip : {false, true}) {
+        const Mesh P = flip ? reversed(reverse_patch()) : reverse_patch();
+        auto j = f.run(P, 1);
+        EXPECT_GT(patch_area2(*j), 0.0);
+        EXPECT_EQ(j->report.patch_flipped, patch_area2(*f.job(P)) < 0.0);
+        // One outline loop, away from the study boundary, and R is the patch's footprint.
+        auto c = faultmesh::boundary_contours(j->ptri.data(), j->npt, j->npv);
+        ASSERT_EQ(c.loops.size(), 1u);
+        EXPECT_EQ(j->outline.size(), c.loops[0].size());
+        for (const auto& e : j->outline) EXPECT_FALSE(e.study);
+        // The patch spans x in [30, 70] between the traces at y = 40 and 60.
+        const double inside[] = {46.0, 50.0}, i2[] = {46.5, 50.0}, i3[] = {46.0, 50.5};
+        EXPECT_DOUBLE_EQ(j->region.distance(inside, 100.0), 16.0);
+        EXPECT_TRUE(j->region.meets_open_triangle(inside, i2, i3));
+        const double out[] = {10.0, 50.0}, o2[] = {10.5, 50.0}, o3[] = {10.0, 50.5};
+        EXPECT_FALSE(j->region.meets_closed_triangle(out, o2, o3));
+    }
+}
+
+TEST(StitchSteps, OutlineClassifiesEdgesOnTheStudyBoundary) {
+    Steps f(grid_tin());
+    auto j = f.run(boundary_patch(), 1);
+    int on_side = 0;
+    for (const auto& e : j->outline) {
+        if (!e.study) continue;
+        ++on_side;
+        EXPECT_EQ(e.side, 1u);  // x = 100: the square's second side (CCW from (0, 0))
+        EXPECT_EQ(j->P(e.a)[0], 100.0);
+        EXPECT_EQ(e.sa, j->P(e.a)[1]);  // arc length along the side from (100, 0)
+        EXPECT_EQ(e.sb, j->P(e.b)[1]);
+    }
+    EXPECT_EQ(on_side, 3);
+    // Outside the study area: an error naming the vertex.
+    Mesh far = reverse_patch();
+    for (std::size_t i = 0; i < far.v.size(); i += 3) far.v[i] += 80.0;
+    EXPECT_THROW(f.run(far, 1), GeometryError);
+}
+
+TEST(StitchSteps, OverlapIsTheClosedContactSet) {
+    Mesh L = grid_tin();
+    Steps f(L);
+    const Mesh P = reverse_patch();
+    auto j = f.run(P, 2);
+    std::vector<double> ring;
+    for (const auto& e : j->outline) ring.insert(ring.end(), {j->P(e.a)[0], j->P(e.a)[1]});
+    const std::vector<std::int64_t> off = {0, static_cast<std::int64_t>(ring.size() / 2)};
+    const auto want = faultmesh::triangles_touching_region(L.v.data(), L.v.size() / 3, 3, L.t.data(),
+                                                           L.t.size() / 3, ring.data(), off.data(), 1);
+    EXPECT_EQ(f.members(*j), want);
+    EXPECT_GE(j->report.n_candidates, static_cast<std::int64_t>(want.size()));
+    EXPECT_LT(j->report.n_candidates, static_cast<std::int64_t>(L.t.size() / 3));
+    // An earlier patch touching R is an error of this step.
+    f.st.stitch(P.v.data(), P.v.size() / 3, P.t.data(), P.t.size() / 3, "A");
+    EXPECT_THROW(f.run(reverse_patch(35.0, 45.0, 65.0), 2, "B"), GeometryError);
+}
+
+TEST(StitchSteps, GrowthMakesADiskAroundTheOutline) {
+    for (double clearance : {0.0, 8.0}) {
+        faultmesh::StitchOptions opt;
+        opt.clearance = clearance;
+        Steps f(grid_tin(), opt);
+        auto seeds = f.members(*f.run(reverse_patch(), 2));
+        auto j = f.run(reverse_patch(), 3);
+        const auto& D = j->report.removed;
+        EXPECT_TRUE(std::is_sorted(D.begin(), D.end()));
+        EXPECT_TRUE(std::includes(D.begin(), D.end(), seeds.begin(), seeds.end()));
+        EXPECT_GE(j->report.grow_rounds, 1);
+        expect_rows_disk(f.s, D);
+        // The kept boundary: every half-edge has D on its left, the kept row on its right.
+        for (std::int64_t h : j->boundary) {
+            EXPECT_TRUE(j->removed->contains(h / 3));
+            const std::int64_t o = f.s.adj[static_cast<std::size_t>(h)];
+            if (o >= 0) EXPECT_FALSE(j->removed->contains(o / 3));
+        }
+        if (clearance > 0.0) EXPECT_GT(D.size(), seeds.size());
+    }
+}
+
+TEST(StitchSteps, GrowthSwallowsAnEarlierGapWholeAndKeepsItsPatch) {
+    Steps f(grid_tin());
+    const Mesh A = reverse_patch();
+    const auto ra = f.st.stitch(A.v.data(), A.v.size() / 3, A.t.data(), A.t.size() / 3, "A");
+    ASSERT_EQ(ra.gaps.size(), 1u);
+    // A narrow patch just west of A: its removed region reaches A's gap.
+    const double xs[] = {0, 4, 6, 3, 5, 10.5};
+    auto tr = [&](double y) {
+        std::vector<double> p;
+        for (double x : xs) p.insert(p.end(), {18.0 + x, y, 0.0});
+        return p;
+    };
+    const Mesh B = loft_patch({{23.0, 35.0, 0.3}, tr(42.0), tr(58.0), {23.0, 65.0, 0.3}});
+    auto j = f.run(B, 3, "B");
+    EXPECT_EQ(j->report.merged_gaps, (std::vector<std::int64_t>{ra.gaps[0].id}));
+    for (std::int64_t r : ra.gaps[0].triangles) EXPECT_TRUE(j->removed->contains(r));
+    for (std::size_t r = 0; r < A.t.size() / 3; ++r)
+        EXPECT_FALSE(j->removed->contains(ra.patch_triangle_offset + static_cast<std::int64_t>(r)));
+    // The merged gap has both patches as holes.
+    fd::build_gap_polygons(f.s, *j);
+    ASSERT_EQ(j->outers.size(), 1u);
+    EXPECT_EQ(j->holes_of[j->outers[0]].size(), 2u);
+}
+
+TEST(StitchSteps, ContoursGiveOuterRingsWithTheirHoles) {
+    {
+        Steps f(grid_tin());
+        auto j = f.run(reverse_patch(), 4);
+        ASSERT_EQ(j->rings.size(), 2u);
+        ASSERT_EQ(j->outers.size(), 1u);
+        const std::size_t o = j->outers[0];
+        ASSERT_EQ(j->holes_of[o].size(), 1u);
+        EXPECT_GT(j->ring_area[o], 0.0);
+        EXPECT_LT(j->ring_area[j->holes_of[o][0]], 0.0);
+        // The rings are D's boundary and R's outline (reversed), nothing else.
+        EXPECT_EQ(j->gap_edges.size(), j->boundary.size() + j->outline.size());
+        for (const auto& e : j->gap_edges)
+            EXPECT_EQ(e.tag >= 0, e.a >= j->n_layer_vertices);  // outline edges are tagged with the patch
+    }
+    {
+        Steps f(grid_tin());
+        auto j = f.run(boundary_patch(), 4);
+        ASSERT_EQ(j->outers.size(), 1u);
+        EXPECT_TRUE(j->holes_of[j->outers[0]].empty());
+        EXPECT_FALSE(j->study_keys.empty());  // closed along the study-area boundary
+    }
+}
+
+TEST(StitchSteps, ClippingGivesNPlus2HMinus2CounterClockwiseTriangles) {
+    Steps f(grid_tin());
+    const Mesh P = reverse_patch();
+    auto j = f.run(P, 5);
+    ASSERT_EQ(j->report.gaps.size(), 1u);
+    const auto& g = j->report.gaps[0];
+    EXPECT_EQ(static_cast<std::int64_t>(g.triangles.size()), g.n_vertices + 2 * g.n_holes - 2);
+    EXPECT_EQ(g.patches, (std::vector<std::int64_t>{0}));
+    EXPECT_EQ(j->new_kind.size(), P.t.size() / 3 + g.triangles.size());
+    for (std::size_t r = 0; r < j->new_kind.size(); ++r) {
+        const bool patch = r < P.t.size() / 3;
+        EXPECT_EQ(j->new_kind[r], static_cast<std::int8_t>(patch ? TriangleKind::patch : TriangleKind::gap));
+        if (!patch)
+            EXPECT_GT(faultmesh::orient2d(j->X(j->new_tri[3 * r]), j->X(j->new_tri[3 * r + 1]),
+                                          j->X(j->new_tri[3 * r + 2])), 0.0);
+    }
+}
+
+TEST(StitchSteps, LinkPairsEveryNewEdgeAndCommitIsTheOnlyChange) {
+    for (bool at_boundary : {false, true}) {
+        Steps f(grid_tin());
+        const Mesh P = at_boundary ? boundary_patch() : reverse_patch();
+        const std::size_t rows = f.s.n_tri(), live = f.s.n_live, nv = f.s.xyz.size() / 3;
+        auto j = f.run(P, 6);
+        // Nothing in the layer changed so far.
+        EXPECT_EQ(f.s.n_tri(), rows);
+        EXPECT_EQ(f.s.n_live, live);
+        EXPECT_EQ(f.s.xyz.size() / 3, nv);
+        EXPECT_TRUE(f.s.patch_names.empty());
+        const std::int64_t base = 3 * j->row0;
+        std::size_t open = 0;
+        for (std::size_t h = 0; h < j->new_adj.size(); ++h) {
+            const std::int64_t o = j->new_adj[h];
+            if (o < 0) {
+                ++open;  // on the study-area boundary
+                continue;
+            }
+            if (o >= base) EXPECT_EQ(j->new_adj[static_cast<std::size_t>(o - base)], base + static_cast<std::int64_t>(h));
+        }
+        EXPECT_EQ(open > 0, at_boundary);
+        EXPECT_EQ(j->relink.size(), j->dside.size());
+        const auto rep = fd::commit(f.s, *j);
+        EXPECT_EQ(f.s.n_live, live - rep.removed.size() + j->new_kind.size());
+        EXPECT_EQ(f.s.patch_names, (std::vector<std::string>{"P"}));
+        // The relinked kept half-edges point at the new rows and back.
+        for (const auto& rl : j->relink) {
+            EXPECT_EQ(f.s.adj[static_cast<std::size_t>(rl.first)], rl.second);
+            EXPECT_EQ(f.s.adj[static_cast<std::size_t>(rl.second)], rl.first);
+        }
+        expect_disk(f.st.mesh());
+    }
 }

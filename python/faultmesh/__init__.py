@@ -14,7 +14,7 @@ from pathlib import Path as _Path
 if _os.environ.get("FAULTMESH_DEV_BUILD"):
     __path__.insert(0, _os.environ["FAULTMESH_DEV_BUILD"])  # type: ignore[name-defined]
 
-from ._core import *  # noqa: E402,F401,F403  (C++ kernels, see DESIGN.md "Python API")
+from ._core import *  # noqa: E402,F401,F403  (C++ kernels, docs/design.md §7)
 from ._core import GeometryError, __version__  # noqa: E402,F401
 
 
@@ -37,8 +37,10 @@ def include_dir() -> str:
     return str(_Path(__file__).resolve().parent / "include")
 
 
-from .dataset import Dataset, DatasetError, load_dataset  # noqa: E402
-from . import datasets  # noqa: E402
-from .io import load_model  # noqa: E402
-from .model import Model, Surface, Gap  # noqa: E402
-from .build import build_model  # noqa: E402
+from .dataset import Dataset, DatasetError, load_dataset  # noqa: E402,F401  (re-exported)
+from . import datasets  # noqa: E402,F401  (re-exported)
+from .io import load_model  # noqa: E402,F401  (re-exported)
+from .formats.pv import from_pyvista  # noqa: E402,F401  (needs faultmesh[viz] when called)
+from .model import Model, Surface, Gap  # noqa: E402,F401  (re-exported)
+from .build import build_model  # noqa: E402,F401  (re-exported)
+from .ensemble import ensemble, Perturbation  # noqa: E402,F401  (Dask is imported only when used)

@@ -6,7 +6,6 @@ Every sub-command reports errors as one line on stderr and exits with status 2
 from __future__ import annotations
 
 import argparse
-import inspect
 import sys
 import time
 from pathlib import Path
@@ -25,12 +24,17 @@ examples:
   faultmesh build paper_like -o out --loft shortest_diagonal
   faultmesh section out/site.3dt --origin 4500 3200 --azimuth 90 -o cut.csv --png cut.png
   faultmesh quality out/site.3dt --json quality.json
-  faultmesh convert out/site.3dt site.ts     (GOCAD TSurf; also .vtu .vtk .obj .ply)
+  faultmesh convert out/site.3dt site.ml     (GOCAD Model3d; also .ts .vtu .vtk .vtp
+                                             .obj .ply .omf .epc .geoh5)
   faultmesh plot out/site.3dt --png model.png
+  faultmesh ensemble paper_like -n 200 -o ens --sigma-z 2 --sigma-position 15
+                                             200 perturbed realizations on Dask: mean,
+                                             std, P10/P50/P90 maps and section fans
 
-Datasets: a format-v1 JSON file (docs/dataset.md) or a built-in name
+Datasets: a JSON file of format v1 or v2 (docs/dataset.md) or a built-in name
 (paper_like, synthetic). Models: .3dt (faultmesh's own, keeps everything),
-.ts, .vtu, .vtk, .obj, .ply, or a folder written by 'build'.
+.ts, .ml, .vtu, .vtp, .vtk, .obj, .ply, .omf, .epc (RESQML), .geoh5, read also
+.pl and .stl, or a folder written by 'build' (docs/formats.md).
 Azimuths are degrees clockwise from north (0 = north, 90 = east).
 """
 
@@ -99,24 +103,53 @@ def _builtin_datasets() -> Dict[str, Callable]:
     return out
 
 
-def _load_dataset(spec: str):
-    """A dataset file, or a built-in name (``paper_like``, ``synthetic``)."""
-    p = Path(spec)
+def _load_dataset(spec: str, args=None):
+    """A dataset file or folder, or a built-in name (``paper_like``, ``synthetic``).
+    ``--snap`` and ``--allow-outside-paths`` of ``args`` go to load_dataset."""
+    import os
+
     builtins = _builtin_datasets()
-    if not p.exists() and spec in builtins:
+    # lexists: a symlink loop or a dangling link is a file the user named,
+    # and load_dataset says what is wrong with it.
+    if not os.path.lexists(spec) and spec in builtins:
         return builtins[spec](), spec
-    if not p.exists():
+    if not os.path.lexists(spec):
         raise CliError(f"dataset {spec!r}: no such file, and not a built-in dataset "
                        f"({', '.join(builtins) or 'none available'})")
     from .dataset import load_dataset
 
-    if p.is_dir():
-        cands = sorted(p.glob("*.json"))
-        if len(cands) != 1:
-            raise CliError(f"dataset folder {p}: expected exactly one .json file, found "
-                           f"{len(cands)}")
-        p = cands[0]
-    return load_dataset(p), None
+    return load_dataset(spec, snap=getattr(args, "snap", None),
+                        allow_outside_paths=bool(getattr(args, "allow_outside_paths", False))), None
+
+
+def _dataset_record(ds, builtin: Optional[str]) -> Dict[str, object]:
+    """What the run manifest says about the dataset."""
+    path = getattr(ds, "path", None)
+    return {"name": ds.name, "path": str(Path(path).resolve()) if path else None,
+            "builtin": builtin}
+
+
+def _input_summary(args, model) -> None:
+    """The one-paragraph summary of what the input policy did (stdout)."""
+    rec = (model.metadata or {}).get("input")
+    if rec and rec.get("summary"):
+        _echo(rec["summary"])
+
+
+def _run_writer(args, command: str):
+    from .runs import RunWriter
+
+    return RunWriter(Path(args.output), command=command, argv=getattr(args, "argv", None))
+
+
+def _model_file(run, files) -> Optional[str]:
+    """The file readers should open: the richest single-file model written."""
+    finals = [run.final(f) for f in files]
+    for suffix in (".3dt", ".ts", ".vtu", ".vtk"):
+        for f in finals:
+            if f.suffix == suffix and f.parent == run.folder:
+                return f.name
+    return None
 
 
 def _build_model_fn():
@@ -129,26 +162,28 @@ def _build_model_fn():
 
 def _build(dataset, args, progress: _Progress):
     build_model = _build_model_fn()
-    wanted: Dict[str, object] = {}
-    # CLI option -> build_model keyword (faultmesh.build.build_model).
+    # CLI option -> build_model keyword (faultmesh.build.build_model): every
+    # option a user may set (_add_build_options).
+    kw: Dict[str, object] = {"progress": progress}
     if getattr(args, "plain_order", False):
-        wanted["stitch_order"] = "plain"
+        kw["stitch_order"] = "plain"
     if getattr(args, "no_refine", False):
-        wanted["refine"] = False
-    if getattr(args, "loft", None):
-        wanted["loft_method"] = args.loft
-    params = inspect.signature(build_model).parameters
-    takes_kwargs = any(p.kind == p.VAR_KEYWORD for p in params.values())
-    for k in wanted:
-        if k not in params and not takes_kwargs:
-            raise CliError(f"build_model of this faultmesh has no option {k!r} "
-                           f"(options: {', '.join(p for p in params if p != 'dataset')})")
-    kw = dict(wanted)
-    if "progress" in params or takes_kwargs:
-        kw["progress"] = progress
+        kw["refine"] = False
+    for opt, key in (("loft", "loft_method"), ("bridge", "bridge"), ("spacing", "spacing"),
+                     ("clearance", "clearance"), ("max_repair_rounds", "max_repair_rounds")):
+        if getattr(args, opt, None) is not None:
+            kw[key] = getattr(args, opt)
+    if getattr(args, "no_repair", False):
+        kw["repair"] = False
+    if getattr(args, "no_evaluate", False):
+        kw["evaluate"] = False
     t0 = time.perf_counter()
     try:
         model = build_model(dataset, **kw)
+    except ValueError as e:  # an option value build_model refuses (GeometryError is raised on)
+        if type(e) is ValueError:
+            raise CliError(str(e)) from None
+        raise
     finally:
         progress.close()
     return model, time.perf_counter() - t0
@@ -210,15 +245,19 @@ def _fence_sections(model, dataset) -> list:
     return out
 
 
-def _write_report(model, out: Path, stem: str = "quality") -> List[Path]:
+def _write_report(model, out: Path, stem: str = "quality"):
+    """quality.md/.csv/.json; the JSON (the build report) also holds the
+    input policy's record (``model.metadata["input"]``) under ``"input"``."""
+    import json
+
     rep = model.quality()
-    return [rep.to_markdown_file(out / f"{stem}.md"), rep.to_csv(out / f"{stem}.csv"),
-            _write_json(rep, out / f"{stem}.json")], rep
-
-
-def _write_json(rep, path: Path) -> Path:
-    rep.to_json(path)
-    return path
+    doc = json.loads(rep.to_json())
+    inp = (model.metadata or {}).get("input")
+    if inp is not None:
+        doc["input"] = inp
+    js = out / f"{stem}.json"
+    js.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    return [rep.to_markdown_file(out / f"{stem}.md"), rep.to_csv(out / f"{stem}.csv"), js], rep
 
 
 def _print_tables(rep) -> None:
@@ -237,10 +276,8 @@ def _print_tables(rep) -> None:
 # ----------------------------------------------------------------------------
 
 def cmd_demo(args) -> int:
-    from .io import save_model
-    from . import plots
-
     out = Path(args.output)
+    _check_output_folder(out, "demo")
     t_start = time.perf_counter()
     builtins = _builtin_datasets()
     if "paper_like" not in builtins:
@@ -257,18 +294,36 @@ def cmd_demo(args) -> int:
         model.truth = ds.truth
     _info(args, f"  built in {secs:.1f} s: " + ", ".join(
         f"{n} {s.n_triangles} triangles" for n, s in model.surfaces.items()))
-    files = save_model(model, out, formats=("3dt", "ts", "vtu"))
-    rep_files, rep = _write_report(model, out)
-    files += rep_files
+    with _run_writer(args, "demo") as run:
+        rep = _write_demo(run.stage, model, ds, args)
+        files = sorted(p for p in run.stage.rglob("*") if p.is_file())
+        run.commit(model=_model_file(run, files), dataset=_dataset_record(ds, "paper_like"),
+                   extra={"input": _input_record_short(model)})
+    _echo(f"faultmesh demo: model {model.name!r} built in {secs:.1f} s, everything written "
+          f"in {time.perf_counter() - t_start:.1f} s to {out.resolve()}/")
+    for f in files:
+        _echo(f"  {run.final(f)}")
+    _input_summary(args, model)
+    _echo("mesh quality of the stitched gaps (the paper's Table 2):")
+    _print_tables(rep)
+    return 0
+
+
+def _write_demo(out: Path, model, ds, args):
+    """Every file of the demo, written into ``out`` (the run's staging
+    folder); returns the quality report."""
+    from .io import save_model
+    from . import plots
+
+    save_model(model, out, formats=("3dt", "ts", "vtu"))
+    _, rep = _write_report(model, out)
     sections = []
     for name, origin, az in _sections_for(model, ds):
         sec = model.section(origin, az)
         sec.name = name
         sections.append(sec)
-        files.append(sec.to_csv(out / f"section_{name}.csv"))
-        fig = sec.plot(out / f"section_{name}.png")
-        files.append(out / f"section_{name}.png")
-        _close(fig)
+        sec.to_csv(out / f"section_{name}.csv")
+        _close(sec.plot(out / f"section_{name}.png"))
     _info(args, "drawing pictures ...")
     fence = _fence_sections(model, ds) or sections
     first = 1 if len(model.surfaces) >= 3 else 0
@@ -279,14 +334,26 @@ def cmd_demo(args) -> int:
                       ("gaps.png", lambda p: plots.plot_gaps(model, p)),
                       ("map.png", lambda p: plots.plot_map(model, p, sections=sections))):
         _close(fn(out / fname))
-        files.append(out / fname)
-    _echo(f"faultmesh demo: model {model.name!r} built in {secs:.1f} s, everything written "
-          f"in {time.perf_counter() - t_start:.1f} s to {out.resolve()}/")
-    for f in files:
-        _echo(f"  {f}")
-    _echo("mesh quality of the stitched gaps (the paper's Table 2):")
-    _print_tables(rep)
-    return 0
+    return rep
+
+
+def _input_record_short(model) -> Optional[Dict[str, object]]:
+    """The input policy's counts and summary for the run manifest (the full
+    list of adjustments is in the model's metadata and in quality.json)."""
+    rec = (model.metadata or {}).get("input")
+    if not rec:
+        return None
+    return {"snap_distance": rec.get("snap_distance"), "counts": rec.get("counts"),
+            "summary": rec.get("summary")}
+
+
+def _check_output_folder(out: Path, command: str) -> None:
+    """-o must name a folder (or a path to create); checked before building."""
+    import os
+
+    if os.path.lexists(out) and not out.is_dir():
+        what = "a file" if out.is_file() else "not a folder (a broken or looping symlink?)"
+        raise CliError(f"-o {out}: is {what}; '{command}' writes several files into a folder")
 
 
 def _close(fig) -> None:
@@ -301,8 +368,9 @@ def _close(fig) -> None:
 def cmd_build(args) -> int:
     from .io import save_model
 
-    ds, builtin = _load_dataset(args.dataset)
     out = Path(args.output)
+    _check_output_folder(out, "build")
+    ds, builtin = _load_dataset(args.dataset, args)
     _info(args, f"building {ds.name!r} ...")
     model, secs = _build(ds, args, _Progress(not _quiet(args)))
     if builtin:
@@ -311,18 +379,22 @@ def cmd_build(args) -> int:
     if model.truth is None and getattr(ds, "truth", None) is not None:
         model.truth = ds.truth
     formats = args.formats.split(",") if args.formats else None
-    files = save_model(model, out, formats=formats)
-    rep_files, rep = _write_report(model, out)
-    files += rep_files
-    if args.plots:
-        from . import plots
+    with _run_writer(args, "build") as run:
+        stage = run.stage
+        save_model(model, stage, formats=formats)
+        _, rep = _write_report(model, stage)
+        if args.plots:
+            from . import plots
 
-        _close(plots.plot_model_3d(model, out / "model_3d.png"))
-        _close(plots.plot_gaps(model, out / "gaps.png"))
-        files += [out / "model_3d.png", out / "gaps.png"]
+            _close(plots.plot_model_3d(model, stage / "model_3d.png"))
+            _close(plots.plot_gaps(model, stage / "gaps.png"))
+        files = sorted(p for p in stage.rglob("*") if p.is_file())
+        run.commit(model=_model_file(run, files), dataset=_dataset_record(ds, builtin),
+                   extra={"input": _input_record_short(model)})
     _echo(f"model {model.name!r} built in {secs:.1f} s; written to {out.resolve()}/")
     for f in files:
-        _echo(f"  {f}")
+        _echo(f"  {run.final(f)}")
+    _input_summary(args, model)
     _print_tables(rep)
     return 0
 
@@ -383,6 +455,14 @@ def cmd_plot(args) -> int:
     from . import plots
 
     model = _load_model(args.model)
+    if args.interactive:
+        from .formats import pv
+
+        if not pv.has_display():
+            raise CliError("--interactive needs a display (DISPLAY/WAYLAND_DISPLAY is not set); "
+                           "draw a picture with --png instead")
+        pv.show(model, vertical_exaggeration=args.ve)
+        return 0
     wrote = []
     if args.png or not args.gaps:
         target = args.png or "model_3d.png"
@@ -394,6 +474,95 @@ def cmd_plot(args) -> int:
         wrote.append(args.gaps)
     for w in wrote:
         _echo(f"wrote {w}")
+    return 0
+
+
+def _fault_overrides(specs) -> Dict[str, Dict[str, float]]:
+    """``--fault NAME:key=value[,key=value]`` options -> per-fault sigmas."""
+    keys = {"position": "sigma_position", "position-trace": "sigma_position_trace",
+            "position_trace": "sigma_position_trace", "dip": "sigma_dip", "throw": "sigma_throw"}
+    out: Dict[str, Dict[str, float]] = {}
+    for spec in specs or []:
+        name, sep, rest = spec.rpartition(":")
+        if not sep or not name or not rest:
+            raise CliError(f"--fault {spec!r}: expected NAME:key=value[,key=value] (keys: "
+                           "position, position-trace, dip, throw)")
+        d = out.setdefault(name, {})
+        for item in rest.split(","):
+            k, eq, v = item.partition("=")
+            k = k.strip()
+            if not eq or keys.get(k) is None:
+                raise CliError(f"--fault {spec!r}: unknown or malformed item {item!r} (keys: "
+                               "position, position-trace, dip, throw)")
+            try:
+                d[keys[k]] = float(v)
+            except ValueError:
+                raise CliError(f"--fault {spec!r}: {v!r} is not a number") from None
+    return out
+
+
+def cmd_ensemble(args) -> int:
+    from .ensemble import FaultPerturbation, Grid, Perturbation, ensemble
+
+    ds, _ = _load_dataset(args.dataset, args)
+    if args.n < 1:
+        raise CliError(f"-n must be at least 1, got {args.n}")
+    if args.workers is not None and args.workers < 1:
+        raise CliError(f"--workers must be at least 1, got {args.workers}")
+    pert = Perturbation(sigma_z=args.sigma_z, sigma_z_points=args.sigma_z_points,
+                        sigma_position=args.sigma_position,
+                        sigma_position_trace=args.sigma_position_trace,
+                        sigma_dip=args.sigma_dip, sigma_throw=args.sigma_throw,
+                        faults={k: FaultPerturbation(**v)
+                                for k, v in _fault_overrides(args.fault).items()})
+    if pert.is_zero:
+        _info(args, "note: every sigma is 0: all realizations are the unperturbed model")
+    if args.sections is None or args.sections == "all":
+        sections = None
+    elif args.sections == "none":
+        sections = ()
+    else:
+        sections = [s for s in args.sections.split(",") if s]
+    grid = Grid.over(ds, spacing=args.spacing) if args.spacing else args.grid
+    client = args.scheduler
+    where = f"the Dask scheduler at {client}" if client else \
+        f"a local Dask cluster of {args.workers or 'all cores as'} worker processes"
+    _info(args, f"ensemble of {args.n} realizations of {ds.name!r} on {where} ...")
+    bar = None
+    if not _quiet(args):
+        from tqdm import tqdm
+
+        bar = tqdm(total=args.n, desc="realizations", unit="", file=sys.stderr,
+                   dynamic_ncols=True, disable=None)
+
+    def progress(done: int, n: int, failed: int) -> None:
+        if bar is not None:
+            bar.n = done
+            if failed:
+                bar.set_postfix_str(f"{failed} failed", refresh=False)
+            bar.refresh()
+
+    try:
+        res = ensemble(ds, args.n, pert, client=client, seed=args.seed, grid=grid,
+                       sections=sections, points="boreholes" if args.boreholes else None,
+                       lower_sheet=args.lower_sheet, workers=args.workers, progress=progress)
+    finally:
+        if bar is not None:
+            bar.close()
+    if res.succeeded == 0:
+        first = res.failures[0]["error"] if res.failures else "?"
+        raise CliError(f"every realization failed (first: {first}); nothing written")
+    files = res.save(args.output, pictures=not args.no_plots)
+    t = res.timings
+    _echo(f"ensemble of {ds.name!r}: {res.succeeded} of {res.n} realizations succeeded, "
+          f"{res.failed} failed, in {t['wall_seconds']:.1f} s; written to "
+          f"{Path(args.output).resolve()}/")
+    for f in res.failures[:10]:
+        _echo(f"  failed: realization {f['index']} (seed {f['seed']}): {f['error']}")
+    if res.failed > 10:
+        _echo(f"  ... {res.failed - 10} more in summary.json")
+    for f in files:
+        _echo(f"  {f}")
     return 0
 
 
@@ -411,16 +580,75 @@ def _add_common(p: argparse.ArgumentParser, top: bool = False) -> None:
                    help="no progress bars or notes on stderr")
 
 
+def _add_dataset_options(p: argparse.ArgumentParser) -> None:
+    """Options of every command that loads a dataset file (docs/dataset.md)."""
+    p.add_argument("--snap", type=float, metavar="M",
+                   help="snap distance in metres: data this close to the study-area boundary "
+                        "are moved onto it (default: the dataset's snap_distance, else "
+                        "min(0.02, 1e-5 x the area's diagonal); docs/dataset.md)")
+    p.add_argument("--allow-outside-paths", action="store_true",
+                   help="let the dataset JSON name CSV files outside its folder (absolute "
+                        "paths, '..', symlinks leading out)")
+
+
+def _positive(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (v > 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return v
+
+
+def _non_negative(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (v >= 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text!r}")
+    return v
+
+
+def _rounds(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {v}")
+    return v
+
+
 def _add_build_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--plain-order", action="store_true",
+    """Every option of faultmesh.build_model a user may set."""
+    g = p.add_argument_group("model building (faultmesh.build_model)")
+    g.add_argument("--plain-order", action="store_true",
                    help="clip the ears of each gap in the paper's plain (Eberly) order instead "
                         "of the best-ear-first quality order")
-    p.add_argument("--no-refine", action="store_true",
+    g.add_argument("--no-refine", action="store_true",
                    help="keep the ear-clipped gap triangles as they are (no constrained-"
                         "Delaunay edge flips); with --plain-order this is the paper's method")
-    p.add_argument("--loft", choices=("min_area", "shortest_diagonal"),
+    g.add_argument("--bridge", choices=("extreme", "eberly"),
+                   help="how a gap's holes are bridged: the paper's extreme-point rule "
+                        "(default; Eberly's method as the fallback) or Eberly's method only")
+    g.add_argument("--loft", choices=("min_area", "shortest_diagonal"),
                    help="rule for lofting the fault-model polylines: min_area (Fuchs-Kedem-"
                         "Uselton, default) or shortest_diagonal")
+    g.add_argument("--clearance", type=_non_negative, metavar="M",
+                   help="the removed region grows until its boundary vertices are at least M "
+                        "metres from the fault patch (default: 0.4 x the layer's data spacing; "
+                        "0: only the triangles touching the patch, the paper's rule)")
+    g.add_argument("--spacing", type=_positive, metavar="M",
+                   help="spacing of the vertices on the study-area boundary (default: about "
+                        "the layer's data spacing)")
+    g.add_argument("--no-repair", action="store_true",
+                   help="skip the layer-crossing repair (layers may then cross)")
+    g.add_argument("--max-repair-rounds", type=_rounds, metavar="N",
+                   help="rounds of the layer-crossing repair before it gives up (default 50)")
+    g.add_argument("--no-evaluate", action="store_true",
+                   help="do not compare the model with the ground truth of a built-in dataset")
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -464,6 +692,7 @@ def make_parser() -> argparse.ArgumentParser:
                    help="comma-separated formats to write (3dt,ts,vtu,vtk,obj,ply); "
                         "default 3dt,ts,vtu,obj,ply")
     p.add_argument("--plots", action="store_true", help="also draw model_3d.png and gaps.png")
+    _add_dataset_options(p)
     _add_common(p)
     p.set_defaults(func=cmd_build)
 
@@ -504,8 +733,14 @@ def make_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("convert", formatter_class=fmt, help="convert a model between formats",
                        description="Read IN and write OUT; formats follow the suffixes "
-                       "(.3dt, .ts, .vtu, .vtk, .obj, .ply; a folder OUT receives all).",
+                       "(.3dt, .ts, .ml, .vtu, .vtp, .vtk, .obj, .ply, .omf, .epc, .geoh5; "
+                       "IN also .pl, .stl; a folder OUT receives .3dt, .ts, .vtu, obj/, ply/). "
+                       "See docs/formats.md for what each keeps and which programs open it.",
                        epilog="examples:\n  faultmesh convert out/m.3dt m.ts\n"
+                              "  faultmesh convert out/m.3dt m.ml        (SKUA/OpenGeode "
+                              "structural model)\n"
+                              "  faultmesh convert out/m.3dt m.omf       (Leapfrog; needs "
+                              "faultmesh[omf])\n"
                               "  faultmesh convert other_tool.ts model.3dt")
     p.add_argument("input", metavar="IN")
     p.add_argument("output", metavar="OUT")
@@ -513,15 +748,79 @@ def make_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_convert)
 
     p = sub.add_parser("plot", formatter_class=fmt, help="draw a model in 3D (and its gaps)",
-                       epilog="example:\n  faultmesh plot out/m.3dt --png model.png --gaps gaps.png")
+                       epilog="examples:\n  faultmesh plot out/m.3dt --png model.png --gaps gaps.png\n"
+                              "  faultmesh plot out/m.3dt --interactive --ve 3   (a window; "
+                              "needs faultmesh[viz] and a display)")
     p.add_argument("model", metavar="MODEL")
     p.add_argument("--png", metavar="PNG", help="3D view (default model_3d.png)")
     p.add_argument("--gaps", metavar="PNG", help="stitched gaps close up")
     p.add_argument("--ve", type=float, metavar="X", help="vertical exaggeration (default: automatic)")
     p.add_argument("--elev", type=float, default=28.0, help="view elevation angle (degrees)")
     p.add_argument("--azim", type=float, default=-58.0, help="view azimuth angle (degrees)")
+    p.add_argument("--interactive", action="store_true",
+                   help="open the model in an interactive 3D window (PyVista) instead of "
+                        "drawing pictures; needs 'pip install faultmesh[viz]' and a display")
     _add_common(p)
     p.set_defaults(func=cmd_plot)
+
+    p = sub.add_parser("ensemble", formatter_class=fmt,
+                       help="many perturbed realizations on Dask: mean, std, P10/P50/P90, "
+                            "fault-block probabilities",
+                       description="Build N realizations of DATASET, each from the data perturbed "
+                       "by Gaussian errors (sigmas below; all 0 by default), on a local Dask "
+                       "cluster or the cluster at --scheduler, and write DIR/ensemble.nc "
+                       "(CF-NetCDF: mean, std, p10, p50, p90, min, max of each layer's elevation "
+                       "on a grid, fault-side and fault-block probabilities, section envelopes), "
+                       "std_<layer>.png, section_<name>.png and summary.json. A realization "
+                       "that fails is reported with its seed; see docs/ensemble.md. Needs "
+                       "pip install 'faultmesh[ensemble]'.",
+                       epilog="examples:\n  faultmesh ensemble paper_like -n 200 -o ens "
+                              "--sigma-z 2 --sigma-position 15 --sigma-dip 5 --sigma-throw 0.2\n"
+                              "  faultmesh ensemble site/dataset.json -n 5000 -o ens "
+                              "--scheduler tcp://10.0.0.5:8786 --sigma-z 1\n"
+                              "  faultmesh ensemble paper_like -n 100 -o ens --sigma-position 10 "
+                              "--fault F22:position=40,dip=8")
+    p.add_argument("dataset", metavar="DATASET",
+                   help="dataset JSON (docs/dataset.md) or a built-in name: paper_like, synthetic")
+    _add_dataset_options(p)
+    p.add_argument("-n", type=int, required=True, metavar="N", help="number of realizations")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, metavar="K",
+                       help="worker processes of the local Dask cluster (default: the cores)")
+    where.add_argument("--scheduler", metavar="ADDRESS",
+                       help="address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786")
+    p.add_argument("--seed", type=int, default=0, metavar="S",
+                   help="seed: realization i uses SeedSequence(S, spawn_key=(i,)) (default 0)")
+    p.add_argument("--sigma-z", type=float, default=0.0, metavar="M",
+                   help="elevation error of each borehole row, m (default 0)")
+    p.add_argument("--sigma-z-points", type=float, default=None, metavar="M",
+                   help="elevation error of each extra data point, m (default: --sigma-z)")
+    p.add_argument("--sigma-position", type=float, default=0.0, metavar="M",
+                   help="position of each fault across its strike, m; all its traces move "
+                        "together (default 0)")
+    p.add_argument("--sigma-position-trace", type=float, default=0.0, metavar="M",
+                   help="extra shift of each trace across strike, m (default 0)")
+    p.add_argument("--sigma-dip", type=float, default=0.0, metavar="DEG",
+                   help="change of each fault's dip, degrees (default 0)")
+    p.add_argument("--sigma-throw", type=float, default=0.0, metavar="R",
+                   help="relative error of each fault's throw, e.g. 0.2 (default 0)")
+    p.add_argument("--fault", action="append", metavar="NAME:KEY=V[,KEY=V]",
+                   help="per-fault sigmas overriding the ones above; keys position, "
+                        "position-trace, dip, throw (repeatable)")
+    p.add_argument("--grid", type=int, default=100, metavar="NODES",
+                   help="grid nodes along the longer side of the study area (default 100)")
+    p.add_argument("--spacing", type=float, default=None, metavar="M",
+                   help="grid spacing in m (instead of --grid)")
+    p.add_argument("--sections", default=None, metavar="LIST",
+                   help="sections sampled: all (default), none, or a comma-separated list of names")
+    p.add_argument("--boreholes", action="store_true",
+                   help="also sample every layer at the borehole collars (point_* variables)")
+    p.add_argument("--lower-sheet", action="store_true",
+                   help="also keep statistics of the lower sheet where a layer is repeated")
+    p.add_argument("--no-plots", action="store_true", help="write no pictures")
+    _add_common(p)
+    p.set_defaults(func=cmd_ensemble)
     return parser
 
 
@@ -529,6 +828,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     parser = make_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
+    args.argv = argv  # for the run manifest
     debug = bool(getattr(args, "debug", False))
     if not getattr(args, "command", None):
         parser.print_help()

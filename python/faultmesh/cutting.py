@@ -23,6 +23,7 @@ from typing import Dict, Iterable, List, Mapping, Optional, Tuple
 import numpy as np
 
 from ._core import cut_layer
+from .build import build_model, continuous_layers  # noqa: F401  (re-exported)
 from .model import Gap, Model, Surface
 
 __all__ = ["cut_surface", "fault_displacement", "cut_surfaces", "continuous_layers", "cut_model"]
@@ -114,23 +115,6 @@ def cut_surfaces(layers: Mapping[str, Surface],
     return out, gaps
 
 
-def continuous_layers(dataset, *, spacing: Optional[float] = None, repair: bool = True,
-                      max_repair_rounds: int = 50) -> Dict[str, Surface]:
-    """The continuous layer surfaces of ``dataset``, before any fault: steps 2
-    and 3 of :func:`faultmesh.build_model` (stratum TINs covering the study
-    area, layer-crossing repair), built with the same code and defaults, so the
-    cutting baseline starts from the surfaces faultmesh stitches into."""
-    from .build import LayerTin, _ccw_ring, repair_crossings
-
-    ring = _ccw_ring(dataset.boundary)
-    layers = list(dataset.layers)
-    tins = {lay: LayerTin(lay, dataset.layer_points(lay), ring, spacing) for lay in layers}
-    if repair:
-        for up, lo in zip(layers[:-1], layers[1:]):
-            repair_crossings(tins[up], tins[lo], max_repair_rounds)
-    return {lay: Surface(lay, *tins[lay].mesh(), kind="layer") for lay in layers}
-
-
 def cut_model(dataset, *, layers: Optional[Mapping[str, Surface]] = None,
               faults: Optional[Mapping[str, Surface]] = None, taper_length: float = 150.0,
               extension: float = 100.0, refine: bool = True, order: str = "quality") -> Model:
@@ -153,8 +137,6 @@ def cut_model(dataset, *, layers: Optional[Mapping[str, Surface]] = None,
     if layers is None:
         layers = continuous_layers(dataset)
     if faults is None:
-        from .build import build_model
-
         faults = build_model(dataset, evaluate=False).faults
     cuts = []
     for f in dataset.faults:

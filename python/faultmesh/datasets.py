@@ -502,7 +502,7 @@ def synthetic(seed: int = 0, *, n_layers: int = 3, strike: float = 60.0, dip: fl
               n_boreholes: int = 60, origin: Optional[Sequence[float]] = None) -> Dataset:
     """A random but valid dataset from a ground truth faultmesh has never seen.
 
-    ``n_layers`` layers (1 to 8) with smooth, non-planar tops 20-60 m apart;
+    ``n_layers`` layers (1 to 12) with smooth, non-planar tops 20-60 m apart;
     ``n_faults`` parallel faults (spread across the area) of ``kind``
     ("normal", "reverse" or "mixed": alternating) with ``strike`` (degrees
     clockwise from north), ``dip`` (degrees, 20-85) and maximum ``throw`` (m),
@@ -514,8 +514,8 @@ def synthetic(seed: int = 0, *, n_layers: int = 3, strike: float = 60.0, dip: fl
     fault ends exactly on the first and last section, whose traces have zero
     throw (the two cutoffs coincide) and there are no tips.
     """
-    if not 1 <= n_layers <= 8:
-        raise ValueError(f"synthetic: n_layers must be 1..8, got {n_layers}")
+    if not 1 <= n_layers <= 12:
+        raise ValueError(f"synthetic: n_layers must be 1..12, got {n_layers}")
     if not 20.0 <= dip <= 85.0:
         raise ValueError(f"synthetic: dip must be in [20, 85] degrees, got {dip}")
     if kind not in ("normal", "reverse", "mixed"):

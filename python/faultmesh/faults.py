@@ -1,4 +1,4 @@
-"""Fine fault models (DESIGN.md step 4, paper 2.3.2).
+"""Fine fault models (docs/design.md §4.6, paper 2.3.2).
 
 Per fault and per layer, each trace gives ONE polyline in section order:
 the footwall polyline (far end -> footwall cutoff), the fault-plane trace
@@ -42,17 +42,17 @@ tip by the end plane trace moved to the tip, and extended like the layers.
 """
 from __future__ import annotations
 
+import enum
 import math
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ._core import GeometryError, boundary_contours, loft, triangles_touching_region
-from .dataset import points_in_polygon
+from ._core import AabbTree, GeometryError, StudyArea, boundary_contours, loft, triangles_touching_region
 
-__all__ = ["LayerPatch", "FaultEnds", "fault_ends", "trace_polyline", "layer_patch",
-           "fault_surface", "group_patch", "patch_outline"]
+__all__ = ["LayerPatch", "FaultEnds", "EndMove", "EndMoveKind", "fault_ends", "trace_polyline",
+           "layer_patch", "fault_surface", "group_patch", "patch_outline"]
 
 
 @dataclass
@@ -63,6 +63,32 @@ class FaultEnds:
     tips: List[Optional[np.ndarray]]
     directions: List[np.ndarray]
     spacing: float
+
+
+class EndMoveKind(enum.Enum):
+    """How :func:`fault_surface` extends one end of a fault plane like the
+    layers' patches were extended there (see :class:`EndMove`)."""
+
+    ray = "ray"      # each point of the end trace carried along a direction onto the study-area boundary
+    shift = "shift"  # the end trace moved by a vector (to the extended end or a synthetic tip)
+
+
+@dataclass(frozen=True, eq=False)
+class EndMove:
+    """One end move of a fault plane: ``kind`` and its ``vector`` (2,) -- the
+    direction of the ray (``EndMoveKind.ray``) or the displacement
+    (``EndMoveKind.shift``)."""
+
+    kind: EndMoveKind
+    vector: np.ndarray
+
+    @classmethod
+    def ray(cls, direction) -> "EndMove":
+        return cls(EndMoveKind.ray, np.asarray(direction, dtype=np.float64).reshape(2))
+
+    @classmethod
+    def shift(cls, offset) -> "EndMove":
+        return cls(EndMoveKind.shift, np.asarray(offset, dtype=np.float64).reshape(2))
 
 
 @dataclass
@@ -92,7 +118,57 @@ def _merge_tol(p: np.ndarray) -> float:
 def trace_polyline(trace, layer: str) -> Optional[Tuple[np.ndarray, float]]:
     """(polyline (k, 3), throw distance) of ``layer`` on ``trace``: footwall
     -> strip (plane points strictly between the cutoffs) -> hanging wall,
-    consecutive coincident points merged. None if the trace lacks the layer."""
+    consecutive coincident points merged. None if the trace lacks the layer.
+    :func:`trace_cutoffs` gives the cutoffs' positions in the polyline."""
+    r = _trace_polyline(trace, layer)
+    return None if r is None else (r[0], r[1])
+
+
+def trace_cutoffs(trace, layer: str) -> Optional[Tuple[int, int]]:
+    """Indices in :func:`trace_polyline` of the footwall and the hanging-wall
+    cutoff (equal for a zero-throw trace)."""
+    r = _trace_polyline(trace, layer)
+    return None if r is None else r[2]
+
+
+def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """Where a reverse fault repeats the layer (the hanging-wall cutoff lies
+    behind the footwall cutoff along the section: the overlap band), the
+    footwall polyline must start before the band and the hanging-wall one end
+    after it, or the patch's far end lies over the patch itself and its
+    outline crosses itself in XY (a hanging-wall line drawn 42 m long across
+    a 54 m band: grounds seed 4). A polyline that stops inside (or just at
+    the edge of) the band is carried on along its last segment's slope to one
+    band width beyond it. Sections are drawn as lines: the direction along
+    the section is that of the footwall polyline (else the hanging-wall one)."""
+    fc, hc = foot[-1, :2], hang[0, :2]
+    d = fc - foot[0, :2] if len(foot) > 1 else hang[-1, :2] - hc
+    n = float(np.hypot(d[0], d[1]))
+    if n == 0.0:
+        return foot, hang
+    d = d / n
+    band = float((fc - hc) @ d)      # > 0: the hanging-wall cutoff is behind (a fold)
+    if not band > _merge_tol(np.vstack([foot, hang])):
+        return foot, hang
+
+    def carried(end: np.ndarray, inner: np.ndarray, target_u: float) -> np.ndarray:
+        u_end = float((end[:2] - fc) @ d)
+        du = target_u - u_end
+        # z along the polyline's last segment (its slope along the section).
+        seg_u = float((end[:2] - inner[:2]) @ d)
+        slope = (end[2] - inner[2]) / seg_u if abs(seg_u) > 0.0 else 0.0
+        return np.r_[end[:2] + du * d, end[2] + slope * du]
+
+    if float((hang[-1, :2] - fc) @ d) < band:
+        inner = hang[-2] if len(hang) > 1 else (foot[-2] if len(foot) > 1 else hang[-1])
+        hang = np.vstack([hang, carried(hang[-1], inner, band)])
+    if float((foot[0, :2] - fc) @ d) > -2.0 * band:
+        inner = foot[1] if len(foot) > 1 else (hang[1] if len(hang) > 1 else foot[0])
+        foot = np.vstack([carried(foot[0], inner, -2.0 * band), foot])
+    return foot, hang
+
+
+def _trace_polyline(trace, layer: str):
     sides = trace.layers.get(layer)
     if sides is None:
         return None
@@ -100,6 +176,7 @@ def trace_polyline(trace, layer: str) -> Optional[Tuple[np.ndarray, float]]:
     hang = np.asarray(sides["hanging"], dtype=np.float64).reshape(-1, 3)
     if len(foot) == 0 or len(hang) == 0:
         return None
+    foot, hang = _reach_past_the_band(foot, hang)
     cf, ch = foot[-1], hang[0]
     throw = float(np.linalg.norm(ch - cf))
     plane = np.asarray(trace.plane, dtype=np.float64).reshape(-1, 3)
@@ -108,15 +185,18 @@ def trace_polyline(trace, layer: str) -> Optional[Tuple[np.ndarray, float]]:
     # From the footwall cutoff to the hanging-wall cutoff.
     strip = strip[np.argsort(-strip[:, 2])] if cf[2] > ch[2] else strip[np.argsort(strip[:, 2])]
     pts = np.vstack([foot, strip, hang])
+    i_fw, i_hw = len(foot) - 1, len(foot) + len(strip)
     tol = _merge_tol(pts)
     keep = [0]
+    pos = np.zeros(len(pts), dtype=np.int64)  # position of each point in the merged polyline
     for i in range(1, len(pts)):
         if np.linalg.norm(pts[i] - pts[keep[-1]]) > tol:
             keep.append(i)
+        pos[i] = len(keep) - 1
     pts = pts[keep]
     if throw <= tol:
         throw = 0.0
-    return np.ascontiguousarray(pts), throw
+    return np.ascontiguousarray(pts), throw, (int(pos[i_fw]), int(pos[i_hw]))
 
 
 def _cut_mid(trace, layer: str) -> Optional[np.ndarray]:
@@ -131,6 +211,25 @@ def _unit(v: np.ndarray) -> np.ndarray:
     if n == 0.0:
         raise GeometryError("faults: zero-length direction")
     return np.asarray(v[:2], dtype=np.float64) / n
+
+
+def as_study_area(ring) -> StudyArea:
+    """The study area as a :class:`faultmesh.StudyArea` (built from a ring (k, 2) once)."""
+    return ring if isinstance(ring, StudyArea) else StudyArea(np.asarray(ring, dtype=np.float64))
+
+
+def _pull_inside(area: StudyArea, origin: np.ndarray, xy: np.ndarray, what: str) -> np.ndarray:
+    """``xy`` moved back towards ``origin`` (which must be in the study area)
+    until it lies in the study area: halved moves, then the origin itself."""
+    xy = np.asarray(xy, dtype=np.float64).copy()
+    for _ in range(60):
+        if area.contains(xy[None, :])[0]:
+            return xy
+        xy = origin + 0.5 * (xy - origin)
+    if area.contains(origin[None, :2])[0]:
+        return np.asarray(origin[:2], dtype=np.float64).copy()
+    raise GeometryError(f"faults: {what} at ({origin[0]:.3f}, {origin[1]:.3f}) lies outside "
+                        "the study area")
 
 
 def fault_ends(fault) -> FaultEnds:
@@ -232,13 +331,10 @@ def _layer_tip(fault, traces_with, layer: str, end: int, tip: np.ndarray, direct
     if ref is None:
         ref = mid_l
     v = tip - ref[:2]
-    xy = mid_l[:2] + v
     # Keep the tip inside the study area (a deep layer's shifted tip can
     # leave a study area that the fault's tip just fits in).
-    for _ in range(40):
-        if points_in_polygon(xy[None, :], ring)[0]:
-            break
-        xy = mid_l[:2] + 0.5 * (xy - mid_l[:2])
+    xy = _pull_inside(as_study_area(ring), mid_l[:2], mid_l[:2] + v,
+                      f"fault {fault.name!r} layer {layer!r}: the cutoff at the end trace")
     sides = tr.layers[layer]
     zc = 0.5 * (float(np.asarray(sides["foot"])[-1, 2]) + float(np.asarray(sides["hanging"])[0, 2]))
     z = zc
@@ -249,12 +345,29 @@ def _layer_tip(fault, traces_with, layer: str, end: int, tip: np.ndarray, direct
     return np.array([xy[0], xy[1], z])
 
 
-def _extend(poly: np.ndarray, d: np.ndarray, targets: Dict[str, List[np.ndarray]],
-            max_dist: float, surface_z) -> Optional[Tuple[np.ndarray, str, float]]:
-    """``poly`` carried along ``d`` onto the nearest target (all points must
-    hit it within ``max_dist``): (new polyline, target name, median distance)."""
+def _to_boundary(area: StudyArea, poly: np.ndarray, d: np.ndarray, surface_z):
+    """``poly`` carried along ``d`` onto the study-area boundary: (points
+    (k, 3) placed on their sides, t (k,) the distances). A point already on
+    the boundary stays where it is (t = 0, the same coordinates)."""
+    t, side, _, xy = area.ray_hit(poly[:, :2], np.asarray(d, dtype=np.float64)[None, :])
+    on = t == 0.0
+    xy = np.where(on[:, None], poly[:, :2], xy)
+    pts = np.column_stack([xy, _shift_z(poly, xy, surface_z)])
+    pts[on] = poly[on]
+    return pts, t
+
+
+def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
+            partners: Dict[str, List[np.ndarray]], max_dist: float,
+            surface_z) -> Optional[Tuple[np.ndarray, str, float]]:
+    """``poly`` carried along ``d`` onto the nearest target (every point must
+    hit it within ``max_dist``): the study-area boundary or a group partner's
+    outline. Returns (new polyline, target name, median distance) or None."""
     best = None
-    for name, rings in targets.items():
+    pts, t = _to_boundary(area, poly, d, surface_z)
+    if np.all(np.isfinite(t)) and float(t.max()) <= max_dist:
+        best = (pts, "boundary", float(np.median(t)))
+    for name, rings in partners.items():
         if not rings:
             continue
         t = _ray_hits(poly, d, rings)
@@ -262,64 +375,117 @@ def _extend(poly: np.ndarray, d: np.ndarray, targets: Dict[str, List[np.ndarray]
             continue
         med = float(np.median(t))
         if best is None or med < best[2]:
-            best = (t, name, med)
-    if best is None:
-        return None
-    t, name, med = best
-    xy = poly[:, :2] + t[:, None] * d[None, :]
-    return np.column_stack([xy, _shift_z(poly, xy, surface_z)]), name, med
+            xy = poly[:, :2] + t[:, None] * d[None, :]
+            best = (np.column_stack([xy, _shift_z(poly, xy, surface_z)]), name, med)
+    return best
 
 
 # ---------------------------------------------------------------------------
 # Assembly
 # ---------------------------------------------------------------------------
-def _assemble(seq: List[np.ndarray], method: str) -> Tuple[np.ndarray, np.ndarray]:
-    """Loft consecutive polylines of ``seq`` into one patch (shared vertices)."""
-    offs = np.cumsum([0] + [len(p) for p in seq])
-    V = np.vstack(seq)
+def _assemble(seq: List[np.ndarray], method: str,
+              cuts: Optional[List[Optional[Tuple[int, int]]]] = None) -> Tuple[np.ndarray, np.ndarray]:
+    """Loft consecutive polylines of ``seq`` into one patch.
+
+    ``cuts`` (per polyline, or None): the positions of its footwall and
+    hanging-wall cutoffs. Between two polylines that both have them, the
+    footwall parts, the fault strips and the hanging-wall parts are lofted
+    separately, so the cutoff lines run from cutoff to cutoff: the folded
+    band of a reverse fault (or the strip of a normal one) is then exactly
+    the band between the cutoff lines the data give, whatever diagonals the
+    loft would choose across a whole polyline.
+
+    Consecutive polylines share vertices where they have the same point at
+    the same position (an end trace that already lies on the study-area
+    boundary is its own extension there): such a point is one vertex, and
+    the loft triangles that would join it to itself (two corners at one
+    vertex: zero area) are not made. The strip between the polylines is
+    pinched at the shared point, and the remaining triangles cover it."""
+    Vs: List[np.ndarray] = []
+    index: List[np.ndarray] = []  # per polyline: vertex index of each point
+    n = 0
+    for i, p in enumerate(seq):
+        idx = np.arange(n, n + len(p))
+        if i > 0 and len(p) == len(seq[i - 1]):
+            same = np.all(p == seq[i - 1], axis=1)
+            if same.any():
+                idx = np.where(same, index[-1], -1)
+                new = ~same
+                idx[new] = np.arange(n, n + int(new.sum()))
+                Vs.append(p[new])
+                n += int(new.sum())
+                index.append(idx)
+                continue
+        Vs.append(p)
+        n += len(p)
+        index.append(idx)
+
+    def pieces(i: int) -> List[Tuple[int, int]]:
+        c = cuts[i] if cuts is not None else None
+        k = len(seq[i])
+        if c is None:
+            return [(0, k)]
+        fw, hw = c
+        return [(0, fw + 1), (fw, hw + 1), (hw, k)]
+
     tris = []
     for i in range(len(seq) - 1):
-        a, b = seq[i], seq[i + 1]
-        t = np.asarray(loft(a, b, method=method), dtype=np.int64)
-        k = len(a)
-        tris.append(np.where(t < k, t + offs[i], t - k + offs[i + 1]))
+        pa, pb = pieces(i), pieces(i + 1)
+        if len(pa) != len(pb):
+            pa, pb = [(0, len(seq[i]))], [(0, len(seq[i + 1]))]
+        for (a0, a1), (b0, b1) in zip(pa, pb):
+            a, b = seq[i][a0:a1], seq[i + 1][b0:b1]
+            ia, ib = index[i][a0:a1], index[i + 1][b0:b1]
+            if len(a) == 1 and len(b) == 1:
+                continue  # a zero-width piece (zero throw on both traces)
+            t = np.asarray(loft(a, b, method=method), dtype=np.int64)
+            k = len(a)
+            tris.append(np.where(t < k, ia[np.minimum(t, k - 1)], ib[np.maximum(t - k, 0)]))
     T = np.vstack(tris) if tris else np.zeros((0, 3), dtype=np.int64)
+    T = T[(T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 2] != T[:, 0])]
+    V = np.vstack(Vs) if Vs else np.zeros((0, 3))
     return np.ascontiguousarray(V), np.ascontiguousarray(T)
 
 
-def layer_patch(fault, layer: str, ends: FaultEnds, ring: np.ndarray, surface_z=None,
+def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 loft_method: str = "min_area",
                 partners: Optional[Dict[str, List[np.ndarray]]] = None,
                 max_extension: Optional[float] = None) -> Optional[LayerPatch]:
     """The fine model of ``fault`` in ``layer`` (None if no trace has it).
 
+    ``ring``: the study area (a (k, 2) ring or a :class:`faultmesh.StudyArea`).
     ``surface_z(xy) -> z`` is the continuous layer surface (tips and
     extensions follow its trend); ``partners``: group partners' XY outlines
-    in this layer (extension targets besides the study-area boundary)."""
+    in this layer (extension targets besides the study-area boundary).
+
+    An end trace that lies on the study-area boundary (every point of its
+    polyline, by :meth:`StudyArea.on_boundary`) closes the patch there: the
+    fault runs out of the study area (end kind ``boundary``)."""
+    area = as_study_area(ring)
     with_layer = [tr for tr in fault.traces if layer in tr.layers]
     if not with_layer:
         return None
-    polys = [trace_polyline(tr, layer) for tr in with_layer]
-    seq = [p for p, _ in polys]
-    throws = [t for _, t in polys]
+    polys = [_trace_polyline(tr, layer) for tr in with_layer]
+    seq = [p for p, _, _ in polys]
+    throws = [t for _, t, _ in polys]
+    cuts: List[Optional[Tuple[int, int]]] = [c for _, _, c in polys]
     if max_extension is None:
-        max_extension = max(1.5 * ends.spacing, 0.25 * math.sqrt(abs(_area(ring))))
+        max_extension = max(1.5 * ends.spacing, 0.25 * math.sqrt(abs(_area(area.ring))))
     kinds, abuts, meta = [], [], {}
-    targets = {"boundary": [ring]}
-    for name, rings in (partners or {}).items():
-        targets[name] = rings
     for end in (0, 1):
         poly = seq[0] if end == 0 else seq[-1]
         tip = ends.tips[end]
         d = ends.directions[end]
         add: Optional[np.ndarray] = None
         if tip is not None:
-            add = _layer_tip(fault, with_layer, layer, end, tip, d, ring, surface_z)[None, :]
+            add = _layer_tip(fault, with_layer, layer, end, tip, d, area, surface_z)[None, :]
             kinds.append("tip")
         elif (throws[0] if end == 0 else throws[-1]) == 0.0:
             kinds.append("zero_throw")
+        elif area.on_boundary(poly[:, :2]).all():
+            kinds.append("boundary")
         else:
-            ext = _extend(poly, d, targets, max_extension, surface_z)
+            ext = _extend(poly, d, area, partners or {}, max_extension, surface_z)
             if ext is not None:
                 add, target, dist = ext
                 kinds.append("extended")
@@ -331,32 +497,37 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring: np.ndarray, surface_z=
                 # Nothing within reach: close by a synthetic pinch-out.
                 sides = (with_layer[0] if end == 0 else with_layer[-1]).layers[layer]
                 cm = 0.5 * (np.asarray(sides["foot"])[-1] + np.asarray(sides["hanging"])[0])
-                xy = cm[:2] + 0.5 * ends.spacing * d
-                for _ in range(40):
-                    if points_in_polygon(xy[None, :], ring)[0]:
-                        break
-                    xy = cm[:2] + 0.5 * (xy - cm[:2])
+                xy = _pull_inside(area, cm[:2], cm[:2] + 0.5 * ends.spacing * d,
+                                  f"fault {fault.name!r} layer {layer!r}: the end cutoff")
                 add = np.array([[xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])]])
                 kinds.append("synthetic_tip")
         if add is not None:
+            # An extension is the end polyline carried point by point: its
+            # cutoffs sit where the end polyline's do. A tip is one point.
+            c = (cuts[0] if end == 0 else cuts[-1]) if len(add) == len(poly) else None
             if end == 0:
                 seq.insert(0, add)
+                cuts.insert(0, c)
             else:
                 seq.append(add)
-    V, T = _assemble(seq, loft_method)
+                cuts.append(c)
+    V, T = _assemble(seq, loft_method, cuts)
     return LayerPatch(fault.name, layer, V, T, kinds, abuts, meta)
 
 
-def fault_surface(fault, ends: FaultEnds, ring: np.ndarray, loft_method: str = "min_area",
-                  end_moves: Optional[Sequence[Optional[Tuple[str, np.ndarray]]]] = None):
+def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
+                  end_moves: Optional[Sequence[Optional[EndMove]]] = None):
     """(vertices, triangles) of the fault surface lofted from its plane
     traces, or None with fewer than two polylines.
 
     A tip end is closed by the end plane trace moved to the tip (by the
     offset from the cutoff midpoint of the layer whose cutoff line passes
-    closest to the tip). ``end_moves`` (per end, None, ``("ray", d)``: each
-    point carried along d onto the study-area boundary, or ``("shift", v)``:
-    the trace moved by v) extends an end like the layers' patches."""
+    closest to the tip). ``end_moves`` (per end, None or an :class:`EndMove`:
+    ``EndMove.ray(d)``, each point carried along d onto the study-area
+    boundary, or ``EndMove.shift(v)``, the trace moved by v) extends an end
+    like the layers' patches. An end plane trace that already lies on the
+    boundary stays as it is."""
+    area = as_study_area(ring)
     seq = [np.asarray(tr.plane, dtype=np.float64).reshape(-1, 3) for tr in fault.traces]
     seq = [p for p in seq if len(p) >= 1]
     if not seq:
@@ -372,23 +543,31 @@ def fault_surface(fault, ends: FaultEnds, ring: np.ndarray, loft_method: str = "
                 ref = plane[len(plane) // 2]
             moved = plane.copy()
             moved[:, :2] += (tip - ref[:2])[None, :]
+        elif area.on_boundary(plane[:, :2]).all():
+            moved = None
         elif end_moves is not None and end_moves[end] is not None:
-            how, vec = end_moves[end]
-            moved = plane.copy()
-            if how == "ray":
-                t = _ray_hits(plane, np.asarray(vec, dtype=np.float64), [ring])
-                t = np.where(np.isfinite(t), t, 0.0)
-                moved[:, :2] += t[:, None] * np.asarray(vec)[None, :]
+            move = end_moves[end]
+            if not isinstance(move, EndMove):
+                raise TypeError(f"fault_surface: end_moves[{end}] must be an EndMove or None, "
+                                f"got {type(move).__name__}")
+            if move.kind is EndMoveKind.ray:
+                moved, t = _to_boundary(area, plane, move.vector, None)
+                miss = ~np.isfinite(t)
+                moved[miss] = plane[miss]
             else:
-                moved[:, :2] += np.asarray(vec, dtype=np.float64)[None, :]
+                moved = plane.copy()
+                moved[:, :2] += move.vector[None, :]
         if moved is not None:
             # Keep it inside the study area (halve the move where it leaves).
-            inside = points_in_polygon(moved[:, :2], ring)
-            for _ in range(40):
+            inside = area.contains(moved[:, :2])
+            for _ in range(60):
                 if inside.all():
                     break
                 moved[~inside, :2] = 0.5 * (moved[~inside, :2] + plane[~inside, :2])
-                inside = points_in_polygon(moved[:, :2], ring)
+                inside = area.contains(moved[:, :2])
+            else:
+                raise GeometryError(f"fault_surface: fault {fault.name!r}: the end plane trace "
+                                    "cannot be moved inside the study area")
             if end == 0:
                 seq.insert(0, moved)
             else:
@@ -398,8 +577,8 @@ def fault_surface(fault, ends: FaultEnds, ring: np.ndarray, loft_method: str = "
     return _assemble(seq, loft_method)
 
 
-def _area(ring: np.ndarray) -> float:
-    r = np.asarray(ring, dtype=np.float64)
+def _area(ring) -> float:
+    r = np.asarray(ring.ring if isinstance(ring, StudyArea) else ring, dtype=np.float64)
     x, y = r[:, 0] - r[0, 0], r[:, 1] - r[0, 1]
     return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
 
@@ -478,8 +657,51 @@ def _triangles_near_region(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray]
     return np.unique(np.flatnonzero(near) // 3)
 
 
+def _outline_crossings(V: np.ndarray, T: np.ndarray, area: Optional[StudyArea] = None) -> np.ndarray:
+    """Rows of the triangles whose outline edges meet another outline edge of
+    the patch in XY (exactly; edges sharing a vertex do not count), except
+    pairs lying wholly on the study-area boundary (a reverse fault that runs
+    out of the area folds along it, which the stitcher allows)."""
+    from .dataset import _segments_intersect
+
+    c = boundary_contours(T, n_vertices=len(V))
+    loops = [np.asarray(l, dtype=np.int64) for l in c.loops]
+    if not loops:
+        return np.zeros(0, dtype=np.int64)
+    S = np.vstack([np.column_stack([l, np.roll(l, -1)]) for l in loops])
+    tree = AabbTree.from_segments(V[:, :2], S)
+    xy = V[:, :2]
+    boxes = np.column_stack([np.minimum(xy[S[:, 0]], xy[S[:, 1]]), np.maximum(xy[S[:, 0]], xy[S[:, 1]])])
+    off, idx = (np.asarray(a) for a in tree.query(boxes))
+    i = np.repeat(np.arange(len(S)), np.diff(off))
+    j = idx
+    pair = (i < j) & (S[i, 0] != S[j, 0]) & (S[i, 0] != S[j, 1]) & (S[i, 1] != S[j, 0]) & (S[i, 1] != S[j, 1])
+    i, j = i[pair], j[pair]
+    if len(i) == 0:
+        return np.zeros(0, dtype=np.int64)
+    hit = _segments_intersect(xy[S[i, 0]], xy[S[i, 1]], xy[S[j, 0]], xy[S[j, 1]])
+    i, j = i[hit], j[hit]
+    if area is not None and len(i):
+        onb = area.on_boundary(xy)
+        both = onb[S[i, 0]] & onb[S[i, 1]] & onb[S[j, 0]] & onb[S[j, 1]]
+        i, j = i[~both], j[~both]
+    if len(i) == 0:
+        return np.zeros(0, dtype=np.int64)
+    # The triangle of each outline edge (the edge a -> b of an outline loop is
+    # a directed edge of exactly one triangle).
+    n = len(V)
+    H = np.column_stack([T.reshape(-1), T[:, [1, 2, 0]].reshape(-1)])
+    key = H[:, 0] * n + H[:, 1]
+    order = np.argsort(key)
+    edges = np.unique(np.r_[i, j])
+    want = S[edges, 0] * n + S[edges, 1]
+    pos = np.searchsorted(key[order], want)
+    return np.unique(order[np.minimum(pos, len(order) - 1)] // 3)
+
+
 def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
-               max_rounds: int = 50, tol: Optional[float] = None) -> Tuple[np.ndarray, np.ndarray]:
+               max_rounds: int = 50, tol: Optional[float] = None,
+               area: Optional[StudyArea] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Remove the triangles whose closed XY projection touches the region
     ``rings`` (exactly) or comes within ``tol`` of its outline, then the
     triangles at pinch vertices until every piece has simple boundary loops.
@@ -506,14 +728,24 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
     if tol > 0.0:
         keep[_triangles_near_region(V, T, rings, tol)] = False
     T = T[keep]
+    # Clean-up: triangles at pinch vertices, then -- a folded (reverse-fault)
+    # patch is clipped sheet by sheet at different places, and the outlines
+    # of its sheets can cross in XY where they meet the partner -- the
+    # triangles at crossing outline edges, until the outline is simple.
     for _ in range(max_rounds):
         if len(T) == 0:
             break
         c = boundary_contours(T, n_vertices=len(V))
         bad = np.asarray(c.pinch_vertices, dtype=np.int64)
-        if bad.size == 0:
+        if bad.size:
+            T = T[~np.isin(T, bad).any(axis=1)]
+            continue
+        rows = _outline_crossings(V, T, area)
+        if rows.size == 0:
             break
-        T = T[~np.isin(T, bad).any(axis=1)]
+        keep = np.ones(len(T), dtype=bool)
+        keep[rows] = False
+        T = T[keep]
     else:
         raise GeometryError("clip_patch: could not clean up the clipped patch")
     if len(T) == 0:
@@ -521,7 +753,8 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
     return _compact(V, T)
 
 
-def group_patch(patches: List[LayerPatch]) -> Tuple[np.ndarray, np.ndarray, Dict[str, Any]]:
+def group_patch(patches: List[LayerPatch], area: Optional[StudyArea] = None
+                ) -> Tuple[np.ndarray, np.ndarray, Dict[str, Any]]:
     """One patch per layer for a group of crossing faults (module doc).
 
     Order: faults that abut no partner first (in the given order), then the
@@ -536,7 +769,7 @@ def group_patch(patches: List[LayerPatch]) -> Tuple[np.ndarray, np.ndarray, Dict
         V, T = p.vertices, p.triangles
         n0 = len(T)
         if rings:
-            V, T = clip_patch(V, T, rings)
+            V, T = clip_patch(V, T, rings, area=area)
         info["pieces"][p.fault] = {"triangles": int(len(T)), "clipped": int(n0 - len(T))}
         if len(T) == 0:
             continue

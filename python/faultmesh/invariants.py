@@ -1,4 +1,4 @@
-"""The invariants every layer surface of a model must keep (DESIGN.md).
+"""The invariants every layer surface of a model must keep (docs/design.md §5).
 
 :func:`check_surface` checks one surface, :func:`check_model` every surface
 and every stitched gap of a :class:`~faultmesh.model.Model`
@@ -121,7 +121,7 @@ def _boundary_walk(bfrom: np.ndarray, bto: np.ndarray, n: int):
 
 
 def check_surface(surface, boundary: Optional[np.ndarray] = None) -> None:
-    """Check the DESIGN.md invariants of one surface; raise GeometryError.
+    """Check the invariants (docs/design.md §5) of one surface; raise GeometryError.
 
     ``boundary`` is the study area (k, 2); it is required for the boundary
     and area invariants of a layer surface and ignored for a fault surface.

@@ -11,16 +11,29 @@ from typing import Any, Callable, Dict, List, Optional
 
 import numpy as np
 
+from ._core import TriangleKind
+
 
 @dataclass
 class Surface:
-    """A TIN: ``vertices`` (n, 3) float64, ``triangles`` (m, 3) int64, CCW in XY."""
+    """A TIN: ``vertices`` (n, 3) float64, ``triangles`` (m, 3) int64, CCW in XY.
+
+    A stitched layer also knows where each triangle came from (None when that
+    is not known, e.g. a surface read from a file that does not keep it):
+    ``kinds`` (m,) int8 :class:`faultmesh.TriangleKind` values -- ``layer``
+    (the continuous TIN), ``patch`` (a fault patch) or ``gap`` (ear-clipped
+    between the hole and the patch) -- and ``owner`` (m,) int64: the
+    :class:`StitchedPatch` id of a patch triangle, the :class:`Gap` id of a
+    gap triangle, -1 for a layer triangle.
+    """
 
     name: str
     vertices: np.ndarray
     triangles: np.ndarray
     kind: str = "layer"  # "layer" or "fault"
     metadata: Dict[str, Any] = field(default_factory=dict)
+    kinds: Optional[np.ndarray] = None
+    owner: Optional[np.ndarray] = None
 
     def __post_init__(self) -> None:
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64)
@@ -34,6 +47,24 @@ class Surface:
             else:
                 raise ValueError(f"Surface {self.name!r}: triangles must have shape (m, 3), "
                                  f"got {self.triangles.shape}")
+        m = self.n_triangles
+        if self.kinds is not None:
+            kinds = np.asarray(self.kinds)
+            if kinds.shape != (m,):
+                raise ValueError(f"Surface {self.name!r}: kinds must have shape ({m},) (one per "
+                                 f"triangle), got {kinds.shape}")
+            valid = np.isin(kinds, [int(k) for k in TriangleKind])
+            if not valid.all():
+                row = int(np.flatnonzero(~valid)[0])
+                raise ValueError(f"Surface {self.name!r}: kinds[{row}] = {kinds[row]} is not a "
+                                 f"TriangleKind value ({', '.join(f'{k.name}={int(k)}' for k in TriangleKind)})")
+            self.kinds = np.ascontiguousarray(kinds, dtype=np.int8)
+        if self.owner is not None:
+            owner = np.asarray(self.owner)
+            if owner.shape != (m,) or (owner.size and owner.dtype.kind not in "iu"):
+                raise ValueError(f"Surface {self.name!r}: owner must be an integer array of shape "
+                                 f"({m},) (one per triangle), got {owner.dtype} {owner.shape}")
+            self.owner = np.ascontiguousarray(owner, dtype=np.int64)
 
     @property
     def n_vertices(self) -> int:
@@ -45,12 +76,36 @@ class Surface:
 
 
 @dataclass
+class StitchedPatch:
+    """A fault patch stitched into a layer (paper 2.6): the fine fault model of
+    one fault, or of a group of crossing faults modelled together.
+
+    Its triangles are the rows of ``model.surfaces[layer]`` whose ``kinds`` is
+    ``TriangleKind.patch`` and whose ``owner`` is ``id`` (ids count the patches
+    stitched into that layer from 0). ``name``: the fault's name, or the
+    group's (its ``group`` value, else its members' names joined with "+");
+    ``faults``: the names of the faults it models.
+    """
+
+    layer: str
+    id: int
+    name: str
+    faults: List[str]
+    n_triangles: int = 0
+
+
+@dataclass
 class Gap:
     """One stitched gap: the polygon between a hole in a layer and a fault patch.
 
     ``triangles`` are rows of the layer surface's ``triangles`` created by ear
     clipping the gap; ``n_vertices`` and ``n_holes`` describe the gap polygon,
-    so ``len(triangles) == n_vertices + 2 * n_holes - 2``.
+    so ``len(triangles) == n_vertices + 2 * n_holes - 2``. ``id``: the
+    ``owner`` of its triangles in the layer surface (-1 if not known);
+    ``patches``: the ids of the :class:`StitchedPatch` es of that layer whose
+    outline is part of the gap (its holes, or its side along the study-area
+    boundary). ``fault`` names them for reports (the patches' names joined
+    with "+"; :meth:`Model.patches_of` gives the records).
     """
 
     fault: str
@@ -60,6 +115,8 @@ class Gap:
     n_holes: int
     seconds: float = 0.0
     metadata: Dict[str, Any] = field(default_factory=dict)
+    id: int = -1
+    patches: List[int] = field(default_factory=list)
 
 
 @dataclass
@@ -71,6 +128,7 @@ class Model:
     ``boundary``: the study area, (k, 2) counter-clockwise.
     ``gaps``: every stitched gap (for the quality report).
     ``truth``: optional ground truth, ``truth(layer, x, y) -> z`` (built-in data).
+    ``patches``: every fault patch stitched into a layer (:class:`StitchedPatch`).
     """
 
     name: str
@@ -81,10 +139,16 @@ class Model:
     gaps: List[Gap] = field(default_factory=list)
     truth: Optional[Callable[[str, np.ndarray, np.ndarray], np.ndarray]] = None
     metadata: Dict[str, Any] = field(default_factory=dict)
+    patches: List[StitchedPatch] = field(default_factory=list)
 
     @property
     def layers(self) -> List[str]:
         return list(self.surfaces)
+
+    def patches_of(self, gap: Gap) -> List[StitchedPatch]:
+        """The stitched patches whose outline is part of ``gap`` (in the gap's order)."""
+        by_id = {p.id: p for p in self.patches if p.layer == gap.layer}
+        return [by_id[i] for i in gap.patches if i in by_id]
 
     def check(self) -> None:
         """Raise ``faultmesh.GeometryError`` naming the surface and the broken invariant."""
@@ -105,8 +169,17 @@ class Model:
 
         return quality(self)
 
+    def to_pyvista(self):
+        """The model as a ``pyvista.MultiBlock``: one block per surface named
+        after it, field data ``kind``/``name``/``order``, per-triangle arrays
+        (``owner``, ``kind``) as cell data and vertex properties as point
+        data (needs ``pip install 'faultmesh[viz]'``; docs/formats.md)."""
+        from .formats.pv import to_pyvista
+
+        return to_pyvista(self)
+
     def save(self, path, **kwargs) -> None:
-        """Write the model; the format follows the suffix (.3dt, .ts, .vtu, .vtk, .obj, .ply)."""
+        """Write the model; the format follows the suffix (faultmesh.io, docs/formats.md)."""
         from .io import save_model
 
         save_model(self, path, **kwargs)

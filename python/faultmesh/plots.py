@@ -566,16 +566,27 @@ def _neighbours(T: np.ndarray) -> np.ndarray:
 
 
 def patch_triangles(model, gap) -> np.ndarray:
-    """Rows of the layer surface that form the fault patch of ``gap``.
+    """Rows of the layer surface that form the fault patch(es) of ``gap``.
 
-    ``gap.metadata["patch_triangles"]`` when the builder recorded it;
-    otherwise the triangles reachable from the gap without crossing it whose
-    XY extent stays inside the gap's bounding box (the patch sits in the
-    hole that the gap fills; the rest of the TIN reaches beyond it)."""
+    A stitched layer knows each triangle's kind and owner
+    (``Surface.kinds``/``Surface.owner``, set by :func:`faultmesh.build_model`
+    and kept by ``.3dt`` files): the patch triangles owned by the gap's
+    patches (``gap.patches``). A surface without them (read from a format
+    that does not keep them) falls back to a guess: the triangles reachable
+    from the gap without crossing it whose XY extent stays inside the gap's
+    bounding box (the patch sits in the hole that the gap fills; the rest of
+    the TIN reaches beyond it)."""
+    from ._core import TriangleKind
+
     surf = model.surfaces[gap.layer]
-    meta = gap.metadata.get("patch_triangles") if gap.metadata else None
-    if meta is not None:
-        return np.asarray(meta, dtype=np.int64).reshape(-1)
+    if surf.kinds is not None and surf.owner is not None:
+        own = np.isin(surf.owner, np.asarray(getattr(gap, "patches", []), dtype=np.int64))
+        return np.flatnonzero((surf.kinds == TriangleKind.patch) & own)
+    return _patch_triangles_guess(surf, gap)
+
+
+def _patch_triangles_guess(surf, gap) -> np.ndarray:
+    """patch_triangles for a surface without kinds and owners (see there)."""
     T = surf.triangles
     rows = np.asarray(gap.triangles, dtype=np.int64).reshape(-1)
     if len(rows) == 0:

@@ -42,7 +42,8 @@ from typing import Any, Dict, List, Tuple
 
 import numpy as np
 
-__all__ = ["QualityReport", "quality", "triangle_angles", "min_angles", "evaluate_surface"]
+__all__ = ["QualityReport", "quality", "triangle_angles", "min_angles", "evaluate_surface",
+           "vertical_errors", "accuracy_near_faults", "gap_quality"]
 
 THRESHOLDS = (10.0, 20.0)
 
@@ -88,89 +89,16 @@ def _shares(minang: np.ndarray) -> Dict[str, float]:
 # Evaluating a TIN on a regular grid of samples
 # ----------------------------------------------------------------------------
 
-def _grid_hits(V: np.ndarray, T: np.ndarray, x0: float, y0: float, hx: float, hy: float,
-               nx: int, ny: int) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(sample index j*nx+i, triangle, z) for every grid sample inside (or on)
-    a triangle in XY. Sample (i, j) sits at (x0 + i hx, y0 + j hy).
-
-    Each triangle enumerates the samples of its bounding box (vectorised with
-    ``np.repeat``), so the work is ~ samples x overlap + triangles.
-    """
-    if len(T) == 0:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-    P = V[T]                                  # (m, 3, 3)
-    xmin, xmax = P[:, :, 0].min(1), P[:, :, 0].max(1)
-    ymin, ymax = P[:, :, 1].min(1), P[:, :, 1].max(1)
-    i0 = np.clip(np.ceil((xmin - x0) / hx - 1e-9), 0, nx).astype(np.int64)
-    i1 = np.clip(np.floor((xmax - x0) / hx + 1e-9), -1, nx - 1).astype(np.int64)
-    j0 = np.clip(np.ceil((ymin - y0) / hy - 1e-9), 0, ny).astype(np.int64)
-    j1 = np.clip(np.floor((ymax - y0) / hy + 1e-9), -1, ny - 1).astype(np.int64)
-    wi = np.maximum(i1 - i0 + 1, 0)
-    wj = np.maximum(j1 - j0 + 1, 0)
-    cnt = wi * wj
-    # Signed doubled XY area; vertical (zero-area) triangles carry no height.
-    ax, ay = P[:, 0, 0], P[:, 0, 1]
-    bx, by = P[:, 1, 0], P[:, 1, 1]
-    cx, cy = P[:, 2, 0], P[:, 2, 1]
-    area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
-    cnt[area == 0] = 0
-    tot = int(cnt.sum())
-    if tot == 0:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-    tri = np.repeat(np.arange(len(T)), cnt)
-    local = np.arange(tot) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    w = wi[tri]
-    ii = i0[tri] + local % w
-    jj = j0[tri] + local // w
-    px, py = x0 + ii * hx, y0 + jj * hy
-    # Barycentric coordinates (orientation-independent: divided by the signed area).
-    l0 = ((bx[tri] - px) * (cy[tri] - py) - (by[tri] - py) * (cx[tri] - px)) / area[tri]
-    l1 = ((cx[tri] - px) * (ay[tri] - py) - (cy[tri] - py) * (ax[tri] - px)) / area[tri]
-    l2 = 1.0 - l0 - l1
-    # Samples on an edge belong to both triangles (same z): a tiny tolerance
-    # keeps them from falling through rounding; duplicates are harmless.
-    eps = -1e-10
-    inside = (l0 >= eps) & (l1 >= eps) & (l2 >= eps)
-    tri, ii, jj = tri[inside], ii[inside], jj[inside]
-    z = (l0[inside] * P[tri, 0, 2] + l1[inside] * P[tri, 1, 2] + l2[inside] * P[tri, 2, 2])
-    return jj * nx + ii, tri, z
-
-
 def evaluate_surface(surface, x, y) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """z of a TIN at arbitrary points ``x``, ``y`` (k,): returns ``(z_low,
-    z_high, n_hits)``; ``z_low == z_high`` where the surface is single-valued,
-    NaN where no triangle covers the point. (Brute force per point in chunks:
-    meant for a few thousand points; the report uses the grid version.)"""
+    """z of a TIN at points ``x``, ``y`` (k,): ``(z_low, z_high, n_hits)``;
+    ``z_low == z_high`` where the surface is single-valued, NaN where no
+    triangle covers the point (:func:`faultmesh.sample_surface`)."""
+    from ._core import sample_surface
+
     x = np.asarray(x, dtype=np.float64).reshape(-1)
     y = np.asarray(y, dtype=np.float64).reshape(-1)
-    V, T = surface.vertices, surface.triangles
-    lo = np.full(len(x), np.nan)
-    hi = np.full(len(x), np.nan)
-    nh = np.zeros(len(x), dtype=np.int64)
-    if len(T) == 0:
-        return lo, hi, nh
-    P = V[T]
-    ax, ay, az_ = P[:, 0, 0], P[:, 0, 1], P[:, 0, 2]
-    bx, by, bz = P[:, 1, 0], P[:, 1, 1], P[:, 1, 2]
-    cx, cy, cz = P[:, 2, 0], P[:, 2, 1], P[:, 2, 2]
-    area = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
-    ok = area != 0
-    chunk = max(1, 2_000_000 // max(len(T), 1))
-    for s in range(0, len(x), chunk):
-        px, py = x[s:s + chunk, None], y[s:s + chunk, None]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            l0 = ((bx - px) * (cy - py) - (by - py) * (cx - px)) / area
-            l1 = ((cx - px) * (ay - py) - (cy - py) * (ax - px)) / area
-        l2 = 1.0 - l0 - l1
-        inside = (l0 >= -1e-10) & (l1 >= -1e-10) & (l2 >= -1e-10) & ok
-        z = np.where(inside, l0 * az_ + l1 * bz + l2 * cz, np.nan)
-        nh[s:s + chunk] = inside.sum(axis=1)
-        with np.errstate(all="ignore"):
-            lo[s:s + chunk] = np.nanmin(np.where(inside, z, np.inf), axis=1)
-            hi[s:s + chunk] = np.nanmax(np.where(inside, z, -np.inf), axis=1)
-    lo[nh == 0] = np.nan
-    hi[nh == 0] = np.nan
-    return lo, hi, nh
+    lo, hi, nh = sample_surface(surface.vertices, surface.triangles, np.column_stack([x, y]))
+    return lo, hi, nh.astype(np.int64)
 
 
 def _sample_grid(model, n: int):
@@ -198,14 +126,16 @@ def _sample_grid(model, n: int):
 
 def _near_mask(model, grid, radius: float) -> np.ndarray:
     """Samples within ``radius`` (XY) of any fault surface, on the grid."""
+    from ._core import sample_surface_grid
+
     x0, y0, hx, hy, nx, ny = grid
     mark = np.zeros(nx * ny, dtype=bool)
     for f in model.faults.values():
         V, T = f.vertices, f.triangles
         if len(V) == 0:
             continue
-        idx, _, _ = _grid_hits(V, T, x0, y0, hx, hy, nx, ny)
-        mark[idx] = True
+        _, _, hits = sample_surface_grid(V, T, (x0, y0), (hx, hy), (ny, nx))
+        mark |= hits.ravel() > 0
         # Steep faults have a thin footprint: also mark the cells of points
         # spaced at half a cell along every edge (and the vertices).
         E = np.unique(np.sort(np.concatenate([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]), axis=1),
@@ -234,27 +164,37 @@ def _near_mask(model, grid, radius: float) -> np.ndarray:
     return out.ravel()
 
 
-def _vertical_errors(model, truth, near: float, samples: int) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
+def vertical_errors(model, truth=None, *, near: float = 150.0, samples: int = 200,
+                    surfaces=None) -> Tuple[List[Dict[str, Any]], Dict[str, Any]]:
+    """Vertical error of layer surfaces against a ground truth (the module
+    doc): rows ``{layer, region, samples, mean_abs_dz, max_abs_dz, rmse}`` per
+    layer and region (``away``, ``near``, ``overlap``, ``skipped``) and the
+    settings. ``surfaces`` (layer -> Surface) evaluates other surfaces of the
+    same layers -- e.g. the continuous TINs before the faults went in -- on
+    the SAME samples: the grid and the near-a-fault mask come from ``model``
+    (its boundary and fault surfaces), the regions from the surfaces'
+    own sheets."""
+    from ._core import sample_surface_grid
+
+    truth = truth if truth is not None else model.truth
+    if truth is None:
+        raise ValueError("vertical_errors: no ground truth")
+    surfaces = model.surfaces if surfaces is None else surfaces
     grid, X, Y, inside = _sample_grid(model, samples)
     x0, y0, hx, hy, nx, ny = grid
     nearm = _near_mask(model, grid, near)
     rows: List[Dict[str, Any]] = []
-    for layer, surf in model.surfaces.items():
-        idx, _, z = _grid_hits(surf.vertices, surf.triangles, x0, y0, hx, hy, nx, ny)
-        N = nx * ny
-        zlo = np.full(N, np.inf)
-        zhi = np.full(N, -np.inf)
-        np.minimum.at(zlo, idx, z)
-        np.maximum.at(zhi, idx, z)
-        covered = np.isfinite(zlo) & inside
+    for layer, surf in surfaces.items():
+        zlo, zhi, hits = (a.ravel() for a in sample_surface_grid(
+            surf.vertices, surf.triangles, (x0, y0), (hx, hy), (ny, nx)))
+        covered = (hits > 0) & inside
         # Sheets further apart than 1 mm are distinct (the overlap band of a
         # reverse fault); closer values are the same sheet seen from the
         # triangles sharing an edge or a vertex.
         multi = covered & (zhi - zlo > 1e-3)
         sel = np.flatnonzero(covered)
-        tz = np.asarray(truth(layer, X[sel], Y[sel]), dtype=np.float64).reshape(-1)
-        t_full = np.full(N, np.nan)
-        t_full[sel] = tz
+        t_full = np.full(nx * ny, np.nan)
+        t_full[sel] = np.asarray(truth(layer, X[sel], Y[sel]), dtype=np.float64).reshape(-1)
         valid = covered & np.isfinite(t_full)
         dz = np.abs(zhi - t_full)          # upper sheet == the only sheet where single-valued
         regions = {"away": valid & ~multi & ~nearm, "near": valid & ~multi & nearm,
@@ -264,13 +204,58 @@ def _vertical_errors(model, truth, near: float, samples: int) -> Tuple[List[Dict
             rows.append({"layer": layer, "region": region, "samples": int(d.size),
                          "mean_abs_dz": float(d.mean()) if d.size else float("nan"),
                          "max_abs_dz": float(d.max()) if d.size else float("nan"),
-                         "rmse": float(np.sqrt(np.mean(d * d))) if d.size else float("nan")})
+                         "rmse": float(np.sqrt(np.mean(d * d))) if d.size else float("nan"),
+                         "_abs_dz": d})
         rows.append({"layer": layer, "region": "skipped", "samples": int(np.count_nonzero(
             inside & ~valid)), "mean_abs_dz": float("nan"), "max_abs_dz": float("nan"),
-            "rmse": float("nan")})
+            "rmse": float("nan"), "_abs_dz": np.zeros(0)})
     settings = {"near_m": near, "grid": [nx, ny], "spacing_m": [hx, hy],
                 "samples_inside_boundary": int(inside.sum())}
     return rows, settings
+
+
+def accuracy_near_faults(model, continuous, truth=None, *, near: float = 150.0,
+                         samples: int = 250) -> Dict[str, Any]:
+    """The stitched model against the continuous TINs (no fault models) near
+    the faults, on the same samples (:func:`vertical_errors`: the samples
+    within ``near`` metres of a fault, and the overlap band of a reverse fault
+    where the upper sheet is compared), for the layers that a fault model
+    was stitched into. Per layer and overall: samples, RMSE, mean and max
+    |dz| of each."""
+    rs, settings = vertical_errors(model, truth, near=near, samples=samples)
+    rc, _ = vertical_errors(model, truth, near=near, samples=samples, surfaces=continuous)
+
+    def near_dz(rows, layer):
+        d = [r["_abs_dz"] for r in rows if r["layer"] == layer and r["region"] in ("near", "overlap")]
+        return np.concatenate(d) if d else np.zeros(0)
+
+    def stats(d):
+        return (float(np.sqrt(np.mean(d ** 2))) if len(d) else float("nan"),
+                float(d.mean()) if len(d) else float("nan"),
+                float(d.max()) if len(d) else float("nan"))
+
+    out: Dict[str, Any] = {"near_m": near, "grid_spacing_m": settings["spacing_m"][0], "layers": {}}
+    all_s, all_c = [], []
+    stitched = {g.layer for g in model.gaps}  # layers a fault model went into
+    for layer in model.surfaces:
+        if layer not in stitched:
+            continue
+        ds, dc = near_dz(rs, layer), near_dz(rc, layer)
+        if not len(ds) or not len(dc):
+            continue
+        all_s.append(ds)
+        all_c.append(dc)
+        (rmse_s, mean_s, max_s), (rmse_c, mean_c, max_c) = stats(ds), stats(dc)
+        out["layers"][layer] = {"samples": int(len(ds)), "samples_continuous": int(len(dc)),
+                                "rmse_stitched": rmse_s, "rmse_continuous": rmse_c,
+                                "mean_abs_stitched": mean_s, "mean_abs_continuous": mean_c,
+                                "max_abs_stitched": max_s, "max_abs_continuous": max_c}
+    es = np.concatenate(all_s) if all_s else np.zeros(0)
+    ec = np.concatenate(all_c) if all_c else np.zeros(0)
+    out["samples"] = int(len(es))
+    (out["rmse_stitched"], out["mean_abs_stitched"], _), (out["rmse_continuous"],
+                                                          out["mean_abs_continuous"], _) = stats(es), stats(ec)
+    return out
 
 
 # ----------------------------------------------------------------------------
@@ -480,6 +465,24 @@ def _angle_row(P: np.ndarray, T: np.ndarray) -> Dict[str, Any]:
             "n_lt10_xy": int(np.count_nonzero(m2 < 10)), "n_lt20_xy": int(np.count_nonzero(m2 < 20))}
 
 
+def gap_quality(model) -> Dict[str, Any]:
+    """Share of stitched gap triangles whose smallest 3D angle is under 10
+    and under 20 degrees (the paper's Table 2), overall and per gap."""
+    per, all_min = [], []
+    for g in model.gaps:
+        s = model.surfaces[g.layer]
+        rows = np.asarray(g.triangles, dtype=np.int64).reshape(-1)
+        ma = min_angles(s.vertices, s.triangles[rows]) if len(rows) else np.zeros(0)
+        all_min.append(ma)
+        sh = _shares(ma)
+        per.append({"fault": g.fault, "layer": g.layer, "triangles": int(len(rows)),
+                    "lt10": sh["lt10"] if len(ma) else 0.0, "lt20": sh["lt20"] if len(ma) else 0.0})
+    ma = np.concatenate(all_min) if all_min else np.zeros(0)
+    sh = _shares(ma)
+    return {"triangles": int(len(ma)), "lt10": sh["lt10"] if len(ma) else 0.0,
+            "lt20": sh["lt20"] if len(ma) else 0.0, "gaps": per}
+
+
 def quality(model, *, near: float = 150.0, samples: int = 200, truth=None) -> QualityReport:
     """Mesh quality of ``model``: per gap, per surface, and (with ground truth,
     ``truth`` or ``model.truth``) vertical errors. ``near``: the distance (m)
@@ -509,8 +512,8 @@ def quality(model, *, near: float = 150.0, samples: int = 200, truth=None) -> Qu
     truth = truth if truth is not None else model.truth
     rep.settings = {"angles": "3D headline; XY also given", "thresholds_deg": list(THRESHOLDS)}
     if truth is not None:
-        errors, st = _vertical_errors(model, truth, near, samples)
-        rep.errors = errors
+        errors, st = vertical_errors(model, truth, near=near, samples=samples)
+        rep.errors = [{k: v for k, v in e.items() if k != "_abs_dz"} for e in errors]
         rep.settings.update(st)
     else:
         rep.notes.append("no ground truth attached to the model: vertical errors not computed")

@@ -11,12 +11,25 @@
 
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace faultmesh {
 
 class GeometryError : public std::runtime_error {
 public:
     explicit GeometryError(const std::string& what) : std::runtime_error(what) {}
+};
+
+// Two fault patches stitched into one layer overlap (or touch) in XY: the
+// faults' zones overlap, which only modelling them together (one group, a
+// T- or X-crossing) or separating them resolves. Names what overlaps.
+class PatchOverlapError : public GeometryError {
+public:
+    PatchOverlapError(const std::string& what, std::string layer_name, std::string patch_name,
+                      std::string other_name)
+        : GeometryError(what), layer(std::move(layer_name)), patch(std::move(patch_name)),
+          other(std::move(other_name)) {}
+    std::string layer, patch, other;
 };
 
 }  // namespace faultmesh

@@ -1,6 +1,6 @@
 // faultmesh/overlap.hpp -- overlap detection between a layer TIN and a region
 // R in XY (paper section 2.4), and growth of the removed set into a
-// topological disk (DESIGN.md step 5).
+// topological disk (docs/design.md §4.7, steps 2 and 3).
 //
 // The region R is given as closed rings (interleaved x, y; ring r is the
 // points ring_offsets[r] .. ring_offsets[r+1]; the first point is not
@@ -14,10 +14,13 @@
 // of points off dR with odd crossing parity, plus the points of cancelled
 // edges between two odd sides.
 //
-// A triangle overlaps R iff its open interior meets R° -- touching R only
-// along an edge or at a vertex does not count. Stage 1 takes the AABB-tree
-// candidates (triangle box meets the rings' box); stage 2 decides each
-// candidate exactly with orient2d only (no constructed points):
+// Two predicates decide whether a triangle overlaps R (OverlapPredicate):
+//
+// open_interior (the paper's test, the default): a triangle overlaps R iff
+// its open interior meets R° -- touching R only along an edge or at a vertex
+// does not count. Stage 1 takes the AABB-tree candidates (triangle box meets
+// the rings' box); stage 2 decides each candidate exactly with orient2d only
+// (no constructed points):
 //   (a) some edge of dR meets the open triangle (segment/triangle test), or
 //   (b) otherwise the triangle's interior lies in one face of the arrangement
 //       of dR; its parity is the parity of the wedge of the triangle at a
@@ -27,6 +30,14 @@
 //       This is exact also when every vertex of the triangle lies on dR
 //       (triangles whose vertices are the region's own vertices).
 // Degenerate (zero-area) triangles have no interior and never overlap.
+//
+// closed_contact (the stitcher's test, triangles_touching_region): a
+// triangle overlaps R iff the CLOSED triangle (any orientation; a degenerate
+// one is the union of its edges) meets the closed region: R°, dR and every
+// drawn ring edge or point (a cancelled edge or a one-point ring counts too).
+// A removed set made of these triangles contains R strictly: no edge of its
+// boundary touches R (a triangle across such an edge would touch R too),
+// except along the mesh boundary.
 //
 // grow_to_disk: the removed set S is grown by neighbouring triangles until it
 // is a topological disk that strictly contains R:
@@ -46,9 +57,13 @@
 // edges and vertices, R may touch S's boundary only along the mesh boundary,
 // and the kept triangles must stay one edge-connected, pinch-free piece
 // (kept components other than the largest are absorbed).
+// These are the paper's growth rules of the library's one grower
+// (cpp/src/overlap_growth.hpp); the stitcher runs the same grower with its
+// own rules (stitch.hpp, step 3).
 //
 // The mesh must be manifold for grow_to_disk (every edge in at most two
-// triangles); otherwise a GeometryError names the edge.
+// triangles, triangles of any orientation); otherwise a GeometryError names
+// the edge (triangle_adjacency.hpp).
 #pragma once
 
 #include <cstddef>
@@ -59,12 +74,18 @@
 
 namespace faultmesh {
 
+enum class OverlapPredicate {
+    open_interior,   // the open triangle meets R's interior (paper 2.4)
+    closed_contact,  // the closed triangle meets the closed region (stitcher)
+};
+
 struct OverlapOptions {
     bool grow_to_disk = false;
     bool allow_mesh_boundary = false;
+    OverlapPredicate predicate = OverlapPredicate::open_interior;
 };
 
-// Sorted indices of the triangles whose interior meets R's interior (grown
+// Sorted indices of the triangles that overlap R by options.predicate (grown
 // into a disk when options.grow_to_disk).
 //   vertices  : n_vertices points, `stride` doubles each (2 or 3; z ignored)
 //   triangles : n_triangles x 3 vertex indices (any orientation)

@@ -1,7 +1,7 @@
 // faultmesh/predicates.hpp -- exact orientation and in-circle tests.
 //
-// Every geometric decision in faultmesh (which side of a line, inside a
-// circumcircle, segment crossing) goes through these two functions. They are
+// Every geometric decision in faultmesh (which side of a line or of a plane,
+// inside a circumcircle, segment crossing) goes through these functions. They are
 // Shewchuk's adaptive-precision predicates ("Adaptive Precision Floating-Point
 // Arithmetic and Fast Robust Geometric Predicates", 1997), written for this
 // library: a floating-point filter answers almost every call; only when the
@@ -41,10 +41,11 @@ namespace faultmesh {
 // differences can underflow (below DBL_MIN = 2.2e-308 they lose bits, below
 // 2^-1075 they vanish), which would make the expansion arithmetic inexact.
 // The predicates detect every case where that could change a sign -- the
-// filter's magnitude (|detleft| + |detright|, or the in-circle permanent)
-// below 2^-900, or an exact-stage result below 2^-1000, while some non-zero
-// coordinate is tiny (below 2^-400 for orient2d, 2^-200 for incircle: above
-// those, every non-zero product of the exact stages is a normal double) --
+// filter's magnitude (|detleft| + |detright|, or the in-circle / orient3d
+// permanent) below 2^-900, or an exact-stage result below 2^-1000, while some
+// non-zero coordinate is tiny (below 2^-400 for orient2d, 2^-280 for
+// orient3d, 2^-200 for incircle: above those, every non-zero product of the
+// exact stages is a normal double) --
 // and then decide with exact integer arithmetic on the raw doubles (every
 // double is an integer multiple of 2^-1074). The sign is therefore exact for
 // every finite input within the range; a returned value whose magnitude is
@@ -177,5 +178,56 @@ inline int incircle_sign(const double* pa, const double* pb, const double* pc, c
     const double d = incircle(pa, pb, pc, pd);
     return (d > 0.0) - (d < 0.0);
 }
+
+
+// ---------------------------------------------------------------------------
+// orient3d (Shewchuk 1997, section 4 and predicates.c: orient3d/orient3dadapt).
+// The same adaptive scheme as orient2d: a floating-point filter (stage A),
+// exact products of the rounded differences (B), a first-order correction
+// by the differences' rounding errors (C), and the exact determinant on the
+// differences carried as two-term expansions when C cannot decide.
+namespace detail {
+constexpr double kO3dErrBoundA = (7.0 + 56.0 * kEpsilon) * kEpsilon;
+double orient3d_adapt(const double* pa, const double* pb, const double* pc, const double* pd,
+                      double permanent);
+// The permanent is below kUnderflowGuard (or not a number): the same
+// underflow handling as orient2d_small, with exact integers on the raw
+// doubles where a coordinate is tiny (below 2^-280: degree 3).
+double orient3d_small(const double* pa, const double* pb, const double* pc, const double* pd);
+}  // namespace detail
+
+// Six times the signed volume of the tetrahedron (a, b, c, d), with Shewchuk's
+// sign convention: > 0 if d lies BELOW the plane through a, b, c, where
+// "below" is the side from which a, b, c appear clockwise (a, b, c
+// counter-clockwise seen from above, i.e. from +z); < 0 above; exactly 0 if
+// the four points are coplanar. The sign is always that of the exact
+// determinant of the double inputs. A cyclic relabelling of the axes
+// (x, y, z) -> (y, z, x) leaves the value unchanged, so "above" may be read
+// along any axis k with a, b, c counter-clockwise in the plane of the axes
+// (k + 1) % 3, (k + 2) % 3 (faultmesh/fault_side.hpp uses this).
+inline double orient3d(const double* pa, const double* pb, const double* pc, const double* pd) {
+    const double adx = pa[0] - pd[0], bdx = pb[0] - pd[0], cdx = pc[0] - pd[0];
+    const double ady = pa[1] - pd[1], bdy = pb[1] - pd[1], cdy = pc[1] - pd[1];
+    const double adz = pa[2] - pd[2], bdz = pb[2] - pd[2], cdz = pc[2] - pd[2];
+
+    const double bdxcdy = bdx * cdy, cdxbdy = cdx * bdy;
+    const double cdxady = cdx * ady, adxcdy = adx * cdy;
+    const double adxbdy = adx * bdy, bdxady = bdx * ady;
+
+    const double det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
+    const double permanent = (std::fabs(bdxcdy) + std::fabs(cdxbdy)) * std::fabs(adz) +
+                             (std::fabs(cdxady) + std::fabs(adxcdy)) * std::fabs(bdz) +
+                             (std::fabs(adxbdy) + std::fabs(bdxady)) * std::fabs(cdz);
+    if (!(permanent >= detail::kUnderflowGuard)) return detail::orient3d_small(pa, pb, pc, pd);
+    const double errbound = detail::kO3dErrBoundA * permanent;
+    if (det > errbound || -det > errbound) return det;
+    return detail::orient3d_adapt(pa, pb, pc, pd, permanent);
+}
+
+inline int orient3d_sign(const double* pa, const double* pb, const double* pc, const double* pd) {
+    const double d = orient3d(pa, pb, pc, pd);
+    return (d > 0.0) - (d < 0.0);
+}
+// ---------------------------------------------------------------------------
 
 }  // namespace faultmesh

@@ -1,5 +1,5 @@
 // faultmesh/stitch.hpp -- stitching fine fault models into a layer TIN
-// (paper sections 2.4-2.6; DESIGN.md steps 5-7).
+// (paper sections 2.4-2.6; docs/design.md §4.7).
 //
 // A LayerStitcher owns one layer surface and stitches fault patches into it
 // one after another. Each stitch is LOCAL: it touches only the triangles
@@ -9,42 +9,54 @@
 //
 // One stitch of a patch P (a triangulated surface, possibly several disjoint
 // components, possibly folded in XY: the fault strip of a reverse fault runs
-// backwards) into the layer L:
-//  1. Outline. P's boundary loops (edge frequency + Algorithm 1, boundary.hpp)
-//     projected to XY form the region R. P is re-oriented if needed so that
-//     the sum of its signed XY areas is positive (outer loops CCW). Checks:
-//     every loop is simple in XY and no two loops meet, except along the
-//     study-area boundary (where the end trace of a fault that reaches the
-//     boundary may fold back on itself); every vertex of P lies in the study
-//     area.
-//  2. Overlap (two stages): the AABB tree gives the triangles whose XY box
-//     meets R's box (the tree is built once per layer over blocks of 8
-//     consecutive triangles -- a Delaunay TIN's rows are spatially coherent
-//     -- plus one box per later stitch for the triangles it added); an exact
-//     test (orient2d only) keeps those whose closed
-//     XY projection meets the closed region R. Counting mere contact makes
-//     the removed set D contain R STRICTLY: no edge of D's boundary touches R
-//     except along the study-area boundary. A triangle of an earlier patch
-//     that meets R is an error (GeometryError naming both patches).
-//  3. Growth until every component of D is a disk, possibly with earlier
-//     patches as holes: a triangle of an earlier gap pulls in that whole gap
-//     (gaps are atomic: the earlier patch then becomes a hole of the new gap
-//     and the two gaps are merged into one record); a pinch vertex pulls in
-//     its whole star (except earlier-patch triangles); a hole of D (an inner
-//     boundary loop) is filled by a flood fill of the region it encloses.
-//  4. Gap polygons: the directed edges of D's boundary (D on the left) and
-//     of R's outline reversed; along the study-area boundary, the pieces that
-//     D covers and R does not (a fault reaching the boundary, paper F22: its
-//     gap is one or more polygons without a hole). The edges are chained into
-//     loops; CCW loops are outer rings, CW loops holes (R's components, and
-//     earlier patches enclosed by D). Every gap vertex is an existing vertex.
-//  5. Each gap polygon is ear-clipped in XY (ear_clipping.hpp: bridges
-//     between mutually visible vertices, quality ear order and constrained
-//     Delaunay refinement by default). A polygon with n vertices and h holes
-//     gives n + 2h - 2 triangles, checked.
-//  6. D's triangles are removed, P's vertices and triangles and the gap
-//     triangles added; the adjacency is updated locally. The vertices are
-//     shared: the gap triangles use the layer's and the patch's vertices.
+// backwards) into the layer L is a sequence of named steps on one state
+// (cpp/src/stitch_steps.hpp; one source file per phase):
+//  1. Outline (outline_patch). P's boundary loops (edge frequency +
+//     Algorithm 1, boundary.hpp) projected to XY form the region R. Each
+//     edge-connected piece of P is re-oriented if needed so that the sum of
+//     its signed XY areas is positive (outer loops CCW). Checks: every loop is
+//     simple in XY and no two loops meet, except along the study-area
+//     boundary (where the end trace of a fault that reaches the boundary may
+//     fold back on itself); every vertex of P lies in the study area.
+//  2. Overlap (find_overlap, two stages): the AABB tree gives the triangles
+//     whose XY box meets R's box (the tree is built once per layer over
+//     blocks of 8 consecutive triangles -- a Delaunay TIN's rows are spatially
+//     coherent -- plus one box per later stitch for the triangles it added);
+//     the exact closed-contact predicate of overlap.hpp (orient2d only) keeps
+//     those whose closed XY projection meets the closed region R. Counting
+//     mere contact makes the removed set D contain R STRICTLY: no edge of D's
+//     boundary touches R except along the study-area boundary. A triangle of
+//     an earlier patch that meets R is an error (GeometryError naming both
+//     patches).
+//  3. Growth (grow_removed_set) until every component of D is a disk,
+//     possibly with earlier patches as holes: the library's one grower
+//     (overlap.hpp, cpp/src/overlap_growth.hpp) with the stitcher's rules. A
+//     triangle of an earlier gap pulls in that whole gap (gaps are atomic: the
+//     earlier patch then becomes a hole of the new gap and the two gaps are
+//     merged into one record); a pinch vertex pulls in its whole star (except
+//     earlier-patch triangles, which never join D); a hole of D (an inner
+//     boundary loop) is filled by a flood fill of the region it encloses;
+//     then, with StitchOptions::clearance, boundary vertices of D too close to
+//     R pull in their star. D may reach the study-area boundary.
+//  4. Contours (build_gap_polygons): the directed edges of D's boundary (D
+//     on the left) and of R's outline reversed; along the study-area
+//     boundary, the pieces that D covers and R does not (a fault reaching the
+//     boundary, paper F22: its gap is one or more polygons without a hole).
+//     The edges are chained into rings; CCW rings are outer rings, CW rings
+//     holes (R's components, and earlier patches enclosed by D). Every gap
+//     vertex is an existing vertex.
+//  5. Bridging + clipping (clip_gap_polygons): each gap polygon is
+//     ear-clipped in XY (ear_clipping.hpp: bridges between mutually visible
+//     vertices join the holes to the outer ring, quality ear order and
+//     constrained Delaunay refinement by default). A polygon with n vertices
+//     and h holes gives n + 2h - 2 triangles, checked.
+//  6. Merge (link_new_triangles, then commit): the new triangles (P's and
+//     the gaps') are linked to each other and to the kept triangles across
+//     D's boundary, still locally (the last step that may throw); commit then
+//     removes D's triangles, adds P's vertices and the new triangles and
+//     relinks the kept half-edges. The vertices are shared: the gap triangles
+//     use the layer's and the patch's vertices. On error before the commit
+//     nothing is changed.
 //
 // Triangle kinds: layer (the original TIN), patch (owner = patch id, the
 // order of stitch() calls from 0) and gap (owner = gap id).
@@ -58,6 +70,7 @@
 
 #include <faultmesh/aabb_tree.hpp>
 #include <faultmesh/ear_clipping.hpp>
+#include <faultmesh/overlap.hpp>
 
 namespace faultmesh {
 
@@ -74,7 +87,7 @@ struct StitchOptions {
     // the study-area boundary where the patch reaches it). A layer vertex just
     // outside the outline would otherwise make sliver gap triangles. 0: off.
     double clearance = 0.0;
-    // Safety bound on the growth rounds of one stitch.
+    // Safety bound on the growth rounds of one stitch (<= 0: none).
     int max_grow_rounds = 10000;
 };
 
@@ -112,9 +125,11 @@ struct StitchedMesh {
     std::vector<std::int64_t> triangle_map; // stitcher row -> compacted row or -1
 };
 
+class LayerStitcher;
 namespace detail {
 struct StitcherState;
-}
+StitcherState& state_of(LayerStitcher& st);  // internal: the step tests reach the state
+}  // namespace detail
 
 class LayerStitcher {
 public:
@@ -161,6 +176,7 @@ public:
     const std::vector<std::string>& patch_names() const;
 
 private:
+    friend detail::StitcherState& detail::state_of(LayerStitcher& st);
     std::unique_ptr<detail::StitcherState> s_;
 };
 
@@ -178,9 +194,10 @@ StitchResult stitch(const double* vertices, std::size_t n_vertices, const std::i
 
 // Rows of the triangles (vertices with `stride` 2 or 3 doubles) whose CLOSED
 // XY projection meets the CLOSED region given by rings (even-odd rule;
-// interleaved x, y; ring r is points ring_offsets[r] .. ring_offsets[r+1]).
-// Exact (orient2d only). Used to clip one fault patch by another of the same
-// group (T- and X-crossings) and by the stitcher's overlap stage.
+// interleaved x, y; ring r is points ring_offsets[r] .. ring_offsets[r+1]):
+// the closed-contact predicate of overlap.hpp (OverlapPredicate), the one the
+// stitcher's overlap step uses. Exact (orient2d only). Used to clip one fault
+// patch by another of the same group (T- and X-crossings).
 std::vector<std::int64_t> triangles_touching_region(const double* vertices, std::size_t n_vertices,
                                                     std::size_t stride,
                                                     const std::int64_t* triangles,

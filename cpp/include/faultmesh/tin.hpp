@@ -72,6 +72,11 @@ public:
     std::vector<double> vertices() const;          // 3 per vertex: x, y, z
     std::vector<std::int64_t> triangles() const;   // 3 per triangle, CCW, vertex indices
     std::vector<std::int64_t> halfedges() const;   // opposite half-edge or -1 (hull), as in DelaunayResult
+    // triangles() and halfedges() in one pass (either pointer may be null).
+    void mesh(std::vector<std::int64_t>* triangles, std::vector<std::int64_t>* halfedges) const;
+    // The vertices (3 per vertex) without a copy; valid until the next
+    // insert() or set_z().
+    const std::vector<double>& vertex_array() const;
 
     // Index of a triangle whose closed region contains (x, y), or -1 if the
     // point is outside the convex hull.

@@ -11,7 +11,7 @@ import os
 import re
 import tempfile
 from pathlib import Path
-from typing import IO, Iterable, List, Optional, Sequence, Tuple
+from typing import IO, Dict, Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -62,6 +62,11 @@ class AtomicFiles:
         os.chmod(tmp, 0o666 & ~_UMASK)
         self._pending.append((Path(tmp), target))
         return Path(tmp)
+
+    def pending(self, target) -> bool:
+        """Whether ``target`` is already written by this set of files."""
+        target = Path(target)
+        return any(t == target for _, t in self._pending)
 
     def open(self, target, mode: str = "w") -> IO:
         tmp = self.temp_path(target)
@@ -257,3 +262,223 @@ def read_text(path) -> str:
             return data.decode("latin-1")
         except UnicodeDecodeError:  # pragma: no cover (latin-1 decodes any byte)
             raise ModelFileError(path, f"not a text file ({e})") from None
+
+
+# --------------------------------------------------------------------------
+# calling other libraries
+# --------------------------------------------------------------------------
+
+def guarded(path, what: str, fn, *args, **kwargs):
+    """Call a reader or writer of another library on ``path``; whatever it
+    raises (meshio calls ``sys.exit`` on some files, h5py and VTK raise their
+    own types) becomes a :class:`ModelFileError` naming the file and ``what``
+    was being done. KeyboardInterrupt, MemoryError, a missing optional
+    package (ImportError), a missing file and a ModelFileError of ours pass
+    through as they are."""
+    try:
+        return fn(*args, **kwargs)
+    except (KeyboardInterrupt, MemoryError, ModelFileError, ImportError, FileNotFoundError):
+        raise
+    except SystemExit as e:
+        raise ModelFileError(path, f"{what} failed (the library tried to exit with status "
+                                   f"{e.code!r})") from None
+    except BaseException as e:  # noqa: BLE001 (any library error names the file)
+        msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise ModelFileError(path, f"{what} failed: {type(e).__name__}: {msg}") from None
+
+
+def optional_import(module: str, extra: str, purpose: str):
+    """Import an optional dependency or raise ImportError saying which extra
+    installs it (``pip install faultmesh[<extra>]``)."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as e:
+        raise ImportError(f"{purpose} needs the {module!r} package: pip install "
+                          f"'faultmesh[{extra}]' ({e})") from None
+
+
+# --------------------------------------------------------------------------
+# per-surface arrays and the merged layout shared by the mesh formats
+# --------------------------------------------------------------------------
+
+#: Surface attributes holding one value per triangle, and their array names.
+TRIANGLE_ATTRIBUTES = {"owner": "owner", "kinds": "kind"}
+
+
+def model_surfaces(model) -> List[Tuple[object, str]]:
+    """(surface, kind) in model order: layers top to bottom, then faults."""
+    return [(s, "layer") for s in model.surfaces.values()] + \
+           [(s, "fault") for s in model.faults.values()]
+
+
+def _numeric(a) -> Optional[np.ndarray]:
+    try:
+        arr = np.asarray(a)
+    except Exception:  # pragma: no cover (ragged objects)
+        return None
+    if arr.dtype.kind in "biuf":
+        return arr
+    return None
+
+
+def vertex_properties(surf) -> Dict[str, np.ndarray]:
+    """Numeric per-vertex arrays of a surface (``metadata["vertex_properties"]``)."""
+    out: Dict[str, np.ndarray] = {}
+    for name, val in ((surf.metadata or {}).get("vertex_properties") or {}).items():
+        a = _numeric(val)
+        if a is not None and a.ndim in (1, 2) and len(a) == surf.n_vertices:
+            out[str(name)] = a
+    return out
+
+
+def triangle_arrays(surf) -> Dict[str, np.ndarray]:
+    """Numeric per-triangle arrays of a surface: the ``owner``/``kinds``
+    attributes when the surface has them (as ``owner``/``kind``) and
+    ``metadata["triangle_properties"]``."""
+    out: Dict[str, np.ndarray] = {}
+    for attr, name in TRIANGLE_ATTRIBUTES.items():
+        a = _numeric(getattr(surf, attr, None)) if getattr(surf, attr, None) is not None else None
+        if a is not None and a.ndim == 1 and len(a) == surf.n_triangles:
+            out[name] = a
+    for name, val in ((surf.metadata or {}).get("triangle_properties") or {}).items():
+        a = _numeric(val)
+        if a is not None and a.ndim in (1, 2) and len(a) == surf.n_triangles:
+            out.setdefault(str(name), a)
+    return out
+
+
+class Merged:
+    """Every surface of a model in one mesh (vertices not shared between
+    surfaces), with ``surface_id`` (model order) on points and cells, ``kind``
+    (0 layer, 1 fault) on cells, the surfaces' own arrays (NaN where a surface
+    lacks one), and the names and kinds for the file's field data."""
+
+    def __init__(self, points, triangles, point_arrays, cell_arrays, names, kinds, name, crs):
+        self.points = points
+        self.triangles = triangles
+        self.point_arrays: Dict[str, np.ndarray] = point_arrays
+        self.cell_arrays: Dict[str, np.ndarray] = cell_arrays
+        self.names: List[str] = names
+        self.kinds: List[str] = kinds
+        self.name = name
+        self.crs = crs
+
+    @classmethod
+    def of(cls, model) -> "Merged":
+        surfs = model_surfaces(model)
+        nv = [s.n_vertices for s, _ in surfs]
+        nt = [s.n_triangles for s, _ in surfs]
+        offs = np.concatenate([[0], np.cumsum(nv)]).astype(np.int64)
+        P = np.vstack([s.vertices for s, _ in surfs]) if surfs else np.zeros((0, 3))
+        T = np.vstack([s.triangles + offs[k] for k, (s, _) in enumerate(surfs)]) if surfs \
+            else np.zeros((0, 3), np.int64)
+        sid = np.arange(len(surfs), dtype=np.int32)
+        parrays = {"surface_id": np.repeat(sid, nv)}
+        carrays = {"surface_id": np.repeat(sid, nt),
+                   "kind": np.repeat(np.array([1 if k == "fault" else 0 for _, k in surfs],
+                                              dtype=np.int32), nt)}
+        _merge_arrays(parrays, [vertex_properties(s) for s, _ in surfs], nv, "vertex")
+        _merge_arrays(carrays, [triangle_arrays(s) for s, _ in surfs], nt, "triangle")
+        return cls(P, T, parrays, carrays, [str(s.name) for s, _ in surfs], [k for _, k in surfs],
+                   str(model.name), str(model.crs or ""))
+
+
+def _merge_arrays(out: Dict[str, np.ndarray], table: List[Dict[str, np.ndarray]],
+                  counts: List[int], prefix: str) -> None:
+    """Stack each named array over the surfaces (NaN rows where a surface has
+    none or one of another width); a name faultmesh uses itself gets ``prefix_``."""
+    names: List[str] = []
+    for t in table:
+        names += [n for n in t if n not in names]
+    for n in names:
+        width = max(t[n].reshape(len(t[n]), -1).shape[1] for t in table if n in t)
+        cols = []
+        for t, c in zip(table, counts):
+            a = t[n].reshape(c, -1) if n in t else None
+            cols.append(a.astype(np.float64) if a is not None and a.shape[1] == width
+                        else np.full((c, width), np.nan))
+        a = np.vstack(cols) if cols else np.zeros((0, width))
+        key = n if n not in out else f"{prefix}_{n}"
+        out[key] = a[:, 0] if width == 1 else a
+
+
+def _unprefix(arrays: Dict[str, np.ndarray], prefix: str, reserved: Tuple[str, ...]):
+    return {(k[len(prefix) + 1:] if k.startswith(prefix + "_") and k[len(prefix) + 1:] in reserved
+             else k): v for k, v in arrays.items()}
+
+
+def _all_nan(a: np.ndarray) -> bool:
+    return a.size > 0 and a.dtype.kind == "f" and bool(np.isnan(a).all())
+
+
+def split_merged(path, points: np.ndarray, triangles: np.ndarray,
+                 point_arrays: Dict[str, np.ndarray], cell_arrays: Dict[str, np.ndarray],
+                 names: Optional[Sequence[str]] = None, kinds: Optional[Sequence[str]] = None,
+                 model_name: str = "", crs: str = ""):
+    """A :class:`Model` from one mesh: split by the ``surface_id`` point array
+    when present (names and kinds from the field data, else ``surface_<id>``
+    and the ``kind`` cell array), else one layer named after the file. Other
+    point/cell arrays go to each surface's ``metadata["vertex_properties"]`` /
+    ``["triangle_properties"]``."""
+    from ..model import Model, Surface
+
+    path = Path(path)
+    P = np.asarray(points, dtype=np.float64)
+    T = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if T.size and (T.min() < 0 or T.max() >= len(P)):
+        raise ModelFileError(path, f"triangle vertex index outside 0..{len(P) - 1}")
+    pa = {k: np.asarray(v) for k, v in point_arrays.items() if len(v) == len(P)}
+    ca = {k: np.asarray(v) for k, v in cell_arrays.items() if len(v) == len(T)}
+    sid = pa.pop("surface_id", None)
+    ca.pop("surface_id", None)  # the per-vertex ids decide; a cell copy is not an array to keep
+    kind_c = ca.pop("kind", None) if sid is not None else None
+
+    def meta(vsel, tsel) -> Dict[str, object]:
+        # A surface that lacked an array in the merged file has only NaN
+        # there (Merged fills them): it gets no such array back.
+        m: Dict[str, object] = {}
+        vp = {k: v[vsel] for k, v in pa.items() if not _all_nan(v[vsel])}
+        tp = {k: v[tsel] for k, v in ca.items() if not _all_nan(v[tsel])}
+        if vp:
+            m["vertex_properties"] = _unprefix(vp, "vertex", ("surface_id",))
+        if tp:
+            m["triangle_properties"] = _unprefix(tp, "triangle", ("surface_id", "kind"))
+        return m
+
+    stem = model_name or path.stem
+    if sid is None:
+        surf = Surface(name=path.stem, vertices=P, triangles=T,
+                       metadata=meta(np.arange(len(P)), np.arange(len(T))))
+        return Model(name=stem, surfaces={surf.name: surf}, crs=crs)
+    sid = np.asarray(sid).reshape(len(P), -1)[:, 0]
+    if not np.all(np.isfinite(sid)) or not np.array_equal(sid, np.round(sid)):
+        raise ModelFileError(path, "point array surface_id holds values that are not integers")
+    sid = sid.astype(np.int64)
+    tsid = sid[T] if len(T) else np.zeros((0, 3), np.int64)
+    if len(T) and not np.all(tsid == tsid[:, :1]):
+        row = int(np.flatnonzero(~np.all(tsid == tsid[:, :1], axis=1))[0])
+        raise ModelFileError(path, f"triangle {row} joins vertices of different surface_id "
+                                   f"values {tsid[row].tolist()}")
+    layers: Dict[str, Surface] = {}
+    faults: Dict[str, Surface] = {}
+    ids = np.unique(sid).tolist()
+    use_names = names is not None and len(names) > (max(ids) if ids else -1) and min(ids + [0]) >= 0
+    for k in ids:
+        vsel = np.flatnonzero(sid == k)
+        remap = np.full(len(P), -1, dtype=np.int64)
+        remap[vsel] = np.arange(len(vsel))
+        tsel = np.flatnonzero(tsid[:, 0] == k) if len(T) else np.zeros(0, np.int64)
+        if kinds is not None and use_names and k < len(kinds):
+            is_fault = str(kinds[k]).lower() == "fault"
+        else:
+            is_fault = kind_c is not None and len(tsel) and int(np.asarray(kind_c)[tsel[0]]) == 1
+        name = str(names[k]) if use_names else f"surface_{k}"
+        target = faults if is_fault else layers
+        base, n = name, 2
+        while name in target:
+            name, n = f"{base} ({n})", n + 1
+        target[name] = Surface(name=name, vertices=P[vsel], triangles=remap[T[tsel]],
+                               kind="fault" if is_fault else "layer", metadata=meta(vsel, tsel))
+    return Model(name=stem, surfaces=layers, faults=faults, crs=crs)

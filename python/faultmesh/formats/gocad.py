@@ -1,58 +1,121 @@
-"""GOCAD ASCII TSurf (``.ts``) reader and writer.
+"""GOCAD ASCII files: TSurf (``.ts``), Model3d (``.ml``) and PLine (``.pl``).
 
-A ``.ts`` file holds one or more objects, each ``GOCAD <Type> 1`` ... ``END``.
-Writing: one ``GOCAD TSurf 1`` object per surface (layers top to bottom, then
-faults), ``HEADER { name: ... }`` with the surface's colour and faultmesh's own
-keys (``faultmesh_kind``, ``faultmesh_order``, ``faultmesh_model``,
-``faultmesh_crs``; other programs ignore unknown header keys), the
-``GOCAD_ORIGINAL_COORDINATE_SYSTEM`` block (Z positive up: elevations),
-``GEOLOGICAL_TYPE`` ``top`` for layers and ``fault`` for faults, one ``TFACE``,
-``VRTX id x y z`` with 1-based ids and ``TRGL a b c``. The study-area boundary
-is written as a closed ``GOCAD PLine 1`` object (``faultmesh_role: boundary``).
+Writing (docs/formats.md, "GOCAD"):
 
-Reading accepts what other tools write: ``PVRTX`` (vertex properties, kept in
-``Surface.metadata["vertex_properties"]``), ``ATOM``/``PATOM`` (a new vertex id
-on the position of an existing one: copied by default so the file's topology is
-kept, or merged with ``atoms="merge"``), several ``TFACE`` parts (one surface),
-``ZPOSITIVE Depth`` (z negated to elevations), ``#`` comments, property and
-header blocks in braces, ``BSTONE``/``BORDER`` and any unknown keyword
-(ignored), and objects of other types (``VSet``, ``PLine``, ``GSurf``; skipped,
-except faultmesh's boundary PLine).
+* ``.ts``: one ``GOCAD TSurf 1`` object per surface (layers top to bottom,
+  then faults), each with its own vertex numbering from 1, so every object is
+  a complete surface for readers that take one surface per file (resqpy).
+  ``HEADER`` with the name written bare as SKUA does (``name:coal 8``), the
+  colour of faultmesh's pictures and faultmesh's own keys (``faultmesh_kind``,
+  ``faultmesh_order``, ``faultmesh_model``; other programs ignore unknown
+  header keys); the ``GOCAD_ORIGINAL_COORDINATE_SYSTEM`` block with the
+  model's CRS as ``NAME`` (``Default`` when it has none) and ``ZPOSITIVE
+  Elevation``; the vertex property header when the surface has vertex
+  properties (``PVRTX`` lines then); ``GEOLOGICAL_FEATURE`` (the name) and
+  ``GEOLOGICAL_TYPE``: ``top`` for a layer (a horizon, as SKUA writes
+  horizons), ``normal_fault``/``reverse_fault`` for a fault whose metadata
+  ``kind`` says so, else ``fault``; one ``TFACE``, ``VRTX``/``PVRTX`` and
+  ``TRGL``.
+* ``.ml``: a ``GOCAD Model3d 1`` header listing every surface (``TSURF``,
+  ``TFACE <id> <type> <name>`` with its key triangle, ``SURFACE`` feature
+  lists) followed by the same TSurf objects, so the file opens as one
+  structural model with named horizons and faults (OpenGeode's
+  StructuralModel reader, SKUA).
+* the study boundary, when the model has one, goes to its own file
+  ``<stem>_boundary.pl`` beside the ``.ts``/``.ml``: a closed ``GOCAD PLine``
+  at the model's highest elevation (a frame over the model), with
+  ``faultmesh_role:boundary``.
+
+Reading accepts what other tools write (SKUA/GOCAD, SCEC CFM, OpenGeode,
+RMS): ``.ts``, ``.ml`` and ``.pl`` by content, not by suffix. ``PVRTX`` with
+properties named by ``PROPERTIES`` (GOCAD quoting, ``" default property"``),
+sized by ``ESIZES``, ``NO_DATA_VALUES`` read as NaN, trailing flags such as
+``CNXYZ`` ignored; ``ATOM``/``PATOM`` (a new vertex id on the position of an
+existing one: copied by default so the file's topology is kept, or merged with
+``atoms="merge"``); several ``TFACE`` parts (one surface); ``ZPOSITIVE
+Depth`` (z negated to elevations); ``GEOLOGICAL_TYPE`` containing ``fault``
+gives a fault (``normal_fault``/``reverse_fault`` set ``metadata["kind"]``),
+``boundary``/``lease`` surfaces (the box of a SKUA model) are not layers:
+they are listed in ``model.metadata["gocad_boundary_surfaces"]`` and left out;
+every other type is a layer. ``#`` comments, brace blocks, ``BSTONE``,
+``BORDER``, ``REGION``, ``ARI`` blocks and any unknown keyword are ignored;
+objects of other types (``VSet``, ``GSurf``, ...) are skipped.
 """
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Dict, List, Optional, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ._common import AtomicFiles, ModelFileError, _Shared, format_floats, read_text, split_lines
 
-SUFFIX = ".ts"
+SUFFIXES = (".ts", ".ml", ".pl")
 
 # Colours of faultmesh's pictures (plots.layer_color) in GOCAD's 0..1 RGBA.
 _FAULT_RGBA = "0.55 0.1 0.1 1"
+# GOCAD's usual no-data value for vertex properties (NaN is written as this).
+_NO_DATA = -99999.0
+_BOUNDARY_TYPES = ("boundary", "lease")
 
 
-def _header_value(s: str) -> str:
+# --------------------------------------------------------------------------
+# names and quoting
+# --------------------------------------------------------------------------
+
+def _bare(s: str, what: str) -> str:
+    """A name as SKUA writes it: bare, the rest of the line. GOCAD has no
+    escape, so a line break cannot be written and a double quote (which the
+    readers strip) is written as a single quote."""
     s = str(s)
-    if s == "" or any(c.isspace() for c in s) or '"' in s or s != s.strip():
-        return '"' + s.replace('"', "'") + '"'
-    return s
+    if "\n" in s or "\r" in s:
+        raise ValueError(f"GOCAD: {what} {s!r} contains a line break, which GOCAD files cannot hold")
+    return s.replace('"', "'").strip() or "unnamed"
+
+
+def _quoted(s: str, what: str) -> str:
+    """A token in GOCAD's quoting: bare without white space, else ``" name"``
+    (a quote, a space, the name, a quote: what GOCAD and OpenGeode write)."""
+    s = _bare(s, what)
+    return f'" {s}"' if any(c.isspace() for c in s) else s
+
+
+def split_quoted(s: str) -> List[str]:
+    """Tokens of a GOCAD line: white-space separated, a ``"..."`` group is one
+    token (GOCAD writes ``" name"``; the quotes and the white space inside at
+    either end are dropped)."""
+    out: List[str] = []
+    i, n = 0, len(s)
+    while i < n:
+        if s[i].isspace():
+            i += 1
+            continue
+        if s[i] == '"':
+            j = s.find('"', i + 1)
+            if j < 0:          # unclosed quote: the rest of the line
+                out.append(s[i + 1:].strip())
+                break
+            out.append(s[i + 1:j].strip())
+            i = j + 1
+        else:
+            j = i
+            while j < n and not s[j].isspace():
+                j += 1
+            out.append(s[i:j])
+            i = j
+    return out
 
 
 def _unquote(s: str) -> str:
     s = s.strip()
     if len(s) >= 2 and s[0] == s[-1] and s[0] in "\"'":
-        return s[1:-1]
+        return s[1:-1].strip()
     return s
 
 
-def _crs_block(crs: str) -> List[str]:
-    name = crs if crs and not any(c.isspace() for c in crs) else "Default"
-    return ["GOCAD_ORIGINAL_COORDINATE_SYSTEM", f"NAME {name}", 'AXIS_NAME "X" "Y" "Z"',
-            'AXIS_UNIT "m" "m" "m"', "ZPOSITIVE Elevation", "END_ORIGINAL_COORDINATE_SYSTEM"]
-
+# --------------------------------------------------------------------------
+# writing
+# --------------------------------------------------------------------------
 
 def _rgba(color) -> str:
     from matplotlib.colors import to_rgba
@@ -60,59 +123,176 @@ def _rgba(color) -> str:
     return " ".join(f"{c:.6g}" for c in to_rgba(color))
 
 
-def model_lines(model) -> List[str]:
-    from ..plots import layer_color
+def _crs_block(crs: str) -> List[str]:
+    name = _quoted(crs, "CRS name") if crs else "Default"
+    return ["GOCAD_ORIGINAL_COORDINATE_SYSTEM", f"NAME {name}", 'AXIS_NAME "X" "Y" "Z"',
+            'AXIS_UNIT "m" "m" "m"', "ZPOSITIVE Elevation", "END_ORIGINAL_COORDINATE_SYSTEM"]
 
-    out: List[str] = []
-    layer_names = list(model.surfaces)
-    entries = [(s, "layer", i) for i, s in enumerate(model.surfaces.values())]
-    entries += [(s, "fault", i) for i, s in enumerate(model.faults.values())]
-    for surf, kind, order in entries:
-        color = _rgba(layer_color(order, len(layer_names))) if kind == "layer" else _FAULT_RGBA
-        out += ["GOCAD TSurf 1", "HEADER {", f"name: {_header_value(surf.name)}",
-                f"*solid*color: {color}", f"faultmesh_kind: {kind}",
-                f"faultmesh_order: {order}", f"faultmesh_model: {_header_value(model.name)}"]
-        if model.crs:
-            out.append(f"faultmesh_crs: {_header_value(model.crs)}")
-        out.append("}")
-        out += _crs_block(model.crs)
-        out += [f"GEOLOGICAL_FEATURE {_header_value(surf.name)}",
-                f"GEOLOGICAL_TYPE {'fault' if kind == 'fault' else 'top'}", "TFACE"]
-        ids = np.arange(1, surf.n_vertices + 1)
-        for i, xyz in zip(ids.tolist(), format_floats(surf.vertices)):
-            out.append(f"VRTX {i} {xyz}")
-        t = surf.triangles + 1
-        out.extend(f"TRGL {a} {b} {c}" for a, b, c in t.tolist())
-        out.append("END")
-    if model.boundary is not None and len(model.boundary) >= 3:
-        b = np.asarray(model.boundary, dtype=np.float64).reshape(-1, 2)
-        out += ["GOCAD PLine 1", "HEADER {", f"name: {_header_value(str(model.name) + '_boundary')}",
-                "faultmesh_role: boundary", f"faultmesh_model: {_header_value(model.name)}", "}"]
-        out += _crs_block(model.crs)
-        out.append("ILINE")
-        pts = np.column_stack([b, np.zeros(len(b))])
-        for i, xyz in enumerate(format_floats(pts), start=1):
-            out.append(f"VRTX {i} {xyz}")
-        k = len(b)
-        out.extend(f"SEG {i} {i % k + 1}" for i in range(1, k + 1))
-        out.append("END")
+
+def geological_type(surf, kind: str) -> str:
+    """``top`` for a layer; ``normal_fault``/``reverse_fault``/``fault`` for a
+    fault, from its metadata ``kind`` (what build_model records)."""
+    if kind != "fault":
+        return "top"
+    sub = str((surf.metadata or {}).get("kind", "")).lower()
+    return {"normal": "normal_fault", "reverse": "reverse_fault"}.get(sub, "fault")
+
+
+def _entries(model) -> List[Tuple[object, str, int]]:
+    return [(s, "layer", i) for i, s in enumerate(model.surfaces.values())] + \
+           [(s, "fault", i) for i, s in enumerate(model.faults.values())]
+
+
+def _vertex_properties(surf) -> Dict[str, np.ndarray]:
+    """The surface's vertex properties as float (n, k) arrays; a property of
+    the wrong length is an error naming it."""
+    props = (surf.metadata or {}).get("vertex_properties") or {}
+    out: Dict[str, np.ndarray] = {}
+    for name, val in props.items():
+        a = np.asarray(val, dtype=np.float64)
+        a = a.reshape(len(a), -1) if a.ndim >= 1 else a.reshape(1, 1)
+        if a.shape[0] != surf.n_vertices:
+            raise ValueError(f"GOCAD: vertex property {name!r} of surface {surf.name!r} has "
+                             f"{a.shape[0]} values for {surf.n_vertices} vertices")
+        out[str(name)] = a
     return out
 
 
-def write_ts(model, path, files: Optional[AtomicFiles] = None) -> Path:
-    """Write every surface of ``model`` to one ``.ts`` file (atomically)."""
+def surface_lines(surf, kind: str, order: int, model, n_layers: int) -> List[str]:
+    """One ``GOCAD TSurf 1`` object (numbered from 1) as lines."""
+    from ..plots import layer_color
+
+    color = _rgba(layer_color(order, n_layers)) if kind == "layer" else _FAULT_RGBA
+    name = _bare(surf.name, "surface name")
+    out = ["GOCAD TSurf 1", "HEADER {", f"name:{name}", f"*solid*color:{color}",
+           f"faultmesh_kind:{kind}", f"faultmesh_order:{order}",
+           f"faultmesh_model:{_bare(model.name, 'model name')}", "}"]
+    out += _crs_block(model.crs)
+    props = _vertex_properties(surf)
+    if props:
+        names = [_quoted(p, "property name") for p in props]
+        cols = np.hstack(list(props.values()))
+        finite = cols[np.isfinite(cols)]
+        # NaN is written as the no-data value; pick one the data does not use.
+        nodata = _NO_DATA
+        while finite.size and np.any(finite == nodata):
+            nodata = nodata * 10 - 9
+        cols = np.where(np.isfinite(cols), cols, nodata)
+        k = len(props)
+        out += ["PROPERTIES " + " ".join(names),
+                "PROP_LEGAL_RANGES " + " ".join(["**none** **none**"] * k),
+                "NO_DATA_VALUES " + " ".join([repr(nodata)] * k),
+                "PROPERTY_CLASSES " + " ".join(names),
+                "PROPERTY_KINDS " + " ".join(["unknown"] * k),
+                "PROPERTY_SUBCLASSES " + " ".join(["QUANTITY Float"] * k),
+                "ESIZES " + " ".join(str(a.shape[1]) for a in props.values()),
+                "UNITS " + " ".join(["none"] * k)]
+    out += [f"GEOLOGICAL_FEATURE {name}", f"GEOLOGICAL_TYPE {geological_type(surf, kind)}", "TFACE"]
+    ids = range(1, surf.n_vertices + 1)
+    xyz = format_floats(surf.vertices)
+    if props:
+        pv = format_floats(cols)
+        out.extend(f"PVRTX {i} {a} {b}" for i, a, b in zip(ids, xyz, pv))
+    else:
+        out.extend(f"VRTX {i} {a}" for i, a in zip(ids, xyz))
+    out.extend(f"TRGL {a} {b} {c}" for a, b, c in (surf.triangles + 1).tolist())
+    out.append("END")
+    return out
+
+
+def model_lines(model) -> List[str]:
+    """The ``.ts`` text: one TSurf object per surface."""
+    out: List[str] = []
+    n_layers = len(model.surfaces)
+    for surf, kind, order in _entries(model):
+        out += surface_lines(surf, kind, order, model, n_layers)
+    return out
+
+
+def model3d_lines(model) -> List[str]:
+    """The ``.ml`` text: the Model3d header, then the TSurf objects."""
+    entries = _entries(model)
+    names = [_bare(s.name, "surface name") for s, _, _ in entries]
+    seen: Dict[str, str] = {}
+    for (s, kind, _), n in zip(entries, names):
+        # OpenGeode and SKUA find a TSurf by its name: names must be unique.
+        if n in seen:
+            raise ValueError(f"GOCAD Model3d: two surfaces are named {n!r} (a {seen[n]} and a "
+                             f"{kind}); names must be unique in a .ml file")
+        seen[n] = kind
+    out = ["GOCAD Model3d 1", "HEADER {", f"name:{_bare(model.name, 'model name')}", "}"]
+    out += _crs_block(model.crs)
+    out += [f"TSURF {n}" for n in names]
+    for k, ((s, kind, _), n) in enumerate(zip(entries, names), start=1):
+        out.append(f"TFACE {k} {geological_type(s, kind)} {n}")
+        if s.n_triangles:   # the key triangle: SKUA identifies the face by it
+            out.extend("  " + row for row in format_floats(s.vertices[s.triangles[0]]))
+    for k, n in enumerate(names, start=1):
+        out += [f"SURFACE {n}", f"  {k} 0"]
+    out.append("END")
+    return out + model_lines(model)
+
+
+def boundary_lines(model) -> List[str]:
+    """The study boundary as a closed PLine at the model's highest elevation."""
+    b = np.asarray(model.boundary, dtype=np.float64).reshape(-1, 2)
+    tops = [s.vertices[:, 2].max() for s, _, _ in _entries(model) if s.n_vertices]
+    z = float(max(tops)) if tops else 0.0
+    out = ["GOCAD PLine 1", "HEADER {", f"name:{_bare(str(model.name) + ' boundary', 'name')}",
+           "*line*color:0 0 0 1", "faultmesh_role:boundary",
+           f"faultmesh_model:{_bare(model.name, 'model name')}", "}"]
+    out += _crs_block(model.crs)
+    out.append("ILINE")
+    pts = np.column_stack([b, np.full(len(b), z)])
+    out.extend(f"VRTX {i} {xyz}" for i, xyz in enumerate(format_floats(pts), start=1))
+    k = len(b)
+    out.extend(f"SEG {i} {i % k + 1}" for i in range(1, k + 1))
+    out.append("END")
+    return out
+
+
+def boundary_path(path) -> Path:
+    """Where the boundary of ``path`` (a ``.ts``/``.ml``) is written: ``<stem>_boundary.pl``."""
     path = Path(path)
-    lines = model_lines(model)
+    return path.with_name(f"{path.stem}_boundary.pl")
+
+
+def _write(model, path, lines: List[str], files: Optional[AtomicFiles]) -> List[Path]:
+    path = Path(path)
+    written = [path]
+    blines = None
+    if model.boundary is not None and len(model.boundary) >= 3:
+        blines = boundary_lines(model)
     with (AtomicFiles() if files is None else _Shared(files)) as f:
         fh = f.open(path)
-        fh.write("\n".join(lines))
-        fh.write("\n")
-    return path
+        fh.write("\n".join(lines) + "\n")
+        if blines is not None:
+            bp = boundary_path(path)
+            if not f.pending(bp):    # a folder write gives .ts and .ml the same boundary
+                fb = f.open(bp)
+                fb.write("\n".join(blines) + "\n")
+            written.append(bp)
+    return written
 
+
+def write_ts(model, path, files: Optional[AtomicFiles] = None) -> List[Path]:
+    """Write every surface of ``model`` to ``path`` (``.ts``) and the boundary
+    to ``<stem>_boundary.pl``, atomically; returns the files written."""
+    return _write(model, path, model_lines(model), files)
+
+
+def write_ml(model, path, files: Optional[AtomicFiles] = None) -> List[Path]:
+    """Write ``model`` as a GOCAD Model3d ``.ml`` (and ``<stem>_boundary.pl``)."""
+    return _write(model, path, model3d_lines(model), files)
+
+
+# --------------------------------------------------------------------------
+# reading
+# --------------------------------------------------------------------------
 
 class _Object:
     def __init__(self, kind: str, line: int) -> None:
-        self.kind = kind  # "TSurf", "PLine", ...
+        self.kind = kind  # "TSurf", "PLine", "Model3d", ...
         self.line = line
         self.header: Dict[str, str] = {}
         self.crs_name = ""
@@ -120,15 +300,27 @@ class _Object:
         self.geological_type = ""
         self.prop_names: List[str] = []
         self.esizes: List[int] = []
+        self.no_data: List[float] = []
         self.ids: List[int] = []          # file id of each vertex row
         self.xyz: List[Tuple[float, float, float]] = []
         self.props: List[List[float]] = []
         self.alias: Dict[int, int] = {}   # merged ATOM id -> vertex row
+        self.id_row: Dict[int, int] = {}
         self.tri_ids: List[Tuple[int, int, int]] = []
         self.tri_lines: List[int] = []
         self.vlines: List[int] = []       # line of each vertex row (for error messages)
         self.seg_ids: List[Tuple[int, int]] = []
         self.parts = 0
+        # Model3d header: TSURF names and TFACE (id, type, name)
+        self.tsurfs: List[str] = []
+        self.tfaces: List[Tuple[str, str]] = []
+
+    def n_props(self) -> int:
+        if not self.prop_names:
+            return 0
+        if len(self.esizes) == len(self.prop_names):
+            return sum(self.esizes)
+        return len(self.prop_names)
 
 
 def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
@@ -136,7 +328,7 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
     obj: Optional[_Object] = None
     block_end: Optional[str] = None   # inside HEADER {...} or another brace block
     in_crs = False
-    id_row: Dict[int, int] = {}
+    skip_until: Optional[str] = None  # e.g. BEGIN_ATOM_REGION_INDICATORS ... END_...
     lines = split_lines(text)
 
     def err(msg: str, no: int) -> ModelFileError:
@@ -157,6 +349,17 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
         except ValueError:
             raise err(f"expected an integer {what}, got {tok!r}", no) from None
 
+    def values(toks: Sequence[str], no: int, key: str) -> List[float]:
+        """The property values of a PVRTX/PATOM: the first n_props tokens."""
+        n = obj.n_props()
+        if len(toks) < n:
+            raise err(f"{key}: expected {n} property value(s) after the coordinates "
+                      f"(PROPERTIES {' '.join(obj.prop_names)}), got {len(toks)}", no)
+        try:
+            return [float(t) for t in toks[:n]]
+        except ValueError:
+            raise err(f"{key}: property values must be numbers, got {list(toks[:n])}", no) from None
+
     for no, raw in enumerate(lines, start=1):
         s = raw.strip()
         if not s or s.startswith("#"):
@@ -165,16 +368,20 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
             parts = s.split()
             if parts[0] == "GOCAD" and len(parts) >= 2:
                 obj = _Object(parts[1], no)
-                id_row = {}
                 continue
             raise err(f"expected 'GOCAD <type> 1' to start an object (e.g. 'GOCAD TSurf 1'), "
                       f"got {s[:60]!r}", no)
+        if skip_until is not None:
+            if s.startswith(skip_until):
+                skip_until = None
+            continue
         if block_end is not None:
-            # Inside HEADER { ... } (or a property class header): key:value lines.
+            # Inside HEADER { ... } (or a property class header): key:value
+            # lines up to a line starting with "}" (a name may end with "}").
             body = s
-            closes = body.endswith("}")
+            closes = body.startswith("}")
             if closes:
-                body = body[:-1].strip()
+                body = ""
             if block_end == "HEADER" and body:
                 key, sep, val = body.partition(":")
                 if sep:
@@ -188,7 +395,7 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
             else:
                 key, _, val = s.partition(" ")
                 if key == "NAME":
-                    obj.crs_name = _unquote(val)
+                    obj.crs_name = " ".join(split_quoted(val))
                 elif key == "ZPOSITIVE":
                     v = val.strip().lower()
                     if v not in ("elevation", "depth"):
@@ -207,44 +414,36 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
             except ValueError:
                 vid = ident(tok[0], no, f"{key} id")
                 xyz = (number(tok[1], no, "x"), number(tok[2], no, "y"), number(tok[3], no, "z"))
-            if vid in id_row or vid in obj.alias:
+            if vid in obj.id_row or vid in obj.alias:
                 raise err(f"{key}: vertex id {vid} defined twice", no)
-            id_row[vid] = len(obj.xyz)
+            obj.id_row[vid] = len(obj.xyz)
             obj.ids.append(vid)
             obj.xyz.append(xyz)
             obj.vlines.append(no)
-            if key == "PVRTX":
-                try:
-                    obj.props.append([float(t) for t in tok[4:]])
-                except ValueError:
-                    raise err(f"PVRTX: property values must be numbers, got {tok[4:]}", no) from None
-            else:
-                obj.props.append([])
+            # VRTX carries no properties (trailing tokens are flags such as CNXYZ).
+            obj.props.append(values(tok[4:], no, key) if key == "PVRTX" and obj.prop_names else [])
         elif key in ("ATOM", "PATOM"):
             tok = rest.split()
             if len(tok) < 2:
                 raise err(f"{key}: expected 'id vertex_id', got {s[:80]!r}", no)
             vid = ident(tok[0], no, f"{key} id")
             ref = ident(tok[1], no, f"{key} vertex id")
-            if vid in id_row or vid in obj.alias:
+            if vid in obj.id_row or vid in obj.alias:
                 raise err(f"{key}: vertex id {vid} defined twice", no)
             if ref in obj.alias:
                 ref_row = obj.alias[ref]
-            elif ref in id_row:
-                ref_row = id_row[ref]
+            elif ref in obj.id_row:
+                ref_row = obj.id_row[ref]
             else:
                 raise err(f"{key} {vid} refers to vertex {ref}, which is not defined before it", no)
             if atoms == "merge":
                 obj.alias[vid] = ref_row
             else:
-                id_row[vid] = len(obj.xyz)
+                obj.id_row[vid] = len(obj.xyz)
                 obj.ids.append(vid)
                 obj.xyz.append(obj.xyz[ref_row])
                 obj.vlines.append(no)
-                try:
-                    own = [float(t) for t in tok[2:]] if key == "PATOM" else []
-                except ValueError:
-                    raise err(f"PATOM: property values must be numbers, got {tok[2:]}", no) from None
+                own = values(tok[2:], no, key) if key == "PATOM" and obj.prop_names else []
                 obj.props.append(own or list(obj.props[ref_row]))
         elif key == "TRGL":
             tok = rest.split()
@@ -263,7 +462,6 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
                 raise err(f"SEG: expected two vertex ids, got {s[:80]!r}", no)
             obj.seg_ids.append((ident(tok[0], no, "SEG vertex id"), ident(tok[1], no, "SEG vertex id")))
         elif key == "END":
-            obj.id_row = id_row  # type: ignore[attr-defined]
             objects.append(obj)
             obj = None
         elif key == "HEADER" or s.endswith("{"):
@@ -286,29 +484,42 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
         elif key == "GEOLOGICAL_TYPE":
             obj.geological_type = _unquote(rest).lower()
         elif key == "PROPERTIES":
-            obj.prop_names = rest.split()
+            obj.prop_names = split_quoted(rest)
         elif key == "ESIZES":
             try:
                 obj.esizes = [int(t) for t in rest.split()]
             except ValueError:
                 raise err(f"ESIZES: expected integers, got {rest!r}", no) from None
+            if any(e < 1 for e in obj.esizes):
+                raise err(f"ESIZES: sizes must be positive, got {rest!r}", no)
+        elif key == "NO_DATA_VALUES":
+            try:
+                obj.no_data = [float(t) for t in rest.split()]
+            except ValueError:
+                raise err(f"NO_DATA_VALUES: expected numbers, got {rest!r}", no) from None
         elif key in ("TFACE", "ILINE"):
-            obj.parts += 1
+            if obj.kind == "Model3d" and key == "TFACE":
+                tok = split_quoted(rest)
+                if len(tok) >= 3:
+                    obj.tfaces.append((tok[1].lower(), " ".join(tok[2:])))
+            else:
+                obj.parts += 1
+        elif key == "TSURF" and obj.kind == "Model3d":
+            obj.tsurfs.append(" ".join(split_quoted(rest)))
+        elif key.startswith("BEGIN_"):
+            skip_until = "END_" + key[len("BEGIN_"):]
         elif key == "GOCAD":
             raise err(f"'GOCAD {rest}' starts a new object, but the {obj.kind} object started at "
                       f"line {obj.line} has no END", no)
-        # Anything else (BSTONE, BORDER, GEOLOGICAL_FEATURE, PROPERTY_CLASSES, ...) is ignored.
+        # Anything else (BSTONE, BORDER, GEOLOGICAL_FEATURE, REGION, ...) is ignored.
     if obj is not None:
         raise err(f"unexpected end of file: the {obj.kind} object started at line {obj.line} "
                   f"has no END", len(lines))
-    if block_end is not None:  # pragma: no cover (only reachable with obj open)
-        raise err("unexpected end of file inside a { } block", len(lines))
     return objects
 
 
 def _rows(path: Path, obj: _Object, ids: np.ndarray, lines: List[int], what: str) -> np.ndarray:
     """Map file vertex ids to rows (vectorised), naming the line of an unknown id."""
-    id_row = obj.id_row  # type: ignore[attr-defined]
     if not obj.alias and obj.ids:
         # Common case (faultmesh's own files and most exports): ids k0, k0+1, ...
         first = obj.ids[0]
@@ -318,8 +529,8 @@ def _rows(path: Path, obj: _Object, ids: np.ndarray, lines: List[int], what: str
             ok = (rows >= 0) & (rows < len(obj.ids))
             if ok.all():
                 return rows
-    keys = np.array(list(id_row.keys()) + list(obj.alias.keys()), dtype=np.int64)
-    vals = np.array(list(id_row.values()) + list(obj.alias.values()), dtype=np.int64)
+    keys = np.array(list(obj.id_row.keys()) + list(obj.alias.keys()), dtype=np.int64)
+    vals = np.array(list(obj.id_row.values()) + list(obj.alias.values()), dtype=np.int64)
     order = np.argsort(keys)
     keys, vals = keys[order], vals[order]
     pos = np.searchsorted(keys, ids)
@@ -333,79 +544,175 @@ def _rows(path: Path, obj: _Object, ids: np.ndarray, lines: List[int], what: str
     return vals[pos_c]
 
 
-def read_ts(path, atoms: str = "copy"):
-    """Read every ``TSurf`` object of a ``.ts`` file into a :class:`faultmesh.Model`.
+def _xyz(path: Path, obj: _Object) -> np.ndarray:
+    xyz = np.array(obj.xyz, dtype=np.float64).reshape(-1, 3)
+    bad = ~np.all(np.isfinite(xyz), axis=1)
+    if bad.any():   # float() accepts "nan" and "inf" on the fast path
+        r = int(np.flatnonzero(bad)[0])
+        raise ModelFileError(path, f"non-finite vertex coordinates {xyz[r].tolist()}",
+                             obj.vlines[r])
+    xyz[:, 2] *= obj.z_sign
+    return xyz
+
+
+def _properties(obj: _Object) -> Dict[str, np.ndarray]:
+    if not obj.prop_names or not obj.props or not all(len(p) for p in obj.props):
+        return {}
+    sizes = obj.esizes if len(obj.esizes) == len(obj.prop_names) else [1] * len(obj.prop_names)
+    allp = np.array(obj.props, dtype=np.float64).reshape(len(obj.props), -1)
+    if allp.shape[1] != sum(sizes):
+        return {}
+    nodata = obj.no_data if len(obj.no_data) == len(obj.prop_names) else [None] * len(sizes)
+    props, c = {}, 0
+    for pname, sz, nd in zip(obj.prop_names, sizes, nodata):
+        col = allp[:, c] if sz == 1 else allp[:, c:c + sz]
+        if nd is not None:
+            col = np.where(col == nd, np.nan, col)
+        name, n = pname or f"property_{c}", 2
+        while name in props:
+            name, n = f"{pname} ({n})", n + 1
+        props[name] = col
+        c += sz
+    return props
+
+
+def _boundary_from(path: Path, objects: List[_Object]) -> Optional[np.ndarray]:
+    for obj in objects:
+        if obj.kind == "PLine" and obj.header.get("faultmesh_role") == "boundary" and obj.xyz:
+            xyz = np.array(obj.xyz, dtype=np.float64).reshape(-1, 3)
+            return xyz[:, :2].copy()
+    return None
+
+
+def read_gocad(path, atoms: str = "copy"):
+    """Read the ``TSurf`` objects of a GOCAD ``.ts`` or ``.ml`` file into a
+    :class:`faultmesh.Model` (see the module docstring for what is accepted).
 
     ``atoms``: ``"copy"`` (default) gives every ATOM its own vertex at the
     referenced position, as the file's topology says; ``"merge"`` makes it the
-    same vertex as the one it references.
+    same vertex as the one it references. The study boundary comes from a
+    faultmesh boundary PLine in the file or in ``<stem>_boundary.pl`` beside it.
     """
     from ..model import Model, Surface
 
     if atoms not in ("copy", "merge"):
-        raise ValueError(f"read_ts: atoms must be 'copy' or 'merge', got {atoms!r}")
+        raise ValueError(f"read_gocad: atoms must be 'copy' or 'merge', got {atoms!r}")
     path = Path(path)
     objects = _parse(path, read_text(path), atoms)
     layers: List[Tuple[float, int, Surface]] = []
     faults: List[Tuple[float, int, Surface]] = []
+    skipped: List[Dict[str, object]] = []
     model_name = ""
     crs = ""
-    boundary = None
     used = set()
+    ml_types: Dict[str, str] = {}
+    for obj in objects:
+        if obj.kind == "Model3d":
+            model_name = model_name or obj.header.get("name", "")
+            crs = crs or _crs_of(obj)
+            for gtype, name in obj.tfaces:
+                ml_types.setdefault(name, gtype)
     for k, obj in enumerate(objects):
-        if obj.kind == "PLine" and obj.header.get("faultmesh_role") == "boundary":
-            xyz = np.array(obj.xyz, dtype=np.float64).reshape(-1, 3)
-            boundary = xyz[:, :2].copy()
-            continue
-        if obj.kind.lower() not in ("tsurf",):
+        if obj.kind.lower() != "tsurf":
             continue
         name = obj.header.get("name", "") or f"surface_{k}"
+        gtype = obj.geological_type or ml_types.get(" ".join(name.split()), "")
+        xyz = _xyz(path, obj)
+        if obj.tri_ids:
+            tri = _rows(path, obj, np.array(obj.tri_ids, dtype=np.int64), obj.tri_lines, "TRGL")
+        else:
+            tri = np.zeros((0, 3), dtype=np.int64)
+        if gtype in _BOUNDARY_TYPES and "faultmesh_kind" not in obj.header:
+            skipped.append({"name": name, "type": gtype, "vertices": len(xyz),
+                            "triangles": len(tri)})
+            continue
         base, n = name, 2
         while name in used:
             name = f"{base} ({n})"
             n += 1
         used.add(name)
-        xyz = np.array(obj.xyz, dtype=np.float64).reshape(-1, 3)
-        bad = ~np.all(np.isfinite(xyz), axis=1)
-        if bad.any():   # float() accepts "nan" and "inf" on the fast path
-            r = int(np.flatnonzero(bad)[0])
-            raise ModelFileError(path, f"non-finite vertex coordinates {xyz[r].tolist()}",
-                                 obj.vlines[r])
-        xyz[:, 2] *= obj.z_sign
-        if obj.tri_ids:
-            tri = _rows(path, obj, np.array(obj.tri_ids, dtype=np.int64), obj.tri_lines, "TRGL")
-        else:
-            tri = np.zeros((0, 3), dtype=np.int64)
         meta: Dict[str, object] = {}
         if obj.parts > 1:
             meta["tface_parts"] = obj.parts
-        if obj.prop_names and obj.props and all(len(p) for p in obj.props):
-            widths = {len(p) for p in obj.props}
-            sizes = obj.esizes if len(obj.esizes) == len(obj.prop_names) else [1] * len(obj.prop_names)
-            if len(widths) == 1 and widths.pop() == sum(sizes):
-                allp = np.array(obj.props, dtype=np.float64)
-                props, c = {}, 0
-                for pname, sz in zip(obj.prop_names, sizes):
-                    props[pname] = allp[:, c] if sz == 1 else allp[:, c:c + sz]
-                    c += sz
-                meta["vertex_properties"] = props
-        kind = obj.header.get("faultmesh_kind") or ("fault" if obj.geological_type == "fault"
-                                                      else "layer")
+        props = _properties(obj)
+        if props:
+            meta["vertex_properties"] = props
+        kind = obj.header.get("faultmesh_kind") or ("fault" if "fault" in gtype else "layer")
         if kind not in ("layer", "fault"):
             raise ModelFileError(path, f"faultmesh_kind must be layer or fault, got {kind!r}",
                                  obj.line)
+        if gtype in ("normal_fault", "reverse_fault"):
+            meta["kind"] = gtype.split("_")[0]
         try:
             order = float(obj.header.get("faultmesh_order", k))
         except ValueError:
             order = float(k)
         model_name = model_name or obj.header.get("faultmesh_model", "")
-        crs = crs or obj.header.get("faultmesh_crs", "") or (
-            obj.crs_name if obj.crs_name and obj.crs_name != "Default" else "")
+        crs = crs or obj.header.get("faultmesh_crs", "") or _crs_of(obj)
         surf = Surface(name=name, vertices=xyz, triangles=tri, kind=kind, metadata=meta)
         (layers if kind == "layer" else faults).append((order, k, surf))
     if not layers and not faults:
-        raise ModelFileError(path, "no 'GOCAD TSurf' object found")
+        what = "no 'GOCAD TSurf' object found" if not skipped else \
+            "only boundary surfaces (GEOLOGICAL_TYPE boundary/lease), no layer or fault"
+        raise ModelFileError(path, what)
+    boundary = _boundary_from(path, objects)
+    bp = boundary_path(path)
+    if boundary is None and bp.is_file():
+        try:
+            boundary = _boundary_from(bp, _parse(bp, read_text(bp), atoms))
+        except ModelFileError as e:
+            raise ModelFileError(bp, f"the boundary file beside {path.name} cannot be read: "
+                                     f"{str(e).split(': ', 1)[-1]}", e.line) from None
     layers.sort(key=lambda t: (t[0], t[1]))
     faults.sort(key=lambda t: (t[0], t[1]))
+    meta = {"gocad_boundary_surfaces": skipped} if skipped else {}
     return Model(name=model_name or path.stem, surfaces={s.name: s for _, _, s in layers},
-                 faults={s.name: s for _, _, s in faults}, boundary=boundary, crs=crs)
+                 faults={s.name: s for _, _, s in faults}, boundary=boundary, crs=crs,
+                 metadata=meta)
+
+
+def _crs_of(obj: _Object) -> str:
+    return obj.crs_name if obj.crs_name and obj.crs_name != "Default" else ""
+
+
+# Kept for callers of the old name.
+read_ts = read_gocad
+read_ml = read_gocad
+
+
+def read_pl(path):
+    """Read a GOCAD ``.pl`` (PLine objects) into a model without surfaces: the
+    boundary is a faultmesh boundary PLine, else the first closed line; every
+    line is kept in ``model.metadata["polylines"]`` (name -> vertices as
+    ``[[x, y, z], ...]`` and 0-based ``segments``)."""
+    from ..model import Model
+
+    path = Path(path)
+    objects = _parse(path, read_text(path), "copy")
+    lines: Dict[str, Dict[str, list]] = {}
+    boundary = _boundary_from(path, objects)
+    crs = ""
+    for k, obj in enumerate(objects):
+        if obj.kind.lower() != "pline":
+            continue
+        xyz = _xyz(path, obj)
+        seg = np.zeros((0, 2), dtype=np.int64)
+        if obj.seg_ids:
+            seg = _rows(path, obj, np.array(obj.seg_ids, dtype=np.int64),
+                        [obj.line] * len(obj.seg_ids), "SEG")
+        name = obj.header.get("name", "") or f"line_{k}"
+        base, n = name, 2
+        while name in lines:
+            name, n = f"{base} ({n})", n + 1
+        lines[name] = {"vertices": xyz.tolist(), "segments": seg.tolist()}
+        crs = crs or _crs_of(obj)
+        if boundary is None and len(seg) >= 3 and len(seg) == len(xyz):
+            # A closed ring written in order: each segment starts where the
+            # previous one ends and the last returns to the first vertex.
+            if np.array_equal(seg[1:, 0], seg[:-1, 1]) and seg[-1, 1] == seg[0, 0] and \
+                    len(np.unique(seg[:, 0])) == len(seg):
+                boundary = xyz[seg[:, 0], :2].copy()
+    if not lines:
+        raise ModelFileError(path, "no 'GOCAD PLine' object found")
+    return Model(name=path.stem, surfaces={}, boundary=boundary, crs=crs,
+                 metadata={"polylines": lines})

@@ -23,7 +23,11 @@ writer. In short::
     END MODEL
 
 Coordinates are written with the shortest decimal that reads back as the same
-double, so a write/read round trip is exact.
+double, so a write/read round trip is exact. Version 2 (written only for a
+model that has them) adds the stitching records: per layer an ``OWNERS``
+block (kind and owner of every triangle, ``Surface.kinds``/``Surface.owner``),
+``PATCH`` statements (``Model.patches``) and the ``id``/``patches`` of each
+``GAP``; version 1 files read as before.
 """
 from __future__ import annotations
 
@@ -38,15 +42,20 @@ from ._common import (AtomicFiles, ModelFileError, _Shared, format_floats, forma
                       parse_numbers, read_text, split_lines)
 
 MAGIC = "3DT"
-VERSION = 1
+VERSION = 2          # the newest version; read: 1 and 2
 SUFFIX = ".3dt"
 
-# key=value, value a JSON string (with escapes) or a bare token.
-_ATTR = re.compile(r'\s*([A-Za-z_][A-Za-z0-9_]*)=("(?:[^"\\]|\\.)*"|[^\s"]+)')
+# key=value, value a JSON string (with escapes), a JSON array (version 2:
+# strings or integers, written without spaces) or a bare token.
+_ATTR = re.compile(r'\s*([A-Za-z_][A-Za-z0-9_]*)=("(?:[^"\\]|\\.)*"|\[(?:[^\]"]|"(?:[^"\\]|\\.)*")*\]|[^\s"]+)')
 
 
 def _json_default(o: Any):
     if isinstance(o, np.ndarray):
+        if o.dtype.kind == "f" and not np.all(np.isfinite(o)):
+            # JSON has no NaN: missing values (e.g. GOCAD no-data vertex
+            # properties) are written as null.
+            return np.where(np.isfinite(o), o, None).tolist()
         return o.tolist()
     if isinstance(o, np.generic):
         return o.item()
@@ -71,18 +80,38 @@ def _q(s: str) -> str:
     return json.dumps(str(s), ensure_ascii=False)
 
 
+def _jlist(items) -> str:
+    return json.dumps(list(items), ensure_ascii=False, separators=(",", ":"))
+
+
+def _has_owners(surf) -> bool:
+    return getattr(surf, "kinds", None) is not None and getattr(surf, "owner", None) is not None
+
+
+def _version(model, surfaces) -> int:
+    """2 if the model has stitching records (kinds and owners of triangles,
+    patches, gap ids), else 1: a model without them stays readable by
+    faultmesh versions that read version 1 only."""
+    stitched = (any(_has_owners(s) for s, _, _ in surfaces) or bool(getattr(model, "patches", None))
+                or any(getattr(g, "id", -1) >= 0 or getattr(g, "patches", None) for g in model.gaps))
+    return 2 if stitched else 1
+
+
 def model_lines(model) -> List[str]:
     """The ``.3dt`` text of ``model`` as a list of lines (no end-of-line characters)."""
     from .. import __version__
 
-    out: List[str] = [f"{MAGIC} {VERSION}",
+    surfaces = [(s, "layer", i) for i, s in enumerate(model.surfaces.values())]
+    surfaces += [(s, "fault", i) for i, s in enumerate(model.faults.values())]
+    version = _version(model, surfaces)
+    patches = list(getattr(model, "patches", None) or []) if version >= 2 else []
+    out: List[str] = [f"{MAGIC} {version}",
                       f"# faultmesh {__version__} multi-layer model; format: docs/3dt.md",
                       "# surfaces: layers top to bottom, then faults; triangle indices are "
                       "0-based rows of VERTICES, counter-clockwise seen from above"]
-    surfaces = [(s, "layer", i) for i, s in enumerate(model.surfaces.values())]
-    surfaces += [(s, "fault", i) for i, s in enumerate(model.faults.values())]
     out.append(f"MODEL name={_q(model.name)} crs={_q(model.crs or '')} "
-               f"surfaces={len(surfaces)} gaps={len(model.gaps)}")
+               f"surfaces={len(surfaces)} gaps={len(model.gaps)}"
+               + (f" patches={len(patches)}" if version >= 2 else ""))
     m = _meta_line(model.metadata, f"model {model.name!r}")
     if m:
         out.append(m)
@@ -100,12 +129,21 @@ def model_lines(model) -> List[str]:
         out.extend(format_floats(surf.vertices))
         out.append("TRIANGLES")
         out.extend(format_ints(surf.triangles))
+        if version >= 2 and _has_owners(surf):
+            out.append("OWNERS")
+            out.extend(format_ints(np.column_stack([np.asarray(surf.kinds, dtype=np.int64),
+                                                    np.asarray(surf.owner, dtype=np.int64)])))
         out.append("END SURFACE")
+    for p in patches:
+        out.append(f"PATCH layer={_q(p.layer)} id={int(p.id)} name={_q(p.name)} "
+                   f"faults={_jlist(str(f) for f in p.faults)} triangles={int(p.n_triangles)}")
     for gap in model.gaps:
         rows = np.asarray(gap.triangles, dtype=np.int64).reshape(-1)
+        ids = (f" id={int(gap.id)} patches={_jlist(int(x) for x in gap.patches)}"
+               if version >= 2 and getattr(gap, "id", -1) >= 0 else "")
         out.append(f"GAP fault={_q(gap.fault)} layer={_q(gap.layer)} "
                    f"polygon_vertices={int(gap.n_vertices)} holes={int(gap.n_holes)} "
-                   f"seconds={float(gap.seconds)!r} triangles={len(rows)}")
+                   f"seconds={float(gap.seconds)!r} triangles={len(rows)}{ids}")
         m = _meta_line(gap.metadata, f"gap {gap.fault!r}/{gap.layer!r}")
         if m:
             out.append(m)
@@ -179,7 +217,7 @@ class _Reader:
             if not m:
                 raise self.error(f"{keyword}: expected key=value, got {rest[pos:pos + 40].strip()!r}", at)
             key, val = m.group(1), m.group(2)
-            if val.startswith('"'):
+            if val.startswith('"') or val.startswith("["):
                 try:
                     val = json.loads(val)
                 except json.JSONDecodeError as e:
@@ -194,6 +232,15 @@ class _Reader:
         if key not in attrs:
             raise self.error(f"{keyword}: missing attribute {key}=", at)
         val = attrs[key]
+        if kind in (list, "ints"):
+            if not isinstance(val, list) or not all(
+                    isinstance(x, int) and not isinstance(x, bool) and x >= 0 if kind == "ints"
+                    else isinstance(x, str) for x in val):
+                noun = "non-negative integers" if kind == "ints" else "strings"
+                raise self.error(f"{keyword}: {key} must be a JSON array of {noun}, got {val!r}", at)
+            return val
+        if isinstance(val, list):
+            raise self.error(f"{keyword}: {key} must be a single value, got an array", at)
         try:
             if kind is int:
                 v = int(val)
@@ -243,7 +290,8 @@ class _Reader:
 
 def read_3dt(path):
     """Read a ``.3dt`` file into a :class:`faultmesh.Model`."""
-    from ..model import Gap, Model, Surface
+    from .._core import TriangleKind
+    from ..model import Gap, Model, StitchedPatch, Surface
 
     path = Path(path)
     r = _Reader(path, read_text(path))
@@ -258,9 +306,9 @@ def read_3dt(path):
     except ValueError:
         raise ModelFileError(path, f"bad .3dt version {head[1]!r}, expected an integer",
                              r.nums[0]) from None
-    if version != VERSION:
+    if version not in (1, 2):
         raise ModelFileError(path, f"unsupported .3dt version {version}; this faultmesh reads "
-                                   f"version {VERSION}", r.nums[0])
+                                   f"versions 1 and {VERSION}", r.nums[0])
     r.i = 1
     at = r.i
     attrs = r.statement("MODEL")
@@ -268,6 +316,7 @@ def read_3dt(path):
     crs = str(attrs.get("crs", ""))
     n_surf = r.need(attrs, "surfaces", "MODEL", at, int)
     n_gaps = r.need(attrs, "gaps", "MODEL", at, int)
+    n_patches = r.need(attrs, "patches", "MODEL", at, int) if version >= 2 else 0
     model_meta = r.meta()
 
     boundary = None
@@ -305,11 +354,35 @@ def read_3dt(path):
             row = int(np.flatnonzero((tris < 0).any(axis=1) | (tris >= nv).any(axis=1))[0])
             raise r.error(f"SURFACE {sname!r}: triangle {row} has vertex index "
                           f"{tris[row].tolist()} outside 0..{nv - 1}", t_at + 1 + row)
+        kinds = owner = None
+        if version >= 2 and r.peek() == "OWNERS":
+            o_at = r.i
+            r.i += 1
+            own = r.block(nt, 2, "triangle kind and owner", int, ctx)
+            valid = np.isin(own[:, 0], [int(k) for k in TriangleKind])
+            if not valid.all():
+                row = int(np.flatnonzero(~valid)[0])
+                raise r.error(f"SURFACE {sname!r}: OWNERS row {row}: kind {int(own[row, 0])} is not a "
+                              f"TriangleKind value (0 layer, 1 patch, 2 gap)", o_at + 1 + row)
+            kinds, owner = own[:, 0], own[:, 1]
         r.keyword_line("END SURFACE")
-        surf = Surface(name=sname, vertices=verts, triangles=tris, kind=kind, metadata=meta)
+        surf = Surface(name=sname, vertices=verts, triangles=tris, kind=kind, metadata=meta,
+                       kinds=kinds, owner=owner)
         (layers if kind == "layer" else faults).append((order, surf))
 
     layer_map = {s.name: s for _, s in sorted(layers, key=lambda t: t[0])}
+    patches: List[StitchedPatch] = []
+    for _ in range(n_patches):
+        at = r.i
+        pattrs = r.statement("PATCH")
+        layer = r.need(pattrs, "layer", "PATCH", at)
+        if layer not in layer_map:
+            raise r.error(f"PATCH: layer {layer!r} is not a layer surface of this file "
+                          f"(layers: {list(layer_map)})", at)
+        patches.append(StitchedPatch(layer=layer, id=r.need(pattrs, "id", "PATCH", at, int),
+                                     name=r.need(pattrs, "name", "PATCH", at),
+                                     faults=r.need(pattrs, "faults", "PATCH", at, list),
+                                     n_triangles=r.need(pattrs, "triangles", "PATCH", at, int)))
     gaps: List[Gap] = []
     for _ in range(n_gaps):
         at = r.i
@@ -323,6 +396,8 @@ def read_3dt(path):
         holes = r.need(gattrs, "holes", "GAP", at, int)
         secs = r.need(gattrs, "seconds", "GAP", at, float) if "seconds" in gattrs else 0.0
         k = r.need(gattrs, "triangles", "GAP", at, int)
+        gid = r.need(gattrs, "id", "GAP", at, int) if "id" in gattrs else -1
+        gpatches = r.need(gattrs, "patches", "GAP", at, "ints") if "patches" in gattrs else []
         meta = r.meta()
         rows: List[int] = []
         while len(rows) < k:
@@ -343,17 +418,18 @@ def read_3dt(path):
                           f"{layer!r}", at)
         r.keyword_line("END GAP")
         gaps.append(Gap(fault=fault, layer=layer, triangles=arr, n_vertices=npoly,
-                        n_holes=holes, seconds=secs, metadata=meta))
+                        n_holes=holes, seconds=secs, metadata=meta, id=gid, patches=gpatches))
     at = r.i
     s = r.next("END MODEL")
     if s != "END MODEL":
         word = s.split(" ", 1)[0]
-        extra = (f" (MODEL at the top announced surfaces={n_surf} gaps={n_gaps})"
-                 if word in ("SURFACE", "GAP") else "")
+        extra = (f" (MODEL at the top announced surfaces={n_surf} gaps={n_gaps}"
+                 + (f" patches={n_patches}" if version >= 2 else "") + ")"
+                 if word in ("SURFACE", "GAP", "PATCH") else "")
         raise r.error(f"expected 'END MODEL', got {s[:60]!r}{extra}", at)
     if r.i < len(r.lines):
         raise r.error(f"unexpected content after END MODEL: {r.lines[r.i][:60]!r}")
 
     return Model(name=name, surfaces=layer_map,
                  faults={s.name: s for _, s in sorted(faults, key=lambda t: t[0])},
-                 boundary=boundary, crs=crs, gaps=gaps, metadata=model_meta)
+                 boundary=boundary, crs=crs, gaps=gaps, metadata=model_meta, patches=patches)

@@ -1,0 +1,171 @@
+// Bindings for the stratum TINs and the layer-crossing repair:
+// faultmesh.LayerTin, faultmesh.repair_crossings.
+#include <faultmesh/layer_tin.hpp>
+
+#include <cmath>
+#include <memory>
+#include <string>
+
+#include "common.hpp"
+
+namespace faultmesh::bindings {
+
+namespace {
+
+// A LayerTin shared with Python (common.hpp): insert() and
+// repair_crossings() change it with the GIL released, so they take its lock
+// exclusively; interpolate(), mesh() and the accessors share it.
+using PyLayerTin = Shared<LayerTin>;
+
+StudyArea as_area(const py::handle& boundary, const char* fn) {
+    if (py::isinstance<StudyArea>(boundary)) return boundary.cast<StudyArea>();
+    auto R = as_coordinates(boundary, fn, "boundary", 2, 2, 2);
+    return StudyArea(R.data(), static_cast<std::size_t>(R.shape(0)));
+}
+
+py::tuple mesh_tuple(LayerTinMesh&& m, bool with_halfedges) {
+    if (with_halfedges)
+        return py::make_tuple(to_numpy(std::move(m.vertices), 3), to_numpy(std::move(m.triangles), 3),
+                              to_numpy(std::move(m.halfedges)));
+    return py::make_tuple(to_numpy(std::move(m.vertices), 3), to_numpy(std::move(m.triangles), 3));
+}
+
+}  // namespace
+
+void bind_layer_tin(py::module_& m) {
+    py::class_<PyLayerTin>(m, "LayerTin",
+                         "The continuous stratum TIN of one layer over the whole study area\n"
+                         "(layer_tin.hpp): the Delaunay TIN of the layer's data inside the study area\n"
+                         "plus densified, protected boundary vertices, so that mesh() covers exactly\n"
+                         "the study area.")
+        .def(py::init([](std::string name, const py::handle& data, const py::handle& boundary,
+                         py::object spacing) {
+                 // x, y within the coordinate limit; z must be finite (LayerTin checks it).
+                 auto D = as_coordinates(data, "LayerTin", "data", 3, 3, 2);
+                 StudyArea area = as_area(boundary, "LayerTin");
+                 LayerTinOptions opt;
+                 if (!spacing.is_none()) {
+                     opt.spacing = spacing.cast<double>();
+                     if (!(opt.spacing > 0.0 && std::isfinite(opt.spacing)))
+                         throw std::invalid_argument("LayerTin: spacing must be a finite number > 0");
+                 }
+                 py::gil_scoped_release release;  // D is a private copy (as_points)
+                 return std::make_unique<PyLayerTin>(std::move(name), D.data(),
+                                                     static_cast<std::size_t>(D.shape(0)), area, opt);
+             }),
+             py::arg("name"), py::arg("data"), py::arg("boundary"), py::arg("spacing") = py::none(),
+             "name: the layer's name (in messages). data (n, 3): x, y, z points. boundary: a\n"
+             "StudyArea or a ring (k, 2). spacing: boundary vertex spacing (default: about the\n"
+             "data spacing).")
+        // name, spacing and area are set by the constructor and never change.
+        .def_property_readonly("name", [](const PyLayerTin& t) { return t.obj.name(); })
+        .def_property_readonly("spacing", [](const PyLayerTin& t) { return t.obj.spacing(); })
+        .def_property_readonly("area", [](const PyLayerTin& t) { return t.obj.area(); })
+        .def_property_readonly(
+            "n_data", [](const PyLayerTin& t) { return read_locked(t, [](const LayerTin& l) { return l.n_data(); }); },
+            "data points used (inside or on the study area)")
+        .def_property_readonly(
+            "n_outside",
+            [](const PyLayerTin& t) { return read_locked(t, [](const LayerTin& l) { return l.n_outside(); }); },
+            "data points outside the study area (not used)")
+        .def_property_readonly(
+            "n_boundary_data",
+            [](const PyLayerTin& t) { return read_locked(t, [](const LayerTin& l) { return l.n_boundary_data(); }); },
+            "data points on the study-area boundary (boundary vertices)")
+        .def_property_readonly(
+            "n_vertices",
+            [](const PyLayerTin& t) { return read_locked(t, [](const LayerTin& l) { return l.n_vertices(); }); })
+        .def_property_readonly(
+            "vertices",
+            [](const PyLayerTin& t) {
+                return to_numpy(read_locked(t, [](const LayerTin& l) { return l.tin().vertices(); }), 3);
+            },
+            "(n, 3) every TIN vertex with its current elevation")
+        .def_property_readonly("z",
+                               [](const PyLayerTin& t) {
+                                   return to_numpy(read_locked(t, [](const LayerTin& l) { return l.z(); }));
+                               })
+        .def_property_readonly(
+            "boundary_vertices",
+            [](const PyLayerTin& t) {
+                return to_numpy(read_locked(t, [](const LayerTin& l) { return l.boundary_vertices(); }));
+            },
+            "TIN vertices on the study-area boundary, counter-clockwise")
+        .def(
+            "insert",
+            [](PyLayerTin& t, const py::handle& xyz) {
+                auto P = as_coordinates(xyz, "LayerTin.insert", "xyz", 3, 3, 2);
+                const std::size_t n = static_cast<std::size_t>(P.shape(0));
+                return write_locked(t, [&](LayerTin& l) { return l.insert(P.data(), n); });
+            },
+            py::arg("xyz"),
+            "Insert points (k, 3) keeping the boundary protected (points on the boundary become\n"
+            "boundary vertices, points outside are ignored); a point at an existing vertex's XY\n"
+            "gives it its z. Returns the number of new vertices.")
+        .def(
+            "interpolate",
+            [](const PyLayerTin& t, const py::handle& xy) {
+                auto P = as_points(xy, "LayerTin.interpolate", "xy", 2, 2);  // a private copy
+                const std::size_t n = static_cast<std::size_t>(P.shape(0));
+                return to_numpy(read_locked(t, [&](const LayerTin& l) { return l.interpolate(P.data(), n); }));
+            },
+            py::arg("xy"), "z at points (k, 2) with the current elevations; NaN outside the TIN's hull.")
+        .def(
+            "mesh",
+            [](const PyLayerTin& t, bool halfedges) {
+                LayerTinMesh mm = read_locked(t, [](const LayerTin& l) { return l.mesh(); });
+                return mesh_tuple(std::move(mm), halfedges);
+            },
+            py::arg("halfedges") = false,
+            "(vertices (n, 3), triangles (m, 3)) of the TIN inside the study area, compacted;\n"
+            "with halfedges=True also the opposite half-edges (3 m,) within the mesh (-1: none).");
+
+    m.def(
+        "repair_crossings",
+        [](const PyLayerTin& upper, PyLayerTin& lower, int max_rounds, py::object tol, int midpoint_rounds,
+           double max_inserted_per_vertex) {
+            RepairOptions opt;
+            opt.max_rounds = max_rounds;
+            opt.midpoint_rounds = midpoint_rounds;
+            opt.max_inserted_per_vertex = max_inserted_per_vertex;
+            if (max_rounds < 1) throw std::invalid_argument("repair_crossings: max_rounds must be >= 1");
+            if (!tol.is_none()) {
+                opt.tolerance = tol.cast<double>();
+                if (!(opt.tolerance >= 0.0)) throw std::invalid_argument("repair_crossings: tol must be >= 0");
+            }
+            RepairCounts c;
+            {
+                // lower changes (exclusive lock), upper is read (shared, unless it is lower);
+                // the two locks are taken in address order, so that two calls with the
+                // layers swapped cannot deadlock.
+                py::gil_scoped_release release;
+                std::unique_lock<std::shared_mutex> lock_lower(lower.mu, std::defer_lock);
+                std::shared_lock<std::shared_mutex> lock_upper(upper.mu, std::defer_lock);
+                if (&upper == &lower) {
+                    lock_lower.lock();
+                } else if (&upper.mu < &lower.mu) {
+                    lock_upper.lock();
+                    lock_lower.lock();
+                } else {
+                    lock_lower.lock();
+                    lock_upper.lock();
+                }
+                c = repair_crossings(upper.obj, lower.obj, opt);
+            }
+            py::dict d;
+            d["rule1"] = c.rule1;
+            d["rule1b"] = c.rule1b;
+            d["rule2"] = c.rule2;
+            d["rule2_crossing"] = c.rule2_crossing;
+            d["rounds"] = c.rounds;
+            return d;
+        },
+        py::arg("upper"), py::arg("lower"), py::arg("max_rounds") = 50, py::arg("tol") = py::none(),
+        py::arg("midpoint_rounds") = 8, py::arg("max_inserted_per_vertex") = 4.0,
+        "Make `lower` lie nowhere above `upper` (paper 3.2, Figure 6; layer_tin.hpp): rule 1,\n"
+        "rule 1b and rule 2. Returns the counts {rule1, rule1b, rule2, rule2_crossing, rounds}.\n"
+        "Raises GeometryError if crossings remain after max_rounds rounds or the lower layer\n"
+        "needed more than max_inserted_per_vertex new points per vertex (a wrong layer order).");
+}
+
+}  // namespace faultmesh::bindings

@@ -1,0 +1,143 @@
+// faultmesh/layer_tin.hpp -- the continuous stratum TIN of one layer over the
+// whole study area (docs/design.md §4.4; paper 2.3), and the
+// layer-crossing repair between two of them (paper 3.2, Figure 6).
+//
+// A LayerTin is the Delaunay TIN (tin.hpp) of the layer's data points plus
+// vertices on the study-area boundary, so that the layer covers the whole
+// study area and its outer boundary IS the study-area polygon:
+//
+//  * Data points outside the study area are not used (counted); points on
+//    its boundary (StudyArea::locate) become boundary vertices with their z.
+//  * Each side is densified at about the data spacing (points placed on the
+//    side by StudyArea::place). Their z comes from an inverse-distance
+//    weighted local plane fit to the nearest data points (the regional dip
+//    is carried to the boundary), clamped to the data range widened by half
+//    of it plus 1 m, so an extrapolation never runs away; where the fit is
+//    ill-conditioned (nearly collinear neighbours) from inverse-distance
+//    weighting.
+//  * Protection: a boundary piece (two consecutive boundary vertices) whose
+//    closed diametral disk holds another vertex is split at its middle
+//    (placed on its side), until none does. A segment whose closed diametral
+//    disk holds no other point is an edge of every Delaunay triangulation of
+//    the points, so every piece is a TIN edge, even for a non-convex area;
+//    the triangles outside the polygon (its notches) are then left out of
+//    mesh(). insert() keeps the protection for the new points.
+//
+// repair_crossings(upper, lower) makes lower lie nowhere above upper:
+//  * rule 1: a lower vertex above the upper surface takes its elevation;
+//  * rule 1b (Figure 6b, "supplementing drilling data"): where an upper
+//    vertex lies below the lower surface, lower receives a point there at
+//    the upper elevation;
+//  * rule 2: a lower edge that rises above the upper surface between its
+//    ends -- found at its crossings with the upper TIN's edges, where the
+//    difference of two piecewise-linear surfaces along a segment can peak --
+//    gets its midpoint inserted (at the lower of the two elevations); after
+//    `midpoint_rounds` rounds the crossing point of largest violation itself
+//    (on the upper edge, at the upper elevation), which ends the halving
+//    where the upper surface is convex across an edge.
+//  Repeated until nothing changes. Each round after the first looks only at
+//  what the previous round changed (the edges of inserted or lowered
+//  vertices: a Delaunay insertion only creates edges at the new vertex).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <faultmesh/study_area.hpp>
+#include <faultmesh/tin.hpp>
+
+namespace faultmesh {
+
+struct LayerTinOptions {
+    // Boundary vertex spacing; <= 0: sqrt(study area / number of data points),
+    // clamped to [perimeter / 4000, perimeter / 12].
+    double spacing = 0.0;
+    // Nearest data points of the boundary plane fits.
+    int plane_fit_neighbours = 12;
+};
+
+struct LayerTinMesh {
+    std::vector<double> vertices;         // 3 per vertex (current elevations)
+    std::vector<std::int64_t> triangles;  // 3 per triangle, CCW, inside the study area
+    std::vector<std::int64_t> halfedges;  // opposite half-edge within the mesh or -1
+    std::vector<std::int64_t> tin_vertex; // mesh vertex -> LayerTin vertex
+};
+
+namespace detail {
+struct LayerTinState;
+}
+
+class LayerTin {
+public:
+    // data: n points (x, y, z). Throws std::invalid_argument for a non-finite
+    // value (naming the point) and GeometryError when no data point lies in
+    // the study area.
+    LayerTin(std::string name, const double* data, std::size_t n, const StudyArea& area,
+             const LayerTinOptions& options = {});
+    ~LayerTin();
+    LayerTin(LayerTin&&) noexcept;
+    LayerTin& operator=(LayerTin&&) noexcept;
+    LayerTin(const LayerTin&);
+    LayerTin& operator=(const LayerTin&);
+
+    const std::string& name() const;
+    const StudyArea& area() const;
+    double spacing() const;
+    std::size_t n_data() const;          // data points used (inside or on the study area)
+    std::size_t n_outside() const;       // data points dropped (outside the study area)
+    std::size_t n_boundary_data() const; // data points that became boundary vertices
+    std::size_t n_vertices() const;
+    const Tin& tin() const;
+    // Current elevations of the TIN vertices (the repair changes them).
+    std::vector<double> z() const;
+    // Boundary vertices in order (counter-clockwise along the study area).
+    std::vector<std::int64_t> boundary_vertices() const;
+
+    // Inserts points (x, y, z), keeping the boundary protected. A point at the
+    // XY of an existing vertex gives that vertex its z. Returns the number of
+    // new vertices.
+    std::size_t insert(const double* xyz, std::size_t n);
+    // Sets the elevation of vertices.
+    void set_z(const std::int64_t* vertices, const double* z, std::size_t n);
+    // z at n points (x, y interleaved), NaN outside the TIN's hull.
+    std::vector<double> interpolate(const double* xy, std::size_t n) const;
+    // The triangles inside the study area, compacted.
+    LayerTinMesh mesh() const;
+
+private:
+    std::unique_ptr<detail::LayerTinState> s_;
+    friend struct RepairCounts repair_crossings(const LayerTin&, LayerTin&, const struct RepairOptions&);
+};
+
+struct RepairOptions {
+    int max_rounds = 50;
+    int midpoint_rounds = 8;
+    // Elevations are compared after interpolation, which errs by a few ulps
+    // of |z|; < 0: 1e-9 of the elevation scale (1e-6 m at 1 km), far above
+    // that rounding and far below any geological thickness.
+    double tolerance = -1.0;
+    // The repair gives up (GeometryError) when it has inserted more than this
+    // many points per vertex the lower layer had at the start (and more than
+    // 10000): layers that
+    // cross over large areas are a wrong layer order or wrong data, not
+    // something to repair by refinement.
+    double max_inserted_per_vertex = 4.0;
+};
+
+struct RepairCounts {
+    std::int64_t rule1 = 0;           // lower vertices lowered
+    std::int64_t rule1b = 0;          // points supplemented under upper vertices
+    std::int64_t rule2 = 0;           // edge midpoints inserted
+    std::int64_t rule2_crossing = 0;  // crossing points inserted
+    std::int64_t rounds = 0;
+};
+
+// Make `lower` lie nowhere above `upper` (see the file comment). Throws
+// GeometryError if crossings remain after max_rounds rounds or the insertion
+// budget is spent.
+RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const RepairOptions& options = {});
+
+}  // namespace faultmesh

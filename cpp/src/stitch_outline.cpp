@@ -1,0 +1,175 @@
+// Stitch step 1, outline: the patch oriented, its boundary loops, the
+// checks on them and the region R (stitch.hpp, step 1).
+#include <faultmesh/aabb_tree.hpp>
+#include <faultmesh/boundary.hpp>
+#include <faultmesh/errors.hpp>
+#include <faultmesh/predicates.hpp>
+#include <faultmesh/segments.hpp>
+#include <faultmesh/triangle_adjacency.hpp>
+
+#include "stitch_steps.hpp"
+
+#include <algorithm>
+#include <string>
+#include <unordered_map>
+#include <utility>
+
+namespace faultmesh::detail {
+
+StitchJob::StitchJob(StitcherState& s, const double* patch_vertices, std::size_t n_patch_vertices,
+                     std::vector<std::int64_t> patch_triangles, std::string name)
+    : pv(patch_vertices), npv(n_patch_vertices), ptri(std::move(patch_triangles)), npt(ptri.size() / 3),
+      patch_name(std::move(name)), fn("stitch: layer '" + s.name + "', patch '" + patch_name + "'"),
+      hooks(s), n_layer_vertices(static_cast<std::int64_t>(s.xyz.size() / 3)), s_(s) {}
+
+const double* StitchJob::X(std::int64_t g) const {
+    return g < n_layer_vertices ? s_.v(g) : P(g - n_layer_vertices);
+}
+
+void outline_patch(const StitcherState& s, StitchJob& job) {
+    const double* pv = job.pv;
+    const std::size_t npv = job.npv, npt = job.npt;
+    std::vector<std::int64_t>& ptri = job.ptri;
+    const std::string& fn = job.fn;
+    auto P = [&](std::int64_t i) { return pv + 3 * i; };
+    // Each edge-connected component of the patch is oriented on its own so
+    // that its signed XY area is positive (its outer outline CCW): the pieces
+    // of a fault group may come lofted in opposite directions.
+    {
+        std::vector<std::int64_t> parent(npt);
+        for (std::size_t t = 0; t < npt; ++t) parent[t] = static_cast<std::int64_t>(t);
+        auto find = [&](std::int64_t x) {
+            while (parent[static_cast<std::size_t>(x)] != x) {
+                parent[static_cast<std::size_t>(x)] = parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(x)])];
+                x = parent[static_cast<std::size_t>(x)];
+            }
+            return x;
+        };
+        // Edge-connected: triangles on the two sides of an edge (any
+        // orientation: the pieces are not oriented yet).
+        AdjacencyLabels labels;
+        labels.edge_word = "patch edge";
+        const std::vector<std::int64_t> twin =
+            halfedge_twins(ptri.data(), npt, npv, EdgeOrientation::any, fn, labels);
+        for (std::size_t h = 0; h < 3 * npt; ++h) {
+            const std::int64_t o = twin[h];
+            if (o < static_cast<std::int64_t>(h)) continue;  // each edge once (and not the boundary)
+            const std::int64_t x = find(static_cast<std::int64_t>(h / 3)), y = find(o / 3);
+            if (x != y) parent[static_cast<std::size_t>(x)] = y;
+        }
+        std::unordered_map<std::int64_t, double> sum;
+        for (std::size_t t = 0; t < npt; ++t)
+            sum[find(static_cast<std::int64_t>(t))] +=
+                orient2d(P(ptri[3 * t]), P(ptri[3 * t + 1]), P(ptri[3 * t + 2]));
+        for (const auto& cs : sum)
+            if (cs.second == 0.0)
+                throw GeometryError(fn + ": a piece of the patch has zero signed area in XY");
+        for (std::size_t t = 0; t < npt; ++t)
+            if (sum[find(static_cast<std::int64_t>(t))] < 0.0) {
+                std::swap(ptri[3 * t + 1], ptri[3 * t + 2]);
+                job.report.patch_flipped = true;
+            }
+    }
+    BoundaryContours bc = boundary_contours(ptri.data(), npt, npv);
+    if (!bc.nonmanifold_edges.empty())
+        throw GeometryError(fn + ": patch edge (" + std::to_string(bc.nonmanifold_edges[0]) + ", " +
+                            std::to_string(bc.nonmanifold_edges[1]) + ") is used by more than two triangles");
+    if (!bc.inconsistent_edges.empty())
+        throw GeometryError(fn + ": patch edge (" + std::to_string(bc.inconsistent_edges[0]) + ", " +
+                            std::to_string(bc.inconsistent_edges[1]) +
+                            ") is used twice in the same direction (inconsistent orientation)");
+    if (!bc.pinch_vertices.empty())
+        throw GeometryError(fn + ": patch vertex " + std::to_string(bc.pinch_vertices[0]) + " " +
+                            fmt_point(P(bc.pinch_vertices[0])) +
+                            " is on the patch outline more than once (pinch)");
+    if (!bc.open_chains.empty() || bc.loops.empty())
+        throw GeometryError(fn + ": the patch outline does not form closed loops");
+    for (std::size_t i = 0; i < npv; ++i)
+        if (!s.study.contains(P(static_cast<std::int64_t>(i))))
+            throw GeometryError(fn + ": patch vertex " + std::to_string(i) + " " +
+                                fmt_point(P(static_cast<std::int64_t>(i))) +
+                                " lies outside the study area");
+
+    // Outline edges, classified: on the study boundary (same side) or not.
+    using OEdge = StitchJob::OutlineEdge;
+    std::vector<OEdge>& oedges = job.outline;
+    std::vector<double> ring_xy;
+    std::vector<std::int64_t> ring_off{0};
+    {
+        std::unordered_map<std::int64_t, std::vector<StudyArea::Hit>> hits;
+        std::vector<StudyArea::Hit> tmp;
+        for (const auto& loop : bc.loops)
+            for (std::int64_t vtx : loop) {
+                s.study.locate(P(vtx), tmp);
+                if (!tmp.empty()) hits[vtx] = tmp;
+            }
+        for (const auto& loop : bc.loops) {
+            for (std::size_t i = 0; i < loop.size(); ++i) {
+                const std::int64_t a = loop[i], b = loop[(i + 1) % loop.size()];
+                OEdge e{a, b, false, 0, 0.0, 0.0};
+                auto ia = hits.find(a), ib = hits.find(b);
+                if (ia != hits.end() && ib != hits.end())
+                    for (const auto& ha : ia->second)
+                        for (const auto& hb : ib->second)
+                            if (!e.study && ha.side == hb.side && ha.s != hb.s) {
+                                e.study = true;
+                                e.side = ha.side;
+                                e.sa = ha.s;
+                                e.sb = hb.s;
+                            }
+                oedges.push_back(e);
+                ring_xy.push_back(P(a)[0]);
+                ring_xy.push_back(P(a)[1]);
+            }
+            ring_off.push_back(static_cast<std::int64_t>(ring_xy.size() / 2));
+        }
+    }
+    // Simplicity of the outline away from the study boundary.
+    {
+        std::vector<double> exy(pv, pv + 3 * npv);
+        std::vector<std::int64_t> seg;
+        for (const auto& e : oedges) {
+            seg.push_back(e.a);
+            seg.push_back(e.b);
+        }
+        AabbTree et = AabbTree::from_segments(exy.data(), npv, 3, seg.data(), oedges.size());
+        std::vector<std::int64_t> hitsv;
+        for (std::size_t i = 0; i < oedges.size(); ++i) {
+            const OEdge& e = oedges[i];
+            hitsv.clear();
+            et.query(et.box(i), hitsv);
+            for (std::int64_t j64 : hitsv) {
+                const std::size_t j = static_cast<std::size_t>(j64);
+                if (j <= i) continue;
+                const OEdge& f = oedges[j];
+                if (e.study && f.study) continue;
+                const double *a = P(e.a), *b = P(e.b), *c = P(f.a), *d = P(f.b);
+                std::int64_t shared = -1, ea = -1, fb = -1;
+                if (e.a == f.a) shared = e.a, ea = e.b, fb = f.b;
+                else if (e.a == f.b) shared = e.a, ea = e.b, fb = f.a;
+                else if (e.b == f.a) shared = e.b, ea = e.a, fb = f.b;
+                else if (e.b == f.b) shared = e.b, ea = e.a, fb = f.a;
+                bool bad;
+                if (shared >= 0) {
+                    // Adjacent edges may only share their common vertex: bad
+                    // if they fold back onto each other (collinear, same side).
+                    const double *o = P(shared), *p = P(ea), *q = P(fb);
+                    bad = orient2d(o, p, q) == 0.0 &&
+                          (p[0] - o[0]) * (q[0] - o[0]) + (p[1] - o[1]) * (q[1] - o[1]) > 0.0;
+                } else {
+                    bad = segments_meet(a, b, c, d);
+                }
+                if (bad)
+                    throw GeometryError(
+                        fn + ": the patch outline is not simple in XY: edges (" + std::to_string(e.a) +
+                        ", " + std::to_string(e.b) + ") and (" + std::to_string(f.a) + ", " +
+                        std::to_string(f.b) + ") meet near " + fmt_point(a) +
+                        " (a reverse fault must end at a pinch-out tip, a zero-throw trace or the "
+                        "study-area boundary)");
+            }
+        }
+    }
+    job.region = Region(ring_xy.data(), ring_off.data(), ring_off.size() - 1);
+}
+
+}  // namespace faultmesh::detail

@@ -1,0 +1,645 @@
+"""Every file faultmesh writes, opened by the reader of its format (VTK/PyVista,
+resqpy, OpenGeode-GeosciencesIO, omf, geoh5py, meshio) with equal counts,
+names and kinds; the pinned corpus of real GOCAD files (tests/data/gocad/);
+files written by VTK itself; errors instead of exits; a fuzz target per reader."""
+from __future__ import annotations
+
+import gzip
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, strategies as st
+
+import faultmesh
+from faultmesh.cli import main
+from faultmesh.io import ModelFileError, load_model, save_model
+from helpers import fuzz_settings
+from test_io import assert_same_geometry, make_model
+
+GOCAD = Path(__file__).resolve().parent / "data" / "gocad"
+
+
+def surfaces(m):
+    return list(m.surfaces.values()) + list(m.faults.values())
+
+
+def rich_model():
+    """make_model with a normal fault, vertex properties (a name with a space,
+    a 2-component one) and per-triangle arrays on one layer."""
+    m = make_model()
+    m.faults["F22"].metadata["kind"] = "normal"
+    coal = m.surfaces["coal 8"]
+    coal.metadata["vertex_properties"] = {
+        "thickness m": np.linspace(0.0, 1.0, coal.n_vertices),
+        "grad": np.column_stack([np.arange(coal.n_vertices), -np.arange(coal.n_vertices)]) * 0.5}
+    coal.owner = np.arange(coal.n_triangles) % 3          # per-triangle, as Surface.owner
+    coal.kinds = (np.arange(coal.n_triangles) % 2).astype(np.int32)
+    return m
+
+
+NAMES = ["top soil", "coal 8", "F22"]
+KINDS = ["layer", "layer", "fault"]
+
+
+# --------------------------------------------------------------------------
+# VTK: ParaView's and PyVista's reader (VTK 9) opens every array
+# --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("suffix", [".vtu", ".vtp", ".vtk"])
+def test_vtk_files_open_whole_in_vtk(tmp_path, suffix):
+    pv = pytest.importorskip("pyvista")  # in the test extra; importorskip names it if absent
+    m = rich_model()
+    p = tmp_path / f"m{suffix}"
+    m.save(p)
+    g = pv.read(p)
+    S = surfaces(m)
+    assert g.n_points == sum(s.n_vertices for s in S) and g.n_cells == sum(s.n_triangles for s in S)
+    assert list(g.field_data["surface_names"]) == [s.name for s in S]
+    assert list(g.field_data["surface_kinds"]) == KINDS
+    assert str(g.field_data["model_name"][0]) == m.name and str(g.field_data["crs"][0]) == m.crs
+    sid = np.repeat(np.arange(3), [s.n_triangles for s in S])
+    assert np.array_equal(g.cell_data["surface_id"], sid)
+    assert np.array_equal(g.cell_data["kind"], (sid == 2).astype(int))
+    assert np.array_equal(g.point_data["surface_id"], np.repeat(np.arange(3), [s.n_vertices for s in S]))
+    coal = m.surfaces["coal 8"]
+    v = np.asarray(g.point_data["thickness m"])
+    a, b = S[0].n_vertices, S[0].n_vertices + coal.n_vertices
+    assert np.array_equal(v[a:b], coal.metadata["vertex_properties"]["thickness m"])
+    assert np.isnan(v[:a]).all() and np.isnan(v[b:]).all()
+    assert np.asarray(g.point_data["grad"]).shape == (g.n_points, 2)
+    assert "owner" in g.cell_data.keys() and "triangle_kind" in g.cell_data.keys()
+    # The coordinates are float64 and exact.
+    assert np.array_equal(np.asarray(g.points), np.vstack([s.vertices for s in S]))
+    # Back into faultmesh: names, kinds, order, arrays.
+    r = load_model(p)
+    assert_same_geometry(m, r)
+    rc = r.surfaces["coal 8"]
+    assert np.array_equal(rc.metadata["vertex_properties"]["thickness m"],
+                          coal.metadata["vertex_properties"]["thickness m"])
+    assert np.array_equal(rc.metadata["triangle_properties"]["owner"], coal.owner)
+    assert np.array_equal(rc.metadata["triangle_properties"]["kind"], coal.kinds)
+
+
+def test_legacy_vtk_has_no_type_vtk_cannot_read(tmp_path):
+    """Regression: meshio wrote cell arrays as 'vtktypeint32', which VTK's
+    legacy reader refuses ('Unsupported data type'), dropping them."""
+    vtk = pytest.importorskip("vtkmodules.vtkIOLegacy")
+    p = tmp_path / "m.vtk"
+    make_model().save(p)
+    head = re.findall(rb"^[A-Za-z_%0-9 ]+ \d+ \d+ (\w+)$|^SCALARS \S+ (\w+)", p.read_bytes(), re.M)
+    assert head and all(t in (b"int", b"double", b"string", b"") for pair in head for t in pair)
+    r = vtk.vtkUnstructuredGridReader()
+    r.SetFileName(str(p))
+    r.ReadAllScalarsOn()
+    r.ReadAllFieldsOn()
+    r.Update()
+    out = r.GetOutput()
+    assert out.GetCellData().GetArray("surface_id") is not None
+    assert out.GetCellData().GetArray("kind") is not None
+    assert out.GetFieldData().GetAbstractArray("surface_names").GetValue(1) == "coal 8"
+
+
+def _vtk_written(tmp_path, kind: str):
+    """A mesh written by VTK's own writers in the many layouts VTK produces."""
+    pv = pytest.importorskip("pyvista")
+    from vtkmodules import vtkIOLegacy, vtkIOXML
+
+    mesh = pv.Sphere(theta_resolution=12, phi_resolution=9)    # triangles + normals
+    ug = mesh.cast_to_unstructured_grid()
+    p = tmp_path / f"{kind}"
+    if kind.startswith("xml"):
+        _, grid, mode, comp = kind.split("-")
+        w = vtkIOXML.vtkXMLUnstructuredGridWriter() if grid == "vtu" else vtkIOXML.vtkXMLPolyDataWriter()
+        w.SetInputData(ug if grid == "vtu" else mesh)
+        p = p.with_suffix("." + grid)
+        {"ascii": w.SetDataModeToAscii, "binary": w.SetDataModeToBinary,
+         "appended": w.SetDataModeToAppended}[mode]()
+        w.EncodeAppendedDataOff()
+        if comp == "none":
+            w.SetCompressorTypeToNone()
+        elif comp == "lzma":
+            w.SetCompressorTypeToLZMA()
+        else:
+            w.SetCompressorTypeToZLib()
+        if comp == "u64":
+            w.SetHeaderTypeToUInt64()
+    else:
+        _, grid, version, mode = kind.split("-")
+        w = vtkIOLegacy.vtkUnstructuredGridWriter() if grid == "ug" else vtkIOLegacy.vtkPolyDataWriter()
+        w.SetInputData(ug if grid == "ug" else mesh)
+        w.SetFileVersion(int(version))
+        w.SetFileTypeToBinary() if mode == "binary" else w.SetFileTypeToASCII()
+        p = p.with_suffix(".vtk")
+    w.SetFileName(str(p))
+    assert w.Write() == 1
+    return mesh, p
+
+
+@pytest.mark.parametrize("kind", ["xml-vtu-ascii-none", "xml-vtu-binary-none", "xml-vtu-binary-zlib",
+                                  "xml-vtu-appended-zlib", "xml-vtu-appended-none", "xml-vtu-appended-u64",
+                                  "xml-vtu-binary-lzma", "xml-vtp-appended-zlib", "xml-vtp-binary-none",
+                                  "legacy-ug-42-binary", "legacy-ug-51-binary", "legacy-ug-51-ascii",
+                                  "legacy-pd-42-ascii", "legacy-pd-51-binary"])
+def test_files_written_by_vtk_itself_load(tmp_path, kind):
+    pv = pytest.importorskip("pyvista")
+    mesh, p = _vtk_written(tmp_path, kind)
+    m = load_model(p)
+    (s,) = m.surfaces.values()
+    assert s.n_vertices == mesh.n_points and s.n_triangles == mesh.n_cells
+    # The same values as VTK reads from the same file (VTK's ASCII writers
+    # round to 6 digits, so the file, not the mesh in memory, is the reference).
+    back = pv.read(p)
+    assert np.array_equal(s.vertices, np.asarray(back.points, np.float64))
+    cells = back.faces if isinstance(back, pv.PolyData) else back.cells
+    assert np.array_equal(s.triangles, np.asarray(cells).reshape(-1, 4)[:, 1:])
+    assert s.metadata["vertex_properties"]["Normals"].shape == (mesh.n_points, 3)
+
+
+def test_foreign_quads_and_truncated_vtu_raise_model_file_error(tmp_path):
+    pv = pytest.importorskip("pyvista")
+    plane = pv.Plane(i_resolution=2, j_resolution=2)          # quads
+    plane.save(tmp_path / "quads.vtp")
+    with pytest.raises(ModelFileError, match=r"quads.vtp: expected a triangle mesh, .*polygon of 4 points"):
+        load_model(tmp_path / "quads.vtp")
+    p = tmp_path / "m.vtu"
+    make_model().save(p)
+    data = p.read_bytes()
+    (tmp_path / "cut.vtu").write_bytes(data[: len(data) // 2])
+    with pytest.raises(ModelFileError, match=r"cut.vtu: "):
+        load_model(tmp_path / "cut.vtu")
+    # The CLI documents exit code 2 and one line, no traceback, no sys.exit(1).
+    assert main(["convert", str(tmp_path / "cut.vtu"), str(tmp_path / "x.3dt")]) == 2
+
+
+def test_stl_and_ply_written_by_vtk_load(tmp_path):
+    pv = pytest.importorskip("pyvista")
+    s = pv.Sphere()
+    for name, binary in (("s.stl", True), ("a.stl", False), ("s.ply", True), ("a.ply", False)):
+        s.save(tmp_path / name, binary=binary)
+        (surf,) = load_model(tmp_path / name).surfaces.values()
+        assert (surf.n_vertices, surf.n_triangles) == (s.n_points, s.n_cells), name
+
+
+# --------------------------------------------------------------------------
+# OBJ and PLY: meshio (and viewers) open them; OBJ has one object per surface
+# --------------------------------------------------------------------------
+
+def test_obj_has_one_object_per_surface_and_opens_in_meshio(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    m = rich_model()
+    m.save(tmp_path / "m.obj")
+    text = (tmp_path / "m.obj").read_text(encoding="utf-8")
+    assert re.findall(r"^o (.*)$", text, re.M) == NAMES
+    mm = meshio.read(tmp_path / "m.obj")
+    assert len(mm.points) == sum(s.n_vertices for s in surfaces(m))
+    assert sum(len(c.data) for c in mm.cells if c.type == "triangle") == sum(s.n_triangles for s in surfaces(m))
+    assert_same_geometry(m, load_model(tmp_path / "m.obj"))
+
+
+def test_ply_opens_in_meshio_and_keeps_names_for_faultmesh(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    m = rich_model()
+    m.save(tmp_path / "m.ply")
+    mm = meshio.read(tmp_path / "m.ply")
+    assert len(mm.points) == sum(s.n_vertices for s in surfaces(m))
+    assert np.array_equal(mm.point_data["surface_id"], np.repeat(np.arange(3), [s.n_vertices for s in surfaces(m)]))
+    assert_same_geometry(m, load_model(tmp_path / "m.ply"))
+
+
+# --------------------------------------------------------------------------
+# GOCAD: resqpy per surface, OpenGeode's structural model for .ml
+# --------------------------------------------------------------------------
+
+def _objects(text: str):
+    return ["GOCAD TSurf 1" + t for t in text.split("GOCAD TSurf 1")[1:]]
+
+
+def test_each_surface_of_a_ts_opens_in_resqpy(tmp_path):
+    rq = pytest.importorskip("resqpy.model")
+    rqs = pytest.importorskip("resqpy.surface")
+    m = rich_model()
+    m.save(tmp_path / "m.ts")
+    objs = _objects((tmp_path / "m.ts").read_text(encoding="utf-8"))
+    assert len(objs) == 3
+    for k, (obj, s) in enumerate(zip(objs, surfaces(m))):
+        f = tmp_path / f"o{k}.ts"
+        f.write_text(obj, encoding="utf-8")
+        surf = rqs.Surface(rq.new_model(str(tmp_path / f"o{k}.epc")), tsurf_file=str(f))
+        t, p = surf.triangles_and_points()
+        assert np.array_equal(t, s.triangles) and np.array_equal(p, s.vertices), s.name
+
+
+def _opengeode():
+    og = pytest.importorskip("opengeode")
+    geo = pytest.importorskip("opengeode_geosciences")
+    pytest.importorskip("opengeode_geosciencesio")     # registers the GOCAD readers
+    return og, geo
+
+
+def test_ml_opens_as_one_structural_model_in_opengeode(tmp_path):
+    og, geo = _opengeode()
+    m = rich_model()
+    files = save_model(m, tmp_path / "m.ml")
+    assert files == [tmp_path / "m.ml", tmp_path / "m_boundary.pl"]
+    sm = geo.load_structural_model(str(tmp_path / "m.ml"))
+    assert sm.name() == m.name
+    assert sm.nb_horizons() == 2 and sm.nb_faults() == 1 and sm.nb_surfaces() == 3
+    (f,) = list(sm.faults())
+    assert f.name() == "F22" and "NORMAL" in str(f.type())
+    got = {h.name(): [(s.mesh().nb_vertices(), s.mesh().nb_polygons()) for s in sm.horizon_items(h)]
+           for h in sm.horizons()}
+    got["F22"] = [(s.mesh().nb_vertices(), s.mesh().nb_polygons()) for s in sm.fault_items(f)]
+    assert got == {s.name: [(s.n_vertices, s.n_triangles)] for s in surfaces(m)}
+    assert_same_geometry(m, load_model(tmp_path / "m.ml"))
+
+
+def test_ts_opens_in_opengeode_with_its_properties(tmp_path):
+    og, _ = _opengeode()
+    m = rich_model()
+    m.save(tmp_path / "m.ts")
+    ts = og.load_triangulated_surface3D(str(tmp_path / "m.ts"))
+    # OpenGeode's TSurf reader merges every object of a file into one mesh.
+    assert ts.nb_vertices() == sum(s.n_vertices for s in surfaces(m))
+    assert ts.nb_polygons() == sum(s.n_triangles for s in surfaces(m))
+    am = ts.vertex_attribute_manager()
+    assert am.attribute_ids_matching_name("thickness m") and am.attribute_ids_matching_name("grad")
+
+
+def test_ts_to_ts_keeps_vertex_properties_and_fault_kind(tmp_path):
+    m = rich_model()
+    m.save(tmp_path / "a.ts")
+    r = load_model(tmp_path / "a.ts")
+    r.save(tmp_path / "b.ts")
+    rr = load_model(tmp_path / "b.ts")
+    for x in (r, rr):
+        vp = x.surfaces["coal 8"].metadata["vertex_properties"]
+        src = m.surfaces["coal 8"].metadata["vertex_properties"]
+        assert np.array_equal(vp["thickness m"], src["thickness m"])
+        assert np.array_equal(vp["grad"], src["grad"])
+        assert x.faults["F22"].metadata["kind"] == "normal"
+    text = (tmp_path / "b.ts").read_text(encoding="utf-8")
+    assert 'PROPERTIES " thickness m" grad' in text and "ESIZES 1 2" in text
+    assert "GEOLOGICAL_TYPE normal_fault" in text and text.count("PVRTX ") == m.surfaces["coal 8"].n_vertices
+    assert (tmp_path / "a.ts").read_bytes() == (tmp_path / "b.ts").read_bytes()
+
+
+def test_gocad_name_ending_with_a_brace_keeps_the_header_open(tmp_path):
+    """Regression: a header line 'name:a}' closed the header, losing the rest."""
+    m = make_model()
+    m.surfaces["coal 8"].name = "coal {8}"
+    m.save(tmp_path / "m.ts")
+    r = load_model(tmp_path / "m.ts")
+    assert list(r.surfaces) == ["top soil", "coal {8}"] and r.name == m.name
+
+
+def test_gocad_names_are_bare_and_line_breaks_refused(tmp_path):
+    m = make_model()
+    m.save(tmp_path / "m.ml")
+    text = (tmp_path / "m.ml").read_text(encoding="utf-8")
+    assert "TSURF top soil\n" in text and "TFACE 1 top top soil\n" in text
+    assert "TFACE 3 fault F22\n" in text and "name:coal 8\n" in text
+    assert not re.search(r'^(name:|TSURF |TFACE |GEOLOGICAL_FEATURE ).*"', text, re.M)
+    m.surfaces["top soil"].name = "a\nb"
+    with pytest.raises(ValueError, match="line break"):
+        m.save(tmp_path / "bad.ts")
+    assert not (tmp_path / "bad.ts").exists()
+
+
+# --------------------------------------------------------------------------
+# OMF, RESQML, geoh5: their own packages read what we write
+# --------------------------------------------------------------------------
+
+def test_omf_opens_in_omf(tmp_path):
+    omf = pytest.importorskip("omf")
+    m = rich_model()
+    m.save(tmp_path / "m.omf")
+    proj = omf.OMFReader(str(tmp_path / "m.omf")).get_project()
+    els = proj.elements
+    assert [e.name for e in els] == NAMES
+    assert [re.search(r"kind=(\w+)", e.description).group(1) for e in els] == KINDS
+    for e, s in zip(els, surfaces(m)):
+        assert np.array_equal(np.asarray(e.geometry.vertices), s.vertices)
+        assert np.array_equal(np.asarray(e.geometry.triangles), s.triangles)
+    r = load_model(tmp_path / "m.omf")
+    assert_same_geometry(m, r)
+    assert r.faults["F22"].metadata["kind"] == "normal"
+
+
+def test_resqml_opens_in_resqpy(tmp_path):
+    rq = pytest.importorskip("resqpy.model")
+    rqs = pytest.importorskip("resqpy.surface")
+    m = rich_model()
+    files = save_model(m, tmp_path / "m.epc")
+    assert files == [tmp_path / "m.epc", tmp_path / "m.h5"]
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")], "temporary files left"
+    model = rq.Model(str(tmp_path / "m.epc"))
+    found = {}
+    for uuid in model.uuids(obj_type="TriangulatedSetRepresentation"):
+        s = rqs.Surface(model, uuid=uuid)
+        t, p = s.triangles_and_points()
+        interp = model.type_of_uuid(s.represented_interpretation_root.attrib["uuid"])
+        found[s.title] = (len(p), len(t), interp)
+    assert found == {s.name: (s.n_vertices, s.n_triangles,
+                              "obj_FaultInterpretation" if s.kind == "fault" else "obj_HorizonInterpretation")
+                     for s in surfaces(m)}
+    r = load_model(tmp_path / "m.epc")
+    assert_same_geometry(m, r)
+    assert r.crs == "EPSG:2385" and r.faults["F22"].metadata["kind"] == "normal"
+
+
+def test_geoh5_opens_in_geoh5py(tmp_path):
+    pytest.importorskip("geoh5py")
+    from geoh5py.objects import Surface as GSurface
+    from geoh5py.workspace import Workspace
+
+    m = rich_model()
+    m.save(tmp_path / "m.geoh5")
+    ws = Workspace(str(tmp_path / "m.geoh5"), mode="r")
+    try:
+        got = {o.name: (len(o.vertices), len(o.cells), o.parent.name) for o in ws.objects
+               if isinstance(o, GSurface)}
+    finally:
+        ws.close()
+    assert got == {s.name: (s.n_vertices, s.n_triangles, "Faults" if s.kind == "fault" else "Layers")
+                   for s in surfaces(m)}
+    r = load_model(tmp_path / "m.geoh5")
+    assert_same_geometry(m, r)
+    assert np.array_equal(r.surfaces["coal 8"].metadata["vertex_properties"]["thickness m"],
+                          m.surfaces["coal 8"].metadata["vertex_properties"]["thickness m"])
+
+
+@pytest.mark.parametrize("suffix", [".ts", ".ml", ".vtu", ".vtp", ".vtk", ".obj", ".ply", ".omf",
+                                    ".epc", ".geoh5"])
+def test_convert_knows_every_format(tmp_path, suffix):
+    src = tmp_path / "m.3dt"
+    rich_model().save(src)
+    assert main(["convert", str(src), str(tmp_path / f"out{suffix}")]) == 0
+    assert main(["convert", str(tmp_path / f"out{suffix}"), str(tmp_path / "back.3dt")]) == 0
+    assert_same_geometry(load_model(src), load_model(tmp_path / "back.3dt"))
+
+
+# --------------------------------------------------------------------------
+# PyVista objects and the interactive view
+# --------------------------------------------------------------------------
+
+def test_to_pyvista_and_back(tmp_path):
+    pv = pytest.importorskip("pyvista")
+    m = rich_model()
+    mb = m.to_pyvista()
+    assert isinstance(mb, pv.MultiBlock) and list(mb.keys()) == NAMES
+    for name, kind, s in zip(NAMES, KINDS, surfaces(m)):
+        b = mb[name]
+        assert (b.n_points, b.n_cells) == (s.n_vertices, s.n_triangles)
+        assert str(b.field_data["kind"][0]) == kind and str(b.field_data["name"][0]) == name
+    assert str(mb["F22"].field_data["fault_kind"][0]) == "normal"
+    coal = mb["coal 8"]
+    assert np.array_equal(coal.cell_data["owner"], m.surfaces["coal 8"].owner)
+    assert np.array_equal(coal.cell_data["kind"], m.surfaces["coal 8"].kinds)
+    assert np.array_equal(coal.point_data["thickness m"],
+                          m.surfaces["coal 8"].metadata["vertex_properties"]["thickness m"])
+    assert str(mb.field_data["model_name"][0]) == m.name      # non-ASCII kept
+    r = faultmesh.from_pyvista(mb)
+    assert_same_geometry(m, r)
+    assert r.name == m.name and r.crs == m.crs and r.faults["F22"].metadata["kind"] == "normal"
+    # One merged mesh (what pyvista reads from our .vtu) splits by surface_id.
+    m.save(tmp_path / "m.vtu")
+    assert_same_geometry(m, faultmesh.from_pyvista(pv.read(tmp_path / "m.vtu")))
+    with pytest.raises(ValueError, match="not triangles"):
+        faultmesh.from_pyvista(pv.Plane())
+
+
+def test_plot_interactive_needs_a_display(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("pyvista")
+    p = tmp_path / "m.3dt"
+    make_model().save(p)
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setattr(sys, "platform", "linux")
+    assert main(["plot", str(p), "--interactive"]) == 2
+    assert "--interactive needs a display" in capsys.readouterr().err
+
+
+def test_interactive_view_renders_off_screen(tmp_path):
+    pytest.importorskip("pyvista")
+    from faultmesh.formats import pv as fpv
+
+    img = fpv.show(make_model(), vertical_exaggeration=2.0, off_screen=True,
+                   screenshot=tmp_path / "view.png")
+    assert (tmp_path / "view.png").is_file()
+    # Something was drawn: more than one colour, and the fault's dark red.
+    flat = img.reshape(-1, img.shape[-1])[:, :3].astype(int)
+    assert len(np.unique(flat, axis=0)) > 10
+    assert np.any((flat[:, 0] > 100) & (flat[:, 1] < 60) & (flat[:, 2] < 60))
+
+
+# --------------------------------------------------------------------------
+# the corpus of real GOCAD files (tests/data/gocad/README.md)
+# --------------------------------------------------------------------------
+
+def _corpus_path(tmp_path, rel: str) -> Path:
+    p = GOCAD / rel
+    if p.suffix == ".gz":
+        out = tmp_path / p.stem
+        out.write_bytes(gzip.decompress(p.read_bytes()))
+        return out
+    return p
+
+
+def _grep_counts(text: str):
+    """Per TSurf object, counted from the text alone: (name, geological type,
+    vertex lines incl. ATOMs, TRGL lines)."""
+    out = []
+    for obj in text.split("GOCAD TSurf")[1:]:
+        name = re.search(r"^\s*name:\s*(.*?)\s*$", obj, re.M).group(1)
+        gt = re.search(r"^GEOLOGICAL_TYPE\s+(\S+)", obj, re.M)
+        out.append((name, gt.group(1) if gt else "",
+                    len(re.findall(r"^\s*(?:P?VRTX|P?ATOM)\s", obj, re.M)),
+                    len(re.findall(r"^\s*TRGL\s", obj, re.M))))
+    return out
+
+
+CORPUS = sorted(str(p.relative_to(GOCAD)) for p in GOCAD.glob("*/*")
+                if p.suffix in (".ts", ".gz"))
+
+
+def test_corpus_is_pinned_with_licences():
+    assert len(CORPUS) >= 10
+    for d in {Path(c).parts[0] for c in CORPUS}:
+        assert any((GOCAD / d).glob("LICENSE*")), d
+    readme = (GOCAD / "README.md").read_text(encoding="utf-8")
+    for c in CORPUS:
+        assert Path(c).name in readme, c
+
+
+@pytest.mark.parametrize("rel", CORPUS)
+def test_corpus_file_loads_with_independent_counts(tmp_path, rel):
+    p = _corpus_path(tmp_path, rel)
+    expected = _grep_counts(p.read_text(encoding="latin-1"))
+    m = load_model(p)
+    kept = [e for e in expected if e[1] not in ("boundary", "lease")]
+    got = sorted((s.n_vertices, s.n_triangles, s.kind) for s in surfaces(m))
+    assert got == sorted((v, t, "fault" if "fault" in gt else "layer") for _, gt, v, t in kept)
+    assert sorted(re.sub(r" \(\d+\)$", "", s.name) for s in surfaces(m)) == sorted(n for n, *_ in kept)
+    skipped = m.metadata.get("gocad_boundary_surfaces", [])
+    assert [s["name"] for s in skipped] == [n for n, gt, *_ in expected if gt in ("boundary", "lease")]
+
+
+def test_corpus_counts_agree_with_opengeode(tmp_path):
+    og, geo = _opengeode()
+    for rel in CORPUS:
+        p = _corpus_path(tmp_path, rel)
+        m = load_model(p)
+        if p.suffix == ".ml":
+            sm = geo.load_structural_model(str(p))
+            tri = {f.name(): sum(s.mesh().nb_polygons() for s in sm.fault_items(f)) for f in sm.faults()}
+            tri.update({h.name(): sum(s.mesh().nb_polygons() for s in sm.horizon_items(h))
+                        for h in sm.horizons()})
+            assert tri == {s.name: s.n_triangles for s in surfaces(m)}, rel
+            kinds = {f.name(): str(f.type()) for f in sm.faults()}
+            assert all("NORMAL" in kinds[n] and m.faults[n].metadata["kind"] == "normal" for n in m.faults)
+        else:
+            ts = og.load_triangulated_surface3D(str(p))
+            assert ts.nb_vertices() == sum(s.n_vertices for s in surfaces(m)), rel
+            assert ts.nb_polygons() == sum(s.n_triangles for s in surfaces(m)), rel
+
+
+def test_corpus_details(tmp_path):
+    """What the issue named: quoted property names, PVRTX ... CNXYZ, ZPOSITIVE
+    Depth, several TFACEs, ATOMs, normal_fault loading as a fault."""
+    m = load_model(GOCAD / "opengeode" / "ts-2props.ts")
+    (s,) = m.surfaces.values()
+    assert list(s.metadata["vertex_properties"]) == ["default property", "def-prop"]
+    assert np.isnan(s.metadata["vertex_properties"]["def-prop"]).all()   # -99999 = no data
+    assert s.vertices[0].tolist() == [-745925.546875, -2618524.8125, 44070.2578125]  # Depth -> elevation
+    assert m.crs == "Pdgm_Epic Local"
+    w = load_model(GOCAD / "scec_cfm" / "GVFA-WWFZ-MULT-White_Wolf_fault-original.ts")
+    (s,) = w.surfaces.values()
+    assert s.metadata["tface_parts"] == 2 and s.n_vertices == 372
+    a4 = load_model(_corpus_path(tmp_path, "opengeode/modelA4.ml.gz"))
+    assert list(a4.faults) == ["F1fault", "F2fault"] and list(a4.surfaces) == ["H1b_horizon", "H2b_horizon", "H3b_horizon"]
+    assert a4.name == "modelA4" and len(a4.metadata["gocad_boundary_surfaces"]) == 6
+
+
+# --------------------------------------------------------------------------
+# no foreign file makes faultmesh exit
+# --------------------------------------------------------------------------
+
+def test_a_library_calling_sys_exit_becomes_model_file_error(tmp_path, monkeypatch):
+    """Regression: meshio called sys.exit(1) on a .vtk it could not read, so
+    load_model raised SystemExit and the CLI exited 1 with meshio's text."""
+    omf = pytest.importorskip("omf")
+    p = tmp_path / "m.omf"
+    make_model().save(p)
+
+    class Exits:
+        def __init__(self, *a, **k):
+            sys.exit(1)
+
+    monkeypatch.setattr(omf, "OMFReader", Exits)
+    with pytest.raises(ModelFileError, match=r"m.omf: reading it as OMF failed \(the library tried to exit"):
+        load_model(p)
+    assert main(["convert", str(p), str(tmp_path / "x.3dt")]) == 2
+
+
+def test_vtk_with_string_arrays_written_by_pyvista_loads(tmp_path):
+    """Regression: a .vtk/.vtu written by PyVista/ParaView with string field
+    data made meshio exit (SystemExit) or fail with KeyError."""
+    pv = pytest.importorskip("pyvista")
+    from vtkmodules.vtkCommonCore import vtkStringArray
+
+    mesh = pv.Sphere()
+    arr = vtkStringArray()
+    arr.SetName("note")
+    arr.InsertNextValue("written by pyvista")
+    mesh.GetFieldData().AddArray(arr)
+    for name in ("s.vtk", "s.vtp"):
+        mesh.save(tmp_path / name)
+        (s,) = load_model(tmp_path / name).surfaces.values()
+        assert (s.n_vertices, s.n_triangles) == (mesh.n_points, mesh.n_cells)
+
+
+# --------------------------------------------------------------------------
+# fuzz targets: mutated and truncated files load or raise ModelFileError
+# --------------------------------------------------------------------------
+
+_LINE_FORMATS = (".ts", ".ml", ".pl", ".obj")
+_EXTRA = {}   # files a fuzzed file needs beside it (the .h5 of an .epc), by name
+
+
+def _base_file(tmp_path_factory, suffix: str) -> bytes:
+    d = tmp_path_factory.mktemp("fuzzbase")
+    m = make_model()
+    m.surfaces["coal 8"].metadata["vertex_properties"] = {"v": np.arange(m.surfaces["coal 8"].n_vertices, dtype=float)}
+    if suffix == ".pl":
+        m.save(d / "m.ts")
+        return (d / "m_boundary.pl").read_bytes()
+    if suffix == ".stl":
+        pv = pytest.importorskip("pyvista")
+        pv.Sphere(theta_resolution=6, phi_resolution=5).save(d / "m.stl", binary=False)
+        return (d / "m.stl").read_bytes()
+    m.save(d / f"m{suffix}")
+    if suffix == ".epc":
+        _EXTRA["m.h5"] = (d / "m.h5").read_bytes()
+    return (d / f"m{suffix}").read_bytes()
+
+
+def _mutate(data: bytes, cut: int, pos: int, byte: int, mode: int) -> bytes:
+    if not data:
+        return data
+    pos %= len(data)
+    if mode == 0:                                  # truncate
+        return data[: cut % (len(data) + 1)]
+    if mode == 1:                                  # change one byte
+        return data[:pos] + bytes([byte]) + data[pos + 1:]
+    if mode == 2:                                  # drop a line (or a chunk)
+        j = data.find(b"\n", pos)
+        return data[:pos] + (data[j + 1:] if j >= 0 else b"")
+    return data[:pos] + data[pos:pos + 40] + data[pos:]   # duplicate a chunk
+
+
+def _check_load(path: Path, n_lines: int, line_format: bool) -> None:
+    try:
+        load_model(path)
+    except ModelFileError as e:
+        assert str(e).startswith(str(path)) or str(e).startswith(str(path.with_name(
+            path.stem + "_boundary.pl"))), str(e)
+        if line_format and e.line is not None:
+            assert 1 <= e.line <= n_lines + 1, (e.line, n_lines)
+
+
+def _fuzz(suffix: str, examples: int):
+    @pytest.mark.fuzz
+    @fuzz_settings(examples)
+    @given(cut=st.integers(0, 10 ** 6), pos=st.integers(0, 10 ** 6), byte=st.integers(0, 255),
+           mode=st.integers(0, 3))
+    def target(tmp_path_factory, cut, pos, byte, mode):
+        key = f"_base{suffix}"
+        if not hasattr(target, key):
+            setattr(target, key, _base_file(tmp_path_factory, suffix))
+        data = _mutate(getattr(target, key), cut, pos, byte, mode)
+        d = tmp_path_factory.mktemp("fuzz")
+        p = d / f"m{suffix}"
+        p.write_bytes(data)
+        if suffix == ".epc":   # the .h5 the .epc names stays intact beside it
+            (d / "m.h5").write_bytes(_EXTRA["m.h5"])
+        _check_load(p, data.count(b"\n"), suffix in _LINE_FORMATS)
+
+    target.__name__ = f"test_fuzz_{suffix.lstrip('.')}_reader"
+    return target
+
+
+test_fuzz_ts_reader = _fuzz(".ts", 120)
+test_fuzz_ml_reader = _fuzz(".ml", 60)
+test_fuzz_pl_reader = _fuzz(".pl", 60)
+test_fuzz_vtu_reader = _fuzz(".vtu", 120)
+test_fuzz_vtp_reader = _fuzz(".vtp", 60)
+test_fuzz_vtk_reader = _fuzz(".vtk", 120)
+test_fuzz_obj_reader = _fuzz(".obj", 80)
+test_fuzz_ply_reader = _fuzz(".ply", 80)
+test_fuzz_stl_reader = _fuzz(".stl", 60)
+test_fuzz_omf_reader = _fuzz(".omf", 40)
+test_fuzz_geoh5_reader = _fuzz(".geoh5", 25)
+test_fuzz_epc_reader = _fuzz(".epc", 25)
