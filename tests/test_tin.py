@@ -182,6 +182,23 @@ def test_interpolate_in_a_sliver_is_exact_at_its_own_vertices():
     assert tin.interpolate(mid)[0] == 1.5
 
 
+def test_interpolate_inside_the_issue10_sliver_is_within_the_vertices_z():
+    """Regression (issue 10): inside the sliver of the points below Tin.interpolate
+    gave NaN (a floating barycentric determinant). Every query the TIN locates in
+    the sliver -- its centroid, an edge midpoint, 500 random convex combinations
+    of the corners -- gets a value within the corners' z range [1, 3]."""
+    xy = np.array([[0.5118216247002567] * 2, [0.9504636963259353] * 2,
+                   [0.14415961271963373, 0.14415961271963376]])
+    tin = fm.Tin(np.c_[xy, [1.0, 2.0, 3.0]])
+    w = np.random.default_rng(10).dirichlet([1.0, 1.0, 1.0], 500)
+    q = np.r_[xy.mean(0)[None], (xy[[1]] + xy[[2]]) / 2, w @ xy]
+    inside = tin.locate(q) >= 0
+    assert inside[0] and inside[1] and inside.sum() > 100  # the centroid, the midpoint, many others
+    z = tin.interpolate(q[inside])
+    assert not np.any(np.isnan(z))
+    assert np.all((z >= 1.0) & (z <= 3.0))
+
+
 @settings(max_examples=150, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(3, 12))
 def test_interpolate_is_a_convex_combination_in_slivers(seed, n):
