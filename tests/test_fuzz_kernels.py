@@ -898,12 +898,21 @@ def test_kernels_never_read_arrays_another_thread_changes():
     values = set(good_T.ravel().tolist()) | set(bad_T.ravel().tolist())
     stop = threading.Event()
 
+    # A (n, 3) view whose x, y are P's columns is not possible without a copy,
+    # so sample_surface reads P through a 3-column array that flip() rewrites too.
+    V3 = np.c_[P, np.zeros(len(P))]
+    good_V3, bad_V3 = V3.copy(), V3.copy()
+    bad_V3[::5] = np.nan
+    Q = np.random.default_rng(1).random((200, 2))
+
     def flip():
         while not stop.is_set():
             T[:] = bad_T
             P[:] = bad_P
+            V3[:] = bad_V3
             T[:] = good_T
             P[:] = good_P
+            V3[:] = good_V3
 
     th = threading.Thread(target=flip)
     th.start()
@@ -919,6 +928,102 @@ def test_kernels_never_read_arrays_another_thread_changes():
             r, err = call(["delaunay"], ["xy"], fm.delaunay, P)
             if err is None:
                 assert r.min() >= 0 and r.max() < len(P)
+            # main's sample_surface (merged later) gets the same private copies.
+            r, err = call(["sample_surface"], ["vertices", "triangles"], fm.sample_surface, V3, T, Q)
+            if err is None:
+                lo, hi, hits = r
+                assert np.all(hits[~np.isnan(lo)] > 0) and np.all(np.nan_to_num(lo) <= np.nan_to_num(hi))
     finally:
         stop.set()
         th.join()
+
+
+def test_kernels_from_main_share_the_input_contract():
+    """The kernels merged from main (orient3d, StudyArea, LayerTin, sample_surface,
+    sample_surface_grid, fault_side) follow the same input contract: coordinates beyond
+    1e60 or NaN are ValueErrors naming function, argument and row; index arrays hold
+    non-negative integers; the caller's arrays are copied (changing them later changes
+    nothing)."""
+    square = np.array([[0, 0], [100, 0], [100, 100], [0, 100.0]])
+    far = square.copy()
+    far[2, 1] = 1e61
+    with pytest.raises(ValueError, match=r"StudyArea: ring row 2 has a coordinate beyond \+-1e\+60 \(y = 1e\+61\)"):
+        fm.StudyArea(far)
+    area = fm.StudyArea(square)
+    with pytest.raises(ValueError, match=r"StudyArea.contains: points row 1 has a non-finite coordinate"):
+        area.contains(np.array([[1.0, 1.0], [np.nan, 0.0]]))
+    with pytest.raises(ValueError, match=r"StudyArea.place: side row 0 has the value 0.5, not an integer"):
+        area.place(np.array([0.5]), np.array([1.0]))
+    with pytest.raises(ValueError, match=r"StudyArea.place: s row 0 is not finite"):
+        area.place(np.array([0]), np.array([np.inf]))
+    assert np.array_equal(area.place(np.array([1.0]), np.array([50.0])), [[100.0, 50.0]])  # exact integers
+
+    LV, LT = layer_tin(np.random.default_rng(0), 6, 10, 1.0, 0.0)
+    bad = LV.copy()
+    bad[3, 0] = -1e70
+    with pytest.raises(ValueError, match=r"LayerTin: data row 3 has a coordinate beyond \+-1e\+60 \(x = -1e\+70\)"):
+        fm.LayerTin("L", bad, square)
+    with pytest.raises(ValueError, match=r"LayerTin: boundary row 2 has a coordinate beyond"):
+        fm.LayerTin("L", LV, far)
+    layer = fm.LayerTin("L", LV, square)
+    with pytest.raises(ValueError, match=r"LayerTin.insert: xyz row 0 has a coordinate beyond"):
+        layer.insert(np.array([[1e61, 5.0, 0.0]]))
+
+    with pytest.raises(ValueError, match=r"sample_surface: vertices row 3 has a coordinate beyond"):
+        fm.sample_surface(bad, LT, np.array([[50.0, 50.0]]))
+    with pytest.raises(ValueError, match=r"sample_surface: triangles row 0 has the value 0.5, not an integer"):
+        fm.sample_surface(LV, np.where(np.arange(LT.size).reshape(LT.shape) == 0, 0.5, LT), np.array([[1.0, 1.0]]))
+    with pytest.raises(ValueError, match=r"sample_surface_grid: triangles row 1 has vertex index .* out of range"):
+        fm.sample_surface_grid(LV, np.r_[LT[:1], [[0, 1, len(LV)]]], (0.0, 0.0), (1.0, 1.0), (2, 2))
+    with pytest.raises(ValueError, match=r"sample_surface_grid: the grid's last point .* beyond \+-1e\+60"):
+        fm.sample_surface_grid(LV, LT, (0.0, 0.0), (1e59, 1.0), (2, 20))
+    # Beyond the limit a query is outside every triangle (as for Tin.interpolate).
+    lo, hi, hits = fm.sample_surface(LV, LT, np.array([[50.0, 50.0], [1e61, 50.0]]))
+    assert hits[0] >= 1 and hits[1] == 0 and np.isnan(lo[1])
+    V, T, q = LV.copy(), LT.copy(), np.array([[50.0, 50.0]])
+    ref = fm.sample_surface(V, T, q)
+    tin = fm.LayerTin("L", V, square)
+    z0 = tin.interpolate(q)
+    V[:] = np.nan
+    assert np.array_equal(tin.interpolate(q), z0)  # the LayerTin keeps its own data
+
+    fv = np.array([[0, 0, 0], [10, 0, 0], [0, 10, 0.0]])
+    with pytest.raises(ValueError, match=r"fault_side: vertices row 1 has a coordinate beyond \+-1e\+60 \(z = 1e\+61\)"):
+        fm.fault_side(fv + [[0, 0, 0], [0, 0, 1e61], [0, 0, 0]], np.array([[0, 1, 2]]), np.array([[1, 1, 1.0]]))
+    with pytest.raises(ValueError, match=r"fault_side: triangles row 0 has a negative vertex index -1"):
+        fm.fault_side(fv, np.array([[0, 1, -1]]), np.array([[1, 1, 1.0]]))
+    assert ref[2][0] >= 1
+
+
+def test_layer_tin_inserts_from_several_threads():
+    """LayerTin.insert runs with the GIL released; the binding's lock serialises
+    concurrent inserts into one layer (without it they raced on the TIN's
+    arrays). Four threads insert disjoint points: every one becomes a vertex
+    (interpolation there gives its own z, 0, not the layer's plane) and the
+    vertex count adds up to what the inserts report."""
+    square = np.array([[0, 0], [100, 0], [100, 100], [0, 100.0]])
+    LV, _ = layer_tin(np.random.default_rng(0), 6, 0, 1.0, 0.0)
+    tin = fm.LayerTin("L", LV, square)
+    n0 = tin.n_vertices
+    rng = np.random.default_rng(5)
+    batches = [np.c_[rng.uniform(1.0, 99.0, (300, 2)), np.zeros(300)] for _ in range(4)]
+    errors, added = [], []
+
+    def work(b):
+        try:
+            for chunk in np.array_split(b, 10):
+                added.append(tin.insert(chunk))
+                tin.interpolate(chunk[:, :2])
+        except Exception as e:  # collected: a thread's exception would otherwise be lost
+            errors.append(e)
+
+    threads = [threading.Thread(target=work, args=(b,)) for b in batches]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    assert tin.n_vertices == n0 + sum(added) and sum(added) >= 1200
+    assert np.array_equal(tin.interpolate(np.concatenate(batches)[:, :2]), np.zeros(1200))
+    V, T = tin.mesh()
+    assert np.all(orient_rows(V, T) > 0)
