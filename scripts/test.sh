@@ -32,6 +32,19 @@ cmake -S . -B build/ctest -G Ninja -DCMAKE_BUILD_TYPE=Release \
 cmake --build build/ctest -j2
 ctest --test-dir build/ctest --output-on-failure -j2 --no-tests=error
 
+echo "== C++ tests under AddressSanitizer + UndefinedBehaviorSanitizer (ctest)"
+# A second build of the library and the C++ tests with sanitizers (CMake
+# option FAULTMESH_SANITIZE); every finding aborts its test. About 3 min of
+# build and 1 min of tests on two cores (Overlap.AgreesWithBruteForcePredicate
+# alone takes ~45 s under ASan, 5 s without).
+cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DFAULTMESH_BUILD_TESTS=ON -DFAULTMESH_BUILD_PYTHON=OFF \
+  -DFAULTMESH_SANITIZE=address,undefined >/dev/null
+cmake --build build/asan -j2
+ASAN_OPTIONS=detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1 \
+UBSAN_OPTIONS=print_stacktrace=1 \
+  ctest --test-dir build/asan --output-on-failure -j2 --no-tests=error
+
 echo "== Python tests (pytest)"
 # Run from tests/ against the installed package (not the source tree).
 python3 -m pytest -p no:cacheprovider -q "$here/tests" "$@"

@@ -125,7 +125,7 @@ def test_contract_and_errors():
         faultmesh.AabbTree(v, np.array([[0, 1]]))
     nanv = v.copy()
     nanv[2, 1] = np.nan
-    with pytest.raises(ValueError, match="vertex 2"):
+    with pytest.raises(ValueError, match=r"vertices row 2 \(used by row 0\) has a non-finite"):
         faultmesh.AabbTree(nanv, np.array([[0, 1, 2]]))
     with pytest.raises(ValueError, match="box 0"):
         faultmesh.AabbTree.from_boxes(np.array([[1, 0, 0, 1.0]]))
@@ -229,3 +229,44 @@ def test_agrees_with_cgal(cgal_bin, tmp_path):
     r = subprocess.run([exe, "boxd", *files], check=True, capture_output=True, text=True)
     import json
     assert json.loads(r.stdout)["hits"] == tree.query(q)[1].size
+
+
+def test_tree_owns_its_arrays():
+    """Regression (issue 10): the tree kept the caller's arrays; changing them
+    afterwards made query(exact=True) read out of bounds (ASan:
+    heap-buffer-overflow in triangle_meets_box)."""
+    rng = np.random.default_rng(11)
+    V = rng.random((500, 2))
+    T = faultmesh.delaunay(V)
+    S = np.ascontiguousarray(T[:, :2])
+    tree = faultmesh.AabbTree(V, T)
+    stree = faultmesh.AabbTree.from_segments(V, S)
+    q = np.c_[rng.random((200, 2)) * 0.9, rng.random((200, 2)) * 0.9]
+    q = np.c_[np.minimum(q[:, :2], q[:, 2:]), np.maximum(q[:, :2], q[:, 2:])]
+    ref = [np.concatenate(t.query(q, exact=True)) for t in (tree, stree)]
+    T[:] = 2**40
+    S[:] = 2**40
+    V[:] = np.nan
+    got = [np.concatenate(t.query(q, exact=True)) for t in (tree, stree)]
+    assert all(np.array_equal(a, b) for a, b in zip(ref, got))
+
+
+def test_every_property_and_the_coordinate_limit():
+    v = np.array([[0, 0], [1, 0], [0, 1], [1, 1]], float)
+    tree = faultmesh.AabbTree(v, np.array([[0, 1, 2], [1, 3, 2]]))
+    assert (tree.size, len(tree), tree.kind, tree.depth, tree.node_count) == (2, 2, "triangles", 1, 0)
+    assert tree.bounds == (0.0, 0.0, 1.0, 1.0)
+    assert faultmesh.AabbTree.from_boxes(np.zeros((1, 4))).kind == "boxes"
+    with pytest.raises(ValueError, match=r"AabbTree.from_triangles: vertices row 3 \(used by row 1\) has a "
+                                         r"coordinate beyond \+-1e\+60 \(x = 1e\+61\)"):
+        faultmesh.AabbTree(v * [[1], [1], [1], [1e61]], np.array([[0, 1, 2], [1, 3, 2]]))
+    with pytest.raises(ValueError, match=r"AabbTree.query\(exact=True\): boxes row 1 has a coordinate beyond"):
+        tree.query(np.array([[0, 0, 1, 1], [0, 0, 1e300, 1]]), exact=True)
+    # Plain box queries only compare: any box is fine there.
+    assert list(tree.query(np.array([[-np.inf, -np.inf, np.inf, np.inf]]))[1]) == [0, 1]
+    with pytest.raises(ValueError, match=r"AabbTree: triangles row 1 has a negative vertex index -1"):
+        faultmesh.AabbTree(v, np.array([[0, 1, 2], [1, -1, 2]]))
+    with pytest.raises(ValueError, match=r"AabbTree: triangles row 0 has the value 1.5, not an integer"):
+        faultmesh.AabbTree(v, np.array([[0, 1.5, 2]]))
+    with pytest.raises(ValueError, match=r"AabbTree: triangles must hold integers, got dtype bool"):
+        faultmesh.AabbTree(v, np.ones((1, 3), bool))

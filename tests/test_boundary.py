@@ -207,3 +207,62 @@ def test_contract():
         faultmesh.boundary_loops(np.array([[0, 1, 1]]))
     with pytest.raises(ValueError, match="out of range"):
         faultmesh.boundary_loops(np.array([[0, 1, 7]]), n_vertices=5)
+
+
+def test_n_vertices_must_be_a_positive_integer():
+    """Regression (issue 10): n_vertices=3.5 gave a pybind11 cast error."""
+    t = np.array([[0, 1, 2]])
+    for bad in (3.5, "3", -1, 0, True, np.nan):
+        with pytest.raises(ValueError, match=r"boundary_loops: n_vertices must be a positive integer"):
+            faultmesh.boundary_loops(t, n_vertices=bad)
+    assert len(faultmesh.boundary_loops(t, n_vertices=np.int32(3))) == 1
+    assert len(faultmesh.boundary_loops(t, n_vertices=3.0)) == 1
+    with pytest.raises(ValueError, match=r"boundary_contours: triangles row 1 has vertex index 3 out of range \[0, 3\)"):
+        faultmesh.boundary_contours(np.array([[0, 1, 2], [1, 3, 2]]), n_vertices=3)
+
+
+def test_huge_indices_never_allocate_by_the_largest_index():
+    """Regression (issue 10): boundary_loops([[0, 1, 2**31 - 2]]) raised
+    bad_alloc (tables sized by the largest index). The used vertices are
+    renumbered internally; the output is the same as for small numbers."""
+    big = [2**31 - 2, 2**40, 2**62]
+    for b in big:
+        t = np.array([[0, 1, b]])
+        assert [list(x) for x in faultmesh.boundary_loops(t)] == [[0, 1, b]]
+        assert [list(x) for x in faultmesh.boundary_loops(t, n_vertices=b + 1)] == [[0, 1, b]]
+    # A mesh whose upper vertex numbers are moved far away (a monotone map):
+    # the same report and edge order, mapped.
+    t = np.array(faultmesh.delaunay(np.random.default_rng(3).random((300, 2))))
+    far = np.where(t >= 150, t + 10**15, t)
+    m = dict(zip(t.ravel(), far.ravel()))
+    ref, got = faultmesh.boundary_contours(t), faultmesh.boundary_contours(far)
+    assert [[m[v] for v in l] for l in ref.loops] == [list(l) for l in got.loops]
+    edges = faultmesh.boundary_edges(t)
+    assert np.array_equal(np.vectorize(m.get)(edges), faultmesh.boundary_edges(far))
+
+
+def test_index_arrays_must_hold_non_negative_integers():
+    """Regression (issue 10): float index arrays were truncated silently
+    (0.5 -> 0); negative indices must name the row."""
+    with pytest.raises(ValueError, match=r"boundary_loops: triangles row 1 has the value 2.5, not an integer"):
+        faultmesh.boundary_loops(np.array([[0, 1, 2], [1, 2.5, 3]]))
+    with pytest.raises(ValueError, match=r"sort_segments: segments row 2 has a negative vertex index -4"):
+        faultmesh.sort_segments(np.array([[0, 1], [1, 2], [2, -4]]))
+    with pytest.raises(ValueError, match=r"boundary_edges: triangles row 0 has index 18446744073709551615, beyond"):
+        faultmesh.boundary_edges(np.array([[0, 1, 2**64 - 1]], np.uint64))
+    with pytest.raises(ValueError, match=r"boundary_loops: triangles must hold integers, got dtype <U1"):
+        faultmesh.boundary_loops(np.array([["0", "1", "2"]]))
+    assert len(faultmesh.boundary_loops(np.array([[0.0, 1.0, 2.0]]))) == 1
+
+
+def test_every_property_of_the_report():
+    rep = faultmesh.boundary_contours(np.array([[0, 1, 2], [0, 3, 4]]))  # a pinch at vertex 0
+    props = sorted(k for k in dir(faultmesh.BoundaryContours)
+                   if isinstance(getattr(faultmesh.BoundaryContours, k), property))
+    values = {k: getattr(rep, k) for k in props}
+    assert list(values["pinch_vertices"]) == [0] and values["clean"] is False
+    assert len(values["loops"]) == 2 and values["open_chains"] == []
+    for k in ("nonmanifold_edges", "inconsistent_edges"):
+        assert values[k].shape == (0, 2)
+    assert values["chain_break_vertices"].shape == (0,)
+    assert "BoundaryContours(loops=2" in repr(rep)

@@ -242,3 +242,20 @@ def test_cut_model_on_the_built_in_dataset():
         area = lambda S: 0.5 * np.sum(faultmesh.orient2d(
             *(S.vertices[S.triangles[:, k], :2] for k in range(3))))
         assert area(s) == pytest.approx(area(cont[name]), rel=1e-12)
+
+
+def test_coordinates_beyond_the_limit_are_value_errors():
+    """Regression (issue 10): one coordinate limit for every kernel; z enters
+    the side tests and the crossing points, so it is checked too."""
+    lv = np.array([[0, 0, 0], [10, 0, 0], [0, 10, 0], [10, 10, 0]], float)
+    lt = np.array([[0, 1, 2], [1, 3, 2]])
+    fv = np.array([[5, -1, -5], [5, 11, -5], [6, -1, 5], [6, 11, 5]], float)
+    ft = np.array([[0, 1, 2], [1, 3, 2]])
+    big = fv.copy()
+    big[3, 2] = -1e61
+    with pytest.raises(ValueError, match=r"cut_layer: fault_vertices row 3 has a coordinate beyond \+-1e\+60 "
+                                         r"\(z = -1e\+61\)"):
+        faultmesh.cut_layer(lv, lt, big, ft)
+    with pytest.raises(ValueError, match=r"cut_layer: layer_triangles row 1 has the value 2.25, not an integer"):
+        faultmesh.cut_layer(lv, np.array([[0, 1, 2], [1, 3, 2.25]]), fv, ft)
+    assert faultmesh.cut_layer(lv, lt, fv, ft)["triangles"].shape[1] == 3

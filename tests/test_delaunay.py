@@ -251,13 +251,13 @@ def test_wrong_shape_is_a_value_error_naming_function_and_shape(bad):
 def test_non_finite_coordinate_names_the_row(value):
     xy = np.random.default_rng(3).random((10, 2))
     xy[7, 1] = value
-    with pytest.raises(ValueError, match="delaunay: point 7 has a non-finite"):
+    with pytest.raises(ValueError, match="delaunay: xy row 7 has a non-finite"):
         fm.delaunay(xy)
 
 
 def test_huge_coordinate_is_rejected_before_the_predicates_could_overflow():
     xy = np.array([[0, 0], [1, 0], [0, 1], [3, 2e61]])
-    with pytest.raises(ValueError, match="delaunay: point 3 has a coordinate beyond"):
+    with pytest.raises(ValueError, match="delaunay: xy row 3 has a coordinate beyond"):
         fm.delaunay(xy)
     xy[3, 1] = 1e60
     assert len(fm.delaunay(xy)) == 2

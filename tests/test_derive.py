@@ -240,7 +240,7 @@ def test_fault_side_extent_mask_and_errors():
         faultmesh.fault_side(V, T, P, hanging_sign=0)
     with pytest.raises(ValueError, match="extent must be a bool array of shape"):
         faultmesh.fault_side(V, T, P, extent=np.array([True]))
-    with pytest.raises(ValueError, match="points row 1 is not finite"):
+    with pytest.raises(ValueError, match=r"fault_side: points row 1 has a non-finite coordinate \(x = nan\)"):
         faultmesh.fault_side(V, T, np.array([[0, 0, 0], [np.nan, 0, 0.0]]))
     with pytest.raises(ValueError, match="triangles row 1 has vertex index 7"):
         faultmesh.fault_side(V, np.array([[0, 1, 2], [1, 7, 2]]), P)

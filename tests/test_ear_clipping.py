@@ -547,3 +547,33 @@ def test_threads_give_identical_results(order):
         outs = list(ex.map(lambda _: fm.triangulate_polygon(rings, **kw), range(4)))
     for o in outs:
         assert np.array_equal(o, ref)
+
+
+def test_empty_outer_ring_is_named():
+    """Regression (issue 10): triangulate_polygon([np.zeros((0, 2))]) said 'xy is null'."""
+    for fn in (fm.triangulate_polygon, fm.join_holes):
+        name = fn.__name__
+        for k in (0, 1, 2):
+            with pytest.raises(ValueError, match=rf"{name}: rings\[0\] \(the outer ring\) has {k} vert"):
+                fn([np.zeros((k, 2))])
+    # check_polygon reports it instead (it is the validity report).
+    valid, msg, ring, _ = fm.check_polygon([np.zeros((0, 2))])
+    assert not valid and ring == 0 and msg
+    # A plain list of points is one ring.
+    assert fm.triangulate_polygon([[0, 0], [1, 0], [1, 1]]).shape == (1, 3)
+
+
+def test_coordinates_beyond_the_limit_are_value_errors():
+    """Regression (issue 10): at 1e155 triangles came out outside the polygon."""
+    sq = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+    hole = np.array([[0.2, 0.2], [0.4, 0.2], [0.2, 1e155]])
+    for fn in (fm.triangulate_polygon, fm.join_holes, fm.check_polygon):
+        with pytest.raises(ValueError, match=rf"{fn.__name__}: ring 1 vertex 2 \(point 6\) has a coordinate "
+                                             r"beyond \+-1e\+60 \(y = 1e\+155\)"):
+            fn([sq, hole])
+    with pytest.raises(ValueError, match=r"flip_to_constrained_delaunay: xy row 3 has a coordinate beyond"):
+        fm.flip_to_constrained_delaunay(sq * [[1], [1], [1], [1e61]], np.array([[0, 1, 2], [0, 2, 3]]),
+                                        np.zeros((0, 2), np.int64))
+    with pytest.raises(ValueError, match=r"flip_to_constrained_delaunay: triangles row 1 has vertex index 4 out"):
+        fm.flip_to_constrained_delaunay(sq, np.array([[0, 1, 2], [0, 2, 4]]), np.zeros((0, 2), np.int64))
+    assert len(fm.triangulate_polygon([sq * 1e60])) == 2

@@ -159,9 +159,27 @@ def test_contract():
         faultmesh.loft(np.zeros((3, 4)), np.zeros((3, 4)))
     bad = a.copy()
     bad[1, 2] = np.inf
-    with pytest.raises(ValueError, match="point 1 of b"):
+    with pytest.raises(ValueError, match=r"loft: b row 1 has a non-finite coordinate"):
         faultmesh.loft(a, bad)
     with pytest.raises(ValueError, match="2 points"):
         faultmesh.loft(np.zeros((2, 3)), a, closed=True)
     # 2-column input: z = 0; any dtype converts.
     assert faultmesh.loft(np.array([[0, 0], [1, 0]]), np.array([[0, 1], [1, 1]])).shape == (2, 3)
+
+
+def test_coordinates_beyond_the_limit_are_value_errors():
+    """Regression (issue 10): loft returned an empty result at 1e100 (3D areas
+    overflow). z counts too: it enters the areas."""
+    a = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0]], float)
+    b = a + [0, 1, 1]
+    for col in range(3):
+        big = b.copy()
+        big[1, col] = 1e100
+        with pytest.raises(ValueError, match=rf"loft: b row 1 has a coordinate beyond \+-1e\+60 "
+                                             rf"\({'xyz'[col]} = 1e\+100\)"):
+            faultmesh.loft(a, big)
+    nan = a.copy()
+    nan[2, 2] = np.nan
+    with pytest.raises(ValueError, match=r"loft: a row 2 has a non-finite coordinate \(z = nan\)"):
+        faultmesh.loft(nan, b)
+    assert faultmesh.loft(a * 1e59, b * 1e59).shape == (4, 3)

@@ -361,14 +361,28 @@ def test_bad_input_messages():
     bad[5, 1] = 10_000
     with pytest.raises(ValueError, match="row 5"):
         faultmesh.overlapping_triangles(V, bad, rect(0, 0, 1, 1))
-    with pytest.raises(ValueError, match="ring 1"):
+    with pytest.raises(ValueError, match=r"rings\[1\] must have shape"):
         faultmesh.overlapping_triangles(V, T, [rect(0, 0, 1, 1), np.zeros((3, 5))])
     nan = rect(0, 0, 1, 1)
     nan[2, 0] = np.nan
-    with pytest.raises(ValueError, match="not finite"):
+    with pytest.raises(ValueError, match="ring 0 point 2 has a non-finite coordinate"):
         faultmesh.overlapping_triangles(V, T, nan)
     with pytest.raises(ValueError, match="tree"):
         faultmesh.overlapping_triangles(V, T[:5], rect(0, 0, 1, 1), tree=faultmesh.AabbTree(V, T))
     # Degenerate regions have no interior.
     assert faultmesh.overlapping_triangles(V, T, [[1, 1], [2, 2], [3, 3]]).size == 0
     assert faultmesh.overlapping_triangles(V, T, []).size == 0
+
+
+def test_coordinates_beyond_the_limit_are_value_errors():
+    """Regression (issue 10): one coordinate limit for every kernel."""
+    V = np.array([[0, 0], [1, 0], [0, 1], [1, 1]], float)
+    T = np.array([[0, 1, 2], [1, 3, 2]])
+    with pytest.raises(ValueError, match=r"overlapping_triangles: vertices row 3 has a coordinate beyond \+-1e\+60"):
+        faultmesh.overlapping_triangles(V * [[1], [1], [1], [1e70]], T, rect(0, 0, 1, 1))
+    with pytest.raises(ValueError, match=r"overlapping_triangles: ring 0 point 2 has a coordinate beyond"):
+        faultmesh.overlapping_triangles(V, T, rect(0, 0, 1, 1e155))
+    with pytest.raises(ValueError, match=r"triangle_overlaps_region: c row 1 has a non-finite coordinate"):
+        faultmesh.triangle_overlaps_region(V[:2], V[1:3], np.array([[0, 1], [np.inf, 0]]), rect(0, 0, 1, 1))
+    with pytest.raises(ValueError, match=r"overlapping_triangles: triangles row 0 has a negative vertex index"):
+        faultmesh.overlapping_triangles(V, -T, rect(0, 0, 1, 1))

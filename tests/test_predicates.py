@@ -64,6 +64,63 @@ def test_shape_errors_name_the_argument():
         faultmesh.orient2d(np.zeros((3, 2)), np.zeros((3, 3)), np.zeros((3, 2)))
 
 
+# Any double within the coordinate limit, subnormals included, and tiny
+# scales where products of differences underflow (issue 10: the filter
+# returned 0 for orient2d((1e-200, 0), (0, 1e-200), (0, 0))).
+LIMIT = 1e60
+wide = st.floats(min_value=-LIMIT, max_value=LIMIT, allow_nan=False, allow_subnormal=True)
+tiny = st.integers(-9, 9).flatmap(lambda k: st.sampled_from([k * 2.0 ** -1070, k * 2.0 ** -600, k * 1e-160]))
+any_coord = st.one_of(wide, tiny, coord)
+any_point = st.tuples(any_coord, any_coord)
+
+
+@settings(max_examples=300, deadline=None)
+@given(any_point, any_point, any_point)
+def test_orient2d_sign_is_exact_over_the_whole_range(a, b, c):
+    got = faultmesh.orient2d(np.array([a]), np.array([b]), np.array([c]))[0]
+    assert np.sign(got) == exact_orient(a, b, c)
+
+
+@settings(max_examples=300, deadline=None)
+@given(any_point, any_point, any_point, any_point)
+def test_incircle_sign_is_exact_over_the_whole_range(a, b, c, d):
+    if exact_orient(a, b, c) < 0:
+        a, b = b, a
+    got = faultmesh.incircle(np.array([a]), np.array([b]), np.array([c]), np.array([d]))[0]
+    assert np.sign(got) == exact_incircle(a, b, c, d)
+
+
+def test_underflowing_products_keep_their_sign():
+    """Regression (issue 10 fuzzing): every product below the smallest subnormal."""
+    for s in (1e-200, 5e-324, 2.0 ** -600):
+        assert faultmesh.orient2d([[s, 0]], [[0, s]], [[0, 0]])[0] > 0
+        assert faultmesh.orient2d([[0, s]], [[s, 0]], [[0, 0]])[0] < 0
+        # d just inside the circle through a, b, c (the unit circle scaled by s).
+        got = faultmesh.incircle([[s, 0]], [[0, s]], [[-s, 0]], [[0, -0.5 * s]])[0]
+        assert got > 0 and exact_incircle((s, 0), (0, s), (-s, 0), (0, -0.5 * s)) == 1
+
+
+@pytest.mark.parametrize("fn,n_args,dim", [(faultmesh.orient2d, 3, 2), (faultmesh.incircle, 4, 2),
+                                            (faultmesh.orient3d, 4, 3)])
+def test_coordinates_beyond_the_limit_are_value_errors(fn, n_args, dim):
+    """Regression (issue 10): incircle gave NaN at 1e78. The limit is checked
+    and the message names the function, the argument, the row and the limit
+    (orient3d, from main, gets the same check)."""
+    name = fn.__name__
+    args = [np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]]), np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+            np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]]), np.array([[0.5, 0.5, 1.0], [0.0, -0.5, 1.0]])][:n_args]
+    args = [x[:, :dim] for x in args]
+    args[1] = args[1] * 1e78
+    with pytest.raises(ValueError, match=rf"{name}: b row 0 has a coordinate beyond \+-1e\+60 "
+                                         r"\(x = 1e\+78\).*kMaxCoordinate"):
+        fn(*args)
+    args[1] = np.array([[1.0, 0.0, 0.0], [0.0, np.nan, 0.0]])[:, :dim]
+    with pytest.raises(ValueError, match=rf"{name}: b row 1 has a non-finite coordinate \(y = nan\)"):
+        fn(*args)
+    args[1] = np.array([[1.0, 0.0, 0.0], [0.0, 1e60, 0.0]])[:, :dim]  # the limit itself is accepted
+    assert np.all(np.isfinite(fn(*args)))
+
+
 # ---------------------------------------------------------------------------
 # orient3d
 # ---------------------------------------------------------------------------
@@ -110,3 +167,24 @@ def test_orient3d_convention_and_shape_errors():
         faultmesh.orient3d(np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((2, 2)), np.zeros((2, 3)))
     with pytest.raises(ValueError, match="same number of rows"):
         faultmesh.orient3d(np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((3, 3)), np.zeros((2, 3)))
+
+
+any_point3 = st.tuples(any_coord, any_coord, any_coord)
+
+
+@settings(max_examples=300, deadline=None)
+@given(any_point3, any_point3, any_point3, any_point3)
+def test_orient3d_sign_is_exact_over_the_whole_range(a, b, c, d):
+    got = faultmesh.orient3d(np.array([a]), np.array([b]), np.array([c]), np.array([d]))[0]
+    assert np.sign(got) == exact_orient3d(a, b, c, d)
+
+
+def test_orient3d_underflowing_products_keep_their_sign():
+    """Regression: orient3d((s,0,0), (0,s,0), (0,0,0), (0,0,+-s)) with s = 1e-200 -- every
+    product of three differences is below the smallest subnormal, so the float stages
+    alone returned 0; the exact-integer fallback (as for orient2d/incircle) decides."""
+    for s in (1e-120, 1e-200, 5e-324, 2.0 ** -600):
+        a, b, c = [[s, 0.0, 0.0]], [[0.0, s, 0.0]], [[0.0, 0.0, 0.0]]
+        assert faultmesh.orient3d(a, b, c, [[0.0, 0.0, -s]])[0] > 0  # below the CCW triangle
+        assert faultmesh.orient3d(a, b, c, [[0.0, 0.0, s]])[0] < 0
+        assert faultmesh.orient3d(a, b, c, [[0.25 * s, 0.25 * s, 0.0]])[0] == 0.0  # coplanar

@@ -242,7 +242,7 @@ def test_errors_name_the_problem():
         faultmesh.Stitcher(V[:, :2], T, SQUARE)
     bad = T.copy()
     bad[5, 1] = len(V) + 3
-    with pytest.raises(ValueError, match="triangle row 5 has vertex index"):
+    with pytest.raises(ValueError, match="triangles row 5 has vertex index"):
         faultmesh.Stitcher(V, bad, SQUARE)
     with pytest.raises(ValueError, match="halfedges must have shape"):
         faultmesh.Stitcher(V, T, SQUARE, halfedges=np.zeros(5, np.int64))
@@ -250,7 +250,7 @@ def test_errors_name_the_problem():
         faultmesh.Stitcher(V, T, SQUARE, order="best")
     st = faultmesh.Stitcher(V, T, SQUARE, name="L")
     PV, PT = reverse_patch()
-    with pytest.raises(ValueError, match="patch triangle row 0 has vertex index"):
+    with pytest.raises(ValueError, match="patch_triangles row 0 has vertex index"):
         st.stitch(PV, PT + 1000, name="F")
     # Outside the study area.
     with pytest.raises(faultmesh.GeometryError, match="lies outside the study area"):
@@ -429,3 +429,121 @@ def test_random_patches_keep_invariants(seed, x0, y0, length, width, reverse, n_
         assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2
     o = orient_xy(S.vertices, S.triangles)
     assert ((o < 0).sum() > 0) == reverse
+
+
+def test_patch_names_and_every_property_of_stitcher():
+    """Regression (issue 10): Stitcher.patch_names always raised TypeError (no
+    STL caster for std::vector<std::string>)."""
+    V, T = tin()
+    st = faultmesh.Stitcher(V, T, SQUARE, name="L")
+    assert st.patch_names == []
+    PV, PT = reverse_patch()
+    st.stitch(PV, PT, name="F1")
+    assert st.patch_names == ["F1"]
+    assert st.name == "L"
+    assert st.n_vertices == len(V) + len(PV)
+    assert st.n_live_triangles < st.n_triangles
+    props = sorted(k for k in dir(faultmesh.Stitcher) if isinstance(getattr(faultmesh.Stitcher, k), property))
+    assert props == ["n_live_triangles", "n_triangles", "n_vertices", "name", "patch_names"]
+
+
+def test_coordinates_beyond_the_limit_are_value_errors():
+    """Regression (issue 10): one coordinate limit (1e60), named in the message."""
+    V, T = tin()
+    big = V.copy()
+    big[7, 0] = 1e70
+    with pytest.raises(ValueError, match=r"Stitcher\('layer'\): vertices row 7 has a coordinate beyond \+-1e\+60"):
+        faultmesh.Stitcher(big, T, SQUARE)
+    with pytest.raises(ValueError, match=r"boundary row 2 has a coordinate beyond"):
+        faultmesh.Stitcher(V, T, SQUARE * [1, 1e70])
+    st = faultmesh.Stitcher(V, T, SQUARE)
+    PV, PT = reverse_patch()
+    bad = PV.copy()
+    bad[3, 1] = np.inf
+    with pytest.raises(ValueError, match=r"patch_vertices row 3 has a non-finite coordinate \(y = inf\)"):
+        st.stitch(bad, PT, name="F")
+    with pytest.raises(ValueError, match=r"triangles_touching_region: ring point 1 has a coordinate beyond"):
+        faultmesh.triangles_touching_region(V, T, [np.array([[0, 0], [1e61, 0], [0, 1.0]])])
+    st.stitch(PV, PT, name="F")  # nothing changed by the failures
+
+
+def test_stitcher_owns_its_inputs():
+    """The stitcher copies what it keeps: changing the caller's arrays later
+    changes nothing (and float index arrays must hold integers)."""
+    V, T = tin()
+    st = faultmesh.Stitcher(V, T, SQUARE)
+    ref = st.mesh()
+    V[:] = np.nan
+    T[:] = 10**12
+    m = st.mesh()
+    assert np.array_equal(m.triangles, ref.triangles)
+    assert np.array_equal(m.vertices, ref.vertices)
+    V2, T2 = tin()
+    with pytest.raises(ValueError, match=r"Stitcher: triangles row 0 has the value 0.5, not an integer"):
+        faultmesh.Stitcher(V2, np.where(np.arange(T2.size).reshape(T2.shape) == 0, 0.5, T2), SQUARE)
+    faultmesh.Stitcher(V2, T2.astype(float), SQUARE)  # exact integers as floats are fine
+
+
+def test_concurrent_stitches_into_one_layer_are_serialised():
+    """stitch() runs with the GIL released and a LayerStitcher is not
+    thread-safe: the binding locks, so patches stitched from several Python
+    threads into one layer give a valid surface (no data race)."""
+    import threading
+    V, T = tin(n_side=31, jitter=600)
+    st = faultmesh.Stitcher(V, T, SQUARE)
+    patches = [reverse_patch(x0=x0, y0=y0, y1=y0 + 12, ty=4.0)
+               for x0 in (5.0, 50.0) for y0 in (10.0, 60.0)]
+    errors = []
+
+    def work(k):
+        try:
+            PV, PT = patches[k]
+            st.stitch(PV, PT, name=f"F{k}")
+            for _ in range(3):
+                st.mesh()
+                st.patch_names
+        except Exception as exc:  # surfaced below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(len(patches))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    assert sorted(st.patch_names) == [f"F{k}" for k in range(len(patches))]
+    check_surface(surface_of(st)[0], SQUARE)
+
+
+def test_patch_triangle_repeating_a_vertex_is_named():
+    """Regression (fuzzing, issue 10): a patch triangle (2, 2, 0) was reported
+    by the outline extraction as 'boundary_contours: triangles row 1 repeats
+    vertex 2', naming neither the stitch nor the patch."""
+    V, T = tin()
+    st = faultmesh.Stitcher(V, T, SQUARE, name="L")
+    PV, PT = reverse_patch()
+    bad = PT.copy()
+    bad[1] = [2, 2, 0]
+    with pytest.raises(ValueError, match=r"stitch: layer 'L', patch 'F': patch_triangles row 1 repeats vertex 2"):
+        st.stitch(PV, bad, name="F")
+    st.stitch(PV, PT, name="F")
+
+
+def test_patch_triangle_collinear_in_3d_is_rejected():
+    """Regression (fuzzing, issue 10): a tip point on the line of its trace
+    lofts into triangles whose vertices are collinear in 3D; they were
+    stitched into the layer, which then failed check() ('zero area'). The
+    stitch now raises GeometryError naming the row; nothing changes."""
+    V, T = tin()
+    st = faultmesh.Stitcher(V, T, SQUARE, name="L")
+    a = np.array([[40.0, 50.0, 0.0], [45.0, 50.0, 0.0], [50.0, 50.0, 0.0]])
+    b = a + [0.0, 3.0, -1.0]
+    tip = np.array([[35.0, 50.0, 0.0]])  # on the line of a
+    PV, PT = patch([a, b], tips=(tip[0], None))
+    before = st.mesh()
+    with pytest.raises(faultmesh.GeometryError, match=r"patch 'F': patch_triangles row 0 is degenerate"):
+        st.stitch(PV, PT, name="F")
+    assert np.array_equal(st.mesh().triangles, before.triangles)
+    PV2, PT2 = patch([a, b], tips=([35.0, 49.0, 0.0], None))
+    st.stitch(PV2, PT2, name="F")
+    check_surface(surface_of(st)[0], SQUARE)

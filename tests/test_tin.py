@@ -167,6 +167,65 @@ def test_interpolate_at_vertices_is_exact_and_nan_queries_give_nan(data_dir):
     assert np.array_equal(tin.locate(q), [-1, -1])
 
 
+def test_interpolate_in_a_sliver_is_exact_at_its_own_vertices():
+    """Regression (issue 10): a sliver that the exact orient2d accepts gave NaN at
+    its own vertices (a floating determinant of 1e-17 relative to rounded
+    products)."""
+    xy = np.array([[0.5118216247002567] * 2, [0.9504636963259353] * 2,
+                   [0.14415961271963373, 0.14415961271963376]])
+    assert fm.orient2d(xy[[0]], xy[[1]], xy[[2]])[0] != 0
+    tin = fm.Tin(np.c_[xy, [1.0, 2.0, 3.0]])
+    assert np.array_equal(tin.interpolate(xy), [1.0, 2.0, 3.0])
+    # On an edge only the edge's two vertices count: the midpoint of the two
+    # points on y = x lies on that edge exactly.
+    mid = (xy[[0]] + xy[[1]]) / 2
+    assert tin.interpolate(mid)[0] == 1.5
+
+
+def test_interpolate_inside_the_issue10_sliver_is_within_the_vertices_z():
+    """Regression (issue 10): inside the sliver of the points below Tin.interpolate
+    gave NaN (a floating barycentric determinant). Every query the TIN locates in
+    the sliver -- its centroid, an edge midpoint, 500 random convex combinations
+    of the corners -- gets a value within the corners' z range [1, 3]."""
+    xy = np.array([[0.5118216247002567] * 2, [0.9504636963259353] * 2,
+                   [0.14415961271963373, 0.14415961271963376]])
+    tin = fm.Tin(np.c_[xy, [1.0, 2.0, 3.0]])
+    w = np.random.default_rng(10).dirichlet([1.0, 1.0, 1.0], 500)
+    q = np.r_[xy.mean(0)[None], (xy[[1]] + xy[[2]]) / 2, w @ xy]
+    inside = tin.locate(q) >= 0
+    assert inside[0] and inside[1] and inside.sum() > 100  # the centroid, the midpoint, many others
+    z = tin.interpolate(q[inside])
+    assert not np.any(np.isnan(z))
+    assert np.all((z >= 1.0) & (z <= 3.0))
+
+
+@settings(max_examples=150, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(3, 12))
+def test_interpolate_is_a_convex_combination_in_slivers(seed, n):
+    """Regression (issue 10): z = 2.6e10 came out where the triangle's z lie in
+    [-1.07e10, 1.7e10]. Points within a few ulps of the line y = x make every
+    triangle a sliver; z must stay within the located triangle's z range, be
+    exact at vertices and never NaN inside the hull."""
+    rng = np.random.default_rng(seed)
+    t = rng.random(n)
+    xy = np.c_[t, t] + rng.integers(-3, 4, (n, 2)) * np.spacing(1.0) * 4 * rng.random()
+    z = rng.uniform(-1.07e10, 1.7e10, n)
+    try:
+        tin = fm.Tin(np.c_[xy, z])
+    except fm.GeometryError:  # all collinear
+        return
+    V, T = tin.vertices, tin.triangles
+    w = rng.dirichlet([1, 1, 1], (50, len(T)))
+    q = np.einsum("ktj,tjd->ktd", w, V[T][:, :, :2]).reshape(-1, 2)
+    q = np.r_[q, (V[T[:, 0], :2] + V[T[:, 1], :2]) / 2]
+    zq, loc = tin.interpolate(q), tin.locate(q)
+    assert np.array_equal(np.isnan(zq), loc < 0)
+    inside = loc >= 0
+    zt = V[T[loc[inside]], 2]
+    assert np.all(zq[inside] >= zt.min(axis=1)) and np.all(zq[inside] <= zt.max(axis=1))
+    assert np.array_equal(tin.interpolate(V[:, :2]), V[:, 2])
+
+
 def test_workflow_layer_operations_on_claudius_horizons(data_dir, z=True):
     """The layer-TIN steps of the workflow: build from points, insert the
     study-area corners (z interpolated from the nearest data), interpolate one
@@ -215,7 +274,7 @@ def test_set_z_rule_one_of_the_crossing_repair(data_dir):
     assert np.array_equal(lower.triangles, tri)
     assert np.all(~(lower.z > z_up))
     assert np.array_equal(lower.interpolate(lower.vertices[above, :2]), z_up[above])
-    with pytest.raises(ValueError, match="Tin.set_z: vertex index -1 at entry 0 is out of range"):
+    with pytest.raises(ValueError, match="Tin.set_z: vertices row 0 has a negative vertex index -1"):
         lower.set_z([-1], [0.0])
     with pytest.raises(ValueError, match="one value per vertex"):
         lower.set_z([0, 1], [0.0])
@@ -239,12 +298,12 @@ def test_wrong_shapes_are_value_errors_naming_function_and_shape(bad):
 
 def test_errors_nan_row_and_geometry():
     p = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [np.nan, 1, 0]])
-    with pytest.raises(ValueError, match="Tin: point 3 has a non-finite"):
+    with pytest.raises(ValueError, match="Tin: xyz row 3 has a non-finite"):
         fm.Tin(p)
     with pytest.raises(fm.GeometryError, match="collinear"):
         fm.Tin([[0, 0, 0], [1, 1, 0], [2, 2, 5]])
     tin = fm.Tin(p[:3])
-    with pytest.raises(ValueError, match="Tin.insert: point 1 has a non-finite"):
+    with pytest.raises(ValueError, match="Tin.insert: xyz row 1 has a non-finite"):
         tin.insert([[0.2, 0.2, 0], [0.3, np.inf, 0]])
     assert tin.n_vertices == 3, "a failed insert changes nothing"
     assert tin.insert(np.zeros((0, 3))).shape == (0,)

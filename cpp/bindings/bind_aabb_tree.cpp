@@ -9,21 +9,15 @@
 
 namespace faultmesh::bindings {
 
-// Rings of one region, as parsed by bind_overlap.cpp.
-struct RingsData {
-    std::vector<double> xy;
-    std::vector<std::int64_t> offsets;
-};
-RingsData parse_rings(const py::handle& obj, const char* fn);
-
 namespace {
 
 // The Python object keeps the arrays it was built from (the exact refinement
-// needs the triangles).
+// needs the triangles): its own copies (as_points / as_indices), which no
+// caller can change -- the tree indexes them for its whole life.
 struct PyAabbTree {
     AabbTree tree;
-    DoubleArray vertices;  // (n, 2|3); empty for a box tree
-    IndexArray elems;      // (m, 3) triangles or (m, 2) segments
+    DoubleArray vertices;  // (n, 2|3), private; empty for a box tree
+    IndexArray elems;      // (m, 3) triangles or (m, 2) segments, private
     int per = 0;           // 3, 2, or 0 for boxes
     std::size_t stride = 2;
 };
@@ -41,7 +35,7 @@ std::unique_ptr<PyAabbTree> make_tree(const py::handle& vertices, const py::hand
                                       const char* fn) {
     auto t = std::make_unique<PyAabbTree>();
     t->vertices = as_points(vertices, fn, "vertices", 2, 3);
-    t->elems = as_indices(elems, fn, per == 3 ? "triangles" : "segments", per);
+    t->elems = as_indices(elems, fn, per == 3 ? "triangles" : "segments", per, t->vertices.shape(0));
     t->per = per;
     t->stride = static_cast<std::size_t>(t->vertices.shape(1));
     const double* V = t->vertices.data();
@@ -138,7 +132,7 @@ void bind_aabb_tree(py::module_& m) {
                                                 "triangles");
                 std::vector<RingsData> rs;
                 rs.reserve(regions.size());
-                for (const py::handle& r : regions) rs.push_back(parse_rings(r, "AabbTree.query_polygons"));
+                for (const py::handle& r : regions) rs.push_back(as_rings(r, "AabbTree.query_polygons", 3, 0));
                 Csr out;
                 {
                     py::gil_scoped_release release;

@@ -14,13 +14,6 @@ py::list loops_to_py(std::vector<std::vector<std::int64_t>>&& loops) {
     return out;
 }
 
-std::size_t n_vertices_arg(const py::object& n) {
-    if (n.is_none()) return 0;
-    const auto v = n.cast<long long>();
-    if (v <= 0) throw std::invalid_argument("n_vertices must be positive");
-    return static_cast<std::size_t>(v);
-}
-
 // The report as a Python object (attributes are fresh numpy arrays / lists).
 struct PyContours {
     BoundaryContours c;
@@ -69,8 +62,8 @@ void bind_boundary(py::module_& m) {
     m.def(
         "boundary_loops",
         [](const py::handle& triangles, bool strict, const py::object& n_vertices) {
-            auto T = as_indices(triangles, "boundary_loops", "triangles", 3);
-            const std::size_t n = n_vertices_arg(n_vertices);
+            const std::size_t n = as_count(n_vertices, "boundary_loops", "n_vertices");
+            auto T = as_indices(triangles, "boundary_loops", "triangles", 3, n ? static_cast<std::int64_t>(n) : -1);
             std::vector<std::vector<std::int64_t>> loops;
             {
                 py::gil_scoped_release release;
@@ -89,8 +82,8 @@ void bind_boundary(py::module_& m) {
     m.def(
         "boundary_contours",
         [](const py::handle& triangles, const py::object& n_vertices) {
-            auto T = as_indices(triangles, "boundary_contours", "triangles", 3);
-            const std::size_t n = n_vertices_arg(n_vertices);
+            const std::size_t n = as_count(n_vertices, "boundary_contours", "n_vertices");
+            auto T = as_indices(triangles, "boundary_contours", "triangles", 3, n ? static_cast<std::int64_t>(n) : -1);
             PyContours r;
             {
                 py::gil_scoped_release release;
@@ -104,8 +97,8 @@ void bind_boundary(py::module_& m) {
     m.def(
         "boundary_edges",
         [](const py::handle& triangles, const py::object& n_vertices) {
-            auto T = as_indices(triangles, "boundary_edges", "triangles", 3);
-            const std::size_t n = n_vertices_arg(n_vertices);
+            const std::size_t n = as_count(n_vertices, "boundary_edges", "n_vertices");
+            auto T = as_indices(triangles, "boundary_edges", "triangles", 3, n ? static_cast<std::int64_t>(n) : -1);
             std::vector<std::int64_t> e;
             {
                 py::gil_scoped_release release;
@@ -119,8 +112,8 @@ void bind_boundary(py::module_& m) {
     m.def(
         "sort_segments",
         [](const py::handle& segments, const py::object& n_vertices) {
-            auto S = as_indices(segments, "sort_segments", "segments", 2);
-            const std::size_t n = n_vertices_arg(n_vertices);
+            const std::size_t n = as_count(n_vertices, "sort_segments", "n_vertices");
+            auto S = as_indices(segments, "sort_segments", "segments", 2, n ? static_cast<std::int64_t>(n) : -1);
             PyContours r;
             {
                 py::gil_scoped_release release;

@@ -4,8 +4,6 @@
 #include <faultmesh/tin.hpp>
 
 #include <memory>
-#include <mutex>
-#include <shared_mutex>
 
 #include "common.hpp"
 
@@ -19,23 +17,9 @@ struct DelaunayInfo {
     std::size_t n_duplicates = 0;
 };
 
-// A Tin shared with Python. Python threads may call it concurrently while the
-// GIL is released: readers (locate, interpolate, accessors) share the lock,
-// insert() takes it exclusively. The lock is always taken after the GIL is
-// released, and the GIL is never needed while it is held, so the two cannot
-// deadlock.
-struct PyTin {
-    PyTin(const double* xyz, std::size_t n) : tin(xyz, n) {}
-    Tin tin;
-    mutable std::shared_mutex mu;
-};
-
-template <class F>
-auto read_locked(const PyTin& t, F&& f) {
-    py::gil_scoped_release release;
-    std::shared_lock<std::shared_mutex> lock(t.mu);
-    return f(t.tin);
-}
+// A Tin shared with Python (common.hpp: readers -- locate, interpolate,
+// accessors -- share the lock, insert() and set_z() take it exclusively).
+using PyTin = Shared<Tin>;
 
 }  // namespace
 
@@ -84,7 +68,7 @@ void bind_delaunay(py::module_& m) {
         "perturbation, so the result is canonical (independent of the row order) and\n"
         "equal to CGAL's Delaunay_triangulation_2. With return_info=True returns a\n"
         "DelaunayInfo (triangles, halfedges, vertex_of_input, n_duplicates).\n\n"
-        "Raises ValueError for a wrong shape or a NaN/inf coordinate (naming the row),\n"
+        "Raises ValueError for a wrong shape or a NaN/inf coordinate or one beyond 1e60 (naming the row),\n"
         "faultmesh.GeometryError for fewer than 3 distinct points or all collinear.");
 
     py::class_<PyTin>(m, "Tin",
@@ -104,7 +88,7 @@ void bind_delaunay(py::module_& m) {
              }),
              py::arg("xyz"),
              "Builds the TIN of the points xyz (n, 3). Raises ValueError for a wrong shape or\n"
-             "a NaN/inf x or y (naming the row), faultmesh.GeometryError for fewer than 3\n"
+             "a NaN/inf x or y or one beyond 1e60 (naming the row), faultmesh.GeometryError for fewer than 3\n"
              "distinct XY points or all collinear.")
         .def(
             "insert",
@@ -112,31 +96,23 @@ void bind_delaunay(py::module_& m) {
                 auto pts = as_points(xyz, "Tin.insert", "xyz", 3, 3);
                 const std::size_t n = static_cast<std::size_t>(pts.shape(0));
                 std::vector<std::int64_t> out;
-                {
-                    py::gil_scoped_release release;
-                    std::unique_lock<std::shared_mutex> lock(t.mu);
-                    out = t.tin.insert(pts.data(), n);
-                }
+                out = write_locked(t, [&](Tin& tin) { return tin.insert(pts.data(), n); });
                 return to_numpy(std::move(out));
             },
             py::arg("xyz"),
             "Inserts the points xyz (k, 3) into the TIN; returns int64 (k,): the vertex each\n"
             "row maps to (a new vertex, or the existing vertex with the same XY, whose z is\n"
-            "kept). Raises ValueError for NaN/inf before changing anything.")
+            "kept). Raises ValueError for NaN/inf (or beyond 1e60) before changing anything.")
         .def(
             "set_z",
             [](PyTin& t, const py::handle& vertices, const py::handle& z) {
-                IndexArray v = IndexArray::ensure(vertices);
-                DoubleArray zz = DoubleArray::ensure(z);
-                if (!v || v.ndim() != 1)
-                    throw std::invalid_argument("Tin.set_z: vertices must be a 1-D int64 array");
-                if (!zz || zz.ndim() != 1 || zz.shape(0) != v.shape(0))
-                    throw std::invalid_argument("Tin.set_z: z must be a 1-D float64 array with one value per "
-                                                "vertex index (" + std::to_string(v.shape(0)) + ")");
+                IndexArray v = as_indices(vertices, "Tin.set_z", "vertices", 0);
+                DoubleArray zz = as_values(z, "Tin.set_z", "z");
+                if (zz.shape(0) != v.shape(0))
+                    throw std::invalid_argument("Tin.set_z: z must have one value per vertex index (" +
+                                                std::to_string(v.shape(0)) + "), got " + shape_str(zz));
                 const std::size_t n = static_cast<std::size_t>(v.shape(0));
-                py::gil_scoped_release release;
-                std::unique_lock<std::shared_mutex> lock(t.mu);
-                t.tin.set_z(v.data(), zz.data(), n);
+                write_locked(t, [&](Tin& tin) { tin.set_z(v.data(), zz.data(), n); });
             },
             py::arg("vertices"), py::arg("z"),
             "Sets the z of the given vertices (int64 (k,)) to z (float64 (k,)); XY and the\n"
@@ -172,7 +148,7 @@ void bind_delaunay(py::module_& m) {
             },
             py::arg("xy"),
             "Index of a triangle containing each point xy (k, 2) (z ignored if (k, 3));\n"
-            "-1 outside the convex hull or for a NaN/inf query. int64 (k,).")
+            "-1 outside the convex hull or for a NaN/inf query or one beyond 1e60. int64 (k,).")
         .def(
             "interpolate",
             [](const PyTin& t, const py::handle& xy) {
@@ -194,8 +170,10 @@ void bind_delaunay(py::module_& m) {
             },
             py::arg("xy"),
             "z at each point xy (k, 2) (z ignored if (k, 3)) by linear interpolation in the\n"
-            "containing triangle; NaN outside the convex hull. float64 (k,). A query equal to\n"
-            "a vertex gets that vertex's z exactly.")
+            "containing triangle; NaN outside the convex hull. float64 (k,). Containment and\n"
+            "weights come from the exact predicates: z is a convex combination of the triangle's\n"
+            "z (a query equal to a vertex gets that vertex's z exactly, one on an edge depends\n"
+            "on the edge's two vertices only).")
         .def_property_readonly(
             "vertices",
             [](const PyTin& t) {

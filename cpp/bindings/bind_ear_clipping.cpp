@@ -9,29 +9,6 @@ namespace faultmesh::bindings {
 
 namespace {
 
-// rings: a sequence of (k, 2) arrays (outer first), or one (n, 2) array for a
-// polygon without holes. Concatenates the points; offsets has n_rings + 1 entries.
-void gather_rings(const py::handle& rings, const char* fn, std::vector<double>& xy,
-                  std::vector<std::int64_t>& offsets) {
-    offsets.assign(1, 0);
-    auto add = [&](const py::handle& obj, const std::string& what) {
-        DoubleArray a = as_points(obj, fn, what.c_str(), 2, 2);
-        const double* d = a.data();
-        xy.insert(xy.end(), d, d + 2 * a.shape(0));
-        offsets.push_back(offsets.back() + a.shape(0));
-    };
-    if (py::isinstance<py::array>(rings) && py::reinterpret_borrow<py::array>(rings).ndim() == 2) {
-        add(rings, "rings");
-        return;
-    }
-    if (!py::isinstance<py::sequence>(rings) || py::isinstance<py::str>(rings))
-        throw std::invalid_argument(std::string(fn) +
-                                    ": rings must be a list of (k, 2) arrays (outer ring first, then holes)");
-    py::sequence seq = py::reinterpret_borrow<py::sequence>(rings);
-    for (py::ssize_t i = 0; i < static_cast<py::ssize_t>(seq.size()); ++i)
-        add(seq[i], "rings[" + std::to_string(i) + "]");
-}
-
 BridgeMethod parse_bridge(const std::string& s, const char* fn) {
     if (s == "extreme" || s == "extreme_point") return BridgeMethod::extreme_point;
     if (s == "eberly") return BridgeMethod::eberly;
@@ -52,9 +29,9 @@ void bind_ear_clipping(py::module_& m) {
         [](const py::handle& rings, bool refine, const std::string& order, const std::string& bridge,
            bool strict, int threads, py::ssize_t split_min) {
             const char* fn = "triangulate_polygon";
-            std::vector<double> xy;
-            std::vector<std::int64_t> offsets;
-            gather_rings(rings, fn, xy, offsets);
+            RingsData R = as_rings(rings, fn, 2, 3);
+            const std::vector<double>& xy = R.xy;
+            const std::vector<std::int64_t>& offsets = R.offsets;
             EarClipOptions opt;
             opt.refine = refine;
             opt.order = parse_order(order, fn);
@@ -79,7 +56,7 @@ void bind_ear_clipping(py::module_& m) {
         py::arg("bridge") = "extreme", py::arg("strict") = false, py::arg("threads") = 0,
         py::arg("split_min") = 4096,
         "Triangulate a polygon with holes by ear clipping.\n\n"
-        "rings: list of (k, 2) arrays, the outer ring first, then the holes (any orientation;\n"
+        "rings: list of (k, 2) arrays, the outer ring first (at least 3 rows), then the holes (any orientation;\n"
         "a closing point equal to the first and consecutive duplicates are ignored).\n"
         "Returns (m, 3) int64 triangles, counter-clockwise, indexing the rings' points\n"
         "concatenated. A valid polygon with n vertices and h holes gives n + 2h - 2 triangles.\n"
@@ -96,9 +73,9 @@ void bind_ear_clipping(py::module_& m) {
         "join_holes",
         [](const py::handle& rings, const std::string& bridge) {
             const char* fn = "join_holes";
-            std::vector<double> xy;
-            std::vector<std::int64_t> offsets;
-            gather_rings(rings, fn, xy, offsets);
+            RingsData R = as_rings(rings, fn, 2, 3);
+            const std::vector<double>& xy = R.xy;
+            const std::vector<std::int64_t>& offsets = R.offsets;
             const BridgeMethod method = parse_bridge(bridge, fn);
             JoinedPolygon j;
             {
@@ -118,9 +95,9 @@ void bind_ear_clipping(py::module_& m) {
         "check_polygon",
         [](const py::handle& rings) {
             const char* fn = "check_polygon";
-            std::vector<double> xy;
-            std::vector<std::int64_t> offsets;
-            gather_rings(rings, fn, xy, offsets);
+            RingsData R = as_rings(rings, fn, 2, 0);
+            const std::vector<double>& xy = R.xy;
+            const std::vector<std::int64_t>& offsets = R.offsets;
             PolygonCheck c;
             {
                 py::gil_scoped_release release;
@@ -138,8 +115,8 @@ void bind_ear_clipping(py::module_& m) {
         [](const py::handle& xy_obj, const py::handle& tri_obj, const py::handle& cons_obj) {
             const char* fn = "flip_to_constrained_delaunay";
             DoubleArray xy = as_points(xy_obj, fn, "xy", 2, 2);
-            IndexArray t = as_indices(tri_obj, fn, "triangles", 3);
-            IndexArray c = as_indices(cons_obj, fn, "constrained_edges", 2);
+            IndexArray t = as_indices(tri_obj, fn, "triangles", 3, xy.shape(0));
+            IndexArray c = as_indices(cons_obj, fn, "constrained_edges", 2, xy.shape(0));
             std::vector<std::int64_t> tris(t.data(), t.data() + t.size());
             {
                 py::gil_scoped_release release;

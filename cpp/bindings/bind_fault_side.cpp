@@ -15,14 +15,13 @@ void bind_fault_side(py::module_& m) {
         [](const py::handle& vertices, const py::handle& triangles, const py::handle& points, int axis,
            int hanging_sign, const py::object& extent) {
             const char* fn = "fault_side";
-            DoubleArray v = as_points(vertices, fn, "vertices", 3, 3);
-            IndexArray t = as_indices(triangles, fn, "triangles", 3);
-            DoubleArray p = as_points(points, fn, "points", 3, 3);
-            const std::size_t nv = static_cast<std::size_t>(v.shape(0));
-            const std::size_t nt = static_cast<std::size_t>(t.shape(0));
-            const std::size_t np = static_cast<std::size_t>(p.shape(0));
-            std::vector<double> V(v.data(), v.data() + 3 * nv), P(p.data(), p.data() + 3 * np);
-            std::vector<std::int64_t> T(t.data(), t.data() + 3 * nt);
+            // Private copies (common.hpp); fault_side checks the coordinate limit.
+            DoubleArray V = as_points(vertices, fn, "vertices", 3, 3);
+            IndexArray T = as_indices(triangles, fn, "triangles", 3, V.shape(0));
+            DoubleArray P = as_points(points, fn, "points", 3, 3);
+            const std::size_t nv = static_cast<std::size_t>(V.shape(0));
+            const std::size_t nt = static_cast<std::size_t>(T.shape(0));
+            const std::size_t np = static_cast<std::size_t>(P.shape(0));
             std::vector<std::uint8_t> E;
             if (!extent.is_none()) {
                 auto e = py::array_t<bool, py::array::c_style | py::array::forcecast>::ensure(extent);

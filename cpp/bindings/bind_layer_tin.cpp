@@ -3,6 +3,7 @@
 #include <faultmesh/layer_tin.hpp>
 
 #include <cmath>
+#include <memory>
 #include <string>
 
 #include "common.hpp"
@@ -11,9 +12,14 @@ namespace faultmesh::bindings {
 
 namespace {
 
+// A LayerTin shared with Python (common.hpp): insert() and
+// repair_crossings() change it with the GIL released, so they take its lock
+// exclusively; interpolate(), mesh() and the accessors share it.
+using PyLayerTin = Shared<LayerTin>;
+
 StudyArea as_area(const py::handle& boundary, const char* fn) {
     if (py::isinstance<StudyArea>(boundary)) return boundary.cast<StudyArea>();
-    auto R = as_points(boundary, fn, "boundary", 2, 2);
+    auto R = as_coordinates(boundary, fn, "boundary", 2, 2, 2);
     return StudyArea(R.data(), static_cast<std::size_t>(R.shape(0)));
 }
 
@@ -27,14 +33,15 @@ py::tuple mesh_tuple(LayerTinMesh&& m, bool with_halfedges) {
 }  // namespace
 
 void bind_layer_tin(py::module_& m) {
-    py::class_<LayerTin>(m, "LayerTin",
+    py::class_<PyLayerTin>(m, "LayerTin",
                          "The continuous stratum TIN of one layer over the whole study area\n"
                          "(layer_tin.hpp): the Delaunay TIN of the layer's data inside the study area\n"
                          "plus densified, protected boundary vertices, so that mesh() covers exactly\n"
                          "the study area.")
         .def(py::init([](std::string name, const py::handle& data, const py::handle& boundary,
                          py::object spacing) {
-                 auto D = as_points(data, "LayerTin", "data", 3, 3);
+                 // x, y within the coordinate limit; z must be finite (LayerTin checks it).
+                 auto D = as_coordinates(data, "LayerTin", "data", 3, 3, 2);
                  StudyArea area = as_area(boundary, "LayerTin");
                  LayerTinOptions opt;
                  if (!spacing.is_none()) {
@@ -42,36 +49,54 @@ void bind_layer_tin(py::module_& m) {
                      if (!(opt.spacing > 0.0 && std::isfinite(opt.spacing)))
                          throw std::invalid_argument("LayerTin: spacing must be a finite number > 0");
                  }
-                 std::vector<double> copy(D.data(), D.data() + 3 * D.shape(0));
-                 py::gil_scoped_release release;
-                 return LayerTin(std::move(name), copy.data(), copy.size() / 3, area, opt);
+                 py::gil_scoped_release release;  // D is a private copy (as_points)
+                 return std::make_unique<PyLayerTin>(std::move(name), D.data(),
+                                                     static_cast<std::size_t>(D.shape(0)), area, opt);
              }),
              py::arg("name"), py::arg("data"), py::arg("boundary"), py::arg("spacing") = py::none(),
              "name: the layer's name (in messages). data (n, 3): x, y, z points. boundary: a\n"
              "StudyArea or a ring (k, 2). spacing: boundary vertex spacing (default: about the\n"
              "data spacing).")
-        .def_property_readonly("name", &LayerTin::name)
-        .def_property_readonly("spacing", &LayerTin::spacing)
-        .def_property_readonly("area", &LayerTin::area)
-        .def_property_readonly("n_data", &LayerTin::n_data, "data points used (inside or on the study area)")
-        .def_property_readonly("n_outside", &LayerTin::n_outside, "data points outside the study area (not used)")
-        .def_property_readonly("n_boundary_data", &LayerTin::n_boundary_data,
-                               "data points on the study-area boundary (boundary vertices)")
-        .def_property_readonly("n_vertices", &LayerTin::n_vertices)
-        .def_property_readonly("vertices",
-                               [](const LayerTin& t) { return to_numpy(t.tin().vertices(), 3); },
-                               "(n, 3) every TIN vertex with its current elevation")
-        .def_property_readonly("z", [](const LayerTin& t) { return to_numpy(t.z()); })
-        .def_property_readonly("boundary_vertices",
-                               [](const LayerTin& t) { return to_numpy(t.boundary_vertices()); },
-                               "TIN vertices on the study-area boundary, counter-clockwise")
+        // name, spacing and area are set by the constructor and never change.
+        .def_property_readonly("name", [](const PyLayerTin& t) { return t.obj.name(); })
+        .def_property_readonly("spacing", [](const PyLayerTin& t) { return t.obj.spacing(); })
+        .def_property_readonly("area", [](const PyLayerTin& t) { return t.obj.area(); })
+        .def_property_readonly(
+            "n_data", [](const PyLayerTin& t) { return read_locked(t, [](const LayerTin& l) { return l.n_data(); }); },
+            "data points used (inside or on the study area)")
+        .def_property_readonly(
+            "n_outside",
+            [](const PyLayerTin& t) { return read_locked(t, [](const LayerTin& l) { return l.n_outside(); }); },
+            "data points outside the study area (not used)")
+        .def_property_readonly(
+            "n_boundary_data",
+            [](const PyLayerTin& t) { return read_locked(t, [](const LayerTin& l) { return l.n_boundary_data(); }); },
+            "data points on the study-area boundary (boundary vertices)")
+        .def_property_readonly(
+            "n_vertices",
+            [](const PyLayerTin& t) { return read_locked(t, [](const LayerTin& l) { return l.n_vertices(); }); })
+        .def_property_readonly(
+            "vertices",
+            [](const PyLayerTin& t) {
+                return to_numpy(read_locked(t, [](const LayerTin& l) { return l.tin().vertices(); }), 3);
+            },
+            "(n, 3) every TIN vertex with its current elevation")
+        .def_property_readonly("z",
+                               [](const PyLayerTin& t) {
+                                   return to_numpy(read_locked(t, [](const LayerTin& l) { return l.z(); }));
+                               })
+        .def_property_readonly(
+            "boundary_vertices",
+            [](const PyLayerTin& t) {
+                return to_numpy(read_locked(t, [](const LayerTin& l) { return l.boundary_vertices(); }));
+            },
+            "TIN vertices on the study-area boundary, counter-clockwise")
         .def(
             "insert",
-            [](LayerTin& t, const py::handle& xyz) {
-                auto P = as_points(xyz, "LayerTin.insert", "xyz", 3, 3);
-                std::vector<double> copy(P.data(), P.data() + 3 * P.shape(0));
-                py::gil_scoped_release release;
-                return t.insert(copy.data(), copy.size() / 3);
+            [](PyLayerTin& t, const py::handle& xyz) {
+                auto P = as_coordinates(xyz, "LayerTin.insert", "xyz", 3, 3, 2);
+                const std::size_t n = static_cast<std::size_t>(P.shape(0));
+                return write_locked(t, [&](LayerTin& l) { return l.insert(P.data(), n); });
             },
             py::arg("xyz"),
             "Insert points (k, 3) keeping the boundary protected (points on the boundary become\n"
@@ -79,25 +104,16 @@ void bind_layer_tin(py::module_& m) {
             "gives it its z. Returns the number of new vertices.")
         .def(
             "interpolate",
-            [](const LayerTin& t, const py::handle& xy) {
-                auto P = as_points(xy, "LayerTin.interpolate", "xy", 2, 2);
-                std::vector<double> copy(P.data(), P.data() + 2 * P.shape(0));
-                std::vector<double> z;
-                {
-                    py::gil_scoped_release release;
-                    z = t.interpolate(copy.data(), copy.size() / 2);
-                }
-                return to_numpy(std::move(z));
+            [](const PyLayerTin& t, const py::handle& xy) {
+                auto P = as_points(xy, "LayerTin.interpolate", "xy", 2, 2);  // a private copy
+                const std::size_t n = static_cast<std::size_t>(P.shape(0));
+                return to_numpy(read_locked(t, [&](const LayerTin& l) { return l.interpolate(P.data(), n); }));
             },
             py::arg("xy"), "z at points (k, 2) with the current elevations; NaN outside the TIN's hull.")
         .def(
             "mesh",
-            [](const LayerTin& t, bool halfedges) {
-                LayerTinMesh mm;
-                {
-                    py::gil_scoped_release release;
-                    mm = t.mesh();
-                }
+            [](const PyLayerTin& t, bool halfedges) {
+                LayerTinMesh mm = read_locked(t, [](const LayerTin& l) { return l.mesh(); });
                 return mesh_tuple(std::move(mm), halfedges);
             },
             py::arg("halfedges") = false,
@@ -106,7 +122,7 @@ void bind_layer_tin(py::module_& m) {
 
     m.def(
         "repair_crossings",
-        [](const LayerTin& upper, LayerTin& lower, int max_rounds, py::object tol, int midpoint_rounds,
+        [](const PyLayerTin& upper, PyLayerTin& lower, int max_rounds, py::object tol, int midpoint_rounds,
            double max_inserted_per_vertex) {
             RepairOptions opt;
             opt.max_rounds = max_rounds;
@@ -119,8 +135,22 @@ void bind_layer_tin(py::module_& m) {
             }
             RepairCounts c;
             {
+                // lower changes (exclusive lock), upper is read (shared, unless it is lower);
+                // the two locks are taken in address order, so that two calls with the
+                // layers swapped cannot deadlock.
                 py::gil_scoped_release release;
-                c = repair_crossings(upper, lower, opt);
+                std::unique_lock<std::shared_mutex> lock_lower(lower.mu, std::defer_lock);
+                std::shared_lock<std::shared_mutex> lock_upper(upper.mu, std::defer_lock);
+                if (&upper == &lower) {
+                    lock_lower.lock();
+                } else if (&upper.mu < &lower.mu) {
+                    lock_upper.lock();
+                    lock_lower.lock();
+                } else {
+                    lock_lower.lock();
+                    lock_upper.lock();
+                }
+                c = repair_crossings(upper.obj, lower.obj, opt);
             }
             py::dict d;
             d["rule1"] = c.rule1;

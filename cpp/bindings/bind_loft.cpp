@@ -47,7 +47,7 @@ void bind_loft(py::module_& m) {
         [](const py::handle& a, const py::handle& b, const py::handle& triangles) {
             auto A = as_points(a, "loft_area", "a", 2, 3);
             auto B = as_points(b, "loft_area", "b", 2, 3);
-            auto T = as_indices(triangles, "loft_area", "triangles", 3);
+            auto T = as_indices(triangles, "loft_area", "triangles", 3, A.shape(0) + B.shape(0));
             if (A.shape(1) != B.shape(1))
                 throw std::invalid_argument("loft_area: a and b must have the same number of columns");
             std::vector<std::int64_t> t(T.data(), T.data() + 3 * T.shape(0));

@@ -1,63 +1,13 @@
 // Bindings for overlap detection: faultmesh.overlapping_triangles.
 #include <faultmesh/aabb_tree.hpp>
 #include <faultmesh/overlap.hpp>
+#include <faultmesh/predicates.hpp>
 
 #include "common.hpp"
 
 namespace faultmesh::bindings {
 
-struct RingsData {
-    std::vector<double> xy;
-    std::vector<std::int64_t> offsets;
-};
 const AabbTree* tree_from_py(const py::handle& obj, std::size_t n_triangles);
-
-// A region: one (k, 2|3) array (a single ring) or a sequence of such arrays
-// (outer rings and holes, any orientation; even-odd rule). Only x and y are used.
-RingsData parse_rings(const py::handle& obj, const char* fn) {
-    RingsData r;
-    r.offsets.push_back(0);
-    auto add_ring = [&](const py::handle& h, std::size_t idx) {
-        DoubleArray a = DoubleArray::ensure(h);
-        if (!a || a.ndim() != 2 || a.shape(1) < 2 || a.shape(1) > 3)
-            throw std::invalid_argument(std::string(fn) + ": ring " + std::to_string(idx) +
-                                        " must be an array of shape (k, 2) or (k, 3)" +
-                                        (a ? ", got " + shape_str(a) : std::string()));
-        const std::size_t k = static_cast<std::size_t>(a.shape(0)), c = static_cast<std::size_t>(a.shape(1));
-        const double* d = a.data();
-        for (std::size_t i = 0; i < k; ++i) {
-            r.xy.push_back(d[c * i]);
-            r.xy.push_back(d[c * i + 1]);
-        }
-        r.offsets.push_back(static_cast<std::int64_t>(r.xy.size() / 2));
-    };
-    // A numpy array (or nested list) of 2 dimensions is one ring; otherwise
-    // a sequence of rings.
-    if (py::isinstance<py::array>(obj)) {
-        py::array arr = py::reinterpret_borrow<py::array>(obj);
-        if (arr.ndim() == 2) {
-            add_ring(obj, 0);
-            return r;
-        }
-        if (arr.ndim() != 3)
-            throw std::invalid_argument(std::string(fn) + ": rings must be a (k, 2) array or a list of "
-                                        "(k, 2) arrays, got shape " + shape_str(arr));
-    }
-    if (!py::isinstance<py::sequence>(obj) || py::isinstance<py::str>(obj))
-        throw std::invalid_argument(std::string(fn) + ": rings must be a (k, 2) array or a list of (k, 2) arrays");
-    py::sequence seq = py::reinterpret_borrow<py::sequence>(obj);
-    // A plain list of points ([[x, y], ...]) is one ring too.
-    if (seq.size() > 0) {
-        py::array first = py::array::ensure(seq[0]);
-        if (first && first.ndim() == 1) {
-            add_ring(obj, 0);
-            return r;
-        }
-    }
-    std::size_t i = 0;
-    for (const py::handle& h : seq) add_ring(h, i++);
-    return r;
-}
 
 void bind_overlap(py::module_& m) {
     m.def(
@@ -66,8 +16,8 @@ void bind_overlap(py::module_& m) {
            bool grow_to_disk, bool allow_mesh_boundary, const py::handle& tree) {
             const char* fn = "overlapping_triangles";
             auto V = as_points(vertices, fn, "vertices", 2, 3);
-            auto T = as_indices(triangles, fn, "triangles", 3);
-            RingsData R = parse_rings(rings, fn);
+            auto T = as_indices(triangles, fn, "triangles", 3, V.shape(0));
+            RingsData R = as_rings(rings, fn, 3, 0);
             const std::size_t n = static_cast<std::size_t>(V.shape(0)), mt = static_cast<std::size_t>(T.shape(0));
             const AabbTree* t = tree_from_py(tree, mt);
             OverlapOptions opt;
@@ -104,7 +54,10 @@ void bind_overlap(py::module_& m) {
             const py::ssize_t n = A.shape(0);
             if (B.shape(0) != n || C.shape(0) != n)
                 throw std::invalid_argument("triangle_overlaps_region: a, b and c must have the same number of rows");
-            RingsData R = parse_rings(rings, fn);
+            RingsData R = as_rings(rings, fn, 3, 0);
+            check_coordinates(A.data(), static_cast<std::size_t>(n), static_cast<std::size_t>(A.shape(1)), 2, fn, "a");
+            check_coordinates(B.data(), static_cast<std::size_t>(n), static_cast<std::size_t>(B.shape(1)), 2, fn, "b");
+            check_coordinates(C.data(), static_cast<std::size_t>(n), static_cast<std::size_t>(C.shape(1)), 2, fn, "c");
             std::vector<std::uint8_t> out(static_cast<std::size_t>(n));
             {
                 py::gil_scoped_release release;

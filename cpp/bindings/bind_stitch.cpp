@@ -11,24 +11,11 @@ namespace faultmesh::bindings {
 
 namespace {
 
-void gather_rings_st(const py::handle& rings, const char* fn, std::vector<double>& xy,
-                     std::vector<std::int64_t>& offsets) {
-    offsets.assign(1, 0);
-    auto add = [&](const py::handle& obj, const std::string& what) {
-        DoubleArray a = as_points(obj, fn, what.c_str(), 2, 2);
-        xy.insert(xy.end(), a.data(), a.data() + 2 * a.shape(0));
-        offsets.push_back(offsets.back() + a.shape(0));
-    };
-    if (py::isinstance<py::array>(rings) && py::reinterpret_borrow<py::array>(rings).ndim() == 2) {
-        add(rings, "rings");
-        return;
-    }
-    if (!py::isinstance<py::sequence>(rings) || py::isinstance<py::str>(rings))
-        throw std::invalid_argument(std::string(fn) + ": rings must be a list of (k, 2) arrays");
-    py::sequence seq = py::reinterpret_borrow<py::sequence>(rings);
-    for (py::ssize_t i = 0; i < static_cast<py::ssize_t>(seq.size()); ++i)
-        add(seq[i], "rings[" + std::to_string(i) + "]");
-}
+// A LayerStitcher shared with Python (common.hpp). It is not thread-safe and
+// stitch() runs with the GIL released, so two Python threads could otherwise
+// stitch into one layer at the same time (a data race on its arrays):
+// stitch() takes the lock exclusively, mesh() and the accessors share it.
+using PyStitcher = Shared<LayerStitcher>;
 
 StitchOptions make_options(bool refine, const std::string& order, const std::string& bridge,
                            double tol, double clearance, const char* fn) {
@@ -149,7 +136,7 @@ void bind_results(py::module_& m) {
 
 void bind_stitch(py::module_& m) {
     bind_results(m);
-    py::class_<LayerStitcher>(m, "Stitcher", R"doc(
+    py::class_<PyStitcher>(m, "Stitcher", R"doc(
 Stitches fault patches into one layer surface, one after another (paper 2.4-2.6).
 
 Stitcher(vertices (n, 3), triangles (m, 3) CCW TIN, boundary=None (k, 2) study area,
@@ -177,18 +164,13 @@ local merge with shared vertices. mesh() returns the compacted surface.
                  }
                  IndexArray H;
                  const bool has_h = !halfedges.is_none();
-                 if (has_h) {
-                     H = IndexArray::ensure(halfedges);
-                     if (!H || H.ndim() != 1 || H.shape(0) != 3 * T.shape(0))
-                         throw std::invalid_argument("Stitcher: halfedges must have shape (3 m,) = (" +
-                                                     std::to_string(3 * T.shape(0)) + ",)");
-                 }
+                 if (has_h) H = as_links(halfedges, fn, "halfedges", 3 * T.shape(0));
                  const std::int64_t* he = has_h ? H.data() : nullptr;
                  StitchOptions opt = make_options(refine, order, bridge, tol, clearance, fn);
                  py::gil_scoped_release release;
-                 return new LayerStitcher(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
-                                          static_cast<std::size_t>(T.shape(0)), bxy.empty() ? nullptr : bxy.data(),
-                                          bxy.size() / 2, he, name, opt);
+                 return new PyStitcher(LayerStitcher(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
+                                                     static_cast<std::size_t>(T.shape(0)),
+                                                     bxy.empty() ? nullptr : bxy.data(), bxy.size() / 2, he, name, opt));
              }),
              py::arg("vertices"), py::arg("triangles"), py::arg("boundary") = py::none(),
              py::arg("halfedges") = py::none(), py::arg("name") = "layer", py::arg("refine") = true,
@@ -196,16 +178,15 @@ local merge with shared vertices. mesh() returns the compacted surface.
              py::arg("clearance") = 0.0)
         .def(
             "stitch",
-            [](LayerStitcher& st, const py::handle& pv, const py::handle& pt, const std::string& name) {
+            [](PyStitcher& p, const py::handle& pv, const py::handle& pt, const std::string& name) {
                 const char* fn = "Stitcher.stitch";
                 auto V = as_points(pv, fn, "patch_vertices", 3, 3);
                 auto T = as_indices(pt, fn, "patch_triangles", 3);
                 StitchReport r;
-                {
-                    py::gil_scoped_release release;
-                    r = st.stitch(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
-                                  static_cast<std::size_t>(T.shape(0)), name);
-                }
+                r = write_locked(p, [&](LayerStitcher& st) {
+                    return st.stitch(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
+                                     static_cast<std::size_t>(T.shape(0)), name);
+                });
                 return to_python(std::move(r), name);
             },
             py::arg("patch_vertices"), py::arg("patch_triangles"), py::arg("name") = "patch",
@@ -217,22 +198,24 @@ local merge with shared vertices. mesh() returns the compacted surface.
             "overlaps or touches an earlier patch; nothing changes on error.")
         .def(
             "mesh",
-            [](const LayerStitcher& st) {
-                StitchedMesh mm;
-                {
-                    py::gil_scoped_release release;
-                    mm = st.mesh();
-                }
+            [](const PyStitcher& p) {
+                StitchedMesh mm = read_locked(p, [](const LayerStitcher& st) { return st.mesh(); });
                 return to_python(std::move(mm));
             },
             "The compacted surface: a StitchedMesh with vertices (n, 3), triangles (m, 3), kinds (m,)\n"
             "int8 (TriangleKind: layer, patch, gap), owners (m,) (patch id / gap id / -1), vertex_map\n"
             "and triangle_map (stitcher numbering -> compacted, -1 if gone).")
-        .def_property_readonly("n_vertices", &LayerStitcher::n_vertices)
-        .def_property_readonly("n_triangles", &LayerStitcher::n_triangles)
-        .def_property_readonly("n_live_triangles", &LayerStitcher::n_live_triangles)
-        .def_property_readonly("name", &LayerStitcher::name)
-        .def_property_readonly("patch_names", &LayerStitcher::patch_names);
+        .def_property_readonly("n_vertices",
+                               [](const PyStitcher& p) { return read_locked(p, [](const LayerStitcher& st) { return st.n_vertices(); }); })
+        .def_property_readonly("n_triangles",
+                               [](const PyStitcher& p) { return read_locked(p, [](const LayerStitcher& st) { return st.n_triangles(); }); })
+        .def_property_readonly("n_live_triangles", [](const PyStitcher& p) {
+            return read_locked(p, [](const LayerStitcher& st) { return st.n_live_triangles(); });
+        })
+        .def_property_readonly("name", [](const PyStitcher& p) { return p.obj.name(); })  // set once, never changed
+        .def_property_readonly("patch_names", [](const PyStitcher& p) {
+            return read_locked(p, [](const LayerStitcher& st) { return st.patch_names(); });  // a copy
+        });
 
     m.def(
         "stitch",
@@ -274,9 +257,9 @@ local merge with shared vertices. mesh() returns the compacted surface.
             const char* fn = "triangles_touching_region";
             auto V = as_points(vertices, fn, "vertices", 2, 3);
             auto T = as_indices(triangles, fn, "triangles", 3);
-            std::vector<double> xy;
-            std::vector<std::int64_t> off;
-            gather_rings_st(rings, fn, xy, off);
+            RingsData R = as_rings(rings, fn, 2, 0);
+            const std::vector<double>& xy = R.xy;
+            const std::vector<std::int64_t>& off = R.offsets;
             std::vector<std::int64_t> out;
             {
                 py::gil_scoped_release release;

@@ -9,13 +9,41 @@
 
 namespace faultmesh::bindings {
 
+namespace {
+
+// Positions on the boundary: side (k,) non-negative integers below n_sides,
+// s (k,) finite arc lengths; private copies.
+struct SidePositions {
+    IndexArray side;
+    DoubleArray s;
+};
+
+SidePositions as_side_positions(const StudyArea& a, const py::handle& side, const py::handle& s, const char* fn) {
+    SidePositions p{as_indices(side, fn, "side", 0), as_values(s, fn, "s")};
+    if (p.s.shape(0) != p.side.shape(0))
+        throw std::invalid_argument(std::string(fn) + ": side and s must have one length, got " +
+                                    shape_str(p.side) + " and " + shape_str(p.s));
+    const std::int64_t* k = p.side.data();
+    for (py::ssize_t i = 0; i < p.side.shape(0); ++i)
+        if (static_cast<std::size_t>(k[i]) >= a.n_sides())
+            throw std::invalid_argument(std::string(fn) + ": side[" + std::to_string(i) + "] = " + std::to_string(k[i]) +
+                                        " is not a side (0.." + std::to_string(a.n_sides() - 1) + ")");
+    const double* v = p.s.data();
+    for (py::ssize_t i = 0; i < p.s.shape(0); ++i)
+        if (!std::isfinite(v[i]))
+            throw std::invalid_argument(std::string(fn) + ": s row " + std::to_string(i) + " is not finite");
+    return p;
+}
+
+}  // namespace
+
 void bind_study_area(py::module_& m) {
     py::class_<StudyArea>(m, "StudyArea",
                           "The study-area polygon: which points lie on its boundary, and points placed\n"
                           "on it (study_area.hpp). Counter-clockwise; side i runs from corner i to\n"
                           "corner i + 1. Every method takes points (k, 2) (or (k, 3): z is ignored).")
         .def(py::init([](const py::handle& ring, py::object tolerance) {
-                 auto R = as_points(ring, "StudyArea", "ring", 2, 2);
+                 auto R = as_coordinates(ring, "StudyArea", "ring", 2, 2, 2);
                  const double tol = tolerance.is_none() ? -1.0 : tolerance.cast<double>();
                  if (!tolerance.is_none() && !(tol >= 0.0 && std::isfinite(tol)))
                      throw std::invalid_argument("StudyArea: tolerance must be a finite number >= 0");
@@ -37,7 +65,7 @@ void bind_study_area(py::module_& m) {
         .def(
             "contains",
             [](const StudyArea& a, const py::handle& points) {
-                auto P = as_points(points, "StudyArea.contains", "points", 2, 3);
+                auto P = as_coordinates(points, "StudyArea.contains", "points", 2, 3, 2);
                 const std::size_t n = static_cast<std::size_t>(P.shape(0)), st = static_cast<std::size_t>(P.shape(1));
                 py::array_t<bool> out(static_cast<py::ssize_t>(n));
                 auto o = out.mutable_unchecked<1>();
@@ -48,7 +76,7 @@ void bind_study_area(py::module_& m) {
         .def(
             "on_boundary",
             [](const StudyArea& a, const py::handle& points) {
-                auto P = as_points(points, "StudyArea.on_boundary", "points", 2, 3);
+                auto P = as_coordinates(points, "StudyArea.on_boundary", "points", 2, 3, 2);
                 const std::size_t n = static_cast<std::size_t>(P.shape(0)), st = static_cast<std::size_t>(P.shape(1));
                 py::array_t<bool> out(static_cast<py::ssize_t>(n));
                 auto o = out.mutable_unchecked<1>();
@@ -60,7 +88,7 @@ void bind_study_area(py::module_& m) {
         .def(
             "locate",
             [](const StudyArea& a, const py::handle& points) {
-                auto P = as_points(points, "StudyArea.locate", "points", 2, 3);
+                auto P = as_coordinates(points, "StudyArea.locate", "points", 2, 3, 2);
                 const std::size_t n = static_cast<std::size_t>(P.shape(0)), st = static_cast<std::size_t>(P.shape(1));
                 std::vector<std::int64_t> side(n, -1);
                 std::vector<double> s(n, std::numeric_limits<double>::quiet_NaN());
@@ -84,7 +112,7 @@ void bind_study_area(py::module_& m) {
         .def(
             "nearest",
             [](const StudyArea& a, const py::handle& points, double max_distance) {
-                auto P = as_points(points, "StudyArea.nearest", "points", 2, 3);
+                auto P = as_coordinates(points, "StudyArea.nearest", "points", 2, 3, 2);
                 if (!(max_distance >= 0.0))
                     throw std::invalid_argument("StudyArea.nearest: max_distance must be >= 0");
                 const std::size_t n = static_cast<std::size_t>(P.shape(0)), st = static_cast<std::size_t>(P.shape(1));
@@ -105,20 +133,11 @@ void bind_study_area(py::module_& m) {
         .def(
             "place",
             [](const StudyArea& a, const py::handle& side, const py::handle& s) {
-                auto S = IndexArray::ensure(side);
-                auto T = DoubleArray::ensure(s);
-                if (!S || !T || S.ndim() != 1 || T.ndim() != 1 || S.shape(0) != T.shape(0))
-                    throw std::invalid_argument("StudyArea.place: side and s must be 1-D arrays of one length");
-                const std::size_t n = static_cast<std::size_t>(S.shape(0));
+                const SidePositions p = as_side_positions(a, side, s, "StudyArea.place");
+                const std::size_t n = static_cast<std::size_t>(p.side.shape(0));
                 std::vector<double> out(2 * n);
-                for (std::size_t i = 0; i < n; ++i) {
-                    const std::int64_t k = S.data()[i];
-                    if (k < 0 || static_cast<std::size_t>(k) >= a.n_sides())
-                        throw std::invalid_argument("StudyArea.place: side[" + std::to_string(i) + "] = " +
-                                                    std::to_string(k) + " is not a side (0.." +
-                                                    std::to_string(a.n_sides() - 1) + ")");
-                    a.place(static_cast<std::size_t>(k), T.data()[i], out.data() + 2 * i);
-                }
+                for (std::size_t i = 0; i < n; ++i)
+                    a.place(static_cast<std::size_t>(p.side.data()[i]), p.s.data()[i], out.data() + 2 * i);
                 return to_numpy(std::move(out), 2);
             },
             py::arg("side"), py::arg("s"),
@@ -127,27 +146,19 @@ void bind_study_area(py::module_& m) {
         .def(
             "arc_position",
             [](const StudyArea& a, const py::handle& side, const py::handle& s) {
-                auto S = IndexArray::ensure(side);
-                auto T = DoubleArray::ensure(s);
-                if (!S || !T || S.ndim() != 1 || T.ndim() != 1 || S.shape(0) != T.shape(0))
-                    throw std::invalid_argument("StudyArea.arc_position: side and s must be 1-D arrays of one length");
-                const std::size_t n = static_cast<std::size_t>(S.shape(0));
+                const SidePositions p = as_side_positions(a, side, s, "StudyArea.arc_position");
+                const std::size_t n = static_cast<std::size_t>(p.side.shape(0));
                 std::vector<double> out(n);
-                for (std::size_t i = 0; i < n; ++i) {
-                    const std::int64_t k = S.data()[i];
-                    if (k < 0 || static_cast<std::size_t>(k) >= a.n_sides())
-                        throw std::invalid_argument("StudyArea.arc_position: side[" + std::to_string(i) +
-                                                    "] is not a side");
-                    out[i] = a.arc_position({static_cast<std::size_t>(k), T.data()[i]});
-                }
+                for (std::size_t i = 0; i < n; ++i)
+                    out[i] = a.arc_position({static_cast<std::size_t>(p.side.data()[i]), p.s.data()[i]});
                 return to_numpy(std::move(out));
             },
             py::arg("side"), py::arg("s"), "Arc position from corner 0, in [0, perimeter).")
         .def(
             "ray_hit",
             [](const StudyArea& a, const py::handle& points, const py::handle& directions) {
-                auto P = as_points(points, "StudyArea.ray_hit", "points", 2, 3);
-                auto D = as_points(directions, "StudyArea.ray_hit", "directions", 2, 3);
+                auto P = as_coordinates(points, "StudyArea.ray_hit", "points", 2, 3, 2);
+                auto D = as_coordinates(directions, "StudyArea.ray_hit", "directions", 2, 3, 2);
                 const std::size_t n = static_cast<std::size_t>(P.shape(0)), st = static_cast<std::size_t>(P.shape(1));
                 const std::size_t m = static_cast<std::size_t>(D.shape(0)), sd = static_cast<std::size_t>(D.shape(1));
                 if (m != n && m != 1)

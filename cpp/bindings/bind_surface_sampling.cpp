@@ -15,35 +15,36 @@ void bind_surface_sampling(py::module_& m) {
     m.def(
         "sample_surface",
         [](const py::handle& vertices, const py::handle& triangles, const py::handle& xy) {
-            auto V = as_points(vertices, "sample_surface", "vertices", 3, 3);
-            auto T = as_indices(triangles, "sample_surface", "triangles", 3);
+            // Private copies (common.hpp); x, y of the vertices within the coordinate limit.
+            auto V = as_coordinates(vertices, "sample_surface", "vertices", 3, 3, 2);
+            auto T = as_indices(triangles, "sample_surface", "triangles", 3, V.shape(0));
             auto P = as_points(xy, "sample_surface", "xy", 2, 2);
-            std::vector<double> v(V.data(), V.data() + V.size()), p(P.data(), P.data() + P.size());
-            std::vector<std::int64_t> t(T.data(), T.data() + T.size());
             SurfaceSamples s;
             {
                 py::gil_scoped_release release;
-                s = sample_surface(v.data(), v.size() / 3, t.data(), t.size() / 3, p.data(), p.size() / 2);
+                s = sample_surface(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
+                                   static_cast<std::size_t>(T.shape(0)), P.data(), static_cast<std::size_t>(P.shape(0)));
             }
             return samples_tuple(std::move(s));
         },
         py::arg("vertices"), py::arg("triangles"), py::arg("xy"),
         "Elevations of a TIN at points xy (k, 2): (z_low, z_high, hits). Where a reverse fault\n"
         "folds the surface several triangles cover a point: z_low/z_high are the lowest/highest\n"
-        "sheet; NaN and 0 hits where no triangle does. Containment and weights come from the exact\n"
-        "orient2d (surface_sampling.hpp).");
+        "sheet; NaN and 0 hits where no triangle does (and for a NaN/inf query or one beyond\n"
+        "1e60). Containment and weights come from the exact orient2d (surface_sampling.hpp).\n"
+        "Vertices: x, y finite within |c| <= 1e60, z finite; triangles: non-negative integer\n"
+        "indices below n (ValueError naming the argument and row otherwise).");
     m.def(
         "sample_surface_grid",
         [](const py::handle& vertices, const py::handle& triangles, std::pair<double, double> origin,
            std::pair<double, double> spacing, std::pair<std::size_t, std::size_t> shape) {
-            auto V = as_points(vertices, "sample_surface_grid", "vertices", 3, 3);
-            auto T = as_indices(triangles, "sample_surface_grid", "triangles", 3);
-            std::vector<double> v(V.data(), V.data() + V.size());
-            std::vector<std::int64_t> t(T.data(), T.data() + T.size());
+            auto V = as_coordinates(vertices, "sample_surface_grid", "vertices", 3, 3, 2);
+            auto T = as_indices(triangles, "sample_surface_grid", "triangles", 3, V.shape(0));
             SurfaceSamples s;
             {
                 py::gil_scoped_release release;
-                s = sample_surface_grid(v.data(), v.size() / 3, t.data(), t.size() / 3, origin.first, origin.second,
+                s = sample_surface_grid(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
+                                        static_cast<std::size_t>(T.shape(0)), origin.first, origin.second,
                                         spacing.first, spacing.second, shape.second, shape.first);
             }
             const py::ssize_t ny = static_cast<py::ssize_t>(shape.first), nx = static_cast<py::ssize_t>(shape.second);
@@ -53,7 +54,8 @@ void bind_surface_sampling(py::module_& m) {
         },
         py::arg("vertices"), py::arg("triangles"), py::arg("origin"), py::arg("spacing"), py::arg("shape"),
         "sample_surface on the grid of points origin + (i * spacing[0], j * spacing[1]) for\n"
-        "shape = (ny, nx): (z_low, z_high, hits), each (ny, nx) (row j, column i).");
+        "shape = (ny, nx): (z_low, z_high, hits), each (ny, nx) (row j, column i). Every grid\n"
+        "point must lie within the coordinate limit 1e60.");
 }
 
 }  // namespace faultmesh::bindings

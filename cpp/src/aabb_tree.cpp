@@ -71,7 +71,11 @@ AabbTree::AabbTree(const std::vector<Box2>& boxes) : AabbTree(boxes.data(), boxe
 AabbTree::AabbTree(const Box2* boxes, std::size_t n) {
     for (std::size_t i = 0; i < n; ++i) {
         const Box2& b = boxes[i];
-        // The negated comparisons are also true for NaN.
+        // Boxes are only compared, never put through a predicate: any
+        // ordered, non-NaN box is fine (+-1e300 included), the coordinate
+        // limit applies where the tree meets triangles (from_triangles,
+        // from_segments, exact queries). The negated comparisons are also
+        // true for NaN.
         if (!(b.xmin <= b.xmax) || !(b.ymin <= b.ymax))
             throw std::invalid_argument("AabbTree: box " + std::to_string(i) +
                                         " is empty or has a NaN coordinate (need xmin <= xmax, "
@@ -95,10 +99,9 @@ AabbTree from_elements(const char* fn, const double* xy, std::size_t n_vertices,
                                             " out of range [0, " + std::to_string(n_vertices) + ")");
             const double x = xy[stride * static_cast<std::size_t>(v)];
             const double y = xy[stride * static_cast<std::size_t>(v) + 1];
-            if (!std::isfinite(x) || !std::isfinite(y))
-                throw std::invalid_argument(std::string(fn) + ": vertex " + std::to_string(v) +
-                                            " (row " + std::to_string(t) +
-                                            ") has a non-finite coordinate");
+            if (!coordinate_in_range(x) || !coordinate_in_range(y))
+                throw_coordinate_error(fn, "vertices row " + std::to_string(v) + " (used by row " + std::to_string(t) + ")",
+                                       coordinate_in_range(x) ? 1 : 0, coordinate_in_range(x) ? y : x);
             b.xmin = std::min(b.xmin, x);
             b.xmax = std::max(b.xmax, x);
             b.ymin = std::min(b.ymin, y);
@@ -292,9 +295,24 @@ Csr AabbTree::query(const Box2* queries, std::size_t n_queries, bool sorted) con
     return query_filtered(queries, n_queries, [](std::size_t, std::int64_t) { return true; }, sorted);
 }
 
+namespace {
+// The box corners of exact queries enter orient2d: the coordinate limit
+// (predicates.hpp) applies to them.
+void check_query_boxes(const Box2* q, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) {
+        const double c[4] = {q[i].xmin, q[i].ymin, q[i].xmax, q[i].ymax};
+        for (int k = 0; k < 4; ++k)
+            if (!coordinate_in_range(c[k]))
+                throw_coordinate_error("AabbTree.query(exact=True)", "boxes row " + std::to_string(i), k % 2, c[k]);
+    }
+}
+}  // namespace
+
 Csr AabbTree::query_triangles_exact(const Box2* queries, std::size_t n_queries, const double* xy,
                                     std::size_t stride, const std::int64_t* triangles,
                                     bool sorted) const {
+    // The box corners enter orient2d: the coordinate limit applies to them.
+    check_query_boxes(queries, n_queries);
     return query_filtered(
         queries, n_queries,
         [&](std::size_t j, std::int64_t t) {
@@ -309,6 +327,7 @@ Csr AabbTree::query_triangles_exact(const Box2* queries, std::size_t n_queries, 
 Csr AabbTree::query_segments_exact(const Box2* queries, std::size_t n_queries, const double* xy,
                                    std::size_t stride, const std::int64_t* segments,
                                    bool sorted) const {
+    check_query_boxes(queries, n_queries);
     return query_filtered(
         queries, n_queries,
         [&](std::size_t j, std::int64_t s) {
@@ -329,9 +348,10 @@ void AabbTree::query_polygon(const double* ring_xy, const std::int64_t* ring_off
                                         "and non-decreasing (ring " + std::to_string(r) + ")");
         for (std::int64_t p = ring_offsets[r]; p < ring_offsets[r + 1]; ++p) {
             const double x = ring_xy[2 * p], y = ring_xy[2 * p + 1];
-            if (!std::isfinite(x) || !std::isfinite(y))
-                throw std::invalid_argument("AabbTree.query_polygon: ring point " +
-                                            std::to_string(p) + " is not finite");
+            if (!coordinate_in_range(x) || !coordinate_in_range(y))
+                throw_coordinate_error("AabbTree.query_polygon", "ring " + std::to_string(r) + " point " +
+                                                                     std::to_string(p - ring_offsets[r]),
+                                       coordinate_in_range(x) ? 1 : 0, coordinate_in_range(x) ? y : x);
             q.xmin = std::min(q.xmin, x);
             q.xmax = std::max(q.xmax, x);
             q.ymin = std::min(q.ymin, y);

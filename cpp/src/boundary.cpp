@@ -31,26 +31,64 @@ std::size_t check_triangles(const char* fn, const std::int64_t* tri, std::size_t
         for (std::size_t t = 0; t < m; ++t) {
             const std::int64_t a = tri[3 * t], b = tri[3 * t + 1], c = tri[3 * t + 2];
             if (a < 0 || b < 0 || c < 0)
-                throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
+                throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(t) +
                                             " has a negative vertex index");
             if (a == b || b == c || c == a)
-                throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
+                throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(t) +
                                             " repeats vertex " + std::to_string(a == b || a == c ? a : b));
         }
     }
     std::size_t n = n_vertices;
     if (n == 0) {
-        n = static_cast<std::size_t>(mx + 1);
+        n = static_cast<std::size_t>(mx) + 1;
     } else if (mx >= 0 && static_cast<std::size_t>(mx) >= n) {
         for (std::size_t t = 0; t < 3 * m; ++t)
             if (tri[t] == mx)
-                throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t / 3) +
+                throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(t / 3) +
                                             " has vertex index " + std::to_string(mx) + " out of range [0, " +
                                             std::to_string(n) + ")");
     }
-    if (n > (std::size_t{1} << 31) - 1)
-        throw std::invalid_argument(std::string(fn) + ": at most 2^31 - 1 vertices");
     return n;
+}
+
+// The vertex numbering the edge count works on. Its tables are O(vertices),
+// so a few huge indices (or a huge n_vertices) would allocate by the largest
+// index: when the range is far beyond the 3 m corners the triangles can use,
+// the used vertices are renumbered 0..k-1 in increasing order. The map is
+// monotone, so every output order (edges by smaller vertex, loops by start
+// vertex) is the same as with the original numbers, mapped back at the end.
+struct Numbering {
+    const std::int64_t* tri = nullptr;      // the triangles in this numbering
+    std::size_t n = 0;                      // its vertex count
+    std::vector<std::int64_t> compact_tri;  // owned triangles when renumbered
+    std::vector<std::int64_t> original;     // compact id -> input id (empty: identity)
+    std::int64_t input_id(std::int64_t v) const {
+        return original.empty() ? v : original[static_cast<std::size_t>(v)];
+    }
+    void to_input(std::vector<std::int64_t>& v) const {
+        if (!original.empty())
+            for (auto& x : v) x = original[static_cast<std::size_t>(x)];
+    }
+};
+
+Numbering numbering(const char* fn, const std::int64_t* tri, std::size_t m, std::size_t n_vertices) {
+    Numbering r;
+    r.tri = tri;
+    r.n = check_triangles(fn, tri, m, n_vertices);
+    // 1024: small meshes keep their numbering (no renumbering cost at all).
+    if (r.n > 3 * m + 1024) {
+        r.original.assign(tri, tri + 3 * m);
+        std::sort(r.original.begin(), r.original.end());
+        r.original.erase(std::unique(r.original.begin(), r.original.end()), r.original.end());
+        r.compact_tri.resize(3 * m);
+        for (std::size_t i = 0; i < 3 * m; ++i)
+            r.compact_tri[i] = std::lower_bound(r.original.begin(), r.original.end(), tri[i]) - r.original.begin();
+        r.tri = r.compact_tri.data();
+        r.n = r.original.size();
+    }
+    if (r.n > (std::size_t{1} << 31) - 1)
+        throw std::invalid_argument(std::string(fn) + ": at most 2^31 - 1 vertices");
+    return r;
 }
 
 // ------------------------------------------------------------ edge frequency
@@ -335,14 +373,17 @@ BoundaryContours assemble(const std::vector<std::int64_t>& seg, const PinchResol
 
 std::vector<std::int64_t> boundary_edges(const std::int64_t* triangles, std::size_t n_triangles,
                                          std::size_t n_vertices) {
-    const std::size_t n = detail::check_triangles("boundary_edges", triangles, n_triangles, n_vertices);
-    return detail::count_edges(triangles, n_triangles, n).boundary;
+    const detail::Numbering nb = detail::numbering("boundary_edges", triangles, n_triangles, n_vertices);
+    std::vector<std::int64_t> e = detail::count_edges(nb.tri, n_triangles, nb.n).boundary;
+    nb.to_input(e);
+    return e;
 }
 
 BoundaryContours boundary_contours(const std::int64_t* triangles, std::size_t n_triangles,
                                    std::size_t n_vertices) {
-    const std::size_t n =
-        detail::check_triangles("boundary_contours", triangles, n_triangles, n_vertices);
+    const detail::Numbering nb = detail::numbering("boundary_contours", triangles, n_triangles, n_vertices);
+    const std::size_t n = nb.n;
+    triangles = nb.tri;  // from here on in the (possibly compact) numbering
     detail::EdgeCount ec = detail::count_edges(triangles, n_triangles, n);
     const std::vector<std::int64_t>& seg = ec.boundary;
     const std::size_t k = seg.size() / 2;
@@ -412,6 +453,14 @@ BoundaryContours boundary_contours(const std::int64_t* triangles, std::size_t n_
     BoundaryContours res = detail::assemble(seg, resolve);
     res.nonmanifold_edges = std::move(ec.nonmanifold);
     res.inconsistent_edges = std::move(ec.inconsistent);
+    if (!nb.original.empty()) {
+        for (auto& l : res.loops) nb.to_input(l);
+        for (auto& c : res.open_chains) nb.to_input(c);
+        nb.to_input(res.pinch_vertices);
+        nb.to_input(res.nonmanifold_edges);
+        nb.to_input(res.inconsistent_edges);
+        nb.to_input(res.chain_break_vertices);
+    }
     return res;
 }
 
@@ -454,13 +503,13 @@ BoundaryContours sort_segments(const std::int64_t* segments, std::size_t n_segme
     std::int64_t mx = -1;
     for (std::size_t e = 0; e < 2 * n_segments; ++e) {
         if (segments[e] < 0)
-            throw std::invalid_argument("sort_segments: segment row " + std::to_string(e / 2) +
+            throw std::invalid_argument("sort_segments: segments row " + std::to_string(e / 2) +
                                         " has a negative vertex index");
         mx = std::max(mx, segments[e]);
     }
     std::size_t n = n_vertices;
     if (n == 0) {
-        n = static_cast<std::size_t>(mx + 1);
+        n = static_cast<std::size_t>(mx) + 1;
     } else if (mx >= 0 && static_cast<std::size_t>(mx) >= n) {
         throw std::invalid_argument("sort_segments: vertex index " + std::to_string(mx) +
                                     " out of range [0, " + std::to_string(n) + ")");

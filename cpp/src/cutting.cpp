@@ -17,6 +17,8 @@
 #include <utility>
 #include <vector>
 
+#include "linear_interpolation.hpp"
+
 namespace faultmesh {
 namespace detail {
 namespace {
@@ -84,11 +86,15 @@ public:
             if (contains(t, p)) best = t;
         });
         inside = best >= 0;
-        if (!inside) {
-            double d2 = 0.0;
-            best = nearest_boundary_triangle(p, d2);
-            inside = d2 <= tol * tol;
+        if (inside) {
+            // In the closed triangle: a convex combination of its z (exact
+            // predicates, see linear_interpolation.hpp).
+            return interpolate_in_triangle(v(best, 0), v(best, 1), v(best, 2), p, v(best, 0)[2], v(best, 1)[2],
+                                           v(best, 2)[2]);
         }
+        double d2 = 0.0;
+        best = nearest_boundary_triangle(p, d2);
+        inside = d2 <= tol * tol;
         return plane_z(best, p);
     }
 
@@ -97,8 +103,8 @@ private:
 
     bool contains(Index t, const double* p) const { return in_closed_triangle(p, v(t, 0), v(t, 1), v(t, 2)); }
 
-    // Linear interpolation (extrapolation outside) in the plane of triangle t,
-    // by barycentric weights from the three sub-areas.
+    // Linear extrapolation (p outside t) in the plane of triangle t, by
+    // barycentric weights from the three sub-areas.
     double plane_z(Index t, const double* p) const {
         const double* a = v(t, 0);
         const double* b = v(t, 1);
@@ -159,10 +165,11 @@ void check_input(const double* xyz, std::size_t n, const Index* tri, std::size_t
                 throw std::invalid_argument("cut_layer: " + std::string(tname) + " row " + std::to_string(t) +
                                             " has vertex index " + std::to_string(v) + " outside [0, " +
                                             std::to_string(n) + ")");
+            // z enters the side tests and the crossing points: all three are checked.
             const double* q = xyz + 3 * v;
-            if (!std::isfinite(q[0]) || !std::isfinite(q[1]) || !std::isfinite(q[2]))
-                throw std::invalid_argument("cut_layer: " + std::string(vname) + " row " + std::to_string(v) +
-                                            " is not finite");
+            for (int k = 0; k < 3; ++k)
+                if (!coordinate_in_range(q[k]))
+                    throw_coordinate_error("cut_layer", std::string(vname) + " row " + std::to_string(v), k, q[k]);
         }
 }
 

@@ -14,21 +14,9 @@
 namespace faultmesh {
 namespace detail {
 
-void check_finite_xy(const double* pts, std::size_t stride, std::size_t n, const char* fn) {
-    for (std::size_t i = 0; i < n; ++i) {
-        const double x = pts[i * stride], y = pts[i * stride + 1];
-        if (!(std::isfinite(x) && std::isfinite(y))) {
-            std::ostringstream msg;
-            msg << fn << ": point " << i << " has a non-finite coordinate (x=" << x << ", y=" << y << ")";
-            throw std::invalid_argument(msg.str());
-        }
-        if (std::fabs(x) > kMaxCoordinate || std::fabs(y) > kMaxCoordinate) {
-            std::ostringstream msg;
-            msg << fn << ": point " << i << " has a coordinate beyond +-" << kMaxCoordinate << " (x=" << x
-                << ", y=" << y << "); the exact in-circle test could overflow";
-            throw std::invalid_argument(msg.str());
-        }
-    }
+void check_finite_xy(const double* pts, std::size_t stride, std::size_t n, const char* fn,
+                     const char* what) {
+    check_coordinates(pts, n, stride, 2, fn, what);
 }
 
 namespace {
@@ -49,7 +37,7 @@ void build_core(DelaunayCore& core, const double* pts, std::size_t stride, std::
                 const char* fn, std::vector<std::uint32_t>& input_of_id,
                 std::vector<std::int32_t>& dup_of) {
     check_size(n, fn);
-    check_finite_xy(pts, stride, n, fn);
+    check_finite_xy(pts, stride, n, fn, stride == 3 ? "xyz" : "xy");
     if (n < 3) {
         std::ostringstream msg;
         msg << fn << ": need at least 3 distinct points, got " << n << " point" << (n == 1 ? "" : "s");

@@ -278,15 +278,11 @@ private:
     }
 };
 
-// The in-circle determinant is of degree 4 in the coordinates: with
-// |coordinate| <= 1e60 no product in the exact evaluation can overflow
-// (16 * 1e240 is far below 1.8e308), so the predicates stay exact.
-constexpr double kMaxCoordinate = 1e60;
-
-// Throws std::invalid_argument naming `fn` and the point if a coordinate of
-// one of the n points (stride doubles each, x and y first) is NaN, infinite or
-// beyond kMaxCoordinate in magnitude.
-void check_finite_xy(const double* pts, std::size_t stride, std::size_t n, const char* fn);
+// Throws std::invalid_argument naming `fn`, the argument `what` and the row if
+// a coordinate (x or y) of one of the n points (stride doubles each) is NaN,
+// infinite or beyond faultmesh::kMaxCoordinate (predicates.hpp).
+void check_finite_xy(const double* pts, std::size_t stride, std::size_t n, const char* fn,
+                     const char* what);
 
 // Largest number of points the 32-bit half-edge arrays can index (6 half-edges
 // per point must fit in int32).

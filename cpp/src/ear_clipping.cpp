@@ -59,7 +59,7 @@ Rings read_rings(const char* fn, const double* xy, std::size_t n_points, const I
                  const I64* ring_offsets, std::size_t n_rings) {
     if (n_rings > 0 && ring_offsets == nullptr)
         throw std::invalid_argument(std::string(fn) + ": ring_offsets is null");
-    if (n_rings > 0 && xy == nullptr)
+    if (n_rings > 0 && xy == nullptr && n_points > 0)
         throw std::invalid_argument(std::string(fn) + ": xy is null");
     if (n_points >= (std::size_t(1) << 31))
         throw std::invalid_argument(std::string(fn) + ": more than 2^31 points are not supported");
@@ -89,9 +89,10 @@ Rings read_rings(const char* fn, const double* xy, std::size_t n_points, const I
                                             std::to_string(i) + " out of range [0, " +
                                             std::to_string(n_points) + ")");
             const double x = xy[2 * i], y = xy[2 * i + 1];
-            if (!std::isfinite(x) || !std::isfinite(y))
-                throw std::invalid_argument(std::string(fn) + ": ring " + std::to_string(r) + " vertex " +
-                                            std::to_string(i) + " has a non-finite coordinate");
+            if (!coordinate_in_range(x) || !coordinate_in_range(y))
+                throw_coordinate_error(fn, "ring " + std::to_string(r) + " vertex " + std::to_string(k - b) +
+                                           " (point " + std::to_string(i) + ")",
+                                       coordinate_in_range(x) ? 1 : 0, coordinate_in_range(x) ? y : x);
             if (!ring.empty()) {
                 const I64 j = ring.back();
                 if (xy[2 * j] == x && xy[2 * j + 1] == y) continue;  // consecutive duplicate

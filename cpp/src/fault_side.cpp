@@ -148,14 +148,9 @@ FaultSideResult fault_side(const double* vertices, std::size_t n_vertices, const
                 throw std::invalid_argument("fault_side: triangles row " + std::to_string(t) + " has vertex index " +
                                             std::to_string(v) + " outside [0, " + std::to_string(n_vertices) + ")");
         }
-    for (std::size_t i = 0; i < n_vertices; ++i)
-        for (int k = 0; k < 3; ++k)
-            if (!std::isfinite(vertices[3 * i + k]))
-                throw std::invalid_argument("fault_side: vertices row " + std::to_string(i) + " is not finite");
-    for (std::size_t i = 0; i < n_points; ++i)
-        for (int k = 0; k < 3; ++k)
-            if (!std::isfinite(points[3 * i + k]))
-                throw std::invalid_argument("fault_side: points row " + std::to_string(i) + " is not finite");
+    // All three coordinates enter orient2d (projected) and orient3d.
+    check_coordinates(vertices, n_vertices, 3, 3, "fault_side", "vertices");
+    check_coordinates(points, n_points, 3, 3, "fault_side", "points");
     if (n_triangles == 0) throw GeometryError("fault_side: the fault surface has no triangle");
 
     const detail::ProjectedFault fault(vertices, n_vertices, triangles, n_triangles, axis);

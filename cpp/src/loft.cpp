@@ -1,6 +1,7 @@
 // Lofting between two polylines: FKU minimum-area DP and the greedy
 // shortest-diagonal rule.
 #include <faultmesh/loft.hpp>
+#include <faultmesh/predicates.hpp>
 
 #include <cmath>
 #include <limits>
@@ -32,9 +33,10 @@ std::vector<P3> read_points(const char* side, const double* p, std::size_t n, st
     for (std::size_t i = 0; i < n; ++i) {
         const double* q = p + stride * i;
         out[i] = {q[0], q[1], stride == 3 ? q[2] : 0.0};
-        if (!std::isfinite(out[i].x) || !std::isfinite(out[i].y) || !std::isfinite(out[i].z))
-            throw std::invalid_argument(std::string("loft: point ") + std::to_string(i) + " of " + side +
-                                        " is not finite");
+        // z enters the 3D areas and lengths too: all coordinates are checked.
+        const double c[3] = {out[i].x, out[i].y, out[i].z};
+        for (int k = 0; k < 3; ++k)
+            if (!coordinate_in_range(c[k])) throw_coordinate_error("loft", std::string(side) + " row " + std::to_string(i), k, c[k]);
     }
     return out;
 }

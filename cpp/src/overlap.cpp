@@ -64,9 +64,9 @@ Region::Region(const double* ring_xy, const std::int64_t* ring_offsets, std::siz
         std::vector<const double*> ring;
         for (std::int64_t i = b; i < e; ++i) {
             const double* p = ring_xy + 2 * i;
-            if (!std::isfinite(p[0]) || !std::isfinite(p[1]))
-                throw std::invalid_argument(std::string(kFn) + ": ring " + std::to_string(r) + " point " +
-                                            std::to_string(i - b) + " is not finite");
+            for (int k = 0; k < 2; ++k)
+                if (!coordinate_in_range(p[k]))
+                    throw_coordinate_error(kFn, "ring " + std::to_string(r) + " point " + std::to_string(i - b), k, p[k]);
             if (ring.empty() || !same_point(ring.back(), p)) ring.push_back(p);
         }
         while (ring.size() > 1 && same_point(ring.front(), ring.back())) ring.pop_back();
@@ -826,13 +826,10 @@ void check_mesh(const double* V, std::size_t n, std::size_t stride, const std::i
                 std::size_t m) {
     if (stride != 2 && stride != 3)
         throw std::invalid_argument(std::string(kFn) + ": vertices must have 2 or 3 columns");
-    for (std::size_t v = 0; v < n; ++v)
-        if (!std::isfinite(V[stride * v]) || !std::isfinite(V[stride * v + 1]))
-            throw std::invalid_argument(std::string(kFn) + ": vertex " + std::to_string(v) +
-                                        " has a non-finite x or y");
+    check_coordinates(V, n, stride, 2, kFn, "vertices");
     for (std::size_t t = 0; t < 3 * m; ++t)
         if (T[t] < 0 || static_cast<std::uint64_t>(T[t]) >= n)
-            throw std::invalid_argument(std::string(kFn) + ": triangle row " + std::to_string(t / 3) +
+            throw std::invalid_argument(std::string(kFn) + ": triangles row " + std::to_string(t / 3) +
                                         " has vertex index " + std::to_string(T[t]) +
                                         " out of range [0, " + std::to_string(n) + ")");
 }
@@ -924,6 +921,11 @@ std::vector<std::int64_t> overlapping_triangles(const AabbTree& tree, const doub
 
 bool triangle_overlaps_region(const double* a, const double* b, const double* c, const double* ring_xy,
                               const std::int64_t* ring_offsets, std::size_t n_rings) {
+    const double* abc[3] = {a, b, c};
+    for (int v = 0; v < 3; ++v)
+        for (int k = 0; k < 2; ++k)
+            if (!coordinate_in_range(abc[v][k]))
+                throw_coordinate_error("triangle_overlaps_region", std::string(1, "abc"[v]), k, abc[v][k]);
     const int s = orient2d_sign(a, b, c);
     if (s == 0) return false;
     if (s < 0) std::swap(b, c);

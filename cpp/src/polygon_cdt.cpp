@@ -27,20 +27,21 @@ struct Mesh {
 inline std::int64_t he_next(std::int64_t h) { return h - h % 3 + (h % 3 + 1) % 3; }
 inline std::int64_t he_prev(std::int64_t h) { return h - h % 3 + (h % 3 + 2) % 3; }
 
-void check_inputs(const char* fn, std::size_t n_points, const std::vector<std::int64_t>& triangles,
+void check_inputs(const char* fn, const double* xy, std::size_t n_points, const std::vector<std::int64_t>& triangles,
                   const std::int64_t* constrained_edges, std::size_t n_constrained) {
+    check_coordinates(xy, n_points, 2, 2, fn, "xy");
     if (n_points >= (std::size_t(1) << 32))
         throw std::invalid_argument(std::string(fn) + ": more than 2^32 points are not supported");
     if (triangles.size() % 3 != 0)
         throw std::invalid_argument(std::string(fn) + ": triangles must hold 3 indices per triangle");
     for (std::size_t i = 0; i < triangles.size(); ++i)
         if (triangles[i] < 0 || static_cast<std::size_t>(triangles[i]) >= n_points)
-            throw std::invalid_argument(std::string(fn) + ": triangle " + std::to_string(i / 3) +
+            throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(i / 3) +
                                         " has vertex index " + std::to_string(triangles[i]) +
                                         " out of range [0, " + std::to_string(n_points) + ")");
     for (std::size_t i = 0; i < 2 * n_constrained; ++i)
         if (constrained_edges[i] < 0 || static_cast<std::size_t>(constrained_edges[i]) >= n_points)
-            throw std::invalid_argument(std::string(fn) + ": constrained edge " + std::to_string(i / 2) +
+            throw std::invalid_argument(std::string(fn) + ": constrained_edges row " + std::to_string(i / 2) +
                                         " has vertex index " + std::to_string(constrained_edges[i]) +
                                         " out of range [0, " + std::to_string(n_points) + ")");
 }
@@ -91,7 +92,7 @@ std::size_t flip_to_constrained_delaunay(const double* xy, std::size_t n_points,
                                          std::vector<std::int64_t>& triangles,
                                          const std::int64_t* constrained_edges,
                                          std::size_t n_constrained) {
-    check_inputs("flip_to_constrained_delaunay", n_points, triangles, constrained_edges, n_constrained);
+    check_inputs("flip_to_constrained_delaunay", xy, n_points, triangles, constrained_edges, n_constrained);
     Mesh m{triangles, {}, {}};
     build_adjacency(m, constrained_edges, n_constrained);
     const std::int64_t nh = static_cast<std::int64_t>(triangles.size());
@@ -152,7 +153,7 @@ std::size_t count_non_delaunay_edges(const double* xy, std::size_t n_points,
                                      const std::vector<std::int64_t>& triangles,
                                      const std::int64_t* constrained_edges,
                                      std::size_t n_constrained) {
-    check_inputs("count_non_delaunay_edges", n_points, triangles, constrained_edges, n_constrained);
+    check_inputs("count_non_delaunay_edges", xy, n_points, triangles, constrained_edges, n_constrained);
     std::vector<std::int64_t> copy = triangles;
     Mesh m{copy, {}, {}};
     build_adjacency(m, constrained_edges, n_constrained);

@@ -12,6 +12,14 @@
 //             carried as two-term expansions.
 #include <faultmesh/predicates.hpp>
 
+#include <charconv>
+#include <cstdint>
+#include <initializer_list>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
 namespace faultmesh {
 namespace detail {
 namespace {
@@ -198,6 +206,196 @@ double incircle_exact(const double* pa, const double* pb, const double* pc, cons
     return deter[n - 1];
 }
 
+
+// ------------------------------------------------------------ exact integers
+// The fallback for inputs whose products may underflow (see predicates.hpp).
+// Every finite double is an integer multiple of 2^-1074, so X = x * 2^1074 is
+// an integer (below 2^2098); the determinants are evaluated on these
+// integers exactly (schoolbook arithmetic on 32-bit limbs: at most ~270 limbs
+// for the in-circle determinant, microseconds, and only reached by tiny
+// coordinates). Signed magnitude, little-endian limbs, no leading zero limb.
+struct BigInt {
+    bool neg = false;
+    std::vector<std::uint32_t> mag;
+};
+
+void trim(std::vector<std::uint32_t>& m) {
+    while (!m.empty() && m.back() == 0) m.pop_back();
+}
+
+int cmp_mag(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b) {
+    if (a.size() != b.size()) return a.size() < b.size() ? -1 : 1;
+    for (std::size_t i = a.size(); i-- > 0;)
+        if (a[i] != b[i]) return a[i] < b[i] ? -1 : 1;
+    return 0;
+}
+
+std::vector<std::uint32_t> add_mag(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b) {
+    const std::vector<std::uint32_t>& l = a.size() >= b.size() ? a : b;
+    const std::vector<std::uint32_t>& s = a.size() >= b.size() ? b : a;
+    std::vector<std::uint32_t> r(l.size() + 1);
+    std::uint64_t carry = 0;
+    for (std::size_t i = 0; i < l.size(); ++i) {
+        const std::uint64_t t = std::uint64_t{l[i]} + (i < s.size() ? s[i] : 0u) + carry;
+        r[i] = static_cast<std::uint32_t>(t);
+        carry = t >> 32;
+    }
+    r[l.size()] = static_cast<std::uint32_t>(carry);
+    trim(r);
+    return r;
+}
+
+// a - b for a >= b.
+std::vector<std::uint32_t> sub_mag(const std::vector<std::uint32_t>& a, const std::vector<std::uint32_t>& b) {
+    std::vector<std::uint32_t> r(a.size());
+    std::int64_t borrow = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        std::int64_t t = std::int64_t{a[i]} - (i < b.size() ? b[i] : 0u) - borrow;
+        borrow = t < 0;
+        if (t < 0) t += std::int64_t{1} << 32;
+        r[i] = static_cast<std::uint32_t>(t);
+    }
+    trim(r);
+    return r;
+}
+
+BigInt add(const BigInt& a, const BigInt& b) {
+    BigInt r;
+    if (a.neg == b.neg) {
+        r.mag = add_mag(a.mag, b.mag);
+        r.neg = a.neg;
+    } else if (cmp_mag(a.mag, b.mag) >= 0) {
+        r.mag = sub_mag(a.mag, b.mag);
+        r.neg = a.neg;
+    } else {
+        r.mag = sub_mag(b.mag, a.mag);
+        r.neg = b.neg;
+    }
+    if (r.mag.empty()) r.neg = false;
+    return r;
+}
+
+BigInt sub(const BigInt& a, BigInt b) {
+    b.neg = !b.neg && !b.mag.empty();
+    return add(a, b);
+}
+
+BigInt mul(const BigInt& a, const BigInt& b) {
+    BigInt r;
+    if (a.mag.empty() || b.mag.empty()) return r;
+    r.mag.assign(a.mag.size() + b.mag.size(), 0);
+    for (std::size_t i = 0; i < a.mag.size(); ++i) {
+        std::uint64_t carry = 0;
+        for (std::size_t j = 0; j < b.mag.size(); ++j) {
+            const std::uint64_t t = std::uint64_t{a.mag[i]} * b.mag[j] + r.mag[i + j] + carry;
+            r.mag[i + j] = static_cast<std::uint32_t>(t);
+            carry = t >> 32;
+        }
+        r.mag[i + b.mag.size()] = static_cast<std::uint32_t>(carry);
+    }
+    trim(r.mag);
+    r.neg = a.neg != b.neg;
+    return r;
+}
+
+// x * 2^1074, exactly (x finite).
+BigInt from_double(double x) {
+    BigInt r;
+    if (x == 0.0) return r;
+    int e = 0;
+    const double f = std::frexp(std::fabs(x), &e);  // |x| = f 2^e, f in [0.5, 1)
+    std::uint64_t mant = static_cast<std::uint64_t>(std::ldexp(f, 53));
+    int shift = e - 53 + 1074;
+    if (shift < 0) {  // subnormal: the low bits of mant are zero
+        mant >>= -shift;
+        shift = 0;
+    }
+    r.neg = x < 0.0;
+    const std::size_t limbs = static_cast<std::size_t>(shift) / 32;
+    const unsigned bits = static_cast<unsigned>(shift) % 32;
+    r.mag.assign(limbs + 3, 0);
+    // mant < 2^53 shifted by < 32 bits spans at most three limbs.
+    const std::uint64_t lo = mant << bits;                         // low 64 bits
+    const std::uint64_t hi = bits ? mant >> (64 - bits) : 0;       // the rest
+    r.mag[limbs] = static_cast<std::uint32_t>(lo);
+    r.mag[limbs + 1] = static_cast<std::uint32_t>(lo >> 32);
+    r.mag[limbs + 2] = static_cast<std::uint32_t>(hi);
+    trim(r.mag);
+    return r;
+}
+
+// The value b * 2^-scale rounded to a double (approximately: the top 64 bits),
+// never 0 for b != 0 (+-denorm_min then), +-inf beyond the double range.
+double to_double(const BigInt& b, int scale) {
+    if (b.mag.empty()) return 0.0;
+    const std::size_t n = b.mag.size();
+    int top_bits = 32;
+    while (!(b.mag[n - 1] >> (top_bits - 1))) --top_bits;
+    const long long length = 32LL * static_cast<long long>(n - 1) + top_bits;  // bit length
+    // The top (up to) 64 bits.
+    std::uint64_t top = 0;
+    const long long drop = length > 64 ? length - 64 : 0;
+    for (long long k = length - 1; k >= drop; --k)
+        top = (top << 1) | ((b.mag[static_cast<std::size_t>(k / 32)] >> (k % 32)) & 1u);
+    double v = std::ldexp(static_cast<double>(top), static_cast<int>(drop) - scale);
+    if (v == 0.0) v = std::numeric_limits<double>::denorm_min();
+    return b.neg ? -v : v;
+}
+
+double orient2d_exact_integer(const double* pa, const double* pb, const double* pc) {
+    const BigInt cx = from_double(pc[0]), cy = from_double(pc[1]);
+    const BigInt acx = sub(from_double(pa[0]), cx), bcy = sub(from_double(pb[1]), cy);
+    const BigInt acy = sub(from_double(pa[1]), cy), bcx = sub(from_double(pb[0]), cx);
+    return to_double(sub(mul(acx, bcy), mul(acy, bcx)), 2 * 1074);
+}
+
+double incircle_exact_integer(const double* pa, const double* pb, const double* pc, const double* pd) {
+    const BigInt dx = from_double(pd[0]), dy = from_double(pd[1]);
+    const BigInt adx = sub(from_double(pa[0]), dx), ady = sub(from_double(pa[1]), dy);
+    const BigInt bdx = sub(from_double(pb[0]), dx), bdy = sub(from_double(pb[1]), dy);
+    const BigInt cdx = sub(from_double(pc[0]), dx), cdy = sub(from_double(pc[1]), dy);
+    const BigInt alift = add(mul(adx, adx), mul(ady, ady));
+    const BigInt blift = add(mul(bdx, bdx), mul(bdy, bdy));
+    const BigInt clift = add(mul(cdx, cdx), mul(cdy, cdy));
+    const BigInt det = add(add(mul(alift, sub(mul(bdx, cdy), mul(cdx, bdy))),
+                               mul(blift, sub(mul(cdx, ady), mul(adx, cdy)))),
+                           mul(clift, sub(mul(adx, bdy), mul(bdx, ady))));
+    return to_double(det, 4 * 1074);
+}
+
+// A non-zero coordinate below `limit` in magnitude: products in the exact
+// stages may then be subnormal (see predicates.hpp). Branch-free: called on
+// every exactly-zero in-circle result (cocircular grid points).
+inline bool tiny(double v, double limit) { return (v != 0.0) & (std::fabs(v) < limit); }
+inline bool has_tiny(double limit, const double* a, const double* b, const double* c) {
+    return tiny(a[0], limit) | tiny(a[1], limit) | tiny(b[0], limit) | tiny(b[1], limit) | tiny(c[0], limit) |
+           tiny(c[1], limit);
+}
+inline bool has_tiny(double limit, const double* a, const double* b, const double* c, const double* d) {
+    return has_tiny(limit, a, b, c) | tiny(d[0], limit) | tiny(d[1], limit);
+}
+constexpr double kTinyOrient = 0x1p-400;    // 4 differences' quanta >= 2^-452: products >= 2^-904
+constexpr double kTinyIncircle = 0x1p-200;  // degree 4: products >= 2^-1008 > DBL_MIN = 2^-1022
+// An exact-stage result at least this large cannot have its sign changed by
+// the (at most a few hundred) underflows of 2^-1074 each.
+constexpr double kCertified = 0x1p-1000;
+
+bool finite_points(std::initializer_list<const double*> pts) {
+    for (const double* p : pts)
+        if (!std::isfinite(p[0]) || !std::isfinite(p[1])) return false;
+    return true;
+}
+
+double certify_orient2d(double r, const double* pa, const double* pb, const double* pc) {
+    if (r >= kCertified || -r >= kCertified || !has_tiny(kTinyOrient, pa, pb, pc)) return r;
+    return orient2d_exact_integer(pa, pb, pc);
+}
+
+double certify_incircle(double r, const double* pa, const double* pb, const double* pc, const double* pd) {
+    if (r >= kCertified || -r >= kCertified || !has_tiny(kTinyIncircle, pa, pb, pc, pd)) return r;
+    return incircle_exact_integer(pa, pb, pc, pd);
+}
+
 // ---- orient3d (kept in its own block) -------------------------------------
 constexpr double kO3dErrBoundB = (3.0 + 28.0 * kEpsilon) * kEpsilon;
 constexpr double kO3dErrBoundC = (26.0 + 288.0 * kEpsilon) * kEpsilon * kEpsilon;
@@ -265,6 +463,33 @@ double orient3d_exact(const double* pa, const double* pb, const double* pc, cons
     const int n = expansion_sum(abdl, abdet, cl, cdet, fin);
     return fin[n - 1];
 }
+
+// orient3d on the integers X = x * 2^1074 (see the exact-integer block above).
+double orient3d_exact_integer(const double* pa, const double* pb, const double* pc, const double* pd) {
+    const BigInt dx = from_double(pd[0]), dy = from_double(pd[1]), dz = from_double(pd[2]);
+    const BigInt adx = sub(from_double(pa[0]), dx), ady = sub(from_double(pa[1]), dy), adz = sub(from_double(pa[2]), dz);
+    const BigInt bdx = sub(from_double(pb[0]), dx), bdy = sub(from_double(pb[1]), dy), bdz = sub(from_double(pb[2]), dz);
+    const BigInt cdx = sub(from_double(pc[0]), dx), cdy = sub(from_double(pc[1]), dy), cdz = sub(from_double(pc[2]), dz);
+    const BigInt det = add(add(mul(adz, sub(mul(bdx, cdy), mul(cdx, bdy))), mul(bdz, sub(mul(cdx, ady), mul(adx, cdy)))),
+                           mul(cdz, sub(mul(adx, bdy), mul(bdx, ady))));
+    return to_double(det, 3 * 1074);
+}
+
+// Degree 3: with every non-zero coordinate >= 2^-280 the differences are
+// multiples of 2^-332 and every non-zero product of three in the exact stages
+// is >= 2^-996 > DBL_MIN = 2^-1022 (no underflow).
+constexpr double kTinyOrient3d = 0x1p-280;
+inline bool has_tiny3(double limit, const double* a, const double* b, const double* c, const double* d) {
+    bool t = false;
+    for (int k = 0; k < 3; ++k)
+        t |= tiny(a[k], limit) | tiny(b[k], limit) | tiny(c[k], limit) | tiny(d[k], limit);
+    return t;
+}
+
+double certify_orient3d(double r, const double* pa, const double* pb, const double* pc, const double* pd) {
+    if (r >= kCertified || -r >= kCertified || !has_tiny3(kTinyOrient3d, pa, pb, pc, pd)) return r;
+    return orient3d_exact_integer(pa, pb, pc, pd);
+}
 // ---------------------------------------------------------------------------
 
 }  // namespace
@@ -284,7 +509,8 @@ double orient2d_adapt(const double* pa, const double* pb, const double* pc, doub
     two_diff_tail(pb[0], pc[0], bcx, bcxtail);
     two_diff_tail(pa[1], pc[1], acy, acytail);
     two_diff_tail(pb[1], pc[1], bcy, bcytail);
-    if (acxtail == 0.0 && acytail == 0.0 && bcxtail == 0.0 && bcytail == 0.0) return det;
+    if (acxtail == 0.0 && acytail == 0.0 && bcxtail == 0.0 && bcytail == 0.0)
+        return certify_orient2d(det, pa, pb, pc);
 
     errbound = kCcwErrBoundC * detsum + kResultErrBound * std::fabs(det);
     det += (acx * bcytail + bcy * acxtail) - (acy * bcxtail + bcx * acytail);
@@ -297,7 +523,7 @@ double orient2d_adapt(const double* pa, const double* pb, const double* pc, doub
     const int c2l = expansion_sum(c1l, c1, 4, u, c2);
     cross_expansion(acxtail, bcytail, acytail, bcxtail, u);
     const int dl = expansion_sum(c2l, c2, 4, u, d);
-    return d[dl - 1];
+    return certify_orient2d(d[dl - 1], pa, pb, pc);
 }
 
 double incircle_adapt(const double* pa, const double* pb, const double* pc, const double* pd,
@@ -335,8 +561,59 @@ double incircle_adapt(const double* pa, const double* pb, const double* pc, cons
     }
     // With exact differences `fin` is the exact determinant; its most
     // significant component carries the sign.
-    if (exact_differences) return fin[fl - 1];
-    return incircle_exact(pa, pb, pc, pd);
+    if (exact_differences) return certify_incircle(fin[fl - 1], pa, pb, pc, pd);
+    return certify_incircle(incircle_exact(pa, pb, pc, pd), pa, pb, pc, pd);
+}
+
+double orient2d_small(const double* pa, const double* pb, const double* pc) {
+    const double detleft = (pa[0] - pc[0]) * (pb[1] - pc[1]);
+    const double detright = (pa[1] - pc[1]) * (pb[0] - pc[0]);
+    const double det = detleft - detright;
+    if (!finite_points({pa, pb, pc})) return det;  // NaN / inf in, NaN / inf out
+    if (has_tiny(kTinyOrient, pa, pb, pc)) return orient2d_exact_integer(pa, pb, pc);
+    // No product can have underflowed: the products are exact zeros or normal
+    // doubles, and Shewchuk's filter applies as it stands.
+    double detsum;
+    if (detleft > 0.0) {
+        if (detright <= 0.0) return det;
+        detsum = detleft + detright;
+    } else if (detleft < 0.0) {
+        if (detright >= 0.0) return det;
+        detsum = -detleft - detright;
+    } else {
+        return det;
+    }
+    const double errbound = kCcwErrBoundA * detsum;
+    if (det >= errbound || -det >= errbound) return det;
+    return orient2d_adapt(pa, pb, pc, detsum);
+}
+
+double incircle_small(const double* pa, const double* pb, const double* pc, const double* pd) {
+    if (!finite_points({pa, pb, pc, pd})) {
+        const double adx = pa[0] - pd[0], bdx = pb[0] - pd[0], cdx = pc[0] - pd[0];
+        const double ady = pa[1] - pd[1], bdy = pb[1] - pd[1], cdy = pc[1] - pd[1];
+        return (adx * adx + ady * ady) * (bdx * cdy - cdx * bdy) +
+               (bdx * bdx + bdy * bdy) * (cdx * ady - adx * cdy) +
+               (cdx * cdx + cdy * cdy) * (adx * bdy - bdx * ady);
+    }
+    if (has_tiny(kTinyIncircle, pa, pb, pc, pd)) return incircle_exact_integer(pa, pb, pc, pd);
+    // No underflow possible: the permanent is 0 (then so is the determinant,
+    // every product having a zero factor) or a normal double, and the adaptive
+    // stages are exact.
+    const double adx = pa[0] - pd[0], bdx = pb[0] - pd[0], cdx = pc[0] - pd[0];
+    const double ady = pa[1] - pd[1], bdy = pb[1] - pd[1], cdy = pc[1] - pd[1];
+    const double bdxcdy = bdx * cdy, cdxbdy = cdx * bdy;
+    const double cdxady = cdx * ady, adxcdy = adx * cdy;
+    const double adxbdy = adx * bdy, bdxady = bdx * ady;
+    const double alift = adx * adx + ady * ady, blift = bdx * bdx + bdy * bdy, clift = cdx * cdx + cdy * cdy;
+    const double det = alift * (bdxcdy - cdxbdy) + blift * (cdxady - adxcdy) + clift * (adxbdy - bdxady);
+    const double permanent = (std::fabs(bdxcdy) + std::fabs(cdxbdy)) * alift +
+                             (std::fabs(cdxady) + std::fabs(adxcdy)) * blift +
+                             (std::fabs(adxbdy) + std::fabs(bdxady)) * clift;
+    if (permanent == 0.0) return 0.0;
+    const double errbound = kIccErrBoundA * permanent;
+    if (det > errbound || -det > errbound) return det;
+    return incircle_adapt(pa, pb, pc, pd, permanent);
 }
 
 double orient3d_adapt(const double* pa, const double* pb, const double* pc, const double* pd,
@@ -374,7 +651,7 @@ double orient3d_adapt(const double* pa, const double* pb, const double* pc, cons
     // Exact differences: `fin` is the exact determinant.
     if (adxtail == 0.0 && bdxtail == 0.0 && cdxtail == 0.0 && adytail == 0.0 && bdytail == 0.0 &&
         cdytail == 0.0 && adztail == 0.0 && bdztail == 0.0 && cdztail == 0.0)
-        return fin[fl - 1];
+        return certify_orient3d(fin[fl - 1], pa, pb, pc, pd);
 
     // Stage C: first-order correction by the differences' rounding errors.
     errbound = kO3dErrBoundC * permanent + kResultErrBound * std::fabs(det);
@@ -385,7 +662,31 @@ double orient3d_adapt(const double* pa, const double* pb, const double* pc, cons
            (cdz * ((adx * bdytail + bdy * adxtail) - (ady * bdxtail + bdx * adytail)) +
             cdztail * (adx * bdy - ady * bdx));
     if (det >= errbound || -det >= errbound) return det;
-    return orient3d_exact(pa, pb, pc, pd);
+    return certify_orient3d(orient3d_exact(pa, pb, pc, pd), pa, pb, pc, pd);
+}
+
+double orient3d_small(const double* pa, const double* pb, const double* pc, const double* pd) {
+    const double adx = pa[0] - pd[0], bdx = pb[0] - pd[0], cdx = pc[0] - pd[0];
+    const double ady = pa[1] - pd[1], bdy = pb[1] - pd[1], cdy = pc[1] - pd[1];
+    const double adz = pa[2] - pd[2], bdz = pb[2] - pd[2], cdz = pc[2] - pd[2];
+    const double bdxcdy = bdx * cdy, cdxbdy = cdx * bdy;
+    const double cdxady = cdx * ady, adxcdy = adx * cdy;
+    const double adxbdy = adx * bdy, bdxady = bdx * ady;
+    const double det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
+    bool finite = true;
+    for (const double* p : {pa, pb, pc, pd}) finite = finite && std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
+    if (!finite) return det;  // NaN / inf in, NaN / inf out
+    if (has_tiny3(kTinyOrient3d, pa, pb, pc, pd)) return orient3d_exact_integer(pa, pb, pc, pd);
+    // No product can have underflowed: the permanent is 0 (then so is the
+    // determinant, every product having a zero factor) or a normal double,
+    // and the adaptive stages are exact.
+    const double permanent = (std::fabs(bdxcdy) + std::fabs(cdxbdy)) * std::fabs(adz) +
+                             (std::fabs(cdxady) + std::fabs(adxcdy)) * std::fabs(bdz) +
+                             (std::fabs(adxbdy) + std::fabs(bdxady)) * std::fabs(cdz);
+    if (permanent == 0.0) return 0.0;
+    const double errbound = kO3dErrBoundA * permanent;
+    if (det > errbound || -det > errbound) return det;
+    return orient3d_adapt(pa, pb, pc, pd, permanent);
 }
 
 int incircle_perturbed_tie(const double* pa, const double* pb, const double* pc, const double* pd) {
@@ -410,4 +711,38 @@ int incircle_perturbed_tie(const double* pa, const double* pb, const double* pc,
 }
 
 }  // namespace detail
+
+[[noreturn]] void throw_coordinate_error(const std::string& fn, const std::string& where, int axis,
+                                         double value) {
+    static const char* const kAxis[] = {"x", "y", "z"};
+    // The shortest text that reads back as the same double.
+    char buf[32];
+    const auto res = std::to_chars(buf, buf + sizeof buf, value);
+    const std::string v(buf, res.ptr);
+    const char* ax = kAxis[axis < 0 || axis > 2 ? 0 : axis];
+    std::ostringstream msg;
+    msg << fn << ": " << where;
+    if (!std::isfinite(value))
+        msg << " has a non-finite coordinate (" << ax << " = " << v << ")";
+    else
+        msg << " has a coordinate beyond +-" << kMaxCoordinate << " (" << ax << " = " << v
+            << "): the coordinate limit faultmesh::kMaxCoordinate, within which the exact predicates "
+            << "cannot overflow";
+    throw std::invalid_argument(msg.str());
+}
+
+void check_coordinates(const double* points, std::size_t n, std::size_t stride, std::size_t dims,
+                       const char* fn, const char* what) {
+    // The common case (all in range) is one pass with a single accumulated flag.
+    bool ok = true;
+    for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t k = 0; k < dims; ++k) ok &= coordinate_in_range(points[i * stride + k]);
+    if (ok) return;
+    for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t k = 0; k < dims; ++k)
+            if (!coordinate_in_range(points[i * stride + k]))
+                throw_coordinate_error(fn, std::string(what) + " row " + std::to_string(i),
+                                       static_cast<int>(k), points[i * stride + k]);
+}
+
 }  // namespace faultmesh

@@ -92,13 +92,14 @@ LayerStitcher::LayerStitcher(const double* vertices, std::size_t n_vertices,
         const std::int64_t* r = &s.tri[3 * t];
         for (int k = 0; k < 3; ++k)
             if (r[k] < 0 || static_cast<std::size_t>(r[k]) >= n_vertices)
-                throw std::invalid_argument(fn + ": triangle row " + std::to_string(t) + " has vertex index " +
+                throw std::invalid_argument(fn + ": triangles row " + std::to_string(t) + " has vertex index " +
                                             std::to_string(r[k]) + " outside [0, " +
                                             std::to_string(n_vertices) + ")");
     }
+    // x and y within the coordinate limit of predicates.hpp; z only finite.
     for (std::size_t i = 0; i < 3 * n_vertices; ++i)
-        if (!std::isfinite(s.xyz[i]))
-            throw std::invalid_argument(fn + ": vertex " + std::to_string(i / 3) + " has a non-finite coordinate");
+        if (i % 3 == 2 ? !std::isfinite(s.xyz[i]) : !coordinate_in_range(s.xyz[i]))
+            throw_coordinate_error(fn, "vertices row " + std::to_string(i / 3), static_cast<int>(i % 3), s.xyz[i]);
     s.adj.reserve(3 * (n_triangles + spare_t));
     if (halfedges) {
         s.adj.assign(halfedges, halfedges + 3 * n_triangles);
@@ -146,6 +147,8 @@ LayerStitcher::LayerStitcher(const double* vertices, std::size_t n_vertices,
 
     std::vector<double> bpts;
     if (boundary_xy && n_boundary) {
+        // Named here as the stitcher's argument (StudyArea checks it too).
+        check_coordinates(boundary_xy, n_boundary, 2, 2, fn.c_str(), "boundary");
         bpts.assign(boundary_xy, boundary_xy + 2 * n_boundary);
     } else {
         // The mesh's own outer boundary: the boundary loop of largest area.
@@ -199,19 +202,43 @@ StitchReport LayerStitcher::stitch(const double* pv, std::size_t npv, const std:
     const std::string fn = "stitch: layer '" + s.name + "', patch '" + patch_name + "'";
     if (npt == 0) throw std::invalid_argument(fn + ": the patch has no triangles");
     if (pv == nullptr || pt == nullptr) throw std::invalid_argument(fn + ": null array");
+    // All three coordinates: z enters the degeneracy test below.
     for (std::size_t i = 0; i < 3 * npv; ++i)
-        if (!std::isfinite(pv[i]))
-            throw std::invalid_argument(fn + ": patch vertex " + std::to_string(i / 3) +
-                                        " has a non-finite coordinate");
+        if (!coordinate_in_range(pv[i]))
+            throw_coordinate_error(fn, "patch_vertices row " + std::to_string(i / 3), static_cast<int>(i % 3), pv[i]);
     std::vector<std::int64_t> ptri(pt, pt + 3 * npt);
     for (std::size_t t = 0; t < npt; ++t)
         for (int k = 0; k < 3; ++k) {
             const std::int64_t i = ptri[3 * t + k];
             if (i < 0 || static_cast<std::size_t>(i) >= npv)
-                throw std::invalid_argument(fn + ": patch triangle row " + std::to_string(t) +
+                throw std::invalid_argument(fn + ": patch_triangles row " + std::to_string(t) +
                                             " has vertex index " + std::to_string(i) + " outside [0, " +
                                             std::to_string(npv) + ")");
+            // Checked here so that the message names the patch (the outline
+            // extraction below would report it as boundary_contours').
+            if (i == ptri[3 * t + (k + 1) % 3])
+                throw std::invalid_argument(fn + ": patch_triangles row " + std::to_string(t) + " repeats vertex " +
+                                            std::to_string(i));
         }
+    auto P = [&](std::int64_t i) { return pv + 3 * i; };
+    // A triangle whose vertices are collinear in 3D would end up in the layer
+    // as a zero-area triangle (fuzzing: a tip point on the line of its trace).
+    // Exact: the 3D cross product vanishes iff its three components -- the
+    // orientations of the xy, yz and zx projections -- are all zero.
+    for (std::size_t t = 0; t < npt; ++t) {
+        const double* a = P(ptri[3 * t]);
+        const double* b = P(ptri[3 * t + 1]);
+        const double* c = P(ptri[3 * t + 2]);
+        bool flat = orient2d(a, b, c) == 0.0;
+        for (int k = 1; flat && k < 3; ++k) {
+            const double pa[2] = {a[k], a[(k + 1) % 3]}, pb[2] = {b[k], b[(k + 1) % 3]}, pc[2] = {c[k], c[(k + 1) % 3]};
+            flat = orient2d(pa, pb, pc) == 0.0;
+        }
+        if (flat)
+            throw GeometryError(fn + ": patch_triangles row " + std::to_string(t) +
+                                " is degenerate (its vertices are collinear in 3D)");
+    }
+
     detail::StitchJob job(s, pv, npv, std::move(ptri), patch_name);
     detail::outline_patch(s, job);       // 1. outline
     detail::find_overlap(s, job);        // 2. overlap
@@ -285,8 +312,9 @@ std::vector<std::int64_t> triangles_touching_region(const double* vertices, std:
             throw std::invalid_argument(std::string(fn) + ": ring_offsets must be non-decreasing");
     const std::size_t np = static_cast<std::size_t>(ring_offsets[n_rings]);
     std::vector<double> xy(ring_xy, ring_xy + 2 * np);
-    for (double v : xy)
-        if (!std::isfinite(v)) throw std::invalid_argument(std::string(fn) + ": a ring coordinate is not finite");
+    for (std::size_t i = 0; i < xy.size(); ++i)
+        if (!coordinate_in_range(xy[i]))
+            throw_coordinate_error(fn, "ring point " + std::to_string(i / 2), static_cast<int>(i % 2), xy[i]);
     std::vector<std::int64_t> off(ring_offsets, ring_offsets + n_rings + 1);
     const detail::Region region(xy.data(), off.data(), n_rings);
     std::vector<std::int64_t> out;
@@ -294,15 +322,17 @@ std::vector<std::int64_t> triangles_touching_region(const double* vertices, std:
         const std::int64_t* r = triangles + 3 * t;
         for (int k = 0; k < 3; ++k)
             if (r[k] < 0 || static_cast<std::size_t>(r[k]) >= n_vertices)
-                throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
+                throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(t) +
                                             " has vertex index " + std::to_string(r[k]) + " outside [0, " +
                                             std::to_string(n_vertices) + ")");
         const double* a = vertices + stride * static_cast<std::size_t>(r[0]);
         const double* b = vertices + stride * static_cast<std::size_t>(r[1]);
         const double* c = vertices + stride * static_cast<std::size_t>(r[2]);
-        if (!std::isfinite(a[0] + a[1] + b[0] + b[1] + c[0] + c[1]))
-            throw std::invalid_argument(std::string(fn) + ": triangle row " + std::to_string(t) +
-                                        " has a non-finite vertex");
+        for (const double* p : {a, b, c})
+            for (int k = 0; k < 2; ++k)
+                if (!coordinate_in_range(p[k]))
+                    throw_coordinate_error(fn, "vertices row " + std::to_string((p - vertices) / static_cast<std::ptrdiff_t>(stride)) +
+                                               " (used by triangles row " + std::to_string(t) + ")", k, p[k]);
         if (region.meets_closed_triangle(a, b, c)) out.push_back(static_cast<std::int64_t>(t));
     }
     return out;

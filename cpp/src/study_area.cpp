@@ -18,14 +18,13 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 StudyArea::StudyArea(const double* pts, std::size_t k, double tolerance) {
     if (pts == nullptr && k) throw std::invalid_argument("StudyArea: null boundary array");
+    // The coordinate limit of predicates.hpp: the corners enter orient2d.
+    check_coordinates(pts, k, 2, 2, "StudyArea", "boundary");
     // Drop consecutive repeats and a repeated closing point.
     std::vector<double> q;
     q.reserve(2 * k);
     for (std::size_t i = 0; i < k; ++i) {
         const double x = pts[2 * i], y = pts[2 * i + 1];
-        if (!std::isfinite(x) || !std::isfinite(y))
-            throw std::invalid_argument("StudyArea: boundary point " + std::to_string(i) +
-                                        " has a non-finite coordinate");
         if (!q.empty() && q[q.size() - 2] == x && q[q.size() - 1] == y) continue;
         q.push_back(x);
         q.push_back(y);

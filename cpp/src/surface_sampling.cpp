@@ -9,6 +9,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "linear_interpolation.hpp"
+
 namespace faultmesh {
 
 namespace {
@@ -30,19 +32,14 @@ void check_mesh(const char* fn, const double* V, std::size_t nv, const std::int6
         }
 }
 
-// z of p in triangle (a, b, c) with orientation o (= orient2d(a, b, c) != 0),
-// or false if p is outside the closed triangle.
-bool z_in_triangle(const double* p, const double* a, const double* b, const double* c, double o, double& z) {
-    double wa = orient2d(p, b, c), wb = orient2d(a, p, c), wc = orient2d(a, b, p);
-    if (o < 0.0) wa = -wa, wb = -wb, wc = -wc;
-    if (wa < 0.0 || wb < 0.0 || wc < 0.0) return false;
-    const double s = wa + wb + wc;
-    // Exact zeros give the corner's (or the edge's) own value; the weights of
-    // a point inside are positive, so z stays within the corners' range.
-    z = (wa * a[2] + wb * b[2] + wc * c[2]) / s;
-    const double lo = std::min(a[2], std::min(b[2], c[2])), hi = std::max(a[2], std::max(b[2], c[2]));
-    z = std::min(std::max(z, lo), hi);
-    return true;
+// z of p in the non-degenerate triangle (a, b, c), or false if p is outside
+// the closed triangle: the one linear interpolation of tin.cpp and cutting.cpp
+// (linear_interpolation.hpp: exact containment and weights, a convex
+// combination -- a corner's own z at a corner, an edge's two vertices on it,
+// never outside the corners' range).
+bool z_in_triangle(const double* p, const double* a, const double* b, const double* c, double& z) {
+    z = detail::interpolate_in_triangle(a, b, c, p, a[2], b[2], c[2]);
+    return z == z;  // the z are finite (check_mesh): NaN means outside
 }
 
 void add(SurfaceSamples& s, std::size_t i, double z) {
@@ -68,7 +65,9 @@ SurfaceSamples sample_surface(const double* V, std::size_t nv, const std::int64_
     const Csr hits = tree.query(q.data(), n, /*sorted=*/false);
     for (std::size_t i = 0; i < n; ++i) {
         const double* p = xy + 2 * i;
-        if (!std::isfinite(p[0]) || !std::isfinite(p[1])) continue;
+        // A query beyond the coordinate limit (or NaN / inf) lies outside
+        // every triangle (as for Tin.interpolate): NaN, 0 hits.
+        if (!coordinate_in_range(p[0]) || !coordinate_in_range(p[1])) continue;
         for (std::int64_t j = hits.offsets[i]; j < hits.offsets[i + 1]; ++j) {
             const std::size_t t = static_cast<std::size_t>(hits.indices[static_cast<std::size_t>(j)]);
             const double* a = V + 3 * T[3 * t];
@@ -76,7 +75,7 @@ SurfaceSamples sample_surface(const double* V, std::size_t nv, const std::int64_
             const double* c = V + 3 * T[3 * t + 2];
             const double o = orient2d(a, b, c);
             double z;
-            if (o != 0.0 && z_in_triangle(p, a, b, c, o, z)) add(s, i, z);
+            if (o != 0.0 && z_in_triangle(p, a, b, c, z)) add(s, i, z);
         }
     }
     return s;
@@ -88,6 +87,14 @@ SurfaceSamples sample_surface_grid(const double* V, std::size_t nv, const std::i
     if (!(hx > 0.0) || !(hy > 0.0) || !std::isfinite(hx) || !std::isfinite(hy) || !std::isfinite(x0) ||
         !std::isfinite(y0))
         throw std::invalid_argument("sample_surface_grid: the grid needs a finite origin and spacings > 0");
+    // Every grid point within the coordinate limit of predicates.hpp.
+    const double far[2] = {x0 + static_cast<double>(nx ? nx - 1 : 0) * hx, y0 + static_cast<double>(ny ? ny - 1 : 0) * hy};
+    for (int k = 0; k < 2; ++k) {
+        if (!coordinate_in_range(k ? y0 : x0)) throw_coordinate_error("sample_surface_grid", "origin", k, k ? y0 : x0);
+        if (!coordinate_in_range(far[k]))
+            throw_coordinate_error("sample_surface_grid", "the grid's last point (origin + (shape - 1) * spacing)", k,
+                                   far[k]);
+    }
     const std::size_t n = nx * ny;
     SurfaceSamples s{std::vector<double>(n, kNaN), std::vector<double>(n, kNaN), std::vector<std::int32_t>(n, 0)};
     auto first = [](double lo, double o, double h, std::size_t cnt) {
@@ -115,7 +122,7 @@ SurfaceSamples sample_surface_grid(const double* V, std::size_t nv, const std::i
             for (long i = i0; i <= i1; ++i) {
                 const double p[2] = {x0 + static_cast<double>(i) * hx, y0 + static_cast<double>(j) * hy};
                 double z;
-                if (z_in_triangle(p, a, b, c, o, z)) add(s, static_cast<std::size_t>(j) * nx + static_cast<std::size_t>(i), z);
+                if (z_in_triangle(p, a, b, c, z)) add(s, static_cast<std::size_t>(j) * nx + static_cast<std::size_t>(i), z);
             }
     }
     return s;

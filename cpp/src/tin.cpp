@@ -12,6 +12,7 @@
 #include <string>
 
 #include "delaunay_core.hpp"
+#include "linear_interpolation.hpp"
 #include "spatial_sort.hpp"
 
 namespace faultmesh {
@@ -140,7 +141,7 @@ struct TinImpl {
     std::int32_t locate_slot(double x, double y, std::int32_t& start) const {
         // Non-finite queries and those beyond the vertices' coordinate range
         // (where orient2d could overflow) are outside the hull.
-        if (!(std::fabs(x) <= kMaxCoordinate && std::fabs(y) <= kMaxCoordinate)) return -1;
+        if (!(coordinate_in_range(x) && coordinate_in_range(y))) return -1;
         const double p[2] = {x, y};
         const std::int32_t t = core.locate(p, start);
         if (core.is_ghost(t)) {
@@ -199,7 +200,7 @@ Tin& Tin::operator=(const Tin& o) {
 
 std::vector<std::int64_t> Tin::insert(const double* xyz, std::size_t n) {
     detail::TinImpl& T = *impl_;
-    detail::check_finite_xy(xyz, 3, n, "Tin.insert");
+    detail::check_finite_xy(xyz, 3, n, "Tin.insert", "xyz");
     if (n == 0) return {};
     const std::size_t first = T.core.xy.size() / 2;
     std::vector<std::uint32_t> input_of_id;
@@ -280,19 +281,9 @@ std::vector<double> Tin::interpolate(const double* xy, std::size_t n) const {
         const double* a = T.core.pt(v[0]);
         const double* b = T.core.pt(v[1]);
         const double* c = T.core.pt(v[2]);
-        const double za = T.z_of_id[v[0]], zb = T.z_of_id[v[1]], zc = T.z_of_id[v[2]];
-        const double qx = p[0] - a[0], qy = p[1] - a[1];
-        const double bx = b[0] - a[0], by = b[1] - a[1];
-        const double cx = c[0] - a[0], cy = c[1] - a[1];
-        // Barycentric weights relative to a (coordinates near 1e6 lose
-        // nothing to cancellation this way). At a vertex the weights are
-        // exactly (1, 0, 0) in some order -- the numerators repeat the
-        // denominator's own products -- so a vertex gets its z exactly.
-        const double d = bx * cy - by * cx;
-        const double wb = (qx * cy - qy * cx) / d;
-        const double wc = (bx * qy - by * qx) / d;
-        const double wa = 1.0 - wb - wc;
-        out[i] = wa * za + wb * zb + wc * zc;
+        // The located triangle contains p (closed, exact predicates): a convex
+        // combination of its vertices' z, see linear_interpolation.hpp.
+        out[i] = detail::interpolate_in_triangle(a, b, c, p, T.z_of_id[v[0]], T.z_of_id[v[1]], T.z_of_id[v[2]]);
     });
     return out;
 }

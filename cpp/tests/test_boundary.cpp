@@ -189,3 +189,24 @@ TEST(SortSegments, Algorithm1HeadAndTailInsertion) {
     for (auto& l : c.loops) edges += l.size();
     EXPECT_EQ(edges, 6u);
 }
+
+// Regression (issue 10): tables were sized by the largest index, so one
+// triangle (0, 1, 2^31 - 2) allocated gigabytes (bad_alloc). Indices far
+// beyond the triangle count are renumbered internally, the output is the same.
+TEST(Boundary, HugeIndicesAreRenumberedNotAllocated) {
+    for (std::int64_t big : {std::int64_t{2147483646}, std::int64_t{1} << 40, std::int64_t{1} << 62}) {
+        const std::vector<std::int64_t> t = {0, 1, big};
+        const auto loops = faultmesh::boundary_loops(t.data(), 1);
+        ASSERT_EQ(loops.size(), 1u);
+        EXPECT_EQ(loops[0], (Loop{0, 1, big}));
+        EXPECT_EQ(faultmesh::boundary_edges(t.data(), 1), (std::vector<std::int64_t>{0, 1, big, 0, 1, big}));  // grouped by smaller vertex
+        // With n_vertices the range check still names the row.
+        EXPECT_EQ(faultmesh::boundary_loops(t.data(), 1, static_cast<std::size_t>(big) + 1).size(), 1u);
+        EXPECT_THROW(faultmesh::boundary_loops(t.data(), 1, 3), std::invalid_argument);
+    }
+    // A pinch (two triangles sharing vertex 5e15): reported under its own number.
+    const std::vector<std::int64_t> pinch = {0, 1, 5000000000000000, 5000000000000000, 7, 8};
+    const BoundaryContours c = faultmesh::boundary_contours(pinch.data(), 2);
+    EXPECT_EQ(c.pinch_vertices, (std::vector<std::int64_t>{5000000000000000}));
+    EXPECT_EQ(c.loops.size(), 2u);
+}

@@ -332,7 +332,7 @@ TEST(Delaunay, ErrorsNameTheProblem) {
         run(bad);
         FAIL();
     } catch (const std::invalid_argument& e) {
-        EXPECT_NE(std::string(e.what()).find("point 3"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("xy row 3"), std::string::npos) << e.what();
     }
     bad[7] = std::numeric_limits<double>::infinity();
     EXPECT_THROW(run(bad), std::invalid_argument);
@@ -341,7 +341,7 @@ TEST(Delaunay, ErrorsNameTheProblem) {
         run(bad);
         FAIL();
     } catch (const std::invalid_argument& e) {
-        EXPECT_NE(std::string(e.what()).find("point 3 has a coordinate beyond"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("delaunay: xy row 3 has a coordinate beyond"), std::string::npos) << e.what();
     }
     bad[7] = -1e60;  // the largest accepted magnitude
     check_valid(bad, run(bad));

@@ -523,3 +523,23 @@ TEST(EarClipping, SplitOnSmallPolygonsKeepsCounts) {
     EXPECT_GE(valid, 50);
     EXPECT_GE(split, valid * 3 / 4);  // a split diagonal is found on most of them
 }
+
+// Regression (issue 10): no coordinate range check (triangles outside the
+// polygon at 1e155); an all-empty ring list said "xy is null".
+TEST(EarClipping, CoordinateLimitAndEmptyRings) {
+    std::vector<double> xy = {0, 0, 1, 0, 1, 1, 0, 1e155};
+    const std::vector<std::int64_t> off = {0, 4};
+    try {
+        fm::triangulate_polygon(xy.data(), off.data(), 1);
+        FAIL();
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("triangulate_polygon: ring 0 vertex 3 (point 3) has a coordinate "
+                                             "beyond +-1e+60"),
+                  std::string::npos)
+            << e.what();
+    }
+    EXPECT_THROW(fm::check_polygon(xy.data(), 4, nullptr, off.data(), 1), std::invalid_argument);
+    const std::vector<std::int64_t> empty = {0, 0};
+    EXPECT_TRUE(fm::triangulate_polygon(nullptr, empty.data(), 1).empty());
+    EXPECT_FALSE(fm::check_polygon(nullptr, 0, nullptr, empty.data(), 1).valid);
+}

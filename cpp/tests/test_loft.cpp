@@ -171,3 +171,19 @@ TEST(Loft, BadInput) {
     const double nan[] = {0, std::numeric_limits<double>::quiet_NaN(), 0};
     EXPECT_THROW(faultmesh::loft(a, 1, nan, 1, 3), std::invalid_argument);
 }
+
+// Regression (issue 10): at 1e100 the 3D areas overflow and loft returned no
+// triangles; the coordinate limit of predicates.hpp is checked on entry, z too.
+TEST(Loft, CoordinatesBeyondTheLimitAreRejected) {
+    std::vector<double> a = {0, 0, 0, 1, 0, 0, 2, 0, 0}, b = {0, 1, 1, 1, 1, 1, 2, 1, 1};
+    EXPECT_EQ(faultmesh::loft(a.data(), 3, b.data(), 3, 3).size(), 12u);
+    b[5] = 1e100;
+    try {
+        faultmesh::loft(a.data(), 3, b.data(), 3, 3);
+        FAIL();
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("loft: b row 1 has a coordinate beyond +-1e+60 (z = 1e+100)"),
+                  std::string::npos)
+            << e.what();
+    }
+}

@@ -75,3 +75,47 @@ TEST(Orient3d, ValueApproximatesSixTimesVolume) {
     const double a[3] = {0, 0, 0}, b[3] = {1, 0, 0}, c[3] = {0, 1, 0}, d[3] = {0, 0, -3};
     EXPECT_DOUBLE_EQ(orient3d(a, b, c, d), 3.0);
 }
+
+// Tiny coordinates: every product of three differences underflows (s = 1e-200:
+// s^3 is far below the smallest subnormal), so the float stages see 0; the
+// exact-integer fallback decides (as for orient2d / incircle). A one-ulp lift
+// of a coplanar point at scale 2^-1000 keeps its sign too.
+TEST(Orient3d, TinyCoordinatesKeepExactSigns) {
+    for (const double s : {1e-120, 1e-200, 2.0e-300, 4.9406564584124654e-324}) {
+        const double a[3] = {s, 0, 0}, b[3] = {0, s, 0}, c[3] = {0, 0, 0};
+        const double below[3] = {0, 0, -s}, above[3] = {0, 0, s}, on[3] = {s, -s, 0};
+        EXPECT_EQ(orient3d_sign(a, b, c, below), 1) << s;
+        EXPECT_EQ(orient3d_sign(a, b, c, above), -1) << s;
+        EXPECT_EQ(orient3d_sign(a, b, c, on), 0) << s;
+        EXPECT_NE(orient3d(a, b, c, below), 0.0) << s;
+    }
+    const double u = std::ldexp(1.0, -1000);
+    const double a[3] = {0, 0, u}, b[3] = {u, 0, u}, c[3] = {0, u, u};
+    const double d[3] = {u / 4, u / 4, std::nextafter(u, 0.0)};  // just below the plane z = u
+    EXPECT_EQ(orient3d_sign(a, b, c, d), 1);
+}
+
+// Small integers times tiny scales (products of three differences underflow
+// or lose bits) against the determinant in 64-bit integers.
+TEST(Orient3d, TinyScaledIntegerPointsMatchIntegerDeterminant) {
+    std::mt19937_64 rng(11);
+    std::uniform_int_distribution<long long> U(-9, 9);
+    for (double scale : {0x1p-1070, 0x1p-700, 0x1p-400, 0x1p-300, 0x1p-250}) {
+        for (int t = 0; t < 3000; ++t) {
+            long long P[4][3];
+            double D[4][3];
+            for (int i = 0; i < 4; ++i)
+                for (int k = 0; k < 3; ++k) {
+                    P[i][k] = U(rng);
+                    D[i][k] = static_cast<double>(P[i][k]) * scale;
+                }
+            long long r[3][3];
+            for (int i = 0; i < 3; ++i)
+                for (int k = 0; k < 3; ++k) r[i][k] = P[i][k] - P[3][k];
+            const long long det = r[0][2] * (r[1][0] * r[2][1] - r[2][0] * r[1][1]) +
+                                  r[1][2] * (r[2][0] * r[0][1] - r[0][0] * r[2][1]) +
+                                  r[2][2] * (r[0][0] * r[1][1] - r[1][0] * r[0][1]);
+            ASSERT_EQ(orient3d_sign(D[0], D[1], D[2], D[3]), (det > 0) - (det < 0)) << scale;
+        }
+    }
+}

@@ -269,6 +269,9 @@ struct Steps {
     std::unique_ptr<fd::StitchJob> job(const Mesh& P, const std::string& name = "P") {
         return std::make_unique<fd::StitchJob>(s, P.v.data(), P.v.size() / 3, P.t, name);
     }
+    // A job keeps pointers into the patch's vertices: the patch must outlive it.
+    std::unique_ptr<fd::StitchJob> job(Mesh&&, const std::string& = "P") = delete;
+    std::unique_ptr<fd::StitchJob> run(Mesh&&, int, const std::string& = "P") = delete;
     // Runs the steps up to and including `last` (1 outline ... 6 link).
     std::unique_ptr<fd::StitchJob> run(const Mesh& P, int last, const std::string& name = "P") {
         auto j = job(P, name);
@@ -343,7 +346,8 @@ TEST(StitchSteps, OutlineOrientsThePatchAndFindsItsLoops) {
 
 TEST(StitchSteps, OutlineClassifiesEdgesOnTheStudyBoundary) {
     Steps f(grid_tin());
-    auto j = f.run(boundary_patch(), 1);
+    const Mesh B = boundary_patch();
+    auto j = f.run(B, 1);
     int on_side = 0;
     for (const auto& e : j->outline) {
         if (!e.study) continue;
@@ -375,7 +379,8 @@ TEST(StitchSteps, OverlapIsTheClosedContactSet) {
     EXPECT_LT(j->report.n_candidates, static_cast<std::int64_t>(L.t.size() / 3));
     // An earlier patch touching R is an error of this step.
     f.st.stitch(P.v.data(), P.v.size() / 3, P.t.data(), P.t.size() / 3, "A");
-    EXPECT_THROW(f.run(reverse_patch(35.0, 45.0, 65.0), 2, "B"), GeometryError);
+    const Mesh B = reverse_patch(35.0, 45.0, 65.0);
+    EXPECT_THROW(f.run(B, 2, "B"), GeometryError);
 }
 
 TEST(StitchSteps, GrowthMakesADiskAroundTheOutline) {
@@ -383,8 +388,9 @@ TEST(StitchSteps, GrowthMakesADiskAroundTheOutline) {
         faultmesh::StitchOptions opt;
         opt.clearance = clearance;
         Steps f(grid_tin(), opt);
-        auto seeds = f.members(*f.run(reverse_patch(), 2));
-        auto j = f.run(reverse_patch(), 3);
+        const Mesh P = reverse_patch();
+        auto seeds = f.members(*f.run(P, 2));
+        auto j = f.run(P, 3);
         const auto& D = j->report.removed;
         EXPECT_TRUE(std::is_sorted(D.begin(), D.end()));
         EXPECT_TRUE(std::includes(D.begin(), D.end(), seeds.begin(), seeds.end()));
@@ -427,7 +433,8 @@ TEST(StitchSteps, GrowthSwallowsAnEarlierGapWholeAndKeepsItsPatch) {
 TEST(StitchSteps, ContoursGiveOuterRingsWithTheirHoles) {
     {
         Steps f(grid_tin());
-        auto j = f.run(reverse_patch(), 4);
+        const Mesh P = reverse_patch();
+        auto j = f.run(P, 4);
         ASSERT_EQ(j->rings.size(), 2u);
         ASSERT_EQ(j->outers.size(), 1u);
         const std::size_t o = j->outers[0];
@@ -441,7 +448,8 @@ TEST(StitchSteps, ContoursGiveOuterRingsWithTheirHoles) {
     }
     {
         Steps f(grid_tin());
-        auto j = f.run(boundary_patch(), 4);
+        const Mesh B = boundary_patch();
+        auto j = f.run(B, 4);
         ASSERT_EQ(j->outers.size(), 1u);
         EXPECT_TRUE(j->holes_of[j->outers[0]].empty());
         EXPECT_FALSE(j->study_keys.empty());  // closed along the study-area boundary

@@ -208,7 +208,7 @@ TEST(Tin, ErrorsAndAtomicInsert) {
         tin.insert(bad.data(), 2);
         FAIL();
     } catch (const std::invalid_argument& e) {
-        EXPECT_NE(std::string(e.what()).find("Tin.insert: point 1"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("Tin.insert: xyz row 1"), std::string::npos) << e.what();
     }
     EXPECT_EQ(tin.n_vertices(), 3u) << "nothing inserted on error";
     // NaN z is allowed (only XY must be finite): a layer may lack a value.

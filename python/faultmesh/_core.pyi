@@ -54,7 +54,7 @@ class Tin:
     def __init__(self, xyz: typing.Any) -> None:
         """
         Builds the TIN of the points xyz (n, 3). Raises ValueError for a wrong shape or
-        a NaN/inf x or y (naming the row), faultmesh.GeometryError for fewer than 3
+        a NaN/inf x or y or one beyond 1e60 (naming the row), faultmesh.GeometryError for fewer than 3
         distinct XY points or all collinear.
         """
     def __len__(self) -> int:
@@ -65,18 +65,20 @@ class Tin:
         """
         Inserts the points xyz (k, 3) into the TIN; returns int64 (k,): the vertex each
         row maps to (a new vertex, or the existing vertex with the same XY, whose z is
-        kept). Raises ValueError for NaN/inf before changing anything.
+        kept). Raises ValueError for NaN/inf (or beyond 1e60) before changing anything.
         """
     def interpolate(self, xy: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
         """
         z at each point xy (k, 2) (z ignored if (k, 3)) by linear interpolation in the
-        containing triangle; NaN outside the convex hull. float64 (k,). A query equal to
-        a vertex gets that vertex's z exactly.
+        containing triangle; NaN outside the convex hull. float64 (k,). Containment and
+        weights come from the exact predicates: z is a convex combination of the triangle's
+        z (a query equal to a vertex gets that vertex's z exactly, one on an edge depends
+        on the edge's two vertices only).
         """
     def locate(self, xy: typing.Any) -> numpy.typing.NDArray[numpy.int64]:
         """
         Index of a triangle containing each point xy (k, 2) (z ignored if (k, 3));
-        -1 outside the convex hull or for a NaN/inf query. int64 (k,).
+        -1 outside the convex hull or for a NaN/inf query or one beyond 1e60. int64 (k,).
         """
     def set_z(self, vertices: typing.Any, z: typing.Any) -> None:
         """
@@ -586,7 +588,7 @@ def delaunay(xy: typing.Any, return_info: bool = False) -> typing.Any:
     equal to CGAL's Delaunay_triangulation_2. With return_info=True returns a
     DelaunayInfo (triangles, halfedges, vertex_of_input, n_duplicates).
     
-    Raises ValueError for a wrong shape or a NaN/inf coordinate (naming the row),
+    Raises ValueError for a wrong shape or a NaN/inf coordinate or one beyond 1e60 (naming the row),
     faultmesh.GeometryError for fewer than 3 distinct points or all collinear.
     """
 def fault_side(vertices: typing.Any, triangles: typing.Any, points: typing.Any, *, axis: typing.SupportsInt | typing.SupportsIndex = 2, hanging_sign: typing.SupportsInt | typing.SupportsIndex = 1, extent: typing.Any = None) -> tuple[numpy.typing.NDArray[numpy.int8], numpy.typing.NDArray[numpy.int8], numpy.typing.NDArray[numpy.int64], typing.Any]:
@@ -613,7 +615,8 @@ def flip_to_constrained_delaunay(xy: typing.Any, triangles: typing.Any, constrai
 def incircle(a: typing.Any, b: typing.Any, c: typing.Any, d: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
     """
     Exact in-circle test per row: > 0 if d is inside the circle through the
-    counter-clockwise a, b, c; < 0 outside; exactly 0 cocircular.
+    counter-clockwise a, b, c; < 0 outside; exactly 0 cocircular. Coordinates must be
+    finite with |c| <= 1e60 (ValueError naming the argument and row otherwise).
     """
 def join_holes(rings: typing.Any, bridge: str = 'extreme') -> tuple[numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.int64]]:
     """
@@ -641,14 +644,18 @@ def orient2d(a: typing.Any, b: typing.Any, c: typing.Any) -> numpy.typing.NDArra
     """
     Exact orientation of each row triple (a, b, c), arrays (n, 2): > 0 counter-clockwise,
     < 0 clockwise, exactly 0 collinear. The value approximates twice the signed area;
-    its sign is always exact.
+    its sign is always exact (a non-zero value below the smallest subnormal is returned as
+    +-5e-324). Coordinates must be finite with |c| <= 1e60 (ValueError naming the
+    argument and row otherwise); there is no lower limit.
     """
 def orient3d(a: typing.Any, b: typing.Any, c: typing.Any, d: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
     """
     Exact orientation of each row quadruple (a, b, c, d), arrays (n, 3): > 0 if d lies
     below the plane through a, b, c (a, b, c counter-clockwise seen from above, +z),
     < 0 above, exactly 0 coplanar (Shewchuk's convention). The value approximates six
-    times the signed volume; its sign is always exact.
+    times the signed volume; its sign is always exact (a non-zero value below the smallest
+    subnormal is returned as +-5e-324). Coordinates must be finite with |c| <= 1e60
+    (ValueError naming the argument and row otherwise); there is no lower limit.
     """
 def overlapping_triangles(vertices: typing.Any, triangles: typing.Any, rings: typing.Any, grow_to_disk: bool = False, allow_mesh_boundary: bool = False, tree: typing.Any = None) -> numpy.typing.NDArray[numpy.int64]:
     """
@@ -674,13 +681,16 @@ def sample_surface(vertices: typing.Any, triangles: typing.Any, xy: typing.Any) 
     """
     Elevations of a TIN at points xy (k, 2): (z_low, z_high, hits). Where a reverse fault
     folds the surface several triangles cover a point: z_low/z_high are the lowest/highest
-    sheet; NaN and 0 hits where no triangle does. Containment and weights come from the exact
-    orient2d (surface_sampling.hpp).
+    sheet; NaN and 0 hits where no triangle does (and for a NaN/inf query or one beyond
+    1e60). Containment and weights come from the exact orient2d (surface_sampling.hpp).
+    Vertices: x, y finite within |c| <= 1e60, z finite; triangles: non-negative integer
+    indices below n (ValueError naming the argument and row otherwise).
     """
 def sample_surface_grid(vertices: typing.Any, triangles: typing.Any, origin: tuple[typing.SupportsFloat | typing.SupportsIndex, typing.SupportsFloat | typing.SupportsIndex], spacing: tuple[typing.SupportsFloat | typing.SupportsIndex, typing.SupportsFloat | typing.SupportsIndex], shape: tuple[typing.SupportsInt | typing.SupportsIndex, typing.SupportsInt | typing.SupportsIndex]) -> tuple[typing.Any, typing.Any, typing.Any]:
     """
     sample_surface on the grid of points origin + (i * spacing[0], j * spacing[1]) for
-    shape = (ny, nx): (z_low, z_high, hits), each (ny, nx) (row j, column i).
+    shape = (ny, nx): (z_low, z_high, hits), each (ny, nx) (row j, column i). Every grid
+    point must lie within the coordinate limit 1e60.
     """
 def sort_segments(segments: typing.Any, *, n_vertices: typing.Any = None) -> BoundaryContours:
     """
@@ -707,7 +717,7 @@ def triangulate_polygon(rings: typing.Any, refine: bool = True, order: str = 'qu
     """
     Triangulate a polygon with holes by ear clipping.
     
-    rings: list of (k, 2) arrays, the outer ring first, then the holes (any orientation;
+    rings: list of (k, 2) arrays, the outer ring first (at least 3 rows), then the holes (any orientation;
     a closing point equal to the first and consecutive duplicates are ignored).
     Returns (m, 3) int64 triangles, counter-clockwise, indexing the rings' points
     concatenated. A valid polygon with n vertices and h holes gives n + 2h - 2 triangles.

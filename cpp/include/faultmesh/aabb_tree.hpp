@@ -56,7 +56,10 @@ public:
     AabbTree() = default;
 
     // Tree over arbitrary boxes (n of them). Throws std::invalid_argument if a
-    // box has a NaN coordinate or xmin > xmax / ymin > ymax.
+    // box has a NaN coordinate or xmin > xmax / ymin > ymax. Boxes are only
+    // compared, so any other box (even +-inf) is fine: the coordinate limit of
+    // predicates.hpp applies where the tree meets geometry (from_triangles,
+    // from_segments, the exact queries).
     explicit AabbTree(const std::vector<Box2>& boxes);
     AabbTree(const Box2* boxes, std::size_t n);
 
@@ -64,7 +67,10 @@ public:
     // (2 each). `xy` holds n_vertices points with `stride` doubles per point
     // (2 for (x, y), 3 for (x, y, z)); only x and y are used. Throws
     // std::invalid_argument naming the row if an index is out of range or a
-    // used coordinate is not finite.
+    // used coordinate is outside the range of predicates.hpp. The tree keeps
+    // boxes only: the exact queries below read xy and the indices again, so
+    // the caller must keep those arrays alive and unchanged (the Python
+    // AabbTree keeps its own copies).
     static AabbTree from_triangles(const double* xy, std::size_t n_vertices, std::size_t stride,
                                    const std::int64_t* triangles, std::size_t n_triangles);
     static AabbTree from_segments(const double* xy, std::size_t n_vertices, std::size_t stride,
@@ -107,8 +113,9 @@ public:
                        bool sorted = true) const;
 
     // Batched exact queries over triangles (3 indices per triangle, the same
-    // arrays the tree was built from): the triangles that themselves meet
-    // each closed query box, by triangle_meets_box.
+    // arrays the tree was built from, unchanged): the triangles that
+    // themselves meet each closed query box, by triangle_meets_box. The query
+    // boxes must lie within the coordinate limit (std::invalid_argument).
     Csr query_triangles_exact(const Box2* queries, std::size_t n_queries, const double* xy,
                               std::size_t stride, const std::int64_t* triangles,
                               bool sorted = true) const;

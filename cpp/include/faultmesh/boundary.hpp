@@ -46,7 +46,10 @@ namespace faultmesh {
 // triangle order, except around vertices with more than 32 incident
 // half-edges, whose edges come by increasing other vertex).
 // n_vertices == 0 means "max index + 1". Throws std::invalid_argument for a
-// negative (or >= n_vertices) index, naming the row.
+// negative (or >= n_vertices) index, naming the row. Memory is O(triangles +
+// vertices used), never O(largest index): when the index range (or
+// n_vertices) is far beyond the 3 m corners, the used vertices are
+// renumbered internally (monotonically, so the output is the same).
 std::vector<std::int64_t> boundary_edges(const std::int64_t* triangles, std::size_t n_triangles,
                                          std::size_t n_vertices = 0);
 

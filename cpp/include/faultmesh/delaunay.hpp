@@ -38,13 +38,13 @@ struct DelaunayResult {
 
 // Delaunay triangulation of n points given interleaved as x0, y0, x1, y1, ...
 // Throws std::invalid_argument if a coordinate is NaN, infinite or beyond
-// +-1e60 (where the exact predicates could overflow), naming the point's
-// index, or if n is beyond the supported size (3e8 points), and
-// faultmesh::GeometryError if there are fewer than 3 distinct points or all
-// points are collinear. With with_halfedges = false the halfedges vector is
-// left empty (saves time and memory when only the triangles are needed).
-// (The exact predicates assume no underflow either: points whose coordinate
-// differences are non-zero but below about 1e-70 are outside their range.)
+// faultmesh::kMaxCoordinate = 1e60 (predicates.hpp: where the exact
+// predicates could overflow), naming the row, or if n is beyond the supported
+// size (3e8 points), and faultmesh::GeometryError if there are fewer than 3
+// distinct points or all points are collinear. With with_halfedges = false
+// the halfedges vector is left empty (saves time and memory when only the
+// triangles are needed). There is no lower limit: tiny coordinates are
+// decided exactly too (predicates.hpp, underflow side).
 DelaunayResult delaunay(const double* xy, std::size_t n, bool with_halfedges = true);
 
 }  // namespace faultmesh

@@ -41,7 +41,8 @@ struct TinImpl;
 class Tin {
 public:
     // n points interleaved as x0, y0, z0, x1, y1, z1, ... Throws
-    // std::invalid_argument for a NaN/inf x or y (naming the point) and
+    // std::invalid_argument for a NaN/inf x or y or one beyond kMaxCoordinate
+    // (predicates.hpp; naming the row) and
     // GeometryError for fewer than 3 distinct points or all-collinear XY.
     Tin(const double* xyz, std::size_t n);
     ~Tin();
@@ -84,7 +85,12 @@ public:
     // Hilbert order internally, results are in input order.
     std::vector<std::int64_t> locate(const double* xy, std::size_t n) const;
     // z at n points (x, y interleaved) by linear interpolation in the containing
-    // triangle; NaN outside the convex hull (and for NaN queries).
+    // triangle; NaN outside the convex hull (and for NaN queries or queries
+    // beyond kMaxCoordinate). Containment and weights come from the exact
+    // predicates (the three orient2d values normalised by their sum): z is a
+    // convex combination, exact at a vertex, on an edge from the edge's two
+    // vertices only, never outside the triangle's z range, never NaN from the
+    // geometry (a NaN z of a contributing vertex gives NaN).
     std::vector<double> interpolate(const double* xy, std::size_t n) const;
 
 private:
