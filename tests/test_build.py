@@ -568,3 +568,35 @@ def test_cutoff_lines_run_from_cutoff_to_cutoff(kind):
                 ca, cb = a.layers[lay][side][k], b.layers[lay][side][k]
                 assert tuple(sorted((vid(ca), vid(cb)))) in E, (lay, side)
         assert trace_cutoffs(f.traces[0], lay) is not None
+
+
+def test_reverse_fault_polyline_carried_past_the_band_stops_at_the_study_area():
+    # A reverse fault's hanging-wall polyline that stops inside the repetition
+    # band is carried on along the section to one band width beyond it; next
+    # to the study-area boundary that point left the area (1.6 m beyond it in
+    # grounds seed 10) and the stitcher rejected the patch. It now stops on
+    # the boundary, and a polyline ending on the boundary is not carried.
+    from faultmesh import StudyArea
+    from faultmesh.dataset import Trace
+    from faultmesh.faults import trace_polyline
+
+    area = StudyArea(np.array([[0.0, 0.0], [88.0, 0.0], [88.0, 100.0], [0.0, 100.0]]))
+    foot = np.array([[40.0, 50.0, -10.0], [60.0, 50.0, -12.0], [80.0, 50.0, -14.0]])
+    plane = np.array([[80.0, 50.0, 0.0], [70.0, 50.0, -40.0]])
+    # Footwall cutoff at x = 80, hanging-wall cutoff 10 m behind it at x = 70
+    # (the band), hanging wall drawn to x = 85, inside the reach of one band
+    # width past the fold (x = 90); the study area ends at x = 88.
+    hang = np.array([[70.0, 50.0, -30.0], [85.0, 50.0, -31.0]])
+    tr = Trace("s", plane, {"L": {"foot": foot, "hanging": hang}})
+    free, _ = trace_polyline(tr, "L")
+    assert free[-1, 0] == pytest.approx(90.0)  # without the area: one band width past the fold
+    poly, _ = trace_polyline(tr, "L", area)
+    assert len(poly) == len(free) == 6
+    assert area.contains(poly[:, :2]).all()
+    assert poly[-1, 0] == 88.0 and area.on_boundary(poly[-1:, :2])[0]
+    assert poly[-1, 2] == pytest.approx(-31.0 - 3.0 / 15.0)  # along the last segment's slope
+    np.testing.assert_array_equal(poly[:-1], free[:-1])
+    on = Trace("s", plane, {"L": {"foot": foot, "hanging": np.array([[70.0, 50.0, -30.0],
+                                                                     [88.0, 50.0, -31.0]])}})
+    poly, _ = trace_polyline(on, "L", area)
+    assert len(poly) == 5 and poly[-1, 0] == 88.0  # on the boundary already: not carried

@@ -270,3 +270,15 @@ def assert_holds(out):
     if out["coverage_min"] is not None:
         assert out["coverage_min"] >= gr.COVERAGE_THRESHOLD, what
     assert out["ok"], what
+
+
+# Seeds of the 500-seed sweep that failed with "patch vertex N lies outside
+# the study area": a reverse fault's polyline carried past its repetition
+# band (faults._reach_past_the_band) left the study area next to its
+# boundary (seed 10: 1.6 m beyond it). 74 and 314 have a crossing pair.
+PATCH_INSIDE_SEEDS = [10, 224, 279, 312, 393, 425, 74, 314]
+
+
+@pytest.mark.parametrize("seed", PATCH_INSIDE_SEEDS)
+def test_reverse_fault_near_the_boundary_builds(seed, tmp_path_factory):
+    assert_holds(outcome(seed, tmp_path_factory))

@@ -115,23 +115,27 @@ def _merge_tol(p: np.ndarray) -> float:
     return 1e-9 * max(1.0, ext)
 
 
-def trace_polyline(trace, layer: str) -> Optional[Tuple[np.ndarray, float]]:
+def trace_polyline(trace, layer: str, area: Optional[StudyArea] = None
+                   ) -> Optional[Tuple[np.ndarray, float]]:
     """(polyline (k, 3), throw distance) of ``layer`` on ``trace``: footwall
     -> strip (plane points strictly between the cutoffs) -> hanging wall,
     consecutive coincident points merged. None if the trace lacks the layer.
-    :func:`trace_cutoffs` gives the cutoffs' positions in the polyline."""
-    r = _trace_polyline(trace, layer)
+    :func:`trace_cutoffs` gives the cutoffs' positions in the polyline.
+    ``area``: the study area (a polyline carried past a reverse fault's
+    band stops on its boundary, as in :func:`layer_patch`)."""
+    r = _trace_polyline(trace, layer, area)
     return None if r is None else (r[0], r[1])
 
 
-def trace_cutoffs(trace, layer: str) -> Optional[Tuple[int, int]]:
+def trace_cutoffs(trace, layer: str, area: Optional[StudyArea] = None) -> Optional[Tuple[int, int]]:
     """Indices in :func:`trace_polyline` of the footwall and the hanging-wall
     cutoff (equal for a zero-throw trace)."""
-    r = _trace_polyline(trace, layer)
+    r = _trace_polyline(trace, layer, area)
     return None if r is None else r[2]
 
 
-def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray, area: Optional[StudyArea] = None
+                         ) -> Tuple[np.ndarray, np.ndarray]:
     """Where a reverse fault repeats the layer (the hanging-wall cutoff lies
     behind the footwall cutoff along the section: the overlap band), the
     footwall polyline must start before the band and the hanging-wall one end
@@ -140,7 +144,13 @@ def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray) -> Tuple[np.ndarray
     a 54 m band: grounds seed 4). A polyline that stops inside (or just at
     the edge of) the band is carried on along its last segment's slope to one
     band width beyond it. Sections are drawn as lines: the direction along
-    the section is that of the footwall polyline (else the hanging-wall one)."""
+    the section is that of the footwall polyline (else the hanging-wall one).
+
+    With ``area`` the carried point stops where the section meets the
+    study-area boundary (placed on it by :meth:`StudyArea.ray_hit`): a
+    section near the boundary would otherwise put a patch vertex outside the
+    study area (grounds seed 10: 1.6 m beyond it), which the stitcher
+    rejects. A polyline that ends on the boundary already is not carried."""
     fc, hc = foot[-1, :2], hang[0, :2]
     d = fc - foot[0, :2] if len(foot) > 1 else hang[-1, :2] - hc
     n = float(np.hypot(d[0], d[1]))
@@ -151,24 +161,38 @@ def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray) -> Tuple[np.ndarray
     if not band > _merge_tol(np.vstack([foot, hang])):
         return foot, hang
 
-    def carried(end: np.ndarray, inner: np.ndarray, target_u: float) -> np.ndarray:
+    def carried(end: np.ndarray, inner: np.ndarray, target_u: float) -> Optional[np.ndarray]:
         u_end = float((end[:2] - fc) @ d)
         du = target_u - u_end
         # z along the polyline's last segment (its slope along the section).
         seg_u = float((end[:2] - inner[:2]) @ d)
         slope = (end[2] - inner[2]) / seg_u if abs(seg_u) > 0.0 else 0.0
-        return np.r_[end[:2] + du * d, end[2] + slope * du]
+        xy = end[:2] + du * d
+        if area is not None and not area.contains(xy[None, :])[0]:
+            # Stop on the boundary: the first hit of the ray from the end
+            # along the carrying direction (t = 0 when the end is on it).
+            t, _, _, hit = area.ray_hit(end[None, :2], (np.sign(du) * d)[None, :])
+            t = float(t[0])
+            if not (np.isfinite(t) and t > 0.0):
+                return None
+            du = float(np.sign(du)) * min(abs(du), t)
+            xy = np.asarray(hit[0], dtype=np.float64)
+        return np.r_[xy, end[2] + slope * du]
 
     if float((hang[-1, :2] - fc) @ d) < band:
         inner = hang[-2] if len(hang) > 1 else (foot[-2] if len(foot) > 1 else hang[-1])
-        hang = np.vstack([hang, carried(hang[-1], inner, band)])
+        p = carried(hang[-1], inner, band)
+        if p is not None:
+            hang = np.vstack([hang, p])
     if float((foot[0, :2] - fc) @ d) > -2.0 * band:
         inner = foot[1] if len(foot) > 1 else (hang[1] if len(hang) > 1 else foot[0])
-        foot = np.vstack([carried(foot[0], inner, -2.0 * band), foot])
+        p = carried(foot[0], inner, -2.0 * band)
+        if p is not None:
+            foot = np.vstack([p, foot])
     return foot, hang
 
 
-def _trace_polyline(trace, layer: str):
+def _trace_polyline(trace, layer: str, area: Optional[StudyArea] = None):
     sides = trace.layers.get(layer)
     if sides is None:
         return None
@@ -176,7 +200,7 @@ def _trace_polyline(trace, layer: str):
     hang = np.asarray(sides["hanging"], dtype=np.float64).reshape(-1, 3)
     if len(foot) == 0 or len(hang) == 0:
         return None
-    foot, hang = _reach_past_the_band(foot, hang)
+    foot, hang = _reach_past_the_band(foot, hang, area)
     cf, ch = foot[-1], hang[0]
     throw = float(np.linalg.norm(ch - cf))
     plane = np.asarray(trace.plane, dtype=np.float64).reshape(-1, 3)
@@ -465,7 +489,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
     with_layer = [tr for tr in fault.traces if layer in tr.layers]
     if not with_layer:
         return None
-    polys = [_trace_polyline(tr, layer) for tr in with_layer]
+    polys = [_trace_polyline(tr, layer, area) for tr in with_layer]
     seq = [p for p, _, _ in polys]
     throws = [t for _, t, _ in polys]
     cuts: List[Optional[Tuple[int, int]]] = [c for _, _, c in polys]
