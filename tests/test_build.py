@@ -600,3 +600,40 @@ def test_reverse_fault_polyline_carried_past_the_band_stops_at_the_study_area():
                                                                      [88.0, 50.0, -31.0]])}})
     poly, _ = trace_polyline(on, "L", area)
     assert len(poly) == 5 and poly[-1, 0] == 88.0  # on the boundary already: not carried
+
+
+def test_reverse_fault_extended_across_a_corner_runs_through_it():
+    # A reverse fault's end trace carried along strike onto the study-area
+    # boundary next to a corner lands partly on one side and partly on the
+    # next; its footwall, strip and hanging wall cross the corner back and
+    # forth, and straight edges between the two sides cut the corner off and
+    # crossed each other in XY (grounds seed 179: "the patch outline is not
+    # simple"). The extension now runs through the corner: every outline
+    # edge on the boundary lies along one side.
+    from faultmesh import StudyArea
+    from faultmesh.faults import _outline_crossings, fault_ends, layer_patch, patch_outline
+
+    area = StudyArea(np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [0.0, 1000.0]]))
+    s = np.array([1.0, -1.0]) / np.sqrt(2.0)  # along the sections (the strike is (1, 1))
+
+    def trace(c):
+        def at(u, z):
+            return [*(np.asarray(c) + u * s), z]
+        # Footwall cutoff at u = +5, hanging-wall cutoff 10 m behind it: a
+        # 10 m repetition band; the polylines reach 30 m either side.
+        return Trace(None, np.array([at(15.0, -130.0), at(0.0, -90.0), at(-15.0, -50.0)]),
+                     {"L": {"foot": np.array([at(-30.0, -98.0), at(-10.0, -99.0), at(5.0, -100.0)]),
+                            "hanging": np.array([at(-5.0, -80.0), at(10.0, -81.0), at(30.0, -82.0)])}})
+
+    f = Fault("F", kind="reverse", traces=[trace((900.0, 902.0)), trace((960.0, 962.0))])
+    p = layer_patch(f, "L", fault_ends(f), area)
+    assert p.ends[1] == "extended" and p.metadata["end1_extended_to"] == "boundary"
+    V, T = p.vertices, p.triangles
+    assert area.contains(V[:, :2]).all()
+    corner = np.all(V[:, :2] == [1000.0, 1000.0], axis=1)
+    assert corner.sum() == 3  # footwall, strip and hanging wall each pass the corner
+    assert len(_outline_crossings(V, T, area)) == 0
+    (ring,) = patch_outline(V, T)
+    a, b = ring, np.roll(ring, -1, axis=0)
+    both = area.on_boundary(a) & area.on_boundary(b)
+    assert area.on_boundary(0.5 * (a[both] + b[both])).all()  # no edge cuts the corner
