@@ -333,6 +333,43 @@ def test_layer_tin_covers_a_non_convex_study_area():
     check_surface(Surface("L", V, T), ring)
 
 
+def test_layer_tin_boundary_point_a_few_ulps_from_a_boundary_vertex_is_that_vertex():
+    # The crossing repair inserts computed points on boundary pieces; next to
+    # a boundary vertex they land a few ulps from it (UTM magnitudes, a
+    # slanted side). Each became a boundary vertex of its own, two of them
+    # could share one arc length and drop out of the pieces, and the pieces
+    # stopped being TIN edges (grounds seed 468: "the boundary piece from
+    # (339506.0222, 7071651.994) to (339506.0222, 7071651.994) is not an edge
+    # of the TIN"). Such a point is now the vertex it meets: it gives it its z.
+    x0, y0 = 339074.3153, 7071997.8825
+    ring = np.array([[x0, y0], [x0 + 1250.4614, y0 - 1001.8825], [x0 + 1800.0, y0 + 900.0],
+                     [x0 + 200.0, y0 + 1300.0]])
+    area = faultmesh.StudyArea(ring)
+    rng = np.random.default_rng(1)
+    P = area.ring[0] + rng.uniform(0.0, 1.0, (300, 1)) * (area.ring[2] - area.ring[0]) \
+        + rng.uniform(0.0, 0.3, (300, 1)) * (area.ring[3] - area.ring[1])
+    P = P[area.contains(P) & ~area.on_boundary(P)]
+    t = LayerTin("L", np.column_stack([P, np.full(len(P), -100.0)]), area)
+    on = area.place(np.array([0]), np.array([433.3]))       # a new boundary vertex on the slanted side 0
+    t.insert(np.array([[on[0, 0], on[0, 1], -120.0]]))
+    n = t.n_vertices
+    near = np.array([[np.nextafter(on[0, 0], np.inf), on[0, 1], -130.0],
+                     [on[0, 0], np.nextafter(on[0, 1], -np.inf), -140.0]])
+    assert area.on_boundary(near[:, :2]).all() and not (near[:, :2] == on).all(axis=1).any()
+    t.insert(near)
+    assert t.n_vertices == n  # no vertex a few ulps from another
+    assert t.interpolate(on)[0] == pytest.approx(-140.0)  # the last one's z, as for an exact duplicate
+    # Two new points a few ulps apart in one call: one vertex.
+    new = area.place(np.array([0]), np.array([811.7]))
+    pair = np.array([[new[0, 0], new[0, 1], -150.0],
+                     [np.nextafter(new[0, 0], -np.inf), np.nextafter(new[0, 1], np.inf), -150.0]])
+    assert area.on_boundary(pair[:, :2]).all()
+    t.insert(pair)
+    assert t.n_vertices == n + 1
+    V, T = t.mesh()
+    check_surface(Surface("L", V, T), area.ring)
+
+
 def _flat(name, pts_xyz, ring):
     return LayerTin(name, np.asarray(pts_xyz, float), ring)
 

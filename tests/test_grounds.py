@@ -285,3 +285,11 @@ PATCH_INSIDE_SEEDS = [10, 179, 224, 279, 312, 393, 425, 74, 314]
 @pytest.mark.parametrize("seed", PATCH_INSIDE_SEEDS)
 def test_reverse_fault_near_the_boundary_builds(seed, tmp_path_factory):
     assert_holds(outcome(seed, tmp_path_factory))
+
+
+# Seed 468 failed in the layer-crossing repair: crossing points on a
+# boundary piece a few ulps from its vertices made boundary vertices that
+# were no longer TIN edges (LayerTin::insert now merges them).
+@pytest.mark.parametrize("seed", [468])
+def test_repair_points_on_the_boundary_build(seed, tmp_path_factory):
+    assert_holds(outcome(seed, tmp_path_factory))
