@@ -333,6 +333,43 @@ def test_layer_tin_covers_a_non_convex_study_area():
     check_surface(Surface("L", V, T), ring)
 
 
+def test_layer_tin_boundary_point_a_few_ulps_from_a_boundary_vertex_is_that_vertex():
+    # The crossing repair inserts computed points on boundary pieces; next to
+    # a boundary vertex they land a few ulps from it (UTM magnitudes, a
+    # slanted side). Each became a boundary vertex of its own, two of them
+    # could share one arc length and drop out of the pieces, and the pieces
+    # stopped being TIN edges (grounds seed 468: "the boundary piece from
+    # (339506.0222, 7071651.994) to (339506.0222, 7071651.994) is not an edge
+    # of the TIN"). Such a point is now the vertex it meets: it gives it its z.
+    x0, y0 = 339074.3153, 7071997.8825
+    ring = np.array([[x0, y0], [x0 + 1250.4614, y0 - 1001.8825], [x0 + 1800.0, y0 + 900.0],
+                     [x0 + 200.0, y0 + 1300.0]])
+    area = faultmesh.StudyArea(ring)
+    rng = np.random.default_rng(1)
+    P = area.ring[0] + rng.uniform(0.0, 1.0, (300, 1)) * (area.ring[2] - area.ring[0]) \
+        + rng.uniform(0.0, 0.3, (300, 1)) * (area.ring[3] - area.ring[1])
+    P = P[area.contains(P) & ~area.on_boundary(P)]
+    t = LayerTin("L", np.column_stack([P, np.full(len(P), -100.0)]), area)
+    on = area.place(np.array([0]), np.array([433.3]))       # a new boundary vertex on the slanted side 0
+    t.insert(np.array([[on[0, 0], on[0, 1], -120.0]]))
+    n = t.n_vertices
+    near = np.array([[np.nextafter(on[0, 0], np.inf), on[0, 1], -130.0],
+                     [on[0, 0], np.nextafter(on[0, 1], -np.inf), -140.0]])
+    assert area.on_boundary(near[:, :2]).all() and not (near[:, :2] == on).all(axis=1).any()
+    t.insert(near)
+    assert t.n_vertices == n  # no vertex a few ulps from another
+    assert t.interpolate(on)[0] == pytest.approx(-140.0)  # the last one's z, as for an exact duplicate
+    # Two new points a few ulps apart in one call: one vertex.
+    new = area.place(np.array([0]), np.array([811.7]))
+    pair = np.array([[new[0, 0], new[0, 1], -150.0],
+                     [np.nextafter(new[0, 0], -np.inf), np.nextafter(new[0, 1], np.inf), -150.0]])
+    assert area.on_boundary(pair[:, :2]).all()
+    t.insert(pair)
+    assert t.n_vertices == n + 1
+    V, T = t.mesh()
+    check_surface(Surface("L", V, T), area.ring)
+
+
 def _flat(name, pts_xyz, ring):
     return LayerTin(name, np.asarray(pts_xyz, float), ring)
 
@@ -568,3 +605,72 @@ def test_cutoff_lines_run_from_cutoff_to_cutoff(kind):
                 ca, cb = a.layers[lay][side][k], b.layers[lay][side][k]
                 assert tuple(sorted((vid(ca), vid(cb)))) in E, (lay, side)
         assert trace_cutoffs(f.traces[0], lay) is not None
+
+
+def test_reverse_fault_polyline_carried_past_the_band_stops_at_the_study_area():
+    # A reverse fault's hanging-wall polyline that stops inside the repetition
+    # band is carried on along the section to one band width beyond it; next
+    # to the study-area boundary that point left the area (1.6 m beyond it in
+    # grounds seed 10) and the stitcher rejected the patch. It now stops on
+    # the boundary, and a polyline ending on the boundary is not carried.
+    from faultmesh import StudyArea
+    from faultmesh.dataset import Trace
+    from faultmesh.faults import trace_polyline
+
+    area = StudyArea(np.array([[0.0, 0.0], [88.0, 0.0], [88.0, 100.0], [0.0, 100.0]]))
+    foot = np.array([[40.0, 50.0, -10.0], [60.0, 50.0, -12.0], [80.0, 50.0, -14.0]])
+    plane = np.array([[80.0, 50.0, 0.0], [70.0, 50.0, -40.0]])
+    # Footwall cutoff at x = 80, hanging-wall cutoff 10 m behind it at x = 70
+    # (the band), hanging wall drawn to x = 85, inside the reach of one band
+    # width past the fold (x = 90); the study area ends at x = 88.
+    hang = np.array([[70.0, 50.0, -30.0], [85.0, 50.0, -31.0]])
+    tr = Trace("s", plane, {"L": {"foot": foot, "hanging": hang}})
+    free, _ = trace_polyline(tr, "L")
+    assert free[-1, 0] == pytest.approx(90.0)  # without the area: one band width past the fold
+    poly, _ = trace_polyline(tr, "L", area)
+    assert len(poly) == len(free) == 6
+    assert area.contains(poly[:, :2]).all()
+    assert poly[-1, 0] == 88.0 and area.on_boundary(poly[-1:, :2])[0]
+    assert poly[-1, 2] == pytest.approx(-31.0 - 3.0 / 15.0)  # along the last segment's slope
+    np.testing.assert_array_equal(poly[:-1], free[:-1])
+    on = Trace("s", plane, {"L": {"foot": foot, "hanging": np.array([[70.0, 50.0, -30.0],
+                                                                     [88.0, 50.0, -31.0]])}})
+    poly, _ = trace_polyline(on, "L", area)
+    assert len(poly) == 5 and poly[-1, 0] == 88.0  # on the boundary already: not carried
+
+
+def test_reverse_fault_extended_across_a_corner_runs_through_it():
+    # A reverse fault's end trace carried along strike onto the study-area
+    # boundary next to a corner lands partly on one side and partly on the
+    # next; its footwall, strip and hanging wall cross the corner back and
+    # forth, and straight edges between the two sides cut the corner off and
+    # crossed each other in XY (grounds seed 179: "the patch outline is not
+    # simple"). The extension now runs through the corner: every outline
+    # edge on the boundary lies along one side.
+    from faultmesh import StudyArea
+    from faultmesh.faults import _outline_crossings, fault_ends, layer_patch, patch_outline
+
+    area = StudyArea(np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [0.0, 1000.0]]))
+    s = np.array([1.0, -1.0]) / np.sqrt(2.0)  # along the sections (the strike is (1, 1))
+
+    def trace(c):
+        def at(u, z):
+            return [*(np.asarray(c) + u * s), z]
+        # Footwall cutoff at u = +5, hanging-wall cutoff 10 m behind it: a
+        # 10 m repetition band; the polylines reach 30 m either side.
+        return Trace(None, np.array([at(15.0, -130.0), at(0.0, -90.0), at(-15.0, -50.0)]),
+                     {"L": {"foot": np.array([at(-30.0, -98.0), at(-10.0, -99.0), at(5.0, -100.0)]),
+                            "hanging": np.array([at(-5.0, -80.0), at(10.0, -81.0), at(30.0, -82.0)])}})
+
+    f = Fault("F", kind="reverse", traces=[trace((900.0, 902.0)), trace((960.0, 962.0))])
+    p = layer_patch(f, "L", fault_ends(f), area)
+    assert p.ends[1] == "extended" and p.metadata["end1_extended_to"] == "boundary"
+    V, T = p.vertices, p.triangles
+    assert area.contains(V[:, :2]).all()
+    corner = np.all(V[:, :2] == [1000.0, 1000.0], axis=1)
+    assert corner.sum() == 3  # footwall, strip and hanging wall each pass the corner
+    assert len(_outline_crossings(V, T, area)) == 0
+    (ring,) = patch_outline(V, T)
+    a, b = ring, np.roll(ring, -1, axis=0)
+    both = area.on_boundary(a) & area.on_boundary(b)
+    assert area.on_boundary(0.5 * (a[both] + b[both])).all()  # no edge cuts the corner

@@ -285,3 +285,26 @@ HOLDING_SEEDS = [0, 1, 3, 4, 14, 17, 37, 56, 13, 98, 108]
 @pytest.mark.parametrize("seed", HOLDING_SEEDS)
 def test_ground_holds(seed, tmp_path_factory):
     assert_holds(outcome(seed, tmp_path_factory))
+
+
+# Seeds of the 500-seed sweep that failed with "patch vertex N lies outside
+# the study area": a reverse fault's polyline carried past its repetition
+# band (faults._reach_past_the_band) left the study area next to its
+# boundary (seed 10: 1.6 m beyond it). Stopped on the boundary, the end
+# trace of seed 179 could be extended onto it next to a corner, and its
+# folded sheets crossed the corner (faults._with_corners). 74 and 314 have a
+# crossing pair.
+PATCH_INSIDE_SEEDS = [10, 179, 224, 279, 312, 393, 425, 74, 314]
+
+
+@pytest.mark.parametrize("seed", PATCH_INSIDE_SEEDS)
+def test_reverse_fault_near_the_boundary_builds(seed, tmp_path_factory):
+    assert_holds(outcome(seed, tmp_path_factory))
+
+
+# Seed 468 failed in the layer-crossing repair: crossing points on a
+# boundary piece a few ulps from its vertices made boundary vertices that
+# were no longer TIN edges (LayerTin::insert now merges them).
+@pytest.mark.parametrize("seed", [468])
+def test_repair_points_on_the_boundary_build(seed, tmp_path_factory):
+    assert_holds(outcome(seed, tmp_path_factory))

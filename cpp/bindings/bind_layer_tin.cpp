@@ -101,7 +101,8 @@ void bind_layer_tin(py::module_& m) {
             py::arg("xyz"),
             "Insert points (k, 3) keeping the boundary protected (points on the boundary become\n"
             "boundary vertices, points outside are ignored); a point at an existing vertex's XY\n"
-            "gives it its z. Returns the number of new vertices.")
+            "gives it its z, and so does a point on the boundary within 1e-9 of the perimeter of\n"
+            "a boundary vertex along its side. Returns the number of new vertices.")
         .def(
             "interpolate",
             [](const PyLayerTin& t, const py::handle& xy) {

@@ -431,24 +431,68 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
     const std::size_t n0 = s.tin->n_vertices();
     const std::size_t ns = s.area.n_sides();
     // Points on the boundary become boundary vertices; points outside are ignored.
+    //
+    // A boundary point within min_piece (1e-9 of the perimeter: the shortest
+    // piece the protection will split, 10 um for a 10 km boundary) of a
+    // boundary vertex along its side -- an existing one or an earlier point
+    // of this call -- IS that vertex: it takes its XY (so the Tin merges it
+    // and it gives that vertex its z, as an exact duplicate does). Without
+    // this the repair's crossing points on a boundary piece (computed, so a
+    // few ulps off the vertex they meet) made boundary vertices a few ulps
+    // apart; two of them could get one arc length (one map key: the second
+    // fell out of the pieces) and the pieces were no longer TIN edges
+    // (grounds seed 468: "the boundary piece from (339506.0222, 7071651.994)
+    // to (339506.0222, 7071651.994) is not an edge of the TIN").
+    const double min_piece = 1e-9 * s.area.perimeter();
+    const std::vector<double>& VA = s.tin->vertex_array();
     std::vector<double> keep;
+    std::vector<std::map<double, std::size_t>> pending(ns);  // side -> arc -> index in keep
+    auto snap_xy = [&](std::size_t side, double sp, double* xy) {
+        // The nearest boundary vertex or pending point within min_piece on
+        // this side, or (near the side's end) the next corner.
+        double best = min_piece;
+        const double* at = nullptr;
+        const auto& m = s.by_side[side];
+        for (auto it = m.lower_bound(sp - min_piece); it != m.end() && it->first <= sp + min_piece; ++it)
+            if (std::fabs(it->first - sp) <= best) {
+                best = std::fabs(it->first - sp);
+                at = &VA[3 * static_cast<std::size_t>(it->second)];
+            }
+        const auto& pm = pending[side];
+        for (auto it = pm.lower_bound(sp - min_piece); it != pm.end() && it->first <= sp + min_piece; ++it)
+            if (std::fabs(it->first - sp) <= best) {
+                best = std::fabs(it->first - sp);
+                at = &keep[3 * it->second];
+            }
+        const double to_end = s.area.side_length(side) - sp;
+        if (to_end <= best) {
+            const auto& mn = s.by_side[(side + 1) % ns];
+            if (!mn.empty() && mn.begin()->first == 0.0) at = &VA[3 * static_cast<std::size_t>(mn.begin()->second)];
+        }
+        if (at == nullptr) return false;
+        xy[0] = at[0];
+        xy[1] = at[1];
+        return true;
+    };
     std::vector<std::pair<std::size_t, double>> keep_pos;
     std::vector<StudyArea::Hit> hits;
     for (std::size_t i = 0; i < n; ++i) {
         const double* p = xyz + 3 * i;
         s.area.locate(p, hits);
+        double q[3] = {p[0], p[1], p[2]};
         if (!hits.empty()) {
             StudyArea::Hit h = hits[0];
             for (const auto& x : hits)
                 if (x.s == 0.0) h = x;
             if (h.s >= s.area.side_length(h.side)) h = {(h.side + 1) % ns, 0.0};
+            if (!snap_xy(h.side, h.s, q)) pending[h.side].emplace(h.s, keep.size() / 3);
             keep_pos.emplace_back(h.side, h.s);
         } else if (s.area.contains(p)) {
             keep_pos.emplace_back(static_cast<std::size_t>(-1), 0.0);
         } else {
             continue;
         }
-        keep.insert(keep.end(), p, p + 3);
+        keep.insert(keep.end(), q, q + 3);
     }
     if (keep.empty()) return 0;
     const std::size_t k = keep.size() / 3;
@@ -485,7 +529,6 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
             max_half = std::max(max_half, 0.5 * (pc.sb - pc.sa));
         }
     }
-    const double min_piece = 1e-9 * s.area.perimeter();
     std::vector<std::size_t> near;
     for (std::size_t round = 0; !fresh.empty(); ++round) {
         std::vector<double> add;

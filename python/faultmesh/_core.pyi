@@ -481,7 +481,8 @@ class LayerTin:
         """
         Insert points (k, 3) keeping the boundary protected (points on the boundary become
         boundary vertices, points outside are ignored); a point at an existing vertex's XY
-        gives it its z. Returns the number of new vertices.
+        gives it its z, and so does a point on the boundary within 1e-9 of the perimeter of
+        a boundary vertex along its side. Returns the number of new vertices.
         """
     def interpolate(self, xy: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
         """

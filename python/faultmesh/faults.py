@@ -115,23 +115,27 @@ def _merge_tol(p: np.ndarray) -> float:
     return 1e-9 * max(1.0, ext)
 
 
-def trace_polyline(trace, layer: str) -> Optional[Tuple[np.ndarray, float]]:
+def trace_polyline(trace, layer: str, area: Optional[StudyArea] = None
+                   ) -> Optional[Tuple[np.ndarray, float]]:
     """(polyline (k, 3), throw distance) of ``layer`` on ``trace``: footwall
     -> strip (plane points strictly between the cutoffs) -> hanging wall,
     consecutive coincident points merged. None if the trace lacks the layer.
-    :func:`trace_cutoffs` gives the cutoffs' positions in the polyline."""
-    r = _trace_polyline(trace, layer)
+    :func:`trace_cutoffs` gives the cutoffs' positions in the polyline.
+    ``area``: the study area (a polyline carried past a reverse fault's
+    band stops on its boundary, as in :func:`layer_patch`)."""
+    r = _trace_polyline(trace, layer, area)
     return None if r is None else (r[0], r[1])
 
 
-def trace_cutoffs(trace, layer: str) -> Optional[Tuple[int, int]]:
+def trace_cutoffs(trace, layer: str, area: Optional[StudyArea] = None) -> Optional[Tuple[int, int]]:
     """Indices in :func:`trace_polyline` of the footwall and the hanging-wall
     cutoff (equal for a zero-throw trace)."""
-    r = _trace_polyline(trace, layer)
+    r = _trace_polyline(trace, layer, area)
     return None if r is None else r[2]
 
 
-def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray, area: Optional[StudyArea] = None
+                         ) -> Tuple[np.ndarray, np.ndarray]:
     """Where a reverse fault repeats the layer (the hanging-wall cutoff lies
     behind the footwall cutoff along the section: the overlap band), the
     footwall polyline must start before the band and the hanging-wall one end
@@ -140,7 +144,13 @@ def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray) -> Tuple[np.ndarray
     a 54 m band: grounds seed 4). A polyline that stops inside (or just at
     the edge of) the band is carried on along its last segment's slope to one
     band width beyond it. Sections are drawn as lines: the direction along
-    the section is that of the footwall polyline (else the hanging-wall one)."""
+    the section is that of the footwall polyline (else the hanging-wall one).
+
+    With ``area`` the carried point stops where the section meets the
+    study-area boundary (placed on it by :meth:`StudyArea.ray_hit`): a
+    section near the boundary would otherwise put a patch vertex outside the
+    study area (grounds seed 10: 1.6 m beyond it), which the stitcher
+    rejects. A polyline that ends on the boundary already is not carried."""
     fc, hc = foot[-1, :2], hang[0, :2]
     d = fc - foot[0, :2] if len(foot) > 1 else hang[-1, :2] - hc
     n = float(np.hypot(d[0], d[1]))
@@ -151,24 +161,38 @@ def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray) -> Tuple[np.ndarray
     if not band > _merge_tol(np.vstack([foot, hang])):
         return foot, hang
 
-    def carried(end: np.ndarray, inner: np.ndarray, target_u: float) -> np.ndarray:
+    def carried(end: np.ndarray, inner: np.ndarray, target_u: float) -> Optional[np.ndarray]:
         u_end = float((end[:2] - fc) @ d)
         du = target_u - u_end
         # z along the polyline's last segment (its slope along the section).
         seg_u = float((end[:2] - inner[:2]) @ d)
         slope = (end[2] - inner[2]) / seg_u if abs(seg_u) > 0.0 else 0.0
-        return np.r_[end[:2] + du * d, end[2] + slope * du]
+        xy = end[:2] + du * d
+        if area is not None and not area.contains(xy[None, :])[0]:
+            # Stop on the boundary: the first hit of the ray from the end
+            # along the carrying direction (t = 0 when the end is on it).
+            t, _, _, hit = area.ray_hit(end[None, :2], (np.sign(du) * d)[None, :])
+            reach = float(t[0])
+            if not (np.isfinite(reach) and reach > 0.0):
+                return None
+            du = math.copysign(min(abs(du), reach), du)
+            xy = np.asarray(hit[0], dtype=np.float64)
+        return np.r_[xy, end[2] + slope * du]
 
     if float((hang[-1, :2] - fc) @ d) < band:
         inner = hang[-2] if len(hang) > 1 else (foot[-2] if len(foot) > 1 else hang[-1])
-        hang = np.vstack([hang, carried(hang[-1], inner, band)])
+        p = carried(hang[-1], inner, band)
+        if p is not None:
+            hang = np.vstack([hang, p])
     if float((foot[0, :2] - fc) @ d) > -2.0 * band:
         inner = foot[1] if len(foot) > 1 else (hang[1] if len(hang) > 1 else foot[0])
-        foot = np.vstack([carried(foot[0], inner, -2.0 * band), foot])
+        p = carried(foot[0], inner, -2.0 * band)
+        if p is not None:
+            foot = np.vstack([p, foot])
     return foot, hang
 
 
-def _trace_polyline(trace, layer: str):
+def _trace_polyline(trace, layer: str, area: Optional[StudyArea] = None):
     sides = trace.layers.get(layer)
     if sides is None:
         return None
@@ -176,7 +200,7 @@ def _trace_polyline(trace, layer: str):
     hang = np.asarray(sides["hanging"], dtype=np.float64).reshape(-1, 3)
     if len(foot) == 0 or len(hang) == 0:
         return None
-    foot, hang = _reach_past_the_band(foot, hang)
+    foot, hang = _reach_past_the_band(foot, hang, area)
     cf, ch = foot[-1], hang[0]
     throw = float(np.linalg.norm(ch - cf))
     plane = np.asarray(trace.plane, dtype=np.float64).reshape(-1, 3)
@@ -345,28 +369,83 @@ def _layer_tip(fault, traces_with, layer: str, end: int, tip: np.ndarray, direct
     return np.array([xy[0], xy[1], z])
 
 
-def _to_boundary(area: StudyArea, poly: np.ndarray, d: np.ndarray, surface_z):
+def _to_boundary(area: StudyArea, poly: np.ndarray, d: np.ndarray, surface_z, hits: bool = False):
     """``poly`` carried along ``d`` onto the study-area boundary: (points
-    (k, 3) placed on their sides, t (k,) the distances). A point already on
-    the boundary stays where it is (t = 0, the same coordinates)."""
-    t, side, _, xy = area.ray_hit(poly[:, :2], np.asarray(d, dtype=np.float64)[None, :])
+    (k, 3) placed on their sides, t (k,) the distances), with ``hits`` also
+    the side (k,) and arc length (k,) of each hit. A point already on the
+    boundary stays where it is (t = 0, the same coordinates)."""
+    t, side, s, xy = area.ray_hit(poly[:, :2], np.asarray(d, dtype=np.float64)[None, :])
     on = t == 0.0
     xy = np.where(on[:, None], poly[:, :2], xy)
     pts = np.column_stack([xy, _shift_z(poly, xy, surface_z)])
     pts[on] = poly[on]
+    if hits:
+        return pts, t, np.asarray(side, dtype=np.int64), np.asarray(s, dtype=np.float64)
     return pts, t
+
+
+def _with_corners(area: StudyArea, pts: np.ndarray, side: np.ndarray, s: np.ndarray
+                  ) -> Tuple[np.ndarray, np.ndarray]:
+    """A polyline whose points all lie on the study-area boundary, with the
+    corners of the boundary inserted between consecutive points on different
+    sides (the shorter way round): (points (m, 3), position of each input
+    point in them).
+
+    Why: the end trace of a fault carried along strike onto the boundary
+    near a corner lands partly on one side and partly on the next; for a
+    reverse fault it runs back and forth across the corner (footwall, strip,
+    hanging wall), and a straight edge between points on two sides cuts the
+    corner off and crosses the polyline's other sheets in XY (grounds seed
+    179: the stitcher rejected the outline as not simple). Through the
+    corner every outline edge runs along one side, where a fold is allowed.
+    z of a corner: linear in XY distance between its neighbours."""
+    ring = area.ring
+    k = len(ring)
+    lengths = np.hypot(*(np.roll(ring, -1, axis=0) - ring).T)
+    side = side.copy()
+    s = s.copy()
+    # A hit at the end of a side is the next side's first corner.
+    at_end = s >= lengths[side]
+    side[at_end] = (side[at_end] + 1) % k
+    s[at_end] = 0.0
+    out: List[np.ndarray] = [pts[0]]
+    pos = np.zeros(len(pts), dtype=np.int64)
+    for i in range(1, len(pts)):
+        a, b = side[i - 1], side[i]
+        if a != b:
+            fwd = (b - a) % k
+            back = (a - b) % k
+            arc_f = lengths[a] - s[i - 1] + lengths[(a + np.arange(1, fwd)) % k].sum() + s[i]
+            arc_b = s[i - 1] + lengths[(a - np.arange(1, back)) % k].sum() + lengths[b] - s[i]
+            corners = ([(a + j) % k for j in range(1, fwd + 1)] if arc_f <= arc_b
+                       else [(a - j) % k for j in range(back)])
+            path = [ring[c] for c in corners
+                    if not (np.array_equal(ring[c], pts[i - 1, :2]) or np.array_equal(ring[c], pts[i, :2]))]
+            if path:
+                xy = np.vstack([pts[i - 1, :2]] + path + [pts[i, :2]])
+                cum = np.r_[0.0, np.cumsum(np.hypot(*np.diff(xy, axis=0).T))]
+                w = cum[1:-1] / cum[-1] if cum[-1] > 0.0 else np.zeros(len(path))
+                z = pts[i - 1, 2] + w * (pts[i, 2] - pts[i - 1, 2])
+                out.extend(np.column_stack([xy[1:-1], z]))
+        pos[i] = len(out)
+        out.append(pts[i])
+    return np.vstack(out), pos
 
 
 def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
             partners: Dict[str, List[np.ndarray]], max_dist: float,
-            surface_z) -> Optional[Tuple[np.ndarray, str, float]]:
+            surface_z) -> Optional[Tuple[np.ndarray, str, float, np.ndarray]]:
     """``poly`` carried along ``d`` onto the nearest target (every point must
     hit it within ``max_dist``): the study-area boundary or a group partner's
-    outline. Returns (new polyline, target name, median distance) or None."""
+    outline. Returns (new polyline, target name, median distance, position
+    of each point of ``poly`` in the new polyline) or None. On the boundary
+    the new polyline runs through the corners between its points
+    (:func:`_with_corners`)."""
     best = None
-    pts, t = _to_boundary(area, poly, d, surface_z)
+    pts, t, side, s = _to_boundary(area, poly, d, surface_z, hits=True)
     if np.all(np.isfinite(t)) and float(t.max()) <= max_dist:
-        best = (pts, "boundary", float(np.median(t)))
+        pts, pos = _with_corners(area, pts, side, s)
+        best = (pts, "boundary", float(np.median(t)), pos)
     for name, rings in partners.items():
         if not rings:
             continue
@@ -376,7 +455,8 @@ def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
         med = float(np.median(t))
         if best is None or med < best[2]:
             xy = poly[:, :2] + t[:, None] * d[None, :]
-            best = (np.column_stack([xy, _shift_z(poly, xy, surface_z)]), name, med)
+            best = (np.column_stack([xy, _shift_z(poly, xy, surface_z)]), name, med,
+                    np.arange(len(poly)))
     return best
 
 
@@ -397,7 +477,9 @@ def _assemble(seq: List[np.ndarray], method: str,
 
     Consecutive polylines share vertices where they have the same point at
     the same position (an end trace that already lies on the study-area
-    boundary is its own extension there): such a point is one vertex, and
+    boundary is its own extension there; between polylines of different
+    lengths -- an extension with the boundary's corners inserted -- the same
+    point anywhere in the previous polyline): such a point is one vertex, and
     the loft triangles that would join it to itself (two corners at one
     vertex: zero area) are not made. The strip between the polylines is
     pinched at the shared point, and the remaining triangles cover it."""
@@ -406,10 +488,18 @@ def _assemble(seq: List[np.ndarray], method: str,
     n = 0
     for i, p in enumerate(seq):
         idx = np.arange(n, n + len(p))
-        if i > 0 and len(p) == len(seq[i - 1]):
-            same = np.all(p == seq[i - 1], axis=1)
+        if i > 0:
+            prev = seq[i - 1]
+            if len(p) == len(prev):
+                same = np.all(p == prev, axis=1)
+                at = index[-1]
+            else:
+                # Exactly equal points (coordinates copied, never computed).
+                eq = np.all(p[:, None, :] == prev[None, :, :], axis=2)
+                same = eq.sum(axis=1) == 1
+                at = np.where(same, index[-1][np.argmax(eq, axis=1)], -1)
             if same.any():
-                idx = np.where(same, index[-1], -1)
+                idx = np.where(same, at, -1)
                 new = ~same
                 idx[new] = np.arange(n, n + int(new.sum()))
                 Vs.append(p[new])
@@ -465,7 +555,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
     with_layer = [tr for tr in fault.traces if layer in tr.layers]
     if not with_layer:
         return None
-    polys = [_trace_polyline(tr, layer) for tr in with_layer]
+    polys = [_trace_polyline(tr, layer, area) for tr in with_layer]
     seq = [p for p, _, _ in polys]
     throws = [t for _, t, _ in polys]
     cuts: List[Optional[Tuple[int, int]]] = [c for _, _, c in polys]
@@ -477,6 +567,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
         tip = ends.tips[end]
         d = ends.directions[end]
         add: Optional[np.ndarray] = None
+        add_pos: Optional[np.ndarray] = None  # position of each point of poly in add
         if tip is not None:
             add = _layer_tip(fault, with_layer, layer, end, tip, d, area, surface_z)[None, :]
             kinds.append("tip")
@@ -487,7 +578,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
         else:
             ext = _extend(poly, d, area, partners or {}, max_extension, surface_z)
             if ext is not None:
-                add, target, dist = ext
+                add, target, dist, add_pos = ext
                 kinds.append("extended")
                 meta[f"end{end}_extended_to"] = target
                 meta[f"end{end}_extension"] = dist
@@ -502,9 +593,13 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 add = np.array([[xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])]])
                 kinds.append("synthetic_tip")
         if add is not None:
-            # An extension is the end polyline carried point by point: its
+            # An extension is the end polyline carried point by point (with
+            # the boundary's corners between, where it wraps one): its
             # cutoffs sit where the end polyline's do. A tip is one point.
-            c = (cuts[0] if end == 0 else cuts[-1]) if len(add) == len(poly) else None
+            c = None
+            pc = cuts[0] if end == 0 else cuts[-1]
+            if add_pos is not None and pc is not None:
+                c = (int(add_pos[pc[0]]), int(add_pos[pc[1]]))
             if end == 0:
                 seq.insert(0, add)
                 cuts.insert(0, c)

@@ -97,7 +97,9 @@ public:
     std::vector<std::int64_t> boundary_vertices() const;
 
     // Inserts points (x, y, z), keeping the boundary protected. A point at the
-    // XY of an existing vertex gives that vertex its z. Returns the number of
+    // XY of an existing vertex gives that vertex its z; so does a point on
+    // the boundary within 1e-9 of the perimeter of a boundary vertex (or of
+    // an earlier point of the call) along its side. Returns the number of
     // new vertices.
     std::size_t insert(const double* xyz, std::size_t n);
     // Sets the elevation of vertices.
