@@ -568,3 +568,39 @@ def test_cutoff_lines_run_from_cutoff_to_cutoff(kind):
                 ca, cb = a.layers[lay][side][k], b.layers[lay][side][k]
                 assert tuple(sorted((vid(ca), vid(cb)))) in E, (lay, side)
         assert trace_cutoffs(f.traces[0], lay) is not None
+
+
+def test_extension_follows_the_boundary_around_corners():
+    # An end polyline carried onto the boundary whose points land on two
+    # sides: the corner between them is inserted, so the patch follows the
+    # boundary instead of cutting across it -- across the reflex corner of an
+    # L the chord ran outside the study area and the gap polygon crossed
+    # itself (sweep seeds 150, 363, 455).
+    from faultmesh.faults import _around_corners, _assemble
+
+    ring = np.array([[0, 0], [100, 0], [100, 50], [50, 50], [50, 100], [0, 100]], float)
+    area = faultmesh.StudyArea(ring)
+    # From side (100, 50)-(50, 50) round the reflex corner (50, 50) onto
+    # x = 50: foot, cutoffs at 1 and 3, hanging wall.
+    pts = np.array([[70.0, 50.0, 0.0], [60.0, 50.0, -1.0], [55.0, 50.0, -2.0], [50.0, 60.0, -3.0],
+                    [50.0, 70.0, -3.0]])
+    out, cut = _around_corners(area, pts, (1, 3))
+    assert out.shape == (6, 3)
+    assert np.array_equal(out[3], [50.0, 50.0, -2.0 + (-1.0) * 5.0 / 15.0])
+    assert np.array_equal(out[[0, 1, 2, 4, 5]], pts)
+    assert cut == (1, 4)
+    assert area.on_boundary(out[:, :2]).all()
+    # Only the corners the shorter way round: (0, 0), not the five others.
+    got = _around_corners(area, np.array([[0.0, 10.0, 0.0], [10.0, 0.0, 0.0]]), None)[0]
+    assert np.array_equal(got[:, :2], [[0.0, 10.0], [0.0, 0.0], [10.0, 0.0]])
+    # Not on the boundary: unchanged.
+    inner = np.array([[10.0, 10.0, 0.0], [20.0, 20.0, 0.0]])
+    assert _around_corners(area, inner, (0, 1)) == (inner, (0, 1))
+    # _assemble shares a point the extension keeps although the inserted
+    # corner moved it: one vertex, no zero-area triangle.
+    trace_pl = np.array([[80.0, 40.0, 0.0], [70.0, 40.0, -1.0], [60.0, 45.0, -2.0], [50.0, 60.0, -3.0],
+                         [45.0, 70.0, -3.0]])
+    V, T = _assemble([trace_pl, out], "min_area", [(1, 3), cut])
+    assert len(V) == len(trace_pl) + len(out) - 1
+    assert len(T) > 0
+    assert ((T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 2] != T[:, 0])).all()

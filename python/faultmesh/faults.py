@@ -357,6 +357,50 @@ def _to_boundary(area: StudyArea, poly: np.ndarray, d: np.ndarray, surface_z):
     return pts, t
 
 
+def _around_corners(area: StudyArea, pts: np.ndarray,
+                    cut: Optional[Tuple[int, int]]) -> Tuple[np.ndarray, Optional[Tuple[int, int]]]:
+    """A polyline on the study-area boundary made to follow it: where two
+    consecutive points lie on different sides, the corners between them (the
+    shorter way round) are inserted, z interpolated along the boundary.
+    Without them the patch's edge between the two points is a chord: across
+    a reflex corner it runs outside the study area, across a convex one it
+    cuts off a sliver of the gap that touches the rest only at the patch's
+    vertex (sweep seeds 150, 363, 455). ``cut`` (footwall and hanging-wall
+    cutoff positions) is moved to the points' new positions. Polylines not
+    wholly on the boundary are returned as they are."""
+    if len(pts) < 2:
+        return pts, cut
+    side, s = area.locate(pts[:, :2])
+    if (side < 0).any():
+        return pts, cut
+    per = float(area.perimeter)
+    ring = np.asarray(area.ring, dtype=np.float64)
+    t = area.arc_position(side, s)
+    tc = area.arc_position(np.arange(len(ring)), np.zeros(len(ring)))
+    ta = t[:-1, None]
+    fwd = np.mod(t[1:, None] - ta, per)
+    forward = fwd <= 0.5 * per
+    span = np.where(forward, fwd, per - fwd)                                    # (n-1, 1)
+    along = np.where(forward, np.mod(tc[None, :] - ta, per), np.mod(ta - tc[None, :], per))
+    # A corner within the merge tolerance of either point is that point
+    # (located on the next side up to rounding): nothing to insert.
+    tol = _merge_tol(pts)
+    da = np.hypot(ring[None, :, 0] - pts[:-1, None, 0], ring[None, :, 1] - pts[:-1, None, 1])
+    db = np.hypot(ring[None, :, 0] - pts[1:, None, 0], ring[None, :, 1] - pts[1:, None, 1])
+    seg, cor = np.nonzero((along > 0.0) & (along < span) & (da > tol) & (db > tol))
+    if len(seg) == 0:
+        return pts, cut
+    order = np.lexsort((along[seg, cor], seg))
+    seg, cor = seg[order], cor[order]
+    frac = along[seg, cor] / span[seg, 0]
+    z = pts[seg, 2] + frac * (pts[seg + 1, 2] - pts[seg, 2])
+    out = np.insert(pts, seg + 1, np.column_stack([ring[cor], z]), axis=0)
+    if cut is not None:
+        moved = np.arange(len(pts)) + np.searchsorted(seg + 1, np.arange(len(pts)), side="right")
+        cut = (int(moved[cut[0]]), int(moved[cut[1]]))
+    return np.ascontiguousarray(out), cut
+
+
 def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
             partners: Dict[str, List[np.ndarray]], max_dist: float,
             surface_z) -> Optional[Tuple[np.ndarray, str, float]]:
@@ -395,8 +439,8 @@ def _assemble(seq: List[np.ndarray], method: str,
     the band between the cutoff lines the data give, whatever diagonals the
     loft would choose across a whole polyline.
 
-    Consecutive polylines share vertices where they have the same point at
-    the same position (an end trace that already lies on the study-area
+    Consecutive polylines share vertices where they have the same point
+    (an end trace that already lies on the study-area
     boundary is its own extension there): such a point is one vertex, and
     the loft triangles that would join it to itself (two corners at one
     vertex: zero area) are not made. The strip between the polylines is
@@ -406,10 +450,14 @@ def _assemble(seq: List[np.ndarray], method: str,
     n = 0
     for i, p in enumerate(seq):
         idx = np.arange(n, n + len(p))
-        if i > 0 and len(p) == len(seq[i - 1]):
-            same = np.all(p == seq[i - 1], axis=1)
+        if i > 0:
+            # A point equal to one of the previous polyline's (an extension
+            # keeps the points already on the boundary; corners inserted
+            # by _around_corners shift the positions) is that vertex.
+            eq = np.all(p[:, None, :] == seq[i - 1][None, :, :], axis=2)
+            same = eq.any(axis=1)
             if same.any():
-                idx = np.where(same, index[-1], -1)
+                idx = np.where(same, index[-1][np.argmax(eq, axis=1)], -1)
                 new = ~same
                 idx[new] = np.arange(n, n + int(new.sum()))
                 Vs.append(p[new])
@@ -488,6 +536,9 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
             ext = _extend(poly, d, area, partners or {}, max_extension, surface_z)
             if ext is not None:
                 add, target, dist = ext
+                c_add = cuts[0] if end == 0 else cuts[-1]
+                if target == "boundary":
+                    add, c_add = _around_corners(area, add, c_add)
                 kinds.append("extended")
                 meta[f"end{end}_extended_to"] = target
                 meta[f"end{end}_extension"] = dist
@@ -504,7 +555,10 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
         if add is not None:
             # An extension is the end polyline carried point by point: its
             # cutoffs sit where the end polyline's do. A tip is one point.
-            c = (cuts[0] if end == 0 else cuts[-1]) if len(add) == len(poly) else None
+            if kinds[-1] == "extended":
+                c = c_add
+            else:
+                c = (cuts[0] if end == 0 else cuts[-1]) if len(add) == len(poly) else None
             if end == 0:
                 seq.insert(0, add)
                 cuts.insert(0, c)
