@@ -604,3 +604,25 @@ def test_extension_follows_the_boundary_around_corners():
     assert len(V) == len(trace_pl) + len(out) - 1
     assert len(T) > 0
     assert ((T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 2] != T[:, 0])).all()
+
+
+def test_reach_past_the_band_stops_at_the_boundary():
+    # A reverse-fault section that ends at the study-area boundary inside the
+    # repetition band: the hanging-wall polyline is carried to the boundary,
+    # not a band width beyond it into the outside (the patch vertex lay
+    # outside the study area: sweep seeds 117, 377).
+    from faultmesh.faults import _reach_past_the_band
+
+    area = faultmesh.StudyArea(np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]]))
+    foot = np.array([[40.0, 50.0, -10.0], [90.0, 50.0, -10.0]])
+    hang = np.array([[60.0, 50.0, 10.0], [95.0, 50.0, 13.5]])       # band 30 m, ends 5 m past it
+    f0, h0 = _reach_past_the_band(foot, hang)
+    assert np.allclose(h0[-1], [120.0, 50.0, 16.0]) and np.allclose(f0[0], [30.0, 50.0, -10.0])
+    f1, h1 = _reach_past_the_band(foot, hang, area)
+    assert np.array_equal(h1[-1, :2], [100.0, 50.0]) and np.isclose(h1[-1, 2], 14.0)
+    assert np.allclose(f1[0], [30.0, 50.0, -10.0])
+    assert area.contains(np.vstack([f1, h1])[:, :2]).all()
+    # Ending on the boundary already: nothing is added.
+    hang = np.array([[60.0, 50.0, 10.0], [100.0, 50.0, 14.0]])
+    assert len(_reach_past_the_band(foot, hang, area)[1]) == 2
+    assert len(_reach_past_the_band(foot, hang)[1]) == 3

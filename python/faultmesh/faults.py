@@ -131,7 +131,8 @@ def trace_cutoffs(trace, layer: str) -> Optional[Tuple[int, int]]:
     return None if r is None else r[2]
 
 
-def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray,
+                         area: Optional[StudyArea] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Where a reverse fault repeats the layer (the hanging-wall cutoff lies
     behind the footwall cutoff along the section: the overlap band), the
     footwall polyline must start before the band and the hanging-wall one end
@@ -140,7 +141,11 @@ def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray) -> Tuple[np.ndarray
     a 54 m band: grounds seed 4). A polyline that stops inside (or just at
     the edge of) the band is carried on along its last segment's slope to one
     band width beyond it. Sections are drawn as lines: the direction along
-    the section is that of the footwall polyline (else the hanging-wall one)."""
+    the section is that of the footwall polyline (else the hanging-wall one).
+    With ``area`` a polyline is carried no further than the study-area
+    boundary (a section that ends at the boundary inside the band: the
+    patch ends on the boundary there; carried past it, its vertex lay outside
+    the study area: sweep seeds 117, 377)."""
     fc, hc = foot[-1, :2], hang[0, :2]
     d = fc - foot[0, :2] if len(foot) > 1 else hang[-1, :2] - hc
     n = float(np.hypot(d[0], d[1]))
@@ -151,24 +156,35 @@ def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray) -> Tuple[np.ndarray
     if not band > _merge_tol(np.vstack([foot, hang])):
         return foot, hang
 
-    def carried(end: np.ndarray, inner: np.ndarray, target_u: float) -> np.ndarray:
+    def carried(end: np.ndarray, inner: np.ndarray, target_u: float) -> Optional[np.ndarray]:
         u_end = float((end[:2] - fc) @ d)
         du = target_u - u_end
         # z along the polyline's last segment (its slope along the section).
         seg_u = float((end[:2] - inner[:2]) @ d)
         slope = (end[2] - inner[2]) / seg_u if abs(seg_u) > 0.0 else 0.0
+        if area is not None and not area.contains((end[:2] + du * d)[None, :])[0]:
+            # Stop on the boundary: placed there by the ray's hit.
+            way = d if du > 0.0 else -d
+            t, _, _, xy = area.ray_hit(end[None, :2], way[None, :])
+            if not np.isfinite(t[0]) or t[0] == 0.0:
+                return None  # the end is on the boundary already
+            return np.r_[xy[0], end[2] + slope * (float(t[0]) if du > 0.0 else -float(t[0]))]
         return np.r_[end[:2] + du * d, end[2] + slope * du]
 
     if float((hang[-1, :2] - fc) @ d) < band:
         inner = hang[-2] if len(hang) > 1 else (foot[-2] if len(foot) > 1 else hang[-1])
-        hang = np.vstack([hang, carried(hang[-1], inner, band)])
+        c = carried(hang[-1], inner, band)
+        if c is not None:
+            hang = np.vstack([hang, c])
     if float((foot[0, :2] - fc) @ d) > -2.0 * band:
         inner = foot[1] if len(foot) > 1 else (hang[1] if len(hang) > 1 else foot[0])
-        foot = np.vstack([carried(foot[0], inner, -2.0 * band), foot])
+        c = carried(foot[0], inner, -2.0 * band)
+        if c is not None:
+            foot = np.vstack([c, foot])
     return foot, hang
 
 
-def _trace_polyline(trace, layer: str):
+def _trace_polyline(trace, layer: str, area: Optional[StudyArea] = None):
     sides = trace.layers.get(layer)
     if sides is None:
         return None
@@ -176,7 +192,7 @@ def _trace_polyline(trace, layer: str):
     hang = np.asarray(sides["hanging"], dtype=np.float64).reshape(-1, 3)
     if len(foot) == 0 or len(hang) == 0:
         return None
-    foot, hang = _reach_past_the_band(foot, hang)
+    foot, hang = _reach_past_the_band(foot, hang, area)
     cf, ch = foot[-1], hang[0]
     throw = float(np.linalg.norm(ch - cf))
     plane = np.asarray(trace.plane, dtype=np.float64).reshape(-1, 3)
@@ -513,7 +529,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
     with_layer = [tr for tr in fault.traces if layer in tr.layers]
     if not with_layer:
         return None
-    polys = [_trace_polyline(tr, layer) for tr in with_layer]
+    polys = [_trace_polyline(tr, layer, area) for tr in with_layer]
     seq = [p for p, _, _ in polys]
     throws = [t for _, t, _ in polys]
     cuts: List[Optional[Tuple[int, int]]] = [c for _, _, c in polys]
