@@ -270,6 +270,31 @@ def test_patch_touching_the_boundary_at_a_vertex_pinches_the_gap():
     assert (100.0, 3.0) in bxy and (100.0, 0.0) in bxy
 
 
+def test_patch_leaving_a_non_convex_study_area_is_named():
+    # A fault that runs out of the study area and back in between two traces
+    # (across the notch of the ring below): the patch's outline edge crosses
+    # the notch. The gap polygon then crossed itself and ear clipping said so
+    # in its own words (sweep seeds 418, 454); the stitcher names the cause.
+    ring = np.array([[0, 0], [100, 0], [100, 100], [60, 100], [50, 60], [40, 100], [0, 100]], float)
+    lt = faultmesh.build.LayerTin("L", np.column_stack([np.random.default_rng(3).uniform(1, 99, (300, 2)),
+                                                        np.zeros(300)]), ring, spacing=8.0)
+    V, T = lt.mesh()
+    a = np.array([[45.0, y, z] for y, z in zip([50, 60, 64, 75], [0, 0, -2, -2])])
+    b = np.array([[55.0, y, z] for y, z in zip([50, 60, 64, 75], [0, 0, -2, -2])])
+    PV, PT = patch([a, b])
+    st = faultmesh.Stitcher(V, T, ring)
+    with pytest.raises(faultmesh.GeometryError,
+                       match=r"patch 'F': the patch leaves the study area: its outline edge .* crosses "
+                             r"the study-area side from \(50, 60\) to \(40, 100\)"):
+        st.stitch(PV, PT, name="F")
+    # Nothing changed: the same patch moved clear of the notch stitches.
+    PV2 = PV.copy()
+    PV2[:, 1] -= 20.0
+    st.stitch(PV2, PT, name="F")
+    S, _ = surface_of(st)
+    check_surface(S, ring)
+
+
 def test_errors_name_the_problem():
     V, T = tin()
     with pytest.raises(ValueError, match="vertices must have shape"):
