@@ -674,3 +674,61 @@ def test_reverse_fault_extended_across_a_corner_runs_through_it():
     a, b = ring, np.roll(ring, -1, axis=0)
     both = area.on_boundary(a) & area.on_boundary(b)
     assert area.on_boundary(0.5 * (a[both] + b[both])).all()  # no edge cuts the corner
+
+
+def test_extension_follows_the_boundary_around_corners():
+    # An end polyline carried onto the boundary whose points land on two
+    # sides: the corner between them is inserted, so the patch follows the
+    # boundary instead of cutting across it -- across the reflex corner of an
+    # L the chord ran outside the study area and the gap polygon crossed
+    # itself (sweep seeds 150, 363, 455).
+    from faultmesh.faults import _around_corners, _assemble
+
+    ring = np.array([[0, 0], [100, 0], [100, 50], [50, 50], [50, 100], [0, 100]], float)
+    area = faultmesh.StudyArea(ring)
+    # From side (100, 50)-(50, 50) round the reflex corner (50, 50) onto
+    # x = 50: foot, cutoffs at 1 and 3, hanging wall.
+    pts = np.array([[70.0, 50.0, 0.0], [60.0, 50.0, -1.0], [55.0, 50.0, -2.0], [50.0, 60.0, -3.0],
+                    [50.0, 70.0, -3.0]])
+    out, cut = _around_corners(area, pts, (1, 3))
+    assert out.shape == (6, 3)
+    assert np.array_equal(out[3], [50.0, 50.0, -2.0 + (-1.0) * 5.0 / 15.0])
+    assert np.array_equal(out[[0, 1, 2, 4, 5]], pts)
+    assert cut == (1, 4)
+    assert area.on_boundary(out[:, :2]).all()
+    # Only the corners the shorter way round: (0, 0), not the five others.
+    got = _around_corners(area, np.array([[0.0, 10.0, 0.0], [10.0, 0.0, 0.0]]), None)[0]
+    assert np.array_equal(got[:, :2], [[0.0, 10.0], [0.0, 0.0], [10.0, 0.0]])
+    # Not on the boundary: unchanged.
+    inner = np.array([[10.0, 10.0, 0.0], [20.0, 20.0, 0.0]])
+    assert _around_corners(area, inner, (0, 1)) == (inner, (0, 1))
+    # _assemble shares a point the extension keeps although the inserted
+    # corner moved it: one vertex, no zero-area triangle.
+    trace_pl = np.array([[80.0, 40.0, 0.0], [70.0, 40.0, -1.0], [60.0, 45.0, -2.0], [50.0, 60.0, -3.0],
+                         [45.0, 70.0, -3.0]])
+    V, T = _assemble([trace_pl, out], "min_area", [(1, 3), cut])
+    assert len(V) == len(trace_pl) + len(out) - 1
+    assert len(T) > 0
+    assert ((T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 2] != T[:, 0])).all()
+
+
+def test_reach_past_the_band_stops_at_the_boundary():
+    # A reverse-fault section that ends at the study-area boundary inside the
+    # repetition band: the hanging-wall polyline is carried to the boundary,
+    # not a band width beyond it into the outside (the patch vertex lay
+    # outside the study area: sweep seeds 117, 377).
+    from faultmesh.faults import _reach_past_the_band
+
+    area = faultmesh.StudyArea(np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]]))
+    foot = np.array([[40.0, 50.0, -10.0], [90.0, 50.0, -10.0]])
+    hang = np.array([[60.0, 50.0, 10.0], [95.0, 50.0, 13.5]])       # band 30 m, ends 5 m past it
+    f0, h0 = _reach_past_the_band(foot, hang)
+    assert np.allclose(h0[-1], [120.0, 50.0, 16.0]) and np.allclose(f0[0], [30.0, 50.0, -10.0])
+    f1, h1 = _reach_past_the_band(foot, hang, area)
+    assert np.array_equal(h1[-1, :2], [100.0, 50.0]) and np.isclose(h1[-1, 2], 14.0)
+    assert np.allclose(f1[0], [30.0, 50.0, -10.0])
+    assert area.contains(np.vstack([f1, h1])[:, :2]).all()
+    # Ending on the boundary already: nothing is added.
+    hang = np.array([[60.0, 50.0, 10.0], [100.0, 50.0, 14.0]])
+    assert len(_reach_past_the_band(foot, hang, area)[1]) == 2
+    assert len(_reach_past_the_band(foot, hang)[1]) == 3

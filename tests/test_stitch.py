@@ -236,6 +236,65 @@ def test_non_convex_study_area_and_boundary_patch():
     check_surface(S, ring)
 
 
+def test_patch_touching_the_boundary_at_a_vertex_pinches_the_gap():
+    # An end carried onto the boundary around the corner (100, 0): the
+    # extension's points land on the side y = 0, the trace's last point
+    # (100, 3) already lies on the side x = 100 and is shared. The patch's
+    # chord (90, 0)-(100, 3) cuts the corner off, so the gap touches itself
+    # at (100, 3): a corner triangle and the rest. The boundary piece D
+    # covers on x = 100 ran through (100, 3) as one edge, and the gap polygon
+    # crossed itself (sweep seeds 112, 145, 183, 242, 271, 397: "ear clipping
+    # the gap polygon ... gave 62 triangles instead of 63").
+    V, T = tin()
+    a = np.array([[80.0, 10.0, -1.0], [85.0, 8.0, -1.0], [92.0, 6.0, -1.0], [100.0, 3.0, -1.0]])
+    b = np.array([[78.0, 0.0, -1.0], [83.0, 0.0, -1.0], [90.0, 0.0, -1.0], [100.0, 3.0, -1.0]])
+    t = np.asarray(faultmesh.loft(a, b))
+    t = np.where(t == 7, 3, t)                      # b's last point is a's
+    PT = t[(t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 2] != t[:, 0])]
+    PV = np.vstack([a, b[:3]])
+    st = faultmesh.Stitcher(V, T, SQUARE)
+    rep = st.stitch(PV, PT, name="F")
+    S, m = surface_of(st)
+    check_surface(S, SQUARE)
+    assert len(rep.gaps) == 2
+    for g in rep.gaps:
+        assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2
+    # One gap is the corner: (90, 0) -- chord -- (100, 3) and the boundary.
+    is_gap = m.kinds == faultmesh.TriangleKind.gap
+    xy = [S.vertices[np.unique(S.triangles[is_gap & (m.owners == g.id)]), :2] for g in rep.gaps]
+    corner = [p for p in xy if (p[:, 0] >= 90.0).all() and (p[:, 1] <= 3.0).all()]
+    assert len(corner) == 1 and {(90.0, 0.0), (100.0, 0.0), (100.0, 3.0)} <= {tuple(q) for q in corner[0]}
+    # (100, 3) is on the surface's boundary, between (100, 0) and the rest.
+    (loop,) = faultmesh.boundary_loops(S.triangles)
+    bxy = [tuple(p) for p in S.vertices[loop, :2]]
+    assert (100.0, 3.0) in bxy and (100.0, 0.0) in bxy
+
+
+def test_patch_leaving_a_non_convex_study_area_is_named():
+    # A fault that runs out of the study area and back in between two traces
+    # (across the notch of the ring below): the patch's outline edge crosses
+    # the notch. The gap polygon then crossed itself and ear clipping said so
+    # in its own words (sweep seeds 418, 454); the stitcher names the cause.
+    ring = np.array([[0, 0], [100, 0], [100, 100], [60, 100], [50, 60], [40, 100], [0, 100]], float)
+    lt = faultmesh.build.LayerTin("L", np.column_stack([np.random.default_rng(3).uniform(1, 99, (300, 2)),
+                                                        np.zeros(300)]), ring, spacing=8.0)
+    V, T = lt.mesh()
+    a = np.array([[45.0, y, z] for y, z in zip([50, 60, 64, 75], [0, 0, -2, -2])])
+    b = np.array([[55.0, y, z] for y, z in zip([50, 60, 64, 75], [0, 0, -2, -2])])
+    PV, PT = patch([a, b])
+    st = faultmesh.Stitcher(V, T, ring)
+    with pytest.raises(faultmesh.GeometryError,
+                       match=r"patch 'F': the patch leaves the study area: its outline edge .* crosses "
+                             r"the study-area side from \(50, 60\) to \(40, 100\)"):
+        st.stitch(PV, PT, name="F")
+    # Nothing changed: the same patch moved clear of the notch stitches.
+    PV2 = PV.copy()
+    PV2[:, 1] -= 20.0
+    st.stitch(PV2, PT, name="F")
+    S, _ = surface_of(st)
+    check_surface(S, ring)
+
+
 def test_errors_name_the_problem():
     V, T = tin()
     with pytest.raises(ValueError, match="vertices must have shape"):

@@ -88,8 +88,23 @@ void build_gap_polygons(const StitcherState& s, StitchJob& job) {
                                     std::to_string(b) + ") near " + fmt_point(s.v(a)) +
                                     " does not run along the study-area boundary");
         }
+        std::vector<StudyArea::Hit> hv;
         for (const auto& e : job.outline) {
             const std::int64_t ga = nV + e.a, gb = nV + e.b;
+            // An outline vertex on the study boundary splits the boundary
+            // piece D covers there (an event that changes no coverage): a
+            // patch that touches the boundary at a vertex -- an end carried
+            // onto two sides around a corner, its chord cutting the corner --
+            // pinches the gap there into two rings, which the chaining below
+            // keeps apart. Without the split the piece runs through the
+            // vertex and the gap polygon crosses itself (sweep seeds 112,
+            // 145, 183, 242, 271, 397).
+            s.study.locate(job.X(ga), hv);
+            for (const auto& h : hv) {
+                const double t = tpos(h.side, h.s);
+                at_t[key_of(t)].push_back(ga);
+                events.emplace_back(t, 0);
+            }
             if (!e.study) {
                 gedges.push_back({gb, ga, pid});
                 continue;
@@ -147,21 +162,60 @@ void build_gap_polygons(const StitcherState& s, StitchJob& job) {
         if (cov != 0)
             throw GeometryError(fn + ": internal error: unbalanced coverage along the study boundary");
     }
-    // Chain the gap edges into rings.
+    // Chain the gap edges into rings. A vertex with more than one outgoing
+    // edge is a pinch of the gap (the patch outline touching the study
+    // boundary or D's boundary at a vertex): each edge into it continues
+    // with the outgoing edge first clockwise from the way back (the gap is
+    // on the left of its edges, so that edge bounds the same wedge), which
+    // keeps the two sides of the pinch in separate rings. Only a patch
+    // vertex may be a pinch: D's boundary never touches itself (the grower
+    // pulls in the star of a pinch vertex), so a layer vertex with two ways
+    // out is an error as before.
     std::vector<std::vector<std::int64_t>>& rings = job.rings;
     std::vector<double>& ring_area = job.ring_area;
     {
-        std::unordered_map<std::int64_t, std::size_t> gout;
+        std::unordered_map<std::int64_t, std::vector<std::size_t>> gout;
         std::unordered_map<std::int64_t, int> gin;
         for (std::size_t i = 0; i < gedges.size(); ++i) {
-            if (!gout.emplace(gedges[i].a, i).second)
-                throw GeometryError(fn + ": the gap polygon touches itself at vertex " +
-                                    fmt_point(X(gedges[i].a)) +
-                                    " (the fault patch is too close to another patch or to the boundary)");
-            if (++gin[gedges[i].b] > 1)
-                throw GeometryError(fn + ": the gap polygon touches itself at vertex " +
-                                    fmt_point(X(gedges[i].b)));
+            gout[gedges[i].a].push_back(i);
+            ++gin[gedges[i].b];
         }
+        for (const auto& vo : gout) {
+            const auto it = gin.find(vo.first);
+            const int nin = it == gin.end() ? 0 : it->second;
+            if (nin != static_cast<int>(vo.second.size()) || (nin > 1 && vo.first < nV))
+                throw GeometryError(fn + ": the gap polygon touches itself at vertex " +
+                                    fmt_point(X(vo.first)) +
+                                    " (the fault patch is too close to another patch or to the boundary)");
+        }
+        // Clockwise angle from the ray v->u to the ray v->w, compared exactly:
+        // (0, pi) right of v->u first, then the opposite direction, then
+        // (pi, 2 pi), the direction of u itself last.
+        auto half = [&](const double* v, const double* u, const double* w) {
+            const double o = orient2d(v, u, w);
+            if (o < 0.0) return 0;
+            if (o > 0.0) return 2;
+            // Collinear: same or opposite direction. The differences have
+            // exact signs and the two products per axis the same sign, so
+            // the sign of the sum is exact.
+            const bool same = (w[0] - v[0]) * (u[0] - v[0]) + (w[1] - v[1]) * (u[1] - v[1]) > 0.0;
+            return same ? 3 : 1;
+        };
+        auto next_of = [&](std::size_t in) -> std::size_t {
+            const std::vector<std::size_t>& outs = gout.at(gedges[in].b);
+            if (outs.size() == 1) return outs[0];
+            const double* v = X(gedges[in].b);
+            const double* u = X(gedges[in].a);
+            std::size_t best = outs[0];
+            for (std::size_t k = 1; k < outs.size(); ++k) {
+                const double* w = X(gedges[outs[k]].b);
+                const double* b = X(gedges[best].b);
+                const int hw = half(v, u, w), hb = half(v, u, b);
+                if (hw < hb || (hw == hb && orient2d(v, b, w) > 0.0))
+                    best = outs[k];
+            }
+            return best;
+        };
         std::vector<char> done(gedges.size(), 0);
         for (std::size_t i0 = 0; i0 < gedges.size(); ++i0) {
             if (done[i0]) continue;
@@ -170,11 +224,10 @@ void build_gap_polygons(const StitcherState& s, StitchJob& job) {
             while (!done[i]) {
                 done[i] = 1;
                 ring.push_back(static_cast<std::int64_t>(i));
-                auto it = gout.find(gedges[i].b);
-                if (it == gout.end())
+                if (!gout.count(gedges[i].b))
                     throw GeometryError(fn + ": internal error: the gap boundary is open at vertex " +
                                         fmt_point(X(gedges[i].b)));
-                i = it->second;
+                i = next_of(i);
             }
             if (i != i0) throw GeometryError(fn + ": internal error: the gap boundary is not a loop");
             std::vector<const double*> pts;

@@ -10,6 +10,7 @@
 #include "stitch_steps.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -103,6 +104,43 @@ void outline_patch(const StitcherState& s, StitchJob& job) {
                 s.study.locate(P(vtx), tmp);
                 if (!tmp.empty()) hits[vtx] = tmp;
             }
+        // The patch must stay in the study area: its vertices do (above),
+        // so an outline edge leaves the area iff a side crosses it properly
+        // (exact orientations). A side an end point lies on (within the
+        // study area's tolerance) is skipped: crossing it there is rounding.
+        // Such an edge is a fault that runs out of the area and back in
+        // between two traces -- across the notch of a non-convex study area
+        // (sweep seeds 418, 454) -- and the gap polygon would cross itself.
+        std::vector<std::size_t> cand;
+        auto check_inside = [&](std::int64_t a, std::int64_t b, const std::vector<StudyArea::Hit>* ha,
+                                const std::vector<StudyArea::Hit>* hb) {
+            const double *pa = P(a), *pb = P(b);
+            const double mid[2] = {0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1])};
+            // A filter only (box distance): the half length, with a margin
+            // for the rounding of the midpoint.
+            const double r = 0.5 * std::hypot(pb[0] - pa[0], pb[1] - pa[1]) * (1.0 + 1e-9) +
+                             s.study.tolerance();
+            s.study.sides_near(mid, r, cand);
+            auto on_side = [](const std::vector<StudyArea::Hit>* h, std::size_t k) {
+                return h != nullptr && std::any_of(h->begin(), h->end(),
+                                                   [&](const StudyArea::Hit& x) { return x.side == k; });
+            };
+            for (std::size_t k : cand) {
+                if (on_side(ha, k) || on_side(hb, k)) continue;
+                const double *c = s.study.corner(k), *d = s.study.corner(k + 1);
+                const double o1 = orient2d(pa, pb, c), o2 = orient2d(pa, pb, d);
+                const double o3 = orient2d(c, d, pa), o4 = orient2d(c, d, pb);
+                if (((o1 > 0.0 && o2 < 0.0) || (o1 < 0.0 && o2 > 0.0)) &&
+                    ((o3 > 0.0 && o4 < 0.0) || (o3 < 0.0 && o4 > 0.0)))
+                    throw GeometryError(
+                        fn + ": the patch leaves the study area: its outline edge from " + fmt_point(pa) +
+                        " to " + fmt_point(pb) + " crosses the study-area side from " + fmt_point(c) +
+                        " to " + fmt_point(d) +
+                        " (the fault runs out of the study area and back in between two of its traces, "
+                        "e.g. across a notch of a non-convex study area; a patch is not clipped to the "
+                        "study area)");
+            }
+        };
         for (const auto& loop : bc.loops) {
             for (std::size_t i = 0; i < loop.size(); ++i) {
                 const std::int64_t a = loop[i], b = loop[(i + 1) % loop.size()];
@@ -117,6 +155,8 @@ void outline_patch(const StitcherState& s, StitchJob& job) {
                                 e.sa = ha.s;
                                 e.sb = hb.s;
                             }
+                if (!e.study) check_inside(a, b, ia == hits.end() ? nullptr : &ia->second,
+                                           ib == hits.end() ? nullptr : &ib->second);
                 oedges.push_back(e);
                 ring_xy.push_back(P(a)[0]);
                 ring_xy.push_back(P(a)[1]);

@@ -134,8 +134,8 @@ def trace_cutoffs(trace, layer: str, area: Optional[StudyArea] = None) -> Option
     return None if r is None else r[2]
 
 
-def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray, area: Optional[StudyArea] = None
-                         ) -> Tuple[np.ndarray, np.ndarray]:
+def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray,
+                         area: Optional[StudyArea] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Where a reverse fault repeats the layer (the hanging-wall cutoff lies
     behind the footwall cutoff along the section: the overlap band), the
     footwall polyline must start before the band and the hanging-wall one end
@@ -145,12 +145,10 @@ def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray, area: Optional[Stud
     the edge of) the band is carried on along its last segment's slope to one
     band width beyond it. Sections are drawn as lines: the direction along
     the section is that of the footwall polyline (else the hanging-wall one).
-
-    With ``area`` the carried point stops where the section meets the
-    study-area boundary (placed on it by :meth:`StudyArea.ray_hit`): a
-    section near the boundary would otherwise put a patch vertex outside the
-    study area (grounds seed 10: 1.6 m beyond it), which the stitcher
-    rejects. A polyline that ends on the boundary already is not carried."""
+    With ``area`` a polyline is carried no further than the study-area
+    boundary (a section that ends at the boundary inside the band: the
+    patch ends on the boundary there; carried past it, its vertex lay outside
+    the study area: sweep seeds 117, 377)."""
     fc, hc = foot[-1, :2], hang[0, :2]
     d = fc - foot[0, :2] if len(foot) > 1 else hang[-1, :2] - hc
     n = float(np.hypot(d[0], d[1]))
@@ -167,28 +165,25 @@ def _reach_past_the_band(foot: np.ndarray, hang: np.ndarray, area: Optional[Stud
         # z along the polyline's last segment (its slope along the section).
         seg_u = float((end[:2] - inner[:2]) @ d)
         slope = (end[2] - inner[2]) / seg_u if abs(seg_u) > 0.0 else 0.0
-        xy = end[:2] + du * d
-        if area is not None and not area.contains(xy[None, :])[0]:
-            # Stop on the boundary: the first hit of the ray from the end
-            # along the carrying direction (t = 0 when the end is on it).
-            t, _, _, hit = area.ray_hit(end[None, :2], (np.sign(du) * d)[None, :])
-            reach = float(t[0])
-            if not (np.isfinite(reach) and reach > 0.0):
-                return None
-            du = math.copysign(min(abs(du), reach), du)
-            xy = np.asarray(hit[0], dtype=np.float64)
-        return np.r_[xy, end[2] + slope * du]
+        if area is not None and not area.contains((end[:2] + du * d)[None, :])[0]:
+            # Stop on the boundary: placed there by the ray's hit.
+            way = d if du > 0.0 else -d
+            t, _, _, xy = area.ray_hit(end[None, :2], way[None, :])
+            if not np.isfinite(t[0]) or t[0] == 0.0:
+                return None  # the end is on the boundary already
+            return np.r_[xy[0], end[2] + slope * (float(t[0]) if du > 0.0 else -float(t[0]))]
+        return np.r_[end[:2] + du * d, end[2] + slope * du]
 
     if float((hang[-1, :2] - fc) @ d) < band:
         inner = hang[-2] if len(hang) > 1 else (foot[-2] if len(foot) > 1 else hang[-1])
-        p = carried(hang[-1], inner, band)
-        if p is not None:
-            hang = np.vstack([hang, p])
+        c = carried(hang[-1], inner, band)
+        if c is not None:
+            hang = np.vstack([hang, c])
     if float((foot[0, :2] - fc) @ d) > -2.0 * band:
         inner = foot[1] if len(foot) > 1 else (hang[1] if len(hang) > 1 else foot[0])
-        p = carried(foot[0], inner, -2.0 * band)
-        if p is not None:
-            foot = np.vstack([p, foot])
+        c = carried(foot[0], inner, -2.0 * band)
+        if c is not None:
+            foot = np.vstack([c, foot])
     return foot, hang
 
 
@@ -369,83 +364,72 @@ def _layer_tip(fault, traces_with, layer: str, end: int, tip: np.ndarray, direct
     return np.array([xy[0], xy[1], z])
 
 
-def _to_boundary(area: StudyArea, poly: np.ndarray, d: np.ndarray, surface_z, hits: bool = False):
+def _to_boundary(area: StudyArea, poly: np.ndarray, d: np.ndarray, surface_z):
     """``poly`` carried along ``d`` onto the study-area boundary: (points
-    (k, 3) placed on their sides, t (k,) the distances), with ``hits`` also
-    the side (k,) and arc length (k,) of each hit. A point already on the
-    boundary stays where it is (t = 0, the same coordinates)."""
-    t, side, s, xy = area.ray_hit(poly[:, :2], np.asarray(d, dtype=np.float64)[None, :])
+    (k, 3) placed on their sides, t (k,) the distances). A point already on
+    the boundary stays where it is (t = 0, the same coordinates)."""
+    t, side, _, xy = area.ray_hit(poly[:, :2], np.asarray(d, dtype=np.float64)[None, :])
     on = t == 0.0
     xy = np.where(on[:, None], poly[:, :2], xy)
     pts = np.column_stack([xy, _shift_z(poly, xy, surface_z)])
     pts[on] = poly[on]
-    if hits:
-        return pts, t, np.asarray(side, dtype=np.int64), np.asarray(s, dtype=np.float64)
     return pts, t
 
 
-def _with_corners(area: StudyArea, pts: np.ndarray, side: np.ndarray, s: np.ndarray
-                  ) -> Tuple[np.ndarray, np.ndarray]:
-    """A polyline whose points all lie on the study-area boundary, with the
-    corners of the boundary inserted between consecutive points on different
-    sides (the shorter way round): (points (m, 3), position of each input
-    point in them).
-
-    Why: the end trace of a fault carried along strike onto the boundary
-    near a corner lands partly on one side and partly on the next; for a
-    reverse fault it runs back and forth across the corner (footwall, strip,
-    hanging wall), and a straight edge between points on two sides cuts the
-    corner off and crosses the polyline's other sheets in XY (grounds seed
-    179: the stitcher rejected the outline as not simple). Through the
-    corner every outline edge runs along one side, where a fold is allowed.
-    z of a corner: linear in XY distance between its neighbours."""
-    ring = area.ring
-    k = len(ring)
-    lengths = np.hypot(*(np.roll(ring, -1, axis=0) - ring).T)
-    side = side.copy()
-    s = s.copy()
-    # A hit at the end of a side is the next side's first corner.
-    at_end = s >= lengths[side]
-    side[at_end] = (side[at_end] + 1) % k
-    s[at_end] = 0.0
-    out: List[np.ndarray] = [pts[0]]
-    pos = np.zeros(len(pts), dtype=np.int64)
-    for i in range(1, len(pts)):
-        a, b = side[i - 1], side[i]
-        if a != b:
-            fwd = (b - a) % k
-            back = (a - b) % k
-            arc_f = lengths[a] - s[i - 1] + lengths[(a + np.arange(1, fwd)) % k].sum() + s[i]
-            arc_b = s[i - 1] + lengths[(a - np.arange(1, back)) % k].sum() + lengths[b] - s[i]
-            corners = ([(a + j) % k for j in range(1, fwd + 1)] if arc_f <= arc_b
-                       else [(a - j) % k for j in range(back)])
-            path = [ring[c] for c in corners
-                    if not (np.array_equal(ring[c], pts[i - 1, :2]) or np.array_equal(ring[c], pts[i, :2]))]
-            if path:
-                xy = np.vstack([pts[i - 1, :2]] + path + [pts[i, :2]])
-                cum = np.r_[0.0, np.cumsum(np.hypot(*np.diff(xy, axis=0).T))]
-                w = cum[1:-1] / cum[-1] if cum[-1] > 0.0 else np.zeros(len(path))
-                z = pts[i - 1, 2] + w * (pts[i, 2] - pts[i - 1, 2])
-                out.extend(np.column_stack([xy[1:-1], z]))
-        pos[i] = len(out)
-        out.append(pts[i])
-    return np.vstack(out), pos
+def _around_corners(area: StudyArea, pts: np.ndarray,
+                    cut: Optional[Tuple[int, int]]) -> Tuple[np.ndarray, Optional[Tuple[int, int]]]:
+    """A polyline on the study-area boundary made to follow it: where two
+    consecutive points lie on different sides, the corners between them (the
+    shorter way round) are inserted, z interpolated along the boundary.
+    Without them the patch's edge between the two points is a chord: across
+    a reflex corner it runs outside the study area, across a convex one it
+    cuts off a sliver of the gap that touches the rest only at the patch's
+    vertex (sweep seeds 150, 363, 455). ``cut`` (footwall and hanging-wall
+    cutoff positions) is moved to the points' new positions. Polylines not
+    wholly on the boundary are returned as they are."""
+    if len(pts) < 2:
+        return pts, cut
+    side, s = area.locate(pts[:, :2])
+    if (side < 0).any():
+        return pts, cut
+    per = float(area.perimeter)
+    ring = np.asarray(area.ring, dtype=np.float64)
+    t = area.arc_position(side, s)
+    tc = area.arc_position(np.arange(len(ring)), np.zeros(len(ring)))
+    ta = t[:-1, None]
+    fwd = np.mod(t[1:, None] - ta, per)
+    forward = fwd <= 0.5 * per
+    span = np.where(forward, fwd, per - fwd)                                    # (n-1, 1)
+    along = np.where(forward, np.mod(tc[None, :] - ta, per), np.mod(ta - tc[None, :], per))
+    # A corner within the merge tolerance of either point is that point
+    # (located on the next side up to rounding): nothing to insert.
+    tol = _merge_tol(pts)
+    da = np.hypot(ring[None, :, 0] - pts[:-1, None, 0], ring[None, :, 1] - pts[:-1, None, 1])
+    db = np.hypot(ring[None, :, 0] - pts[1:, None, 0], ring[None, :, 1] - pts[1:, None, 1])
+    seg, cor = np.nonzero((along > 0.0) & (along < span) & (da > tol) & (db > tol))
+    if len(seg) == 0:
+        return pts, cut
+    order = np.lexsort((along[seg, cor], seg))
+    seg, cor = seg[order], cor[order]
+    frac = along[seg, cor] / span[seg, 0]
+    z = pts[seg, 2] + frac * (pts[seg + 1, 2] - pts[seg, 2])
+    out = np.insert(pts, seg + 1, np.column_stack([ring[cor], z]), axis=0)
+    if cut is not None:
+        moved = np.arange(len(pts)) + np.searchsorted(seg + 1, np.arange(len(pts)), side="right")
+        cut = (int(moved[cut[0]]), int(moved[cut[1]]))
+    return np.ascontiguousarray(out), cut
 
 
 def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
             partners: Dict[str, List[np.ndarray]], max_dist: float,
-            surface_z) -> Optional[Tuple[np.ndarray, str, float, np.ndarray]]:
+            surface_z) -> Optional[Tuple[np.ndarray, str, float]]:
     """``poly`` carried along ``d`` onto the nearest target (every point must
     hit it within ``max_dist``): the study-area boundary or a group partner's
-    outline. Returns (new polyline, target name, median distance, position
-    of each point of ``poly`` in the new polyline) or None. On the boundary
-    the new polyline runs through the corners between its points
-    (:func:`_with_corners`)."""
+    outline. Returns (new polyline, target name, median distance) or None."""
     best = None
-    pts, t, side, s = _to_boundary(area, poly, d, surface_z, hits=True)
+    pts, t = _to_boundary(area, poly, d, surface_z)
     if np.all(np.isfinite(t)) and float(t.max()) <= max_dist:
-        pts, pos = _with_corners(area, pts, side, s)
-        best = (pts, "boundary", float(np.median(t)), pos)
+        best = (pts, "boundary", float(np.median(t)))
     for name, rings in partners.items():
         if not rings:
             continue
@@ -455,8 +439,7 @@ def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
         med = float(np.median(t))
         if best is None or med < best[2]:
             xy = poly[:, :2] + t[:, None] * d[None, :]
-            best = (np.column_stack([xy, _shift_z(poly, xy, surface_z)]), name, med,
-                    np.arange(len(poly)))
+            best = (np.column_stack([xy, _shift_z(poly, xy, surface_z)]), name, med)
     return best
 
 
@@ -475,11 +458,9 @@ def _assemble(seq: List[np.ndarray], method: str,
     the band between the cutoff lines the data give, whatever diagonals the
     loft would choose across a whole polyline.
 
-    Consecutive polylines share vertices where they have the same point at
-    the same position (an end trace that already lies on the study-area
-    boundary is its own extension there; between polylines of different
-    lengths -- an extension with the boundary's corners inserted -- the same
-    point anywhere in the previous polyline): such a point is one vertex, and
+    Consecutive polylines share vertices where they have the same point
+    (an end trace that already lies on the study-area
+    boundary is its own extension there): such a point is one vertex, and
     the loft triangles that would join it to itself (two corners at one
     vertex: zero area) are not made. The strip between the polylines is
     pinched at the shared point, and the remaining triangles cover it."""
@@ -489,17 +470,13 @@ def _assemble(seq: List[np.ndarray], method: str,
     for i, p in enumerate(seq):
         idx = np.arange(n, n + len(p))
         if i > 0:
-            prev = seq[i - 1]
-            if len(p) == len(prev):
-                same = np.all(p == prev, axis=1)
-                at = index[-1]
-            else:
-                # Exactly equal points (coordinates copied, never computed).
-                eq = np.all(p[:, None, :] == prev[None, :, :], axis=2)
-                same = eq.sum(axis=1) == 1
-                at = np.where(same, index[-1][np.argmax(eq, axis=1)], -1)
+            # A point equal to one of the previous polyline's (an extension
+            # keeps the points already on the boundary; corners inserted
+            # by _around_corners shift the positions) is that vertex.
+            eq = np.all(p[:, None, :] == seq[i - 1][None, :, :], axis=2)
+            same = eq.any(axis=1)
             if same.any():
-                idx = np.where(same, at, -1)
+                idx = np.where(same, index[-1][np.argmax(eq, axis=1)], -1)
                 new = ~same
                 idx[new] = np.arange(n, n + int(new.sum()))
                 Vs.append(p[new])
@@ -567,7 +544,6 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
         tip = ends.tips[end]
         d = ends.directions[end]
         add: Optional[np.ndarray] = None
-        add_pos: Optional[np.ndarray] = None  # position of each point of poly in add
         if tip is not None:
             add = _layer_tip(fault, with_layer, layer, end, tip, d, area, surface_z)[None, :]
             kinds.append("tip")
@@ -578,7 +554,10 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
         else:
             ext = _extend(poly, d, area, partners or {}, max_extension, surface_z)
             if ext is not None:
-                add, target, dist, add_pos = ext
+                add, target, dist = ext
+                c_add = cuts[0] if end == 0 else cuts[-1]
+                if target == "boundary":
+                    add, c_add = _around_corners(area, add, c_add)
                 kinds.append("extended")
                 meta[f"end{end}_extended_to"] = target
                 meta[f"end{end}_extension"] = dist
@@ -593,13 +572,12 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 add = np.array([[xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])]])
                 kinds.append("synthetic_tip")
         if add is not None:
-            # An extension is the end polyline carried point by point (with
-            # the boundary's corners between, where it wraps one): its
+            # An extension is the end polyline carried point by point: its
             # cutoffs sit where the end polyline's do. A tip is one point.
-            c = None
-            pc = cuts[0] if end == 0 else cuts[-1]
-            if add_pos is not None and pc is not None:
-                c = (int(add_pos[pc[0]]), int(add_pos[pc[1]]))
+            if kinds[-1] == "extended":
+                c = c_add
+            else:
+                c = (cuts[0] if end == 0 else cuts[-1]) if len(add) == len(poly) else None
             if end == 0:
                 seq.insert(0, add)
                 cuts.insert(0, c)
