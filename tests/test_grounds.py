@@ -307,6 +307,7 @@ def test_reverse_fault_near_the_boundary_builds(seed, tmp_path_factory):
 # were no longer TIN edges (LayerTin::insert now merges them).
 @pytest.mark.parametrize("seed", [468])
 def test_repair_points_on_the_boundary_build(seed, tmp_path_factory):
+    assert_holds(outcome(seed, tmp_path_factory))
 
 
 # Grounds whose gap polygon crossed itself where a fault patch ends on the
