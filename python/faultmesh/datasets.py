@@ -38,7 +38,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from .dataset import Boreholes, Dataset, Fault, Section, Trace, points_in_polygon
-from .geology import FaultModel, Geology, smooth_field
+from .geology import FaultModel, Geology, layer_stack, smooth_field
 
 __all__ = ["paper_like", "paper_like_path", "synthetic", "random_ground", "MIN_TRACE_THROW"]
 
@@ -744,17 +744,7 @@ def synthetic(seed: int = 0, *, n_layers: int = 3, strike: float = 60.0, dip: fl
     th_base = rng.uniform(25.0, 50.0, size=n_layers - 1)
     thick = [smooth_field(base=float(b), waves=[wave(5.0, i + 1, 2)]) for i, b in enumerate(th_base)]
     names = [f"L{i + 1}" for i in range(n_layers)]
-
-    def make(i):
-        def f(X, Y):
-            z = top(X, Y)
-            for t in thick[:i]:
-                z = z - t(X, Y)
-            return z
-        f.max_slope = top.max_slope + sum(t.max_slope for t in thick[:i])
-        return f
-
-    surfaces = {names[i]: make(i) for i in range(n_layers)}
+    surfaces = layer_stack(names, top, thick)
 
     # Boundary: the rectangle with each side's midpoint pushed in a little
     # (star-shaped around the centre, hence simple).

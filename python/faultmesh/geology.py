@@ -91,6 +91,22 @@ def smooth_field(base: float = 0.0, gradient: Sequence[float] = (0.0, 0.0),
     return f
 
 
+def layer_stack(names: Sequence[str], top, thicknesses: Sequence) -> Dict[str, Callable]:
+    """Layer surfaces (top to bottom) from the top surface and the interval
+    thicknesses below it: layer i lies ``sum(thicknesses[:i])`` below
+    ``top``. Each surface carries ``max_slope`` (the sum of its parts')."""
+    def make(i):
+        def f(X, Y):
+            z = top(X, Y)
+            for t in thicknesses[:i]:
+                z = z - t(X, Y)
+            return z
+        f.max_slope = top.max_slope + sum(t.max_slope for t in thicknesses[:i])
+        return f
+
+    return {name: make(i) for i, name in enumerate(names)}
+
+
 @dataclass
 class FaultModel:
     """One dip-slip fault of a :class:`Geology` (see the module docstring).

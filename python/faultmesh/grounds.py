@@ -58,7 +58,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from .dataset import Boreholes, Dataset, DatasetError, Fault, Section, Trace, points_in_polygon
-from .geology import FaultModel, Geology, smooth_field
+from .geology import FaultModel, Geology, layer_stack, smooth_field
 
 __all__ = ["GroundSpec", "random_ground", "make_ground", "draw_plan", "KINDS",
            "repetition_coverage", "near_fault_accuracy", "evaluate_ground", "failure_class",
@@ -413,17 +413,7 @@ def _layer_stack(rng: np.random.Generator, n: int, size: float):
                  float(rng.uniform(0.1, 0.3) * size))] if rng.random() < 0.4 else []
         thick_f.append(smooth_field(base=float(b), waves=[wave(float(rng.uniform(0.0, 0.35)) * b)], bumps=bump))
     names = [f"L{i + 1}" for i in range(n)]
-
-    def make(i):
-        def f(X, Y):
-            z = top(X, Y)
-            for t in thick_f[:i]:
-                z = z - t(X, Y)
-            return z
-        f.max_slope = top.max_slope + sum(t.max_slope for t in thick_f[:i])
-        return f
-
-    return names, {names[i]: make(i) for i in range(n)}
+    return names, layer_stack(names, top, thick_f)
 
 
 # ---------------------------------------------------------------------------
