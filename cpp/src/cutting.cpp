@@ -118,14 +118,7 @@ private:
         best = std::numeric_limits<double>::infinity();
         Index owner = live_.front();
         for (const auto& e : boundary_) {
-            const double* a = xyz_ + 3 * e.a;
-            const double* b = xyz_ + 3 * e.b;
-            const double ex = b[0] - a[0], ey = b[1] - a[1];
-            const double len2 = ex * ex + ey * ey;
-            double s = len2 > 0 ? ((p[0] - a[0]) * ex + (p[1] - a[1]) * ey) / len2 : 0.0;
-            s = std::clamp(s, 0.0, 1.0);
-            const double dx = a[0] + s * ex - p[0], dy = a[1] + s * ey - p[1];
-            const double d2 = dx * dx + dy * dy;
+            const double d2 = segment_distance2(xyz_ + 3 * e.a, xyz_ + 3 * e.b, p);
             if (d2 < best) {
                 best = d2;
                 owner = e.owner;

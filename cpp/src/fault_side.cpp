@@ -4,6 +4,7 @@
 #include <faultmesh/aabb_tree.hpp>
 #include <faultmesh/errors.hpp>
 #include <faultmesh/predicates.hpp>
+#include <faultmesh/segments.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -85,14 +86,7 @@ public:
         double best = std::numeric_limits<double>::infinity();
         Index owner = live_.front();
         for (const auto& e : boundary_) {
-            const double* a = uv(e.a);
-            const double* b = uv(e.b);
-            const double ex = b[0] - a[0], ey = b[1] - a[1];
-            const double len2 = ex * ex + ey * ey;
-            double s = len2 > 0 ? ((q[0] - a[0]) * ex + (q[1] - a[1]) * ey) / len2 : 0.0;
-            s = std::clamp(s, 0.0, 1.0);
-            const double dx = a[0] + s * ex - q[0], dy = a[1] + s * ey - q[1];
-            const double d2 = dx * dx + dy * dy;
+            const double d2 = segment_distance2(uv(e.a), uv(e.b), q);
             if (d2 < best) {
                 best = d2;
                 owner = e.owner;
