@@ -977,6 +977,11 @@ def test_kernels_from_main_share_the_input_contract():
         fm.sample_surface_grid(LV, np.r_[LT[:1], [[0, 1, len(LV)]]], (0.0, 0.0), (1.0, 1.0), (2, 2))
     with pytest.raises(ValueError, match=r"sample_surface_grid: the grid's last point .* beyond \+-1e\+60"):
         fm.sample_surface_grid(LV, LT, (0.0, 0.0), (1e59, 1.0), (2, 20))
+    # A shape whose node count wraps around size_t left the output arrays too
+    # short for the loops (heap overflow); past 2^32 nodes it is an error.
+    for shape in ((2**33, 2**31), (2**32 + 1, 1), (1, 2**40)):
+        with pytest.raises(ValueError, match=r"sample_surface_grid: shape \(ny, nx\) = .* more than 2\^32 nodes"):
+            fm.sample_surface_grid(LV, LT, (0.0, 0.0), (1e-30, 1e-30), shape)
     # Beyond the limit a query is outside every triangle (as for Tin.interpolate).
     lo, hi, hits = fm.sample_surface(LV, LT, np.array([[50.0, 50.0], [1e61, 50.0]]))
     assert hits[0] >= 1 and hits[1] == 0 and np.isnan(lo[1])

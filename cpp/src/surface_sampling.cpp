@@ -95,6 +95,14 @@ SurfaceSamples sample_surface_grid(const double* V, std::size_t nv, const std::i
             throw_coordinate_error("sample_surface_grid", "the grid's last point (origin + (shape - 1) * spacing)", k,
                                    far[k]);
     }
+    // At most 2^32 nodes: the three output arrays then take 80 GiB, more than
+    // any machine this library runs on holds; a larger shape is a mistake
+    // (and nx * ny could wrap around size_t, leaving arrays too short for
+    // the loops below).
+    constexpr std::size_t kMaxGridNodes = std::size_t{1} << 32;
+    if (nx != 0 && ny > kMaxGridNodes / nx)
+        throw std::invalid_argument("sample_surface_grid: shape (ny, nx) = (" + std::to_string(ny) + ", " +
+                                    std::to_string(nx) + ") has more than 2^32 nodes");
     const std::size_t n = nx * ny;
     SurfaceSamples s{std::vector<double>(n, kNaN), std::vector<double>(n, kNaN), std::vector<std::int32_t>(n, 0)};
     auto first = [](double lo, double o, double h, std::size_t cnt) {
