@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "linear_interpolation.hpp"
+#include "owned_boundary.hpp"
 
 namespace faultmesh {
 namespace detail {
@@ -53,22 +54,9 @@ public:
             bounds_.ymax = std::max(bounds_.ymax, boxes.back().ymax);
         }
         tree_ = AabbTree(boxes);
-        // Boundary edges of the live triangles (edge used once), with the
-        // triangle that owns them: the planes that extend F beyond its
-        // projection. The fault is small (one fault), a sort is enough.
-        std::vector<std::pair<std::pair<Index, Index>, Index>> edges;
-        for (Index t : live_)
-            for (int i = 0; i < 3; ++i) {
-                Index a = tri[3 * t + i], b = tri[3 * t + (i + 1) % 3];
-                edges.push_back({{std::min(a, b), std::max(a, b)}, t});
-            }
-        std::sort(edges.begin(), edges.end());
-        for (std::size_t i = 0; i < edges.size();) {
-            std::size_t j = i;
-            while (j < edges.size() && edges[j].first == edges[i].first) ++j;
-            if (j - i == 1) boundary_.push_back({edges[i].first.first, edges[i].first.second, edges[i].second});
-            i = j;
-        }
+        // Boundary edges of the live triangles, with the triangle that owns
+        // them: the planes that extend F beyond its projection.
+        boundary_ = owned_boundary_edges(tri, live_);
         (void)n;
     }
 
@@ -115,25 +103,14 @@ private:
     }
 
     Index nearest_boundary_triangle(const double* p, double& best) const {
-        best = std::numeric_limits<double>::infinity();
-        Index owner = live_.front();
-        for (const auto& e : boundary_) {
-            const double d2 = segment_distance2(xyz_ + 3 * e.a, xyz_ + 3 * e.b, p);
-            if (d2 < best) {
-                best = d2;
-                owner = e.owner;
-            }
-        }
-        return owner;
+        return nearest_edge_owner(
+            boundary_, [this](Index w) { return xyz_ + 3 * w; }, p, live_.front(), best);
     }
 
-    struct BoundaryEdge {
-        Index a, b, owner;
-    };
     const double* xyz_;
     const Index* tri_;
     std::vector<Index> live_;
-    std::vector<BoundaryEdge> boundary_;
+    std::vector<OwnedEdge> boundary_;
     AabbTree tree_;
     Box2 bounds_{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
                  -std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};

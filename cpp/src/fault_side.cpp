@@ -4,7 +4,6 @@
 #include <faultmesh/aabb_tree.hpp>
 #include <faultmesh/errors.hpp>
 #include <faultmesh/predicates.hpp>
-#include <faultmesh/segments.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -13,6 +12,8 @@
 #include <string>
 #include <utility>
 #include <vector>
+
+#include "owned_boundary.hpp"
 
 namespace faultmesh {
 namespace detail {
@@ -47,22 +48,9 @@ public:
             throw GeometryError("fault_side: no fault triangle has a non-zero area in the projection along " +
                                 std::string(1, "xyz"[axis]) + " (choose another axis)");
         tree_ = AabbTree(boxes);
-        // Boundary edges of the live triangles (used by one of them) and their
-        // owners: the planes that continue the surface past its edges.
-        std::vector<std::pair<std::pair<Index, Index>, Index>> edges;
-        edges.reserve(3 * live_.size());
-        for (Index t : live_)
-            for (int i = 0; i < 3; ++i) {
-                const Index a = tri[3 * t + i], b = tri[3 * t + (i + 1) % 3];
-                edges.push_back({{std::min(a, b), std::max(a, b)}, t});
-            }
-        std::sort(edges.begin(), edges.end());
-        for (std::size_t i = 0; i < edges.size();) {
-            std::size_t j = i;
-            while (j < edges.size() && edges[j].first == edges[i].first) ++j;
-            if (j - i == 1) boundary_.push_back({edges[i].first.first, edges[i].first.second, edges[i].second});
-            i = j;
-        }
+        // Boundary edges of the live triangles and their owners: the planes
+        // that continue the surface past its edges.
+        boundary_ = detail::owned_boundary_edges(tri, live_);
     }
 
     const double* uv(Index v) const { return uv_.data() + 2 * v; }
@@ -83,16 +71,9 @@ public:
     // floating point: this only chooses which plane continues the surface; the
     // side against that plane is exact).
     Index nearest_boundary_owner(const double* q) const {
-        double best = std::numeric_limits<double>::infinity();
-        Index owner = live_.front();
-        for (const auto& e : boundary_) {
-            const double d2 = segment_distance2(uv(e.a), uv(e.b), q);
-            if (d2 < best) {
-                best = d2;
-                owner = e.owner;
-            }
-        }
-        return owner;
+        double best;
+        return detail::nearest_edge_owner(
+            boundary_, [this](Index v) { return uv(v); }, q, live_.front(), best);
     }
 
     // +1 if p lies on the +axis side of triangle t's plane, -1 on the other, 0 on it.
@@ -111,15 +92,12 @@ private:
                s * orient2d_sign(c, a, q) >= 0;
     }
 
-    struct BoundaryEdge {
-        Index a, b, owner;
-    };
     const double* xyz_;
     const Index* tri_;
     std::vector<double> uv_;
     std::vector<std::int8_t> sign_;
     std::vector<Index> live_;
-    std::vector<BoundaryEdge> boundary_;
+    std::vector<detail::OwnedEdge> boundary_;
     AabbTree tree_;
 };
 
