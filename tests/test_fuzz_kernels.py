@@ -790,6 +790,77 @@ def test_fuzz_stitcher(data, scale, offset, n_patches):
         check_surface(Surface("L", local, after.triangles), square - offset)
 
 
+# ------------------------------------------------------------ build_layer_tins
+def _mesh_set(tin) -> set:
+    """A LayerTin's triangles as corner coordinates from the smallest corner
+    (orientation kept): comparable whatever the vertex numbering."""
+    V, T = tin.mesh()
+    out = set()
+    for tri in V[T].tolist():
+        c = [tuple(p) for p in tri]
+        k = c.index(min(c))
+        out.add(tuple(c[k:] + c[:k]))
+    return out
+
+
+@pytest.mark.fuzz
+@fuzz_settings(60)
+@given(data=st.data(), offset=st.sampled_from([0.0, 5.5e5, 7.8e6]), n_layers=st.integers(1, 4),
+       share=st.sampled_from([1.0, 0.97, 0.8, 0.5, 0.0]), rounding=st.sampled_from([None, 0.01, 1.0]))
+def test_fuzz_build_layer_tins(data, offset, n_layers, share, rounding):
+    """build_layer_tins gives every layer the TIN LayerTin builds alone (same
+    triangles, corner coordinates and elevations), or the same error, for
+    stacks that share all, most, some or none of their XY points, with
+    repeated points, points on the boundary, outside it and on a grid."""
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    side = 100.0
+    area = np.array([[0, 0], [side, 0], [side, 40], [40, 40], [40, side], [0, side]], float) + offset
+    n = data.draw(st.integers(0, 60))
+    if data.draw(st.booleans()):  # a grid: cocircular everywhere
+        g = np.linspace(0.0, side, max(2, int(n ** 0.5)))
+        base = np.array(np.meshgrid(g, g)).reshape(2, -1).T
+    else:
+        base = rng.uniform(-5.0, side + 5.0, (n, 2))
+    if rounding:
+        base = np.round(base / rounding) * rounding
+    layers = []
+    for k in range(n_layers):
+        keep = rng.uniform(size=len(base)) < share
+        own = rng.uniform(0.0, side, (int(rng.integers(0, 10)), 2))
+        xy = np.vstack([base[keep], own])
+        if len(xy) and data.draw(st.booleans()):  # a repeated point, another z
+            xy = np.vstack([xy, xy[:1]])
+        xy = xy[rng.permutation(len(xy))] + offset
+        z = -10.0 * k + 0.05 * (xy[:, 0] - offset) + rng.uniform(-1, 1, len(xy))
+        layers.append((f"L{k}", np.c_[xy, z]))
+    try:
+        stacked = fm.build_layer_tins(layers, area)
+    except (fm.GeometryError, ValueError) as e:
+        # The same error as the first layer that cannot be built alone.
+        for name, pts in layers:
+            try:
+                fm.LayerTin(name, pts, area)
+            except type(e) as alone:
+                assert str(alone) == str(e)
+                return
+        raise AssertionError(f"build_layer_tins raised but every layer builds alone: {e}")
+    assert [t.name for t in stacked] == [name for name, _ in layers]
+    for t, (name, pts) in zip(stacked, layers):
+        alone = fm.LayerTin(name, pts, area)
+        assert (t.n_vertices, t.n_data, t.n_outside, t.n_boundary_data) == \
+            (alone.n_vertices, alone.n_data, alone.n_outside, alone.n_boundary_data)
+        assert _mesh_set(t) == _mesh_set(alone), name
+
+
+def test_build_layer_tins_rejects_malformed_layers():
+    area = np.array([[0, 0], [10, 0], [10, 10], [0, 10.0]])
+    pts = np.array([[1, 1, 0], [9, 1, 0], [5, 8, 0.0]])
+    with pytest.raises(ValueError, match=r"build_layer_tins: layers\[1\] must be a pair"):
+        fm.build_layer_tins([("a", pts), ("b",)], area)
+    with pytest.raises(ValueError, match=r"build_layer_tins: data of layer 'b' row 2 has a coordinate beyond"):
+        fm.build_layer_tins([("a", pts), ("b", np.r_[pts[:2], [[1e70, 0, 0]]])], area)
+
+
 # ------------------------------------------------------------ cut_layer
 @pytest.mark.fuzz
 @fuzz_settings(80)

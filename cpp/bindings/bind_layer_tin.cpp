@@ -34,10 +34,10 @@ py::tuple mesh_tuple(LayerTinMesh&& m, bool with_halfedges) {
 
 void bind_layer_tin(py::module_& m) {
     py::class_<PyLayerTin>(m, "LayerTin",
-                         "The continuous stratum TIN of one layer over the whole study area\n"
-                         "(layer_tin.hpp): the Delaunay TIN of the layer's data inside the study area\n"
-                         "plus densified, protected boundary vertices, so that mesh() covers exactly\n"
-                         "the study area.")
+                           "The continuous stratum TIN of one layer over the whole study area\n"
+                           "(layer_tin.hpp): the Delaunay TIN of the layer's data inside the study area\n"
+                           "plus densified, protected boundary vertices, so that mesh() covers exactly\n"
+                           "the study area.")
         .def(py::init([](std::string name, const py::handle& data, const py::handle& boundary,
                          py::object spacing) {
                  // x, y within the coordinate limit; z must be finite (LayerTin checks it).
@@ -72,6 +72,11 @@ void bind_layer_tin(py::module_& m) {
             "n_boundary_data",
             [](const PyLayerTin& t) { return read_locked(t, [](const LayerTin& l) { return l.n_boundary_data(); }); },
             "data points on the study-area boundary (boundary vertices)")
+        .def_property_readonly(
+            "n_shared",
+            [](const PyLayerTin& t) { return read_locked(t, [](const LayerTin& l) { return l.n_shared(); }); },
+            "vertices taken from the triangulation shared with other layers (build_layer_tins);\n"
+            "0 for a LayerTin built alone")
         .def_property_readonly(
             "n_vertices",
             [](const PyLayerTin& t) { return read_locked(t, [](const LayerTin& l) { return l.n_vertices(); }); })
@@ -120,6 +125,47 @@ void bind_layer_tin(py::module_& m) {
             py::arg("halfedges") = false,
             "(vertices (n, 3), triangles (m, 3)) of the TIN inside the study area, compacted;\n"
             "with halfedges=True also the opposite half-edges (3 m,) within the mesh (-1: none).");
+
+    m.def(
+        "build_layer_tins",
+        [](const py::typing::List<py::typing::Tuple<py::str, py::object>>& layers, const py::handle& boundary,
+           py::object spacing) -> py::typing::List<PyLayerTin> {
+            StudyArea area = as_area(boundary, "build_layer_tins");
+            LayerTinOptions opt;
+            if (!spacing.is_none()) {
+                opt.spacing = spacing.cast<double>();
+                if (!(opt.spacing > 0.0 && std::isfinite(opt.spacing)))
+                    throw std::invalid_argument("build_layer_tins: spacing must be a finite number > 0");
+            }
+            // Private copies of every layer's data (as_coordinates), read with the GIL released.
+            std::vector<DoubleArray> copies;
+            std::vector<LayerTinInput> in;
+            copies.reserve(layers.size());
+            for (std::size_t i = 0; i < layers.size(); ++i) {
+                const py::object item = layers[i];
+                if (!py::isinstance<py::sequence>(item) || py::isinstance<py::str>(item) || py::len(item) != 2 ||
+                    !py::isinstance<py::str>(item[py::int_(0)]))
+                    throw std::invalid_argument("build_layer_tins: layers[" + std::to_string(i) +
+                                                "] must be a pair (name: str, data (n, 3))");
+                const std::string name = item[py::int_(0)].cast<std::string>();
+                const std::string what = "data of layer '" + name + "'";
+                copies.push_back(as_coordinates(item[py::int_(1)], "build_layer_tins", what.c_str(), 3, 3, 2));
+                in.push_back({name, copies.back().data(), static_cast<std::size_t>(copies.back().shape(0))});
+            }
+            std::vector<LayerTin> tins;
+            {
+                py::gil_scoped_release release;
+                tins = build_layer_tins(in, area, opt);
+            }
+            py::typing::List<PyLayerTin> out;
+            for (auto& t : tins) out.append(py::cast(std::make_unique<PyLayerTin>(std::move(t))));
+            return out;
+        },
+        py::arg("layers"), py::arg("boundary"), py::arg("spacing") = py::none(),
+        "The LayerTins of several layers over one study area: [(name, data (n, 3)), ...] ->\n"
+        "[LayerTin, ...], each as LayerTin(name, data, boundary, spacing) builds it (same\n"
+        "vertices, elevations and triangles; the vertex numbering may differ). The interior\n"
+        "XY points all layers share are triangulated once (layer_tin.hpp).");
 
     m.def(
         "repair_crossings",

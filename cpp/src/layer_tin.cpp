@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <memory>
@@ -148,7 +149,7 @@ struct LayerTinState {
     StudyArea area;
     LayerTinOptions opt;
     double spacing = 0.0;
-    std::size_t n_data = 0, n_outside = 0, n_boundary_data = 0;
+    std::size_t n_data = 0, n_outside = 0, n_boundary_data = 0, n_shared = 0;
     std::optional<Tin> tin;  // set at the end of the constructor
     std::vector<std::map<double, std::int64_t>> by_side;
     std::vector<char> on_boundary;  // per TIN vertex
@@ -208,14 +209,24 @@ Piece piece_at(const LayerTinState& s, std::size_t side, std::map<double, std::i
 }  // namespace
 
 // ---------------------------------------------------------------- set-up
-LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const StudyArea& area,
-                   const LayerTinOptions& options)
-    : s_(std::make_unique<LayerTinState>()) {
-    LayerTinState& s = *s_;
-    s.name = std::move(name);
-    s.area = area;
-    s.opt = options;
-    const std::string fn = "LayerTin('" + s.name + "')";
+namespace detail {
+namespace {
+
+// A layer's data sorted out against the study area: the points strictly
+// inside (input order), those on its boundary (with their side and arc
+// length) and the count of those outside.
+struct LayerData {
+    struct OnBoundary {
+        std::size_t side;
+        double s, x, y, z;
+    };
+    std::vector<double> interior;  // 3 per point
+    std::vector<OnBoundary> on_boundary;
+    double lo = std::numeric_limits<double>::infinity(), hi = -std::numeric_limits<double>::infinity();
+    std::size_t n_outside = 0;
+};
+
+LayerData sort_out(const std::string& fn, const double* data, std::size_t n, const StudyArea& area) {
     if (data == nullptr && n) throw std::invalid_argument(fn + ": null data array");
     for (std::size_t i = 0; i < n; ++i)
         for (int k = 0; k < 3; ++k)
@@ -223,16 +234,9 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
                 throw std::invalid_argument(fn + ": data point " + std::to_string(i) +
                                             " has a non-finite coordinate");
     const std::size_t ns = area.n_sides();
-    // Data in the study area; those on its boundary go to their side.
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    std::vector<double> interior;
-    interior.reserve(3 * n);
+    LayerData d;
+    d.interior.reserve(3 * n);
     std::vector<StudyArea::Hit> hits;
-    struct BData {
-        std::size_t side;
-        double s, x, y, z;
-    };
-    std::vector<BData> bdata;
     for (std::size_t i = 0; i < n; ++i) {
         const double* p = data + 3 * i;
         area.locate(p, hits);
@@ -242,19 +246,181 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
             for (const auto& x : hits)
                 if (x.s == 0.0) h = x;
             if (h.s >= area.side_length(h.side)) h = {(h.side + 1) % ns, 0.0};
-            bdata.push_back({h.side, h.s, p[0], p[1], p[2]});
-            lo = std::min(lo, p[2]), hi = std::max(hi, p[2]);
+            d.on_boundary.push_back({h.side, h.s, p[0], p[1], p[2]});
+            d.lo = std::min(d.lo, p[2]), d.hi = std::max(d.hi, p[2]);
             continue;
         }
         if (!area.contains(p)) {
-            ++s.n_outside;
+            ++d.n_outside;
             continue;
         }
-        interior.insert(interior.end(), p, p + 3);
-        lo = std::min(lo, p[2]), hi = std::max(hi, p[2]);
+        d.interior.insert(d.interior.end(), p, p + 3);
+        d.lo = std::min(d.lo, p[2]), d.hi = std::max(d.hi, p[2]);
     }
-    s.n_data = interior.size() / 3 + bdata.size();
-    s.n_boundary_data = bdata.size();
+    return d;
+}
+
+// Exact XY -> index table (open addressing, linear probing) on the bit
+// patterns of x and y; -0.0 is taken as 0.0, as the Tin's duplicate test
+// (x == x') does.
+class XYIndex {
+public:
+    explicit XYIndex(std::size_t n) {
+        std::size_t cap = 16;
+        while (cap < 2 * n) cap *= 2;
+        mask_ = cap - 1;
+        slots_.assign(cap, Slot{0, 0, -1});
+    }
+    // The index stored for p, or -1.
+    std::int64_t find(const double* p) const {
+        const std::uint64_t bx = bits(p[0]), by = bits(p[1]);
+        for (std::size_t h = hash(bx, by) & mask_;; h = (h + 1) & mask_) {
+            const Slot& s = slots_[h];
+            if (s.value < 0) return -1;
+            if (s.x == bx && s.y == by) return s.value;
+        }
+    }
+    // Stores `value` for p unless p is there; returns the value stored for p.
+    std::int64_t insert(const double* p, std::int64_t value) {
+        const std::uint64_t bx = bits(p[0]), by = bits(p[1]);
+        for (std::size_t h = hash(bx, by) & mask_;; h = (h + 1) & mask_) {
+            Slot& s = slots_[h];
+            if (s.value < 0) {
+                s = {bx, by, value};
+                return value;
+            }
+            if (s.x == bx && s.y == by) return s.value;
+        }
+    }
+
+private:
+    struct Slot {
+        std::uint64_t x, y;
+        std::int64_t value;
+    };
+    static std::uint64_t bits(double v) {
+        v += 0.0;  // -0.0 -> +0.0
+        std::uint64_t b;
+        std::memcpy(&b, &v, sizeof b);
+        return b;
+    }
+    static std::size_t hash(std::uint64_t x, std::uint64_t y) {
+        std::uint64_t h = x * 0x9E3779B97F4A7C15ULL ^ (y + 0x632BE59BD9B4E019ULL + (x << 6) + (x >> 2));
+        h ^= h >> 31;
+        h *= 0xBF58476D1CE4E5B9ULL;
+        h ^= h >> 29;
+        return static_cast<std::size_t>(h);
+    }
+    std::vector<Slot> slots_;
+    std::size_t mask_ = 0;
+};
+
+// The interior XY points that a group of layers all have, triangulated once
+// (z NaN), and where each of them is in that triangulation.
+struct SharedXY {
+    std::optional<XYIndex> index;  // XY -> template vertex (-1: not shared)
+    std::optional<Tin> tin;
+};
+
+// Builds the shared triangulation for the layers that have most of their
+// interior points in common, and marks them in `member`. A layer joins when
+// the points every member has make up at least kMinShared of its own: a
+// member's TIN is then a copy of the shared one plus its other points
+// inserted, which costs much less than its own Delaunay; with a smaller
+// share the insertions (and the shared triangulation, paid once) eat the
+// gain. Only the first 64 layers (a bit mask each) take part.
+constexpr double kMinShared = 0.75;
+
+SharedXY share_xy(const std::vector<LayerData>& layers, std::vector<char>& member) {
+    SharedXY out;
+    member.assign(layers.size(), 0);
+    const std::size_t nl = std::min<std::size_t>(layers.size(), 64);
+    if (nl < 2) return out;
+    // The reference: the layer with the most interior points (the shared
+    // points are a subset of every member's, so of its too).
+    std::size_t ref = 0;
+    for (std::size_t l = 1; l < nl; ++l)
+        if (layers[l].interior.size() > layers[ref].interior.size()) ref = l;
+    const std::vector<double>& R = layers[ref].interior;
+    const std::size_t nr = R.size() / 3;
+    XYIndex index(nr);
+    std::vector<std::size_t> first;  // reference slot -> its first point in R
+    for (std::size_t i = 0; i < nr; ++i)
+        if (index.insert(&R[3 * i], static_cast<std::int64_t>(first.size())) ==
+            static_cast<std::int64_t>(first.size()))
+            first.push_back(i);
+    std::vector<std::uint64_t> mask(first.size(), 0);
+    for (std::size_t l = 0; l < nl; ++l) {
+        const std::vector<double>& P = layers[l].interior;
+        const std::uint64_t bit = std::uint64_t{1} << l;
+        for (std::size_t i = 0; i < P.size() / 3; ++i) {
+            const std::int64_t r = index.find(&P[3 * i]);
+            if (r >= 0) mask[static_cast<std::size_t>(r)] |= bit;
+        }
+    }
+    // Drop the layer sharing the least until every member holds kMinShared.
+    std::uint64_t group = nl == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << nl) - 1;
+    std::size_t n_common = 0;
+    while (__builtin_popcountll(group) >= 2) {
+        n_common = 0;
+        for (std::uint64_t m : mask) n_common += (m & group) == group;
+        double worst = 2.0;
+        std::size_t worst_l = 0;
+        for (std::size_t l = 0; l < nl; ++l) {
+            if (!(group >> l & 1)) continue;
+            const double share = static_cast<double>(n_common) /
+                                 static_cast<double>(std::max<std::size_t>(1, layers[l].interior.size() / 3));
+            if (share < worst) worst = share, worst_l = l;
+        }
+        if (worst >= kMinShared) break;
+        group &= ~(std::uint64_t{1} << worst_l);
+    }
+    if (__builtin_popcountll(group) < 2 || n_common < 3) return out;
+    // The shared points in Hilbert order (the vertex numbering of every
+    // member then starts spatially coherent, as a LayerTin built alone is).
+    std::vector<double> pts;
+    std::vector<std::size_t> slot_of;
+    pts.reserve(3 * n_common);
+    for (std::size_t r = 0; r < first.size(); ++r)
+        if ((mask[r] & group) == group) {
+            const double* p = &R[3 * first[r]];
+            pts.insert(pts.end(), {p[0], p[1], kNaN});
+            slot_of.push_back(r);
+        }
+    const std::vector<std::uint32_t> order = hilbert_order(pts.data(), 3, slot_of.size());
+    std::vector<double> sorted(pts.size());
+    std::vector<std::int64_t> vertex_of_slot(first.size(), -1);
+    for (std::size_t k = 0; k < order.size(); ++k) {
+        std::copy_n(&pts[3 * order[k]], 3, &sorted[3 * k]);
+        vertex_of_slot[slot_of[order[k]]] = static_cast<std::int64_t>(k);
+    }
+    try {
+        out.tin.emplace(sorted.data(), order.size());
+    } catch (const GeometryError&) {
+        return out;  // all collinear: each layer alone (and its own message)
+    }
+    // The points are distinct, so vertex k is the k-th sorted point.
+    out.index.emplace(n_common);
+    for (std::size_t r = 0; r < first.size(); ++r)
+        if (vertex_of_slot[r] >= 0) out.index->insert(&R[3 * first[r]], vertex_of_slot[r]);
+    for (std::size_t l = 0; l < nl; ++l) member[l] = group >> l & 1;
+    return out;
+}
+
+}  // namespace
+
+// The set-up of a LayerTin from its sorted-out data; with `shared`, the
+// layer's TIN starts as a copy of the shared triangulation.
+void set_up(LayerTinState& s, LayerData&& d, const SharedXY* shared) {
+    const std::string fn = "LayerTin('" + s.name + "')";
+    const StudyArea& area = s.area;
+    const LayerTinOptions& options = s.opt;
+    const std::size_t ns = area.n_sides();
+    std::vector<double>& interior = d.interior;
+    const double lo = d.lo, hi = d.hi;
+    s.n_outside = d.n_outside;
+    s.n_data = interior.size() / 3 + d.on_boundary.size();
+    s.n_boundary_data = d.on_boundary.size();
     if (s.n_data == 0) throw GeometryError(fn + ": no data point lies in the study area");
     // Spacing: about the data spacing, clamped so that a side gets at least
     // a few and at most a few thousand pieces.
@@ -286,10 +452,10 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
             const double sv = L * static_cast<double>(j) / static_cast<double>(k);
             double xy[2];
             area.place(i, sv, xy);
-            per_side[i].push_back({sv, false, xy[0], xy[1], detail::kNaN});
+            per_side[i].push_back({sv, false, xy[0], xy[1], kNaN});
         }
     }
-    for (const auto& b : bdata) per_side[b.side].push_back({b.s, true, b.x, b.y, b.z});
+    for (const auto& b : d.on_boundary) per_side[b.side].push_back({b.s, true, b.x, b.y, b.z});
     // Boundary vertices (side by side, by arc length; a data point at the
     // position of a densification point replaces it), then the interior data.
     std::vector<double> pts;
@@ -314,18 +480,19 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
     // first in the input comes first, and the TIN keeps its z): the TIN's
     // vertex numbering -- and every array derived from it, the stitcher's
     // included -- is then spatially coherent, whatever the input order.
+    const std::size_t ni = interior.size() / 3;
     {
-        const std::vector<std::uint32_t> order = detail::hilbert_order(interior.data(), 3, interior.size() / 3);
+        const std::vector<std::uint32_t> order = hilbert_order(interior.data(), 3, ni);
         pts.reserve(pts.size() + interior.size());
         for (std::uint32_t i : order) pts.insert(pts.end(), &interior[3 * i], &interior[3 * i] + 3);
+        std::vector<double>().swap(interior);
     }
     known.resize(pts.size() / 3, 1);
     // One grid over every vertex: the plane fits' neighbours (data only) and
     // the protection's disk tests.
-    detail::PointGrid grid(pts.data(), pts.size() / 3, 3);
+    PointGrid grid(pts.data(), pts.size() / 3, 3);
     for (std::size_t i = 0; i < nb; ++i)
-        if (!known[i])
-            pts[3 * i + 2] = detail::plane_fit_z(grid, pts, known, &pts[3 * i], options.plane_fit_neighbours, lo, hi);
+        if (!known[i]) pts[3 * i + 2] = plane_fit_z(grid, pts, known, &pts[3 * i], options.plane_fit_neighbours, lo, hi);
 
     // Protection: split pieces whose closed diametral disk holds another vertex.
     s.by_side.assign(ns, {});
@@ -352,7 +519,7 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
         });
         if (!blocked) continue;
         if (pc.sb - pc.sa < min_piece)
-            throw GeometryError(fn + ": cannot protect the study-area boundary near " + detail::fmt_xy(pa) +
+            throw GeometryError(fn + ": cannot protect the study-area boundary near " + fmt_xy(pa) +
                                 ": a data point lies on the boundary within rounding but was not snapped "
                                 "onto it");
         const double sm = 0.5 * (pc.sa + pc.sb);
@@ -370,8 +537,49 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
         work.emplace_back(pc.side, pc.sa);
         work.emplace_back(pc.side, sm);
     }
-    s.tin.emplace(pts.data(), pts.size() / 3);
-    const auto& vmap = s.tin->vertex_of_input();
+    const std::size_t np = pts.size() / 3;
+    std::vector<std::int64_t> vmap;  // pts index -> TIN vertex
+    if (shared == nullptr) {
+        s.tin.emplace(pts.data(), np);
+        vmap = s.tin->vertex_of_input();
+    } else {
+        // The shared points take their elevations (the first of equal XY in
+        // the Hilbert-stable order, as the Tin constructor keeps); every other
+        // point is inserted. Tin is canonical (tin.hpp), so the triangles are
+        // those of the Tin built from pts at once.
+        Tin tin = *shared->tin;
+        vmap.assign(np, -1);
+        std::vector<char> has_z(tin.n_vertices(), 0);
+        std::vector<std::int64_t> zv;
+        std::vector<double> zs, rest;
+        std::vector<std::size_t> rest_of;
+        zv.reserve(tin.n_vertices());
+        zs.reserve(tin.n_vertices());
+        for (std::size_t i = 0; i < np; ++i) {
+            const double* p = &pts[3 * i];
+            if (i >= nb && i < nb + ni) {
+                const std::int64_t v = shared->index->find(p);
+                if (v >= 0) {
+                    vmap[i] = v;
+                    if (!has_z[static_cast<std::size_t>(v)]) {
+                        has_z[static_cast<std::size_t>(v)] = 1;
+                        zv.push_back(v);
+                        zs.push_back(p[2]);
+                    }
+                    continue;
+                }
+            }
+            rest.insert(rest.end(), p, p + 3);
+            rest_of.push_back(i);
+        }
+        if (zv.size() != tin.n_vertices())
+            throw std::logic_error(fn + ": a shared point is missing from the layer's data");
+        tin.set_z(zv.data(), zs.data(), zv.size());
+        s.n_shared = zv.size();
+        const std::vector<std::int64_t> ids = tin.insert(rest.data(), rest_of.size());
+        for (std::size_t k = 0; k < rest_of.size(); ++k) vmap[rest_of[k]] = ids[k];
+        s.tin.emplace(std::move(tin));
+    }
     for (auto& m : s.by_side)
         for (auto& e : m) {
             e.second = vmap[static_cast<std::size_t>(e.second)];
@@ -379,6 +587,40 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
         }
     s.on_boundary.resize(s.tin->n_vertices(), 0);
     (void)s.topology();  // checks that every piece is a TIN edge and the inside is closed
+}
+
+}  // namespace detail
+
+LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const StudyArea& area,
+                   const LayerTinOptions& options)
+    : s_(std::make_unique<LayerTinState>()) {
+    s_->name = std::move(name);
+    s_->area = area;
+    s_->opt = options;
+    detail::set_up(*s_, detail::sort_out("LayerTin('" + s_->name + "')", data, n, area), nullptr);
+}
+
+LayerTin::LayerTin(std::unique_ptr<detail::LayerTinState> s) : s_(std::move(s)) {}
+
+std::vector<LayerTin> build_layer_tins(const std::vector<LayerTinInput>& layers, const StudyArea& area,
+                                       const LayerTinOptions& options) {
+    std::vector<detail::LayerData> data;
+    data.reserve(layers.size());
+    for (const auto& l : layers)
+        data.push_back(detail::sort_out("LayerTin('" + l.name + "')", l.data, l.n, area));
+    std::vector<char> member;
+    const detail::SharedXY shared = detail::share_xy(data, member);
+    std::vector<LayerTin> out;
+    out.reserve(layers.size());
+    for (std::size_t l = 0; l < layers.size(); ++l) {
+        auto s = std::make_unique<LayerTinState>();
+        s->name = layers[l].name;
+        s->area = area;
+        s->opt = options;
+        detail::set_up(*s, std::move(data[l]), member[l] ? &shared : nullptr);
+        out.push_back(LayerTin(std::move(s)));
+    }
+    return out;
 }
 
 LayerTin::~LayerTin() = default;
@@ -397,6 +639,7 @@ std::size_t LayerTin::n_data() const { return s_->n_data; }
 std::size_t LayerTin::n_outside() const { return s_->n_outside; }
 std::size_t LayerTin::n_boundary_data() const { return s_->n_boundary_data; }
 std::size_t LayerTin::n_vertices() const { return s_->tin->n_vertices(); }
+std::size_t LayerTin::n_shared() const { return s_->n_shared; }
 const Tin& LayerTin::tin() const { return *s_->tin; }
 
 std::vector<double> LayerTin::z() const {
@@ -872,18 +1115,17 @@ struct ZBound {
     bool high = false;
     std::vector<double> z;
 
-    // A mesh: triangles T over vertices whose coordinates are at
-    // V + 3 * vmap[i] (vmap: the mesh's vertex -> TIN vertex map).
-    ZBound(const std::vector<double>& V, const std::vector<std::int64_t>& vmap, const std::vector<std::int64_t>& T,
-           bool high_bound)
-        : high(high_bound) {
-        const std::size_t m = T.size() / 3;
+    // The cell frame over the box of the vertices at V + 3 * vmap[i], with
+    // about one cell per 16 of m triangles. Any frame serves any mesh:
+    // coordinates outside it clamp to its edge cells, and the clamping is
+    // monotone, so a point's cell still lies in the cell range of the
+    // triangle that holds it. Two bounds on one frame compare cell by cell.
+    ZBound(const std::vector<double>& V, const std::vector<std::int64_t>& vmap, std::size_t m) {
         const double inf = std::numeric_limits<double>::infinity();
-        auto pt = [&](std::int64_t i) { return &V[3 * static_cast<std::size_t>(vmap[static_cast<std::size_t>(i)])]; };
         double x1 = -inf, y1 = -inf;
         x0 = y0 = inf;
-        for (std::size_t i = 0; i < vmap.size(); ++i) {
-            const double* p = pt(static_cast<std::int64_t>(i));
+        for (std::int64_t v : vmap) {
+            const double* p = &V[3 * static_cast<std::size_t>(v)];
             x0 = std::min(x0, p[0]), x1 = std::max(x1, p[0]);
             y0 = std::min(y0, p[1]), y1 = std::max(y1, p[1]);
         }
@@ -893,17 +1135,36 @@ struct ZBound {
         nx = std::max(1L, std::min(4096L, static_cast<long>(std::ceil(w / c))));
         ny = std::max(1L, std::min(4096L, static_cast<long>(std::ceil(h / c))));
         cw = w / static_cast<double>(nx), ch = h / static_cast<double>(ny);
+    }
+    // The bound of a mesh -- triangles T over the vertices at
+    // V + 3 * vmap[i] (vmap: the mesh's vertex -> TIN vertex map) -- on the
+    // cell frame of `frame`.
+    ZBound(const ZBound& frame, const std::vector<double>& V, const std::vector<std::int64_t>& vmap,
+           const std::vector<std::int64_t>& T, bool high_bound)
+        : x0(frame.x0), y0(frame.y0), cw(frame.cw), ch(frame.ch), nx(frame.nx), ny(frame.ny), high(high_bound) {
+        const double inf = std::numeric_limits<double>::infinity();
+        // Each vertex's cell once (the triangle pass then reads 16 bytes per
+        // corner, with no division).
+        struct Corner {
+            std::int32_t i, j;
+            double z;
+        };
+        std::vector<Corner> cs(vmap.size());
+        for (std::size_t k = 0; k < vmap.size(); ++k) {
+            const double* p = &V[3 * static_cast<std::size_t>(vmap[k])];
+            cs[k] = {static_cast<std::int32_t>(cx(p[0])), static_cast<std::int32_t>(cy(p[1])), p[2]};
+        }
         z.assign(static_cast<std::size_t>(nx * ny), high ? -inf : inf);
+        const std::size_t m = T.size() / 3;
         for (std::size_t t = 0; t < m; ++t) {
-            double bx0 = inf, bx1 = -inf, by0 = inf, by1 = -inf, zt = high ? -inf : inf;
-            for (int k = 0; k < 3; ++k) {
-                const double* p = pt(T[3 * t + static_cast<std::size_t>(k)]);
-                bx0 = std::min(bx0, p[0]), bx1 = std::max(bx1, p[0]);
-                by0 = std::min(by0, p[1]), by1 = std::max(by1, p[1]);
-                zt = high ? std::max(zt, p[2]) : std::min(zt, p[2]);
-            }
-            for (long j = cy(by0); j <= cy(by1); ++j)
-                for (long i = cx(bx0); i <= cx(bx1); ++i) {
+            const Corner& a = cs[static_cast<std::size_t>(T[3 * t])];
+            const Corner& b = cs[static_cast<std::size_t>(T[3 * t + 1])];
+            const Corner& c = cs[static_cast<std::size_t>(T[3 * t + 2])];
+            const double zt = high ? std::max(a.z, std::max(b.z, c.z)) : std::min(a.z, std::min(b.z, c.z));
+            const long i0 = std::min(a.i, std::min(b.i, c.i)), i1 = std::max(a.i, std::max(b.i, c.i));
+            const long j0 = std::min(a.j, std::min(b.j, c.j)), j1 = std::max(a.j, std::max(b.j, c.j));
+            for (long j = j0; j <= j1; ++j)
+                for (long i = i0; i <= i1; ++i) {
                     double& c2 = z[static_cast<std::size_t>(j * nx + i)];
                     c2 = high ? std::max(c2, zt) : std::min(c2, zt);
                 }
@@ -963,7 +1224,24 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
         }
         return *walk_ptr;
     };
-    const detail::ZBound upper_low(UV, uvm, utopo->triangles, /*high_bound=*/false);
+    const detail::ZBound frame(UV, uvm, utopo->triangles.size() / 3);
+    const detail::ZBound upper_low(frame, UV, uvm, utopo->triangles, /*high_bound=*/false);
+    {
+        // Where the lower surface's high bound is not above the upper
+        // surface's low bound (plus tol) in any cell, no rule applies
+        // anywhere: a lower vertex or edge point, or an upper vertex, in cell
+        // c has lower z <= high(c) and upper z >= low(c). Layers tens of
+        // metres apart end here, after two passes over the triangles.
+        const auto lt = lower.s_->topology();
+        const detail::ZBound lower_high(frame, lower.s_->tin->vertex_array(), lt->tin_vertex, lt->triangles,
+                                        /*high_bound=*/true);
+        bool close = false;
+        for (std::size_t c = 0; c < upper_low.z.size() && !close; ++c) close = lower_high.z[c] - upper_low.z[c] > tol;
+        if (!close) {
+            counts.rounds = 1;
+            return counts;
+        }
+    }
     const std::size_t n_start = lower.n_vertices();
     std::int64_t inserted = 0;
     // Small layers may need many points relative to their size (a few local
@@ -1016,7 +1294,7 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
         // Rule 1b: upper vertices below the lower surface.
         {
             const auto lt = lower.s_->topology();
-            const detail::ZBound lower_high(lower.s_->tin->vertex_array(), lt->tin_vertex, lt->triangles,
+            const detail::ZBound lower_high(frame, lower.s_->tin->vertex_array(), lt->tin_vertex, lt->triangles,
                                             /*high_bound=*/true);
             std::vector<double> xy;
             std::vector<std::size_t> which;

@@ -8,7 +8,7 @@ import enum
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'incircle', 'join_holes', 'loft', 'loft_area', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_touching_region', 'triangulate_polygon']
+__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'incircle', 'join_holes', 'loft', 'loft_area', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_touching_region', 'triangulate_polygon']
 class GeometryError(ValueError):
     pass
 class PatchOverlapError(GeometryError):
@@ -517,6 +517,12 @@ class LayerTin:
         data points outside the study area (not used)
         """
     @property
+    def n_shared(self) -> int:
+        """
+        vertices taken from the triangulation shared with other layers (build_layer_tins);
+        0 for a LayerTin built alone
+        """
+    @property
     def n_vertices(self) -> int:
         ...
     @property
@@ -552,6 +558,13 @@ def boundary_loops(triangles: typing.Any, *, strict: bool = True, n_vertices: ty
     strict=True raises GeometryError naming a vertex on a pinch vertex, open chain,
     non-manifold or inconsistently oriented edge; strict=False returns the closed loops
     (pinches separated through the triangle fans). boundary_contours gives the full report.
+    """
+def build_layer_tins(layers: list[tuple[str, typing.Any]], boundary: typing.Any, spacing: typing.Any = None) -> list[LayerTin]:
+    """
+    The LayerTins of several layers over one study area: [(name, data (n, 3)), ...] ->
+    [LayerTin, ...], each as LayerTin(name, data, boundary, spacing) builds it (same
+    vertices, elevations and triangles; the vertex numbering may differ). The interior
+    XY points all layers share are triangulated once (layer_tin.hpp).
     """
 def check_polygon(rings: typing.Any) -> tuple[bool, str, int, int]:
     """

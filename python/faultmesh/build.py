@@ -14,7 +14,8 @@ from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 
-from ._core import LayerTin, PatchOverlapError, Stitcher, StudyArea, TriangleKind, repair_crossings
+from ._core import (LayerTin, PatchOverlapError, Stitcher, StudyArea, TriangleKind, build_layer_tins,
+                    repair_crossings)
 from . import report as _report
 from .dataset import DatasetError, prepare_for_build
 from .model import Gap, Model, StitchedPatch, Surface
@@ -42,13 +43,14 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
     Returns (layer -> LayerTin, metadata with per-layer counts)."""
     prog = _progress_fn(progress)
     layers = list(dataset.layers)
-    tins: Dict[str, LayerTin] = {}
-    for i, lay in enumerate(layers):
-        prog("stratum TINs", i, len(layers))
-        tins[lay] = LayerTin(lay, dataset.layer_points(lay), area, spacing)
+    prog("stratum TINs", 0, len(layers))
+    # One call for the stack: the XY points the layers share are triangulated once.
+    built = build_layer_tins([(lay, dataset.layer_points(lay)) for lay in layers], area, spacing)
+    tins: Dict[str, LayerTin] = dict(zip(layers, built))
     prog("stratum TINs", len(layers), len(layers))
     meta: Dict[str, Any] = {"tins": {lay: {"data_points": int(t.n_data), "outside_ignored": int(t.n_outside),
                                            "boundary_data": int(t.n_boundary_data),
+                                           "shared_vertices": int(t.n_shared),
                                            "boundary_spacing": float(t.spacing)}
                                      for lay, t in tins.items()},
                             "repair": {}}

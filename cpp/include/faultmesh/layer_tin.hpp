@@ -90,6 +90,9 @@ public:
     std::size_t n_outside() const;       // data points dropped (outside the study area)
     std::size_t n_boundary_data() const; // data points that became boundary vertices
     std::size_t n_vertices() const;
+    // Vertices that came from the triangulation shared with other layers
+    // (build_layer_tins); 0 for a LayerTin built alone.
+    std::size_t n_shared() const;
     const Tin& tin() const;
     // Current elevations of the TIN vertices (the repair changes them).
     std::vector<double> z() const;
@@ -110,9 +113,33 @@ public:
     LayerTinMesh mesh() const;
 
 private:
+    explicit LayerTin(std::unique_ptr<detail::LayerTinState> s);
     std::unique_ptr<detail::LayerTinState> s_;
     friend struct RepairCounts repair_crossings(const LayerTin&, LayerTin&, const struct RepairOptions&);
+    friend std::vector<LayerTin> build_layer_tins(const std::vector<struct LayerTinInput>&, const StudyArea&,
+                                                  const LayerTinOptions&);
 };
+
+// One layer's data for build_layer_tins: n points (x, y, z) at data, read
+// during the call only.
+struct LayerTinInput {
+    std::string name;
+    const double* data = nullptr;
+    std::size_t n = 0;
+};
+
+// The LayerTins of several layers over one study area (step 2 for a whole
+// stack), each exactly as the constructor would build it alone (the same
+// vertices, elevations and triangles; only the vertex numbering may differ),
+// and the same errors. Layers measured at the same places -- the tops of one
+// set of boreholes, horizons picked on one seismic grid -- share most of
+// their XY points, and a Delaunay triangulation depends on XY alone: the
+// interior points that all of them have are triangulated once, and each such
+// layer's TIN is a copy of that triangulation with its own elevations and its
+// other points (boundary vertices, points only it has) inserted. Layers that
+// share less than three quarters of their points are built alone.
+std::vector<LayerTin> build_layer_tins(const std::vector<LayerTinInput>& layers, const StudyArea& area,
+                                       const LayerTinOptions& options = {});
 
 struct RepairOptions {
     int max_rounds = 50;

@@ -1,0 +1,166 @@
+// Tests of the stratum TINs (layer_tin.hpp): build_layer_tins builds each
+// layer exactly as the LayerTin constructor does alone, and the repair's
+// early end when the layers are apart everywhere.
+#include <faultmesh/errors.hpp>
+#include <faultmesh/layer_tin.hpp>
+#include <faultmesh/study_area.hpp>
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace fm = faultmesh;
+
+namespace {
+
+// The triangles of a LayerTin's mesh as corner coordinates (x, y, z), each
+// rotated to start at its smallest corner: comparable whatever the vertex
+// numbering.
+std::set<std::array<double, 9>> mesh_set(const fm::LayerTin& t) {
+    const fm::LayerTinMesh m = t.mesh();
+    std::set<std::array<double, 9>> s;
+    for (std::size_t i = 0; i < m.triangles.size(); i += 3) {
+        std::array<std::array<double, 3>, 3> c;
+        for (int k = 0; k < 3; ++k) {
+            const std::size_t v = static_cast<std::size_t>(m.triangles[i + static_cast<std::size_t>(k)]);
+            c[static_cast<std::size_t>(k)] = {m.vertices[3 * v], m.vertices[3 * v + 1], m.vertices[3 * v + 2]};
+        }
+        while (c[1] < c[0] || c[2] < c[0]) c = {c[1], c[2], c[0]};
+        s.insert({c[0][0], c[0][1], c[0][2], c[1][0], c[1][1], c[1][2], c[2][0], c[2][1], c[2][2]});
+    }
+    return s;
+}
+
+// An L-shaped study area (a notch, so the outside triangles are exercised)
+// at UTM-sized coordinates.
+fm::StudyArea l_area(double x0, double y0) {
+    const std::vector<double> ring = {x0, y0, x0 + 1000.0, y0, x0 + 1000.0, y0 + 400.0,
+                                      x0 + 400.0, y0 + 400.0, x0 + 400.0, y0 + 1000.0, x0, y0 + 1000.0};
+    return fm::StudyArea(ring.data(), ring.size() / 2);
+}
+
+// A stack of layers sampled at shared XY points (surveyor-rounded to 1 cm),
+// each layer also with points only it has, repeated points, points on the
+// boundary and points outside.
+std::vector<std::vector<double>> stack(unsigned seed, double x0, double y0, std::size_t n_shared,
+                                       std::size_t n_own, std::size_t n_layers) {
+    std::mt19937_64 g(seed);
+    std::uniform_real_distribution<double> u(0.0, 1000.0);
+    auto r = [](double v) { return std::round(v * 100.0) / 100.0; };
+    std::vector<std::array<double, 2>> xy;
+    for (std::size_t i = 0; i < n_shared; ++i) xy.push_back({r(x0 + u(g)), r(y0 + u(g))});
+    std::vector<std::vector<double>> out(n_layers);
+    for (std::size_t l = 0; l < n_layers; ++l) {
+        auto z = [&](double x, double y) {
+            return -30.0 * static_cast<double>(l) + 5.0 * std::sin((x - x0) / 150.0) + 0.01 * (y - y0);
+        };
+        auto& P = out[l];
+        for (const auto& p : xy) P.insert(P.end(), {p[0], p[1], z(p[0], p[1])});
+        for (std::size_t i = 0; i < n_own; ++i) {
+            const double x = r(x0 + u(g)), y = r(y0 + u(g));
+            P.insert(P.end(), {x, y, z(x, y)});
+        }
+        // A repeat of a shared point with another z (the first one wins), a
+        // point on the boundary, a corner and one outside.
+        P.insert(P.end(), {xy[3][0], xy[3][1], 999.0});
+        P.insert(P.end(), {x0 + 250.0, y0, z(x0 + 250.0, y0)});
+        P.insert(P.end(), {x0 + 1000.0, y0 + 400.0, z(x0 + 1000.0, y0 + 400.0)});
+        P.insert(P.end(), {x0 + 900.0, y0 + 900.0, 0.0});
+    }
+    return out;
+}
+
+// Each layer as built alone; returns how many of them took the shared
+// triangulation.
+std::size_t expect_same_as_alone(const std::vector<std::vector<double>>& layers, const fm::StudyArea& area) {
+    std::vector<fm::LayerTinInput> in;
+    for (std::size_t l = 0; l < layers.size(); ++l)
+        in.push_back({"L" + std::to_string(l), layers[l].data(), layers[l].size() / 3});
+    const std::vector<fm::LayerTin> stacked = fm::build_layer_tins(in, area);
+    if (stacked.size() != layers.size()) {
+        ADD_FAILURE() << "build_layer_tins returned " << stacked.size() << " TINs for " << layers.size() << " layers";
+        return 0;
+    }
+    for (std::size_t l = 0; l < layers.size(); ++l) {
+        const fm::LayerTin alone(in[l].name, in[l].data, in[l].n, area);
+        EXPECT_EQ(stacked[l].name(), alone.name());
+        EXPECT_EQ(stacked[l].n_vertices(), alone.n_vertices()) << l;
+        EXPECT_EQ(stacked[l].n_data(), alone.n_data()) << l;
+        EXPECT_EQ(stacked[l].n_outside(), alone.n_outside()) << l;
+        EXPECT_EQ(stacked[l].n_boundary_data(), alone.n_boundary_data()) << l;
+        EXPECT_EQ(stacked[l].spacing(), alone.spacing()) << l;
+        EXPECT_EQ(stacked[l].boundary_vertices().size(), alone.boundary_vertices().size()) << l;
+        EXPECT_EQ(mesh_set(stacked[l]), mesh_set(alone)) << l;
+        EXPECT_EQ(alone.n_shared(), 0u);
+    }
+    std::size_t n = 0;
+    for (const auto& t : stacked) n += t.n_shared() > 0;
+    return n;
+}
+
+}  // namespace
+
+TEST(BuildLayerTins, SharedPointsGiveTheTinsOfEachLayerAlone) {
+    // 95 % shared: every layer takes the shared triangulation.
+    EXPECT_EQ(expect_same_as_alone(stack(1, 512345.0, 7012345.0, 3000, 150, 4), l_area(512345.0, 7012345.0)), 4u);
+}
+
+TEST(BuildLayerTins, LayersSharingLittleAreBuiltAlone) {
+    // Half of each layer its own: below the share, each built alone; one
+    // layer in the stack with a third of the others' points.
+    auto layers = stack(2, 0.0, 0.0, 1000, 1000, 3);
+    auto more = stack(3, 0.0, 0.0, 3000, 10, 2);
+    layers.insert(layers.end(), more.begin(), more.end());
+    // The last two share 3000 points (the first three have none of them).
+    EXPECT_EQ(expect_same_as_alone(layers, l_area(0.0, 0.0)), 2u);
+}
+
+TEST(BuildLayerTins, ErrorsNameTheLayer) {
+    const fm::StudyArea area = l_area(0.0, 0.0);
+    auto layers = stack(4, 0.0, 0.0, 500, 10, 2);
+    const std::vector<double> outside = {2000.0, 2000.0, 1.0, 2100.0, 2000.0, 1.0, 2000.0, 2100.0, 1.0};
+    std::vector<fm::LayerTinInput> in = {{"top", layers[0].data(), layers[0].size() / 3},
+                                         {"far away", outside.data(), 3},
+                                         {"base", layers[1].data(), layers[1].size() / 3}};
+    try {
+        fm::build_layer_tins(in, area);
+        FAIL() << "no error";
+    } catch (const fm::GeometryError& e) {
+        EXPECT_NE(std::string(e.what()).find("far away"), std::string::npos) << e.what();
+    }
+    std::vector<double> bad = layers[1];
+    bad[3 * 7 + 2] = std::nan("");
+    in = {{"top", layers[0].data(), layers[0].size() / 3}, {"base", bad.data(), bad.size() / 3}};
+    EXPECT_THROW(fm::build_layer_tins(in, area), std::invalid_argument);
+}
+
+TEST(RepairCrossings, LayersApartEverywhereEndInTheFirstRound) {
+    auto layers = stack(5, 0.0, 0.0, 2000, 20, 2);
+    const fm::StudyArea area = l_area(0.0, 0.0);
+    fm::LayerTin up("up", layers[0].data(), layers[0].size() / 3, area);
+    fm::LayerTin lo("lo", layers[1].data(), layers[1].size() / 3, area);
+    const auto before = mesh_set(lo);
+    const fm::RepairCounts c = fm::repair_crossings(up, lo);
+    EXPECT_EQ(c.rounds, 1);
+    EXPECT_EQ(c.rule1 + c.rule1b + c.rule2 + c.rule2_crossing, 0);
+    EXPECT_EQ(mesh_set(lo), before);
+}
+
+TEST(RepairCrossings, ACrossingNearTheEdgeOfACellIsStillRepaired) {
+    // Two planes 30 m apart, the lower one raised in one spot above the
+    // upper: the early end must not skip it.
+    auto layers = stack(6, 0.0, 0.0, 2000, 0, 2);
+    std::vector<double>& lo_pts = layers[1];
+    lo_pts.insert(lo_pts.end(), {123.45, 678.9, 500.0});
+    const fm::StudyArea area = l_area(0.0, 0.0);
+    fm::LayerTin up("up", layers[0].data(), layers[0].size() / 3, area);
+    fm::LayerTin lo("lo", lo_pts.data(), lo_pts.size() / 3, area);
+    const fm::RepairCounts c = fm::repair_crossings(up, lo);
+    EXPECT_GE(c.rule1, 1);
+    const std::vector<double> q = {123.45, 678.9};
+    EXPECT_LE(lo.interpolate(q.data(), 1)[0], up.interpolate(q.data(), 1)[0] + 1e-6);
+}
