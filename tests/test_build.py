@@ -741,3 +741,22 @@ def test_reach_past_the_band_stops_at_the_boundary():
     hang = np.array([[60.0, 50.0, 10.0], [100.0, 50.0, 14.0]])
     assert len(_reach_past_the_band(foot, hang, area)[1]) == 2
     assert len(_reach_past_the_band(foot, hang)[1]) == 3
+
+
+def test_threads_give_the_same_model():
+    """build_model on several threads (layer TINs set up and layers stitched
+    side by side) gives the model of one thread, array for array."""
+    ds = datasets.synthetic(3, n_layers=4, n_faults=2, n_boreholes=400, kind="mixed")
+    one = build(ds, evaluate=False, threads=1)
+    two = build(ds, evaluate=False, threads=3)
+    for name, s in one.surfaces.items():
+        t = two.surfaces[name]
+        for key in ("vertices", "triangles", "kinds", "owner"):
+            assert np.array_equal(getattr(s, key), getattr(t, key)), (name, key)
+    assert [(g.layer, g.id, g.triangles.tolist()) for g in one.gaps] == \
+        [(g.layer, g.id, g.triangles.tolist()) for g in two.gaps]
+    assert one.metadata["stitch"].keys() == two.metadata["stitch"].keys()
+    one.check()
+    for bad in (0, -1, True, 1.5, "2"):
+        with pytest.raises(ValueError, match="threads"):
+            faultmesh.build_model(ds, threads=bad)

@@ -129,8 +129,9 @@ void bind_layer_tin(py::module_& m) {
     m.def(
         "build_layer_tins",
         [](const py::typing::List<py::typing::Tuple<py::str, py::object>>& layers, const py::handle& boundary,
-           py::object spacing) -> py::typing::List<PyLayerTin> {
+           py::object spacing, int threads) -> py::typing::List<PyLayerTin> {
             StudyArea area = as_area(boundary, "build_layer_tins");
+            if (threads < 1) throw std::invalid_argument("build_layer_tins: threads must be >= 1, got " + std::to_string(threads));
             LayerTinOptions opt;
             if (!spacing.is_none()) {
                 opt.spacing = spacing.cast<double>();
@@ -155,17 +156,18 @@ void bind_layer_tin(py::module_& m) {
             std::vector<LayerTin> tins;
             {
                 py::gil_scoped_release release;
-                tins = build_layer_tins(in, area, opt);
+                tins = build_layer_tins(in, area, opt, static_cast<unsigned>(threads));
             }
             py::typing::List<PyLayerTin> out;
             for (auto& t : tins) out.append(py::cast(std::make_unique<PyLayerTin>(std::move(t))));
             return out;
         },
-        py::arg("layers"), py::arg("boundary"), py::arg("spacing") = py::none(),
+        py::arg("layers"), py::arg("boundary"), py::arg("spacing") = py::none(), py::arg("threads") = 1,
         "The LayerTins of several layers over one study area: [(name, data (n, 3)), ...] ->\n"
         "[LayerTin, ...], each as LayerTin(name, data, boundary, spacing) builds it (same\n"
         "vertices, elevations and triangles; the vertex numbering may differ). The interior\n"
-        "XY points all layers share are triangulated once (layer_tin.hpp).");
+        "XY points all layers share are triangulated once (layer_tin.hpp). threads: layers\n"
+        "set up on up to that many threads (same result; the error of the first failing layer).");
 
     m.def(
         "repair_crossings",

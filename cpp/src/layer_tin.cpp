@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -16,6 +17,8 @@
 #include <mutex>
 #include <optional>
 #include <stdexcept>
+#include <system_error>
+#include <thread>
 #include <string>
 #include <utility>
 
@@ -602,24 +605,62 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
 
 LayerTin::LayerTin(std::unique_ptr<detail::LayerTinState> s) : s_(std::move(s)) {}
 
+namespace {
+
+// Runs job(i) for i in [0, n) on up to `threads` threads (the calling one
+// included). Every job runs, whatever others throw; the exception of the
+// lowest failing i is rethrown, so the error does not depend on timing.
+template <class Job>
+void for_each_parallel(std::size_t n, unsigned threads, const Job& job) {
+    std::vector<std::exception_ptr> errors(n);
+    std::atomic<std::size_t> next{0};
+    auto worker = [&]() {
+        for (std::size_t i; (i = next.fetch_add(1)) < n;) {
+            try {
+                job(i);
+            } catch (...) {
+                errors[i] = std::current_exception();
+            }
+        }
+    };
+    const std::size_t k = std::min<std::size_t>(std::max(1u, threads), n);
+    std::vector<std::thread> pool;
+    pool.reserve(k > 0 ? k - 1 : 0);
+    try {
+        for (std::size_t t = 1; t < k; ++t) pool.emplace_back(worker);
+    } catch (const std::system_error&) {
+        // No more threads to be had: the ones started and this one do the work.
+    }
+    worker();
+    for (auto& t : pool) t.join();
+    for (const auto& e : errors)
+        if (e) std::rethrow_exception(e);
+}
+
+}  // namespace
+
 std::vector<LayerTin> build_layer_tins(const std::vector<LayerTinInput>& layers, const StudyArea& area,
-                                       const LayerTinOptions& options) {
-    std::vector<detail::LayerData> data;
-    data.reserve(layers.size());
-    for (const auto& l : layers)
-        data.push_back(detail::sort_out("LayerTin('" + l.name + "')", l.data, l.n, area));
+                                       const LayerTinOptions& options, unsigned threads) {
+    const std::size_t n = layers.size();
+    std::vector<detail::LayerData> data(n);
+    for_each_parallel(n, threads, [&](std::size_t l) {
+        data[l] = detail::sort_out("LayerTin('" + layers[l].name + "')", layers[l].data, layers[l].n, area);
+    });
     std::vector<char> member;
     const detail::SharedXY shared = detail::share_xy(data, member);
-    std::vector<LayerTin> out;
-    out.reserve(layers.size());
-    for (std::size_t l = 0; l < layers.size(); ++l) {
+    std::vector<std::unique_ptr<LayerTinState>> states(n);
+    for_each_parallel(n, threads, [&](std::size_t l) {
         auto s = std::make_unique<LayerTinState>();
         s->name = layers[l].name;
         s->area = area;
         s->opt = options;
+        // The shared Tin is only read (copied) here.
         detail::set_up(*s, std::move(data[l]), member[l] ? &shared : nullptr);
-        out.push_back(LayerTin(std::move(s)));
-    }
+        states[l] = std::move(s);
+    });
+    std::vector<LayerTin> out;
+    out.reserve(n);
+    for (auto& s : states) out.push_back(LayerTin(std::move(s)));
     return out;
 }
 

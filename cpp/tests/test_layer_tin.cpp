@@ -109,6 +109,22 @@ TEST(BuildLayerTins, SharedPointsGiveTheTinsOfEachLayerAlone) {
     EXPECT_EQ(expect_same_as_alone(stack(1, 512345.0, 7012345.0, 3000, 150, 4), l_area(512345.0, 7012345.0)), 4u);
 }
 
+TEST(BuildLayerTins, ThreadsGiveTheSameTins) {
+    const auto layers = stack(7, 512345.0, 7012345.0, 2000, 100, 5);
+    const fm::StudyArea area = l_area(512345.0, 7012345.0);
+    std::vector<fm::LayerTinInput> in;
+    for (std::size_t l = 0; l < layers.size(); ++l)
+        in.push_back({"L" + std::to_string(l), layers[l].data(), layers[l].size() / 3});
+    const auto one = fm::build_layer_tins(in, area, {}, 1);
+    const auto three = fm::build_layer_tins(in, area, {}, 3);
+    ASSERT_EQ(one.size(), three.size());
+    for (std::size_t l = 0; l < one.size(); ++l) {
+        const fm::LayerTinMesh a = one[l].mesh(), b = three[l].mesh();
+        EXPECT_EQ(a.vertices, b.vertices);
+        EXPECT_EQ(a.triangles, b.triangles);
+    }
+}
+
 TEST(BuildLayerTins, LayersSharingLittleAreBuiltAlone) {
     // Half of each layer its own: below the share, each built alone; one
     // layer in the stack with a third of the others' points.
@@ -131,6 +147,18 @@ TEST(BuildLayerTins, ErrorsNameTheLayer) {
         FAIL() << "no error";
     } catch (const fm::GeometryError& e) {
         EXPECT_NE(std::string(e.what()).find("far away"), std::string::npos) << e.what();
+    }
+    // On several threads too, and with two failing layers, the first one's error.
+    std::vector<fm::LayerTinInput> two_bad = {{"top", layers[0].data(), layers[0].size() / 3},
+                                              {"first bad", outside.data(), 3},
+                                              {"second bad", outside.data(), 3}};
+    for (unsigned threads : {1u, 2u, 3u}) {
+        try {
+            fm::build_layer_tins(two_bad, area, {}, threads);
+            FAIL() << "no error";
+        } catch (const fm::GeometryError& e) {
+            EXPECT_NE(std::string(e.what()).find("first bad"), std::string::npos) << e.what();
+        }
     }
     std::vector<double> bad = layers[1];
     bad[3 * 7 + 2] = std::nan("");

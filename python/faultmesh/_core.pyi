@@ -559,12 +559,13 @@ def boundary_loops(triangles: typing.Any, *, strict: bool = True, n_vertices: ty
     non-manifold or inconsistently oriented edge; strict=False returns the closed loops
     (pinches separated through the triangle fans). boundary_contours gives the full report.
     """
-def build_layer_tins(layers: list[tuple[str, typing.Any]], boundary: typing.Any, spacing: typing.Any = None) -> list[LayerTin]:
+def build_layer_tins(layers: list[tuple[str, typing.Any]], boundary: typing.Any, spacing: typing.Any = None, threads: typing.SupportsInt | typing.SupportsIndex = 1) -> list[LayerTin]:
     """
     The LayerTins of several layers over one study area: [(name, data (n, 3)), ...] ->
     [LayerTin, ...], each as LayerTin(name, data, boundary, spacing) builds it (same
     vertices, elevations and triangles; the vertex numbering may differ). The interior
-    XY points all layers share are triangulated once (layer_tin.hpp).
+    XY points all layers share are triangulated once (layer_tin.hpp). threads: layers
+    set up on up to that many threads (same result; the error of the first failing layer).
     """
 def check_polygon(rings: typing.Any) -> tuple[bool, str, int, int]:
     """

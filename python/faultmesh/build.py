@@ -9,7 +9,9 @@ bridging, ear clipping, merge), one fault group after another.
 """
 from __future__ import annotations
 
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
@@ -36,7 +38,8 @@ def _ccw_ring(ring: np.ndarray) -> np.ndarray:
 # Steps 2 and 3: stratum TINs and the layer-crossing repair
 # ---------------------------------------------------------------------------
 def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repair: bool = True,
-                 max_repair_rounds: int = 50, progress=None) -> Tuple[Dict[str, LayerTin], Dict[str, Any]]:
+                 max_repair_rounds: int = 50, progress=None,
+                 threads: Optional[int] = None) -> Tuple[Dict[str, LayerTin], Dict[str, Any]]:
     """Steps 2 and 3: the continuous TIN of every layer over the study area
     (:class:`faultmesh.LayerTin`), then, top down, each layer made to lie
     nowhere above the one over it (:func:`faultmesh.repair_crossings`).
@@ -45,7 +48,8 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
     layers = list(dataset.layers)
     prog("stratum TINs", 0, len(layers))
     # One call for the stack: the XY points the layers share are triangulated once.
-    built = build_layer_tins([(lay, dataset.layer_points(lay)) for lay in layers], area, spacing)
+    built = build_layer_tins([(lay, dataset.layer_points(lay)) for lay in layers], area, spacing,
+                             threads=_threads(threads, len(layers)))
     tins: Dict[str, LayerTin] = dict(zip(layers, built))
     prog("stratum TINs", len(layers), len(layers))
     meta: Dict[str, Any] = {"tins": {lay: {"data_points": int(t.n_data), "outside_ignored": int(t.n_outside),
@@ -63,11 +67,11 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
 
 
 def continuous_layers(dataset, *, spacing: Optional[float] = None, repair: bool = True,
-                      max_repair_rounds: int = 50) -> Dict[str, Surface]:
+                      max_repair_rounds: int = 50, threads: Optional[int] = None) -> Dict[str, Surface]:
     """The continuous layer surfaces of ``dataset`` before any fault (steps 2
     and 3 of :func:`build_model`, same code and defaults)."""
     area = StudyArea(np.asarray(dataset.boundary, dtype=np.float64))
-    tins, _ = stratum_tins(dataset, area, spacing, repair, max_repair_rounds)
+    tins, _ = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, threads=threads)
     return {lay: Surface(lay, *t.mesh(), kind="layer") for lay, t in tins.items()}
 
 
@@ -126,6 +130,19 @@ def _clearance(clearance: Optional[float], tin: "LayerTin") -> float:
 _CLEARANCE_FACTOR = 0.4
 
 
+def _threads(threads: Optional[int], jobs: int) -> int:
+    """The threads to use for `jobs` independent jobs: ``threads`` (>= 1), or
+    by default the CPUs this process may run on; never more than the jobs."""
+    if threads is None:
+        try:
+            threads = len(os.sched_getaffinity(0))
+        except (AttributeError, OSError):  # pragma: no cover - not Linux
+            threads = os.cpu_count() or 1
+    elif isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"build_model: threads must be a whole number >= 1, got {threads!r}")
+    return max(1, min(int(threads), int(jobs)))
+
+
 def _progress_fn(progress) -> Callable[[str, int, int], None]:
     if progress is None or progress is False:
         return lambda step, i, n: None
@@ -156,10 +173,80 @@ def _progress_fn(progress) -> Callable[[str, int, int], None]:
     return progress
 
 
+class _Inline:
+    """A stand-in for an executor: map runs the calls one after the other, in
+    this thread."""
+
+    def __enter__(self) -> "_Inline":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+    def map(self, fn, items):
+        return (fn(x) for x in items)
+
+
+def _stitch_layer(lay: str, layer: Surface, halfedges: np.ndarray, ring: np.ndarray,
+                  patches: List[Tuple[str, List[str], np.ndarray, np.ndarray]], refine: bool,
+                  stitch_order: str, bridge: str, clearance: float):
+    """Steps 5-7 in one layer: every group's patch stitched in turn. Returns
+    (the stitched Surface, its live Gaps, its StitchedPatches, the per-patch
+    stitch records)."""
+    st = Stitcher(layer.vertices, layer.triangles, boundary=ring, halfedges=halfedges, name=lay, refine=refine,
+                  order=stitch_order, bridge=bridge, clearance=clearance)
+    live_gaps: Dict[int, Tuple[Any, float]] = {}  # gap id -> (StitchGap, seconds)
+    layer_patches: Dict[int, StitchedPatch] = {}
+    records: List[Dict[str, Any]] = []
+    patch_members = {gname: members for gname, members, _, _ in patches}
+    for gname, members, PV, PT in patches:
+        ts = time.perf_counter()
+        try:
+            rep = st.stitch(PV, PT, name=gname)
+        except PatchOverlapError as e:
+            raise _zones_overlap(e, patch_members) from e
+        secs = time.perf_counter() - ts
+        layer_patches[rep.patch_id] = StitchedPatch(layer=lay, id=int(rep.patch_id), name=gname,
+                                                    faults=list(members), n_triangles=int(len(PT)))
+        for g in rep.merged_gaps:
+            live_gaps.pop(int(g), None)
+        for g in rep.gaps:
+            live_gaps[int(g.id)] = (g, secs / max(1, len(rep.gaps)))
+        records.append({"fault": gname, "removed": int(len(rep.removed)),
+                        "candidates": int(rep.n_candidates),
+                        "grow_rounds": int(rep.grow_rounds),
+                        "gaps": len(rep.gaps),
+                        "merged_gaps": int(len(rep.merged_gaps)),
+                        "patch_flipped": bool(rep.patch_flipped),
+                        "seconds": secs})
+    mesh = st.mesh()
+    surf = Surface(lay, mesh.vertices, mesh.triangles, kind="layer", kinds=mesh.kinds, owner=mesh.owners,
+                   metadata={"n_patch_triangles": int(np.sum(mesh.kinds == TriangleKind.patch)),
+                             "n_gap_triangles": int(np.sum(mesh.kinds == TriangleKind.gap))})
+    gaps: List[Gap] = []
+    if live_gaps:
+        # The triangles of each live gap, by one sort of the gap triangles' owners.
+        rows = np.flatnonzero(surf.kinds == TriangleKind.gap)
+        own = surf.owner[rows]
+        order = np.argsort(own, kind="stable")
+        rows, own = rows[order], own[order]
+        for gid, (g, secs) in sorted(live_gaps.items()):
+            lo, hi = np.searchsorted(own, gid, "left"), np.searchsorted(own, gid, "right")
+            owners = [layer_patches[int(p)] for p in g.patches]
+            names = list(dict.fromkeys(f for p in owners for f in p.faults))
+            gaps.append(Gap(fault="+".join(p.name for p in owners) or "?", layer=lay,
+                            triangles=rows[lo:hi].astype(np.int64), n_vertices=int(g.n_vertices),
+                            n_holes=int(g.n_holes), seconds=secs,
+                            metadata={"faults": names, "merged_gaps": len(g.merged_gaps)},
+                            id=gid, patches=[p.id for p in owners]))
+    return surf, gaps, list(layer_patches.values()), records
+
+
 def build_model(dataset, progress=None, loft_method: str = "min_area", refine: bool = True,
                 stitch_order: str = "quality", bridge: str = "extreme", repair: bool = True,
                 max_repair_rounds: int = 50, spacing: Optional[float] = None,
-                evaluate: bool = True, clearance: Optional[float] = None) -> Model:
+                evaluate: bool = True, clearance: Optional[float] = None,
+                threads: Optional[int] = None) -> Model:
     """Build the faulted multi-layer model of ``dataset`` (docs/design.md §4).
     Faults without layer cutoffs (given by points, a surface or plane traces
     only) get them from :func:`faultmesh.derive.derive_faults` first (its
@@ -176,7 +263,10 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     patch outline (default: 0.4 x the layer's data spacing; 0 = only the
     triangles touching the patch, the paper's rule). evaluate: with a ground truth
     (built-in datasets), compare the model with the continuous TINs near the
-    faults (``metadata["accuracy"]``).
+    faults (``metadata["accuracy"]``). threads: the layers' TINs are set up,
+    and the layers stitched, on up to this many threads (default: the CPUs
+    the process may use; 1 in an ensemble's workers). The model does not
+    depend on it.
 
     Returns a :class:`~faultmesh.Model`: ``surfaces`` (layer -> Surface, top
     down), ``faults`` (fault -> Surface), ``boundary``, ``gaps`` (one
@@ -193,6 +283,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     if stitch_order not in ("quality", "plain"):
         raise ValueError(f"build_model: stitch_order must be 'quality' or 'plain', got {stitch_order!r}")
     prog = _progress_fn(progress)
+    n_threads = _threads(threads, len(dataset.layers))
     t_start = time.perf_counter()
     timings: Dict[str, float] = {}
     layers = list(dataset.layers)
@@ -214,7 +305,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
 
     # Steps 2 and 3: stratum TINs, layer-crossing repair.
     t0 = time.perf_counter()
-    tins, tin_meta = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, prog)
+    tins, tin_meta = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, prog, n_threads)
     meta.update(tin_meta)
     timings["stratum_tins_and_repair"] = time.perf_counter() - t0
     # The continuous surfaces, with their half-edges (the stitcher then skips
@@ -286,7 +377,10 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     meta["faults"] = fault_meta
     timings["fault_models"] = time.perf_counter() - t0
 
-    # Steps 5-7: stitch every group's patch into every layer.
+    # Steps 5-7: stitch every group's patch into every layer. The layers are
+    # independent (each its own Stitcher, which works with the GIL released):
+    # on several threads they run side by side; results are taken in layer
+    # order, so an error is the first layer's, whatever the timing.
     t0 = time.perf_counter()
     surfaces: Dict[str, Surface] = {}
     gaps: List[Gap] = []
@@ -294,53 +388,20 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     stitch_meta: Dict[str, Any] = {}
     n_jobs = sum(len(v) for v in patches.values())
     job = 0
-    for lay in layers:
-        V, T = continuous[lay].vertices, continuous[lay].triangles
-        st = Stitcher(V, T, boundary=ring, halfedges=halfedges[lay], name=lay, refine=refine,
-                      order=stitch_order,
-                      bridge=bridge, clearance=_clearance(clearance, tins[lay]))
-        live_gaps: Dict[int, Tuple[Any, float]] = {}  # gap id -> (StitchGap, seconds)
-        layer_patches: Dict[int, StitchedPatch] = {}
-        stitch_meta[lay] = []
-        patch_members = {gname: members for gname, members, _, _ in patches[lay]}
-        for gname, members, PV, PT in patches[lay]:
+
+    def stitch_layer(lay: str):
+        return _stitch_layer(lay, continuous[lay], halfedges[lay], ring, patches[lay], refine, stitch_order,
+                             bridge, _clearance(clearance, tins[lay]))
+
+    prog("stitching", 0, n_jobs)
+    with ThreadPoolExecutor(max_workers=n_threads) if n_threads > 1 else _Inline() as pool:
+        for lay, (surf, layer_gaps, layer_patches, layer_meta) in zip(layers, pool.map(stitch_layer, layers)):
+            surfaces[lay] = surf
+            gaps.extend(layer_gaps)
+            stitched.extend(layer_patches)
+            stitch_meta[lay] = layer_meta
+            job += len(patches[lay])
             prog("stitching", job, n_jobs)
-            job += 1
-            ts = time.perf_counter()
-            try:
-                rep = st.stitch(PV, PT, name=gname)
-            except PatchOverlapError as e:
-                raise _zones_overlap(e, patch_members) from e
-            secs = time.perf_counter() - ts
-            layer_patches[rep.patch_id] = StitchedPatch(layer=lay, id=int(rep.patch_id), name=gname,
-                                                        faults=list(members), n_triangles=int(len(PT)))
-            for g in rep.merged_gaps:
-                live_gaps.pop(int(g), None)
-            for g in rep.gaps:
-                live_gaps[int(g.id)] = (g, secs / max(1, len(rep.gaps)))
-            stitch_meta[lay].append({"fault": gname, "removed": int(len(rep.removed)),
-                                     "candidates": int(rep.n_candidates),
-                                     "grow_rounds": int(rep.grow_rounds),
-                                     "gaps": len(rep.gaps),
-                                     "merged_gaps": int(len(rep.merged_gaps)),
-                                     "patch_flipped": bool(rep.patch_flipped),
-                                     "seconds": secs})
-        mesh = st.mesh()
-        surf = Surface(lay, mesh.vertices, mesh.triangles, kind="layer", kinds=mesh.kinds, owner=mesh.owners,
-                       metadata={"n_patch_triangles": int(np.sum(mesh.kinds == TriangleKind.patch)),
-                                 "n_gap_triangles": int(np.sum(mesh.kinds == TriangleKind.gap))})
-        surfaces[lay] = surf
-        for gid, (g, secs) in sorted(live_gaps.items()):
-            rows = np.flatnonzero((surf.kinds == TriangleKind.gap) & (surf.owner == gid))
-            owners = [layer_patches[int(p)] for p in g.patches]
-            names = list(dict.fromkeys(f for p in owners for f in p.faults))
-            gaps.append(Gap(fault="+".join(p.name for p in owners) or "?", layer=lay,
-                            triangles=rows.astype(np.int64), n_vertices=int(g.n_vertices),
-                            n_holes=int(g.n_holes), seconds=secs,
-                            metadata={"faults": names, "merged_gaps": len(g.merged_gaps)},
-                            id=gid, patches=[p.id for p in owners]))
-        stitched.extend(layer_patches.values())
-    prog("stitching", n_jobs, n_jobs)
     timings["stitching"] = time.perf_counter() - t0
     meta["stitch"] = stitch_meta
 

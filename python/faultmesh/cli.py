@@ -170,7 +170,8 @@ def _build(dataset, args, progress: _Progress):
     if getattr(args, "no_refine", False):
         kw["refine"] = False
     for opt, key in (("loft", "loft_method"), ("bridge", "bridge"), ("spacing", "spacing"),
-                     ("clearance", "clearance"), ("max_repair_rounds", "max_repair_rounds")):
+                     ("clearance", "clearance"), ("max_repair_rounds", "max_repair_rounds"),
+                     ("threads", "threads")):
         if getattr(args, opt, None) is not None:
             kw[key] = getattr(args, opt)
     if getattr(args, "no_repair", False):
@@ -611,7 +612,7 @@ def _non_negative(text: str) -> float:
     return v
 
 
-def _rounds(text: str) -> int:
+def _positive_int(text: str) -> int:
     try:
         v = int(text)
     except ValueError:
@@ -645,10 +646,13 @@ def _add_build_options(p: argparse.ArgumentParser) -> None:
                         "the layer's data spacing)")
     g.add_argument("--no-repair", action="store_true",
                    help="skip the layer-crossing repair (layers may then cross)")
-    g.add_argument("--max-repair-rounds", type=_rounds, metavar="N",
+    g.add_argument("--max-repair-rounds", type=_positive_int, metavar="N",
                    help="rounds of the layer-crossing repair before it gives up (default 50)")
     g.add_argument("--no-evaluate", action="store_true",
                    help="do not compare the model with the ground truth of a built-in dataset")
+    g.add_argument("--threads", type=_positive_int, metavar="N",
+                   help="threads for the layers' TINs and stitching (default: the CPUs this "
+                        "process may use; the model does not depend on it)")
 
 
 def make_parser() -> argparse.ArgumentParser:

@@ -247,6 +247,19 @@ class Boreholes:
             self.__dict__["_codes"] = cache
         return cache
 
+    @property
+    def hole_rows(self):
+        """(first, inverse): the first row of each hole (by hole code) and,
+        per row, its hole's index into ``first``; computed once like
+        :attr:`codes`."""
+        cache = self.__dict__.get("_hole_rows")
+        if cache is None:
+            _, _, hcode, _ = self.codes
+            _, first, inv = np.unique(hcode, return_index=True, return_inverse=True)
+            cache = (first, inv.reshape(-1))
+            self.__dict__["_hole_rows"] = cache
+        return cache
+
     def row_label(self, i: int) -> str:
         """A readable name of row ``i``: ``boreholes.csv row 17 (hole 'BH3', layer 'L0')``."""
         what = f"hole {str(self.hole_id[i])!r}, layer {str(self.layer[i])!r}"
@@ -1008,7 +1021,7 @@ def apply_boundary_policy(ds: Dataset, snap: Optional[float] = None) -> Dataset:
 
     # Boreholes.
     b = ds.boreholes
-    new_xy, moved, dist, inside = sn.classify(b.xy)
+    new_xy, moved, dist, inside = _classify_rows(sn, b)
     for i in np.flatnonzero(moved & inside):
         adj.append(Adjustment("snapped", b.row_label(int(i)), _xy(b.xy[i]), _xy(new_xy[i]),
                               float(dist[i])))
@@ -1046,6 +1059,27 @@ def apply_boundary_policy(ds: Dataset, snap: Optional[float] = None) -> Dataset:
     return replace(ds, boreholes=boreholes, points=points, faults=faults,
                    adjustments=list(ds.adjustments) + adj, point_sources=sources,
                    snap_distance=explicit)
+
+
+def _classify_rows(sn: "_Snapper", b: Boreholes):
+    """``sn.classify(b.xy)``, computed once per hole position: the rows of a
+    plain table repeat their hole's XY (one row per layer), and a row at
+    exactly its hole's first row's XY gets that row's result; the others
+    (rounded differently, desurveyed holes) are classified on their own."""
+    if len(b) < 2:
+        return sn.classify(b.xy)
+    first, inv = b.hole_rows
+    rep = first[inv]
+    same = np.all(b.xy == b.xy[rep], axis=1)
+    if same.sum() < 2 * len(first):  # hardly any repeats: nothing to save
+        return sn.classify(b.xy)
+    new_f, moved_f, dist_f, inside_f = sn.classify(b.xy[first])
+    new_xy, moved, dist, inside = new_f[inv], moved_f[inv], dist_f[inv], inside_f[inv]
+    other = np.flatnonzero(~same)
+    if other.size:
+        n2, m2, d2, i2 = sn.classify(b.xy[other])
+        new_xy[other], moved[other], dist[other], inside[other] = n2, m2, d2, i2
+    return new_xy, moved, dist, inside
 
 
 def _check_snap(snap, what: str) -> float:
@@ -1277,8 +1311,7 @@ def check_hole_positions(ds: Dataset, tol: Optional[float] = None) -> None:
     if tol is None:
         tol = ds.snap_distance if ds.snap_distance is not None else \
             default_snap_distance(ds.boundary)
-    _, _, hcode, _ = b.codes
-    _, first, inv = np.unique(hcode, return_index=True, return_inverse=True)
+    first, inv = b.hole_rows
     ref = b.xy[first[inv]]
     d = np.hypot(*(b.xy - ref).T)
     bad = np.flatnonzero(d > tol)

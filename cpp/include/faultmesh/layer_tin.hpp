@@ -117,7 +117,7 @@ private:
     std::unique_ptr<detail::LayerTinState> s_;
     friend struct RepairCounts repair_crossings(const LayerTin&, LayerTin&, const struct RepairOptions&);
     friend std::vector<LayerTin> build_layer_tins(const std::vector<struct LayerTinInput>&, const StudyArea&,
-                                                  const LayerTinOptions&);
+                                                  const LayerTinOptions&, unsigned);
 };
 
 // One layer's data for build_layer_tins: n points (x, y, z) at data, read
@@ -138,8 +138,11 @@ struct LayerTinInput {
 // layer's TIN is a copy of that triangulation with its own elevations and its
 // other points (boundary vertices, points only it has) inserted. Layers that
 // share less than three quarters of their points are built alone.
+// threads > 1: the layers are sorted out and set up on up to that many
+// threads (the result does not depend on it; an error is the one of the
+// first failing layer, as with one thread).
 std::vector<LayerTin> build_layer_tins(const std::vector<LayerTinInput>& layers, const StudyArea& area,
-                                       const LayerTinOptions& options = {});
+                                       const LayerTinOptions& options = {}, unsigned threads = 1);
 
 struct RepairOptions {
     int max_rounds = 50;

@@ -271,7 +271,8 @@ def run_realization(dataset: Dataset, sampler: Sampler, perturbation: Perturbati
     c0 = time.thread_time()
     try:
         ds = realization_dataset(dataset, perturbation, seed, index)
-        model = build_model(ds, **{"evaluate": False, **(build_options or {})})
+        # One thread per build: the ensemble's parallelism is its workers.
+        model = build_model(ds, **{"evaluate": False, "threads": 1, **(build_options or {})})
         t1 = time.perf_counter()
         arrays = sample_model(model, ds, sampler)
         t2 = time.perf_counter()
