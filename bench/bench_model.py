@@ -66,27 +66,35 @@ def run(size: str, repeat: int, seed: int = 0) -> Dict[str, object]:
     gc.collect()
     rss_before = proc_status_mib("VmRSS")
     reset_peak_rss()
-    dl, bl, steps = [], [], []
+    threads = faultmesh.build._threads(None, L)
+    dl, bl, b1, steps = [], [], [], []
     model = None
     for _ in range(repeat):
         t0 = time.perf_counter()
         for p in pts:
             faultmesh.delaunay(p)
         dl.append(time.perf_counter() - t0)
-        del model
-        gc.collect()
-        t0 = time.perf_counter()
-        model = faultmesh.build_model(ds, evaluate=False)
-        bl.append(time.perf_counter() - t0)
-        steps.append(dict(model.metadata["timings"]))
+        for th, runs in ((1, b1), (None, bl)):
+            if th is None and threads == 1:
+                continue
+            del model
+            gc.collect()
+            t0 = time.perf_counter()
+            model = faultmesh.build_model(ds, evaluate=False, threads=th)
+            runs.append(time.perf_counter() - t0)
+            if th is None or threads == 1:
+                steps.append(dict(model.metadata["timings"]))
+    if threads == 1:
+        bl = b1
     peak = proc_status_mib("VmHWM")
     step_names = [k for k in steps[0] if k != "total"]
-    d, b = statistics.median(dl), statistics.median(bl)
+    d, b, one = statistics.median(dl), statistics.median(bl), statistics.median(b1)
     return {"size": size, "layers": L, "points_per_layer": N, "faults": F,
             "data_points": int(sum(len(p) for p in pts)),
             "triangles": int(sum(s.n_triangles for s in model.surfaces.values())),
             "gaps": len(model.gaps), "generate_s": gen_s, "delaunay_s": d, "build_s": b,
-            "ratio": b / d, "delaunay_runs": dl, "build_runs": bl,
+            "ratio": b / d, "threads": threads, "build_1_thread_s": one, "ratio_1_thread": one / d,
+            "delaunay_runs": dl, "build_runs": bl, "build_1_thread_runs": b1,
             "steps_s": {k: statistics.median(s[k] for s in steps) for k in step_names},
             "rss_before_mib": rss_before, "peak_rss_mib": peak}
 
@@ -96,16 +104,20 @@ def markdown(results: List[Dict[str, object]], command: str) -> str:
              f"Machine: {_machine(numpy=True)}. Command: `{command}`. Date: {today()}.", "",
              "Medians of the runs, both sides in one process, interleaved. *delaunay*: "
              "`faultmesh.delaunay` of every layer's points (summed). *build*: "
-             "`build_model(dataset, evaluate=False)`. Targets: ratio <= 2 at 5 x 100k, <= 3 at "
-             "10 x 1M; peak memory <= 8 GiB.", "",
-             "| layers x points x faults | gaps | delaunay s | build s | **ratio** | TINs + repair s | "
+             "`build_model(dataset, evaluate=False)` with its default threads (the CPUs the "
+             "process may use, at most one per layer) and with `threads=1`; the step timings are "
+             "those of the default. Targets: ratio <= 2 at 5 x 100k, <= 3 at 10 x 1M; peak "
+             "memory <= 8 GiB.", "",
+             "| layers x points x faults | gaps | delaunay s | build s (threads) | **ratio** | "
+             "build s, 1 thread | ratio, 1 thread | TINs + repair s | "
              "fault models s | stitching s | peak MiB (before) | generate s |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in results:
         st = r["steps_s"]
         lines.append(
             f"| {r['layers']} x {r['points_per_layer']:,} x {r['faults']} | {r['gaps']} | "
-            f"{r['delaunay_s']:.3f} | {r['build_s']:.3f} | **{r['ratio']:.2f}** | "
+            f"{r['delaunay_s']:.3f} | {r['build_s']:.3f} ({r['threads']}) | **{r['ratio']:.2f}** | "
+            f"{r['build_1_thread_s']:.3f} | {r['ratio_1_thread']:.2f} | "
             f"{st.get('stratum_tins_and_repair', float('nan')):.3f} | {st.get('fault_models', float('nan')):.3f} | "
             f"{st.get('stitching', float('nan')):.3f} | {r['peak_rss_mib']:.0f} ({r['rss_before_mib']:.0f}) | "
             f"{r['generate_s']:.1f} |")
@@ -128,7 +140,8 @@ def main(argv=None) -> int:
     results = []
     for s in sizes:
         r = run(s, repeat, args.seed)
-        print(f"{s}: delaunay {r['delaunay_s']:.3f} s, build {r['build_s']:.3f} s, ratio {r['ratio']:.2f}, "
+        print(f"{s}: delaunay {r['delaunay_s']:.3f} s, build {r['build_s']:.3f} s ({r['threads']} threads), "
+              f"ratio {r['ratio']:.2f}; 1 thread {r['build_1_thread_s']:.3f} s, ratio {r['ratio_1_thread']:.2f}, "
               f"peak {r['peak_rss_mib']:.0f} MiB", flush=True)
         results.append(r)
     md = markdown(results, command)

@@ -100,7 +100,15 @@ void insert_batch(DelaunayCore& core, const double* pts, std::size_t stride, std
                   std::vector<std::uint32_t>& input_of_id, std::vector<std::int32_t>& dup_of) {
     const std::size_t first = core.xy.size() / 2;
     check_size(first + n, "Tin.insert");
-    const std::vector<std::uint32_t> ord = brio_order(pts, stride, n);
+    // Into a triangulation already larger than the batch, the points go in
+    // Hilbert order: each walk starts at the previous point's triangle, a few
+    // steps away. BRIO's random rounds guard the expected cost of building
+    // from scratch, but here they only make walks jump across the existing
+    // triangulation (measured on build_layer_tins of 5 layers x 94k points,
+    // about 2,300 boundary and extra points inserted per layer into a copied
+    // TIN: 5-10 % less CPU time in all). The triangulation is canonical, so
+    // the order changes no triangle.
+    const std::vector<std::uint32_t> ord = n < first ? hilbert_order(pts, stride, n) : brio_order(pts, stride, n);
     core.reserve_vertices(first + n);
     core.xy.resize(2 * (first + n));
     for (std::size_t k = 0; k < n; ++k) {

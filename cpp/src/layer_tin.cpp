@@ -905,8 +905,15 @@ std::shared_ptr<const LayerTinState::Topology> LayerTinState::topology() const {
     // pass; the piece half-edges have the study area on their left).
     std::vector<char> wall(3 * m, 0);
     std::size_t found = 0;
+    // A wall joins two boundary vertices: one byte per vertex rules out
+    // almost every half-edge before next_b (eight per vertex) is read.
+    const std::vector<char>& on_b = s.on_boundary;
+    auto boundary = [&](std::int64_t v) {
+        return static_cast<std::size_t>(v) < on_b.size() && on_b[static_cast<std::size_t>(v)];
+    };
     for (std::size_t h = 0; h < 3 * m; ++h) {
         const std::int64_t a = T[h], b = T[nxt(h)];
+        if (!boundary(a) || !boundary(b)) continue;
         if (next_b[static_cast<std::size_t>(a)] == b) {
             wall[h] = 2;
             ++found;
@@ -954,40 +961,53 @@ std::shared_ptr<const LayerTinState::Topology> LayerTinState::topology() const {
                                 " (boundary not protected)");
     auto out = std::make_shared<Topology>();
     // Mesh vertices keep the TIN's (spatially coherent) order; unused ones
-    // (only outside triangles use them) are dropped.
-    std::vector<std::int64_t> remap(nv, -1);
-    {
+    // (only outside triangles use them) are dropped. Every TIN vertex is a
+    // corner of some triangle (duplicates never become vertices), so with no
+    // outside triangle the map is the identity.
+    std::vector<std::int64_t> remap;
+    bool identity = true;
+    if (n_out) {
         std::vector<char> used(nv, 0);
         for (std::size_t t = 0; t < m; ++t)
             if (!outside[t])
                 for (std::size_t k = 0; k < 3; ++k) used[static_cast<std::size_t>(T[3 * t + k])] = 1;
-        for (std::size_t v = 0; v < nv; ++v)
-            if (used[v]) {
-                remap[v] = static_cast<std::int64_t>(out->tin_vertex.size());
-                out->tin_vertex.push_back(static_cast<std::int64_t>(v));
-            }
+        for (std::size_t v = 0; v < nv && identity; ++v) identity = used[v] != 0;
+        if (!identity) {
+            remap.assign(nv, -1);
+            for (std::size_t v = 0; v < nv; ++v)
+                if (used[v]) {
+                    remap[v] = static_cast<std::int64_t>(out->tin_vertex.size());
+                    out->tin_vertex.push_back(static_cast<std::int64_t>(v));
+                }
+        }
     }
-    if (n_out == 0 && out->tin_vertex.size() == nv) {
-        out->triangles = std::move(T);
-        out->halfedges = std::move(H);
-    } else {
+    if (identity) {
+        out->tin_vertex.resize(nv);
+        for (std::size_t v = 0; v < nv; ++v) out->tin_vertex[v] = static_cast<std::int64_t>(v);
+    }
+    if (n_out) {
+        // The inside triangles compacted in place (a triangle only moves to
+        // a lower index, after it was read).
         std::vector<std::int64_t> tri_of(m, -1);
         std::int64_t mt = 0;
         for (std::size_t t = 0; t < m; ++t)
             if (!outside[t]) tri_of[t] = mt++;
-        out->triangles.reserve(3 * static_cast<std::size_t>(mt));
-        out->halfedges.assign(3 * static_cast<std::size_t>(mt), -1);
         for (std::size_t t = 0; t < m; ++t) {
             if (outside[t]) continue;
+            const std::size_t nt = static_cast<std::size_t>(tri_of[t]);
             for (std::size_t k = 0; k < 3; ++k) {
                 const std::int64_t o = H[3 * t + k];
-                if (o >= 0 && tri_of[static_cast<std::size_t>(o / 3)] >= 0)
-                    out->halfedges[3 * static_cast<std::size_t>(tri_of[t]) + k] =
-                        3 * tri_of[static_cast<std::size_t>(o / 3)] + o % 3;
-                out->triangles.push_back(remap[static_cast<std::size_t>(T[3 * t + k])]);
+                const std::int64_t to = o >= 0 ? tri_of[static_cast<std::size_t>(o / 3)] : -1;
+                H[3 * nt + k] = to >= 0 ? 3 * to + o % 3 : -1;
+                const std::int64_t v = T[3 * t + k];
+                T[3 * nt + k] = identity ? v : remap[static_cast<std::size_t>(v)];
             }
         }
+        T.resize(3 * static_cast<std::size_t>(mt));
+        H.resize(3 * static_cast<std::size_t>(mt));
     }
+    out->triangles = std::move(T);
+    out->halfedges = std::move(H);
     cache.topo = out;
     return out;
 }
