@@ -237,6 +237,14 @@ def _fault_traces(geo: Geology, fm: FaultModel, sections: Sequence[Section], rin
     SC = np.array([s for _, s, _, _ in kept])
     LO = np.maximum(s_in[K], SC - 500.0)
     HI = np.minimum(s_out[K], SC + 500.0)
+    # Everything below is evaluated within 500 m (cutoffs; the scan may pass
+    # the end by half a step) plus at most far[1] (the far ends) of the
+    # crossings: the faults that can matter there are enough (the same
+    # values, see Geology.near).
+    reach = 500.0 + cut_step + float(max(far)) + 1.0
+    ends = np.stack([O[K] + (SC - reach)[:, None] * D[K], O[K] + (SC + reach)[:, None] * D[K]])
+    geo = geo.near(fm.name, np.column_stack([ends[..., 0].min(axis=0), ends[..., 0].max(axis=0),
+                                             ends[..., 1].min(axis=0), ends[..., 1].max(axis=0)]))
 
     def plane_at(xy):
         return geo.plane_z(fm.name, xy[:, 0], xy[:, 1])
@@ -460,22 +468,27 @@ def _boreholes(geo: Geology, holes: List[Tuple[str, float, float, str]]) -> Bore
     x = np.array([h[1] for h in holes], dtype=np.float64)
     y = np.array([h[2] for h in holes], dtype=np.float64)
     depth = np.array([geo.layers.index(h[3]) for h in holes], dtype=np.int64)
-    hole_i, lay_i, zs = [], [], []
+    # Every layer's sheets side by side: the row-major order of the valid
+    # entries is (hole, layer, sheet), as a stable sort by hole would give.
+    S, lay_of = [], []
     for li, lay in enumerate(geo.layers):
-        S = geo.sheets(lay, x, y)
-        ok = np.isfinite(S) & (depth >= li)[:, None]
-        r, _ = np.nonzero(ok)  # row-major: per hole, its sheets top down
-        hole_i.append(r)
-        lay_i.append(np.full(len(r), li))
-        zs.append(S[ok])
-    hole_i = np.concatenate(hole_i)
-    lay_i = np.concatenate(lay_i)
-    zs = np.concatenate(zs)
-    # Per hole, top down; ties in z keep (layer, sheet) order as a stable sort would.
-    seq = np.lexsort((np.arange(len(zs)), hole_i))  # (hole, layer, sheet) order
-    hole_i, lay_i, zs = hole_i[seq], lay_i[seq], zs[seq]
-    order = np.lexsort((np.arange(len(zs)), -zs, hole_i))
-    hole_i, lay_i, zs = hole_i[order], lay_i[order], zs[order]
+        s = geo.sheets(lay, x, y)
+        s[~(depth >= li)] = np.nan
+        S.append(s)
+        lay_of.append(np.full(s.shape[1], li))
+    S = np.concatenate(S, axis=1)
+    lay_of = np.concatenate(lay_of)
+    hole_i, col = np.nonzero(np.isfinite(S))
+    lay_i = lay_of[col]
+    zs = S[hole_i, col]
+    # Per hole, top down; ties in z keep (layer, sheet) order as a stable sort
+    # would. Holes whose rows already run top down keep them: only the others
+    # are sorted (the same order as sorting all).
+    bad = (hole_i[1:] == hole_i[:-1]) & (zs[1:] > zs[:-1])
+    if bad.any():
+        sub = np.flatnonzero(np.isin(hole_i, hole_i[1:][bad]))
+        o = sub[np.lexsort((sub, -zs[sub], hole_i[sub]))]
+        hole_i[sub], lay_i[sub], zs[sub] = hole_i[o], lay_i[o], zs[o]
     ids = np.array([h[0] for h in holes])
     return Boreholes(ids[hole_i] if len(holes) else np.zeros(0, dtype=str),
                      np.column_stack([x[hole_i], y[hole_i]]) if len(holes) else np.zeros((0, 2)),

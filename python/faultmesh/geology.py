@@ -282,7 +282,13 @@ class Geology:
 
     def _relevant(self, layer: str) -> List[int]:
         """Faults that displace ``layer``, plus the older faults they abut
-        (whose side decides whether they act)."""
+        (whose side decides whether they act). Computed on first use."""
+        cache = self.__dict__.setdefault("_relevant_cache", {})
+        if layer not in cache:
+            cache[layer] = self._relevant_faults(layer)
+        return cache[layer]
+
+    def _relevant_faults(self, layer: str) -> List[int]:
         rel = set()
         for i, f in enumerate(self.faults):
             if f.layers.get(layer, 0.0) > 0.0:
@@ -299,77 +305,247 @@ class Geology:
 
     # States of a fault at a point (``_states``).
     _DROP, _HANGING, _FREE = 0, 1, 2
+    #: Points are classified in chunks of this many (neighbours in Z order):
+    #: a fault that provably cannot decide any point of a chunk (bounds over
+    #: the chunk's bounding box) is dropped for the whole chunk without a
+    #: per-point test, so the per-point work is per nearby fault, not per fault.
+    _CHUNK = 256
 
-    def _states(self, layer: str, rel: List[int], X: np.ndarray, Y: np.ndarray,
-                exclude: Optional[int]) -> np.ndarray:
-        """(len(rel), n) int8: how fault rel[j] enters the enumeration at each
-        point: ``_FREE`` (both sides tried), ``_HANGING`` (only its hanging
-        wall can be valid) or ``_DROP`` (only its footwall can be valid and its
-        slip does not change the elevation). Both shortcuts give the same valid
-        elevations as trying both sides, bit for bit:
+    def _layer_table(self, layer: str) -> Dict[str, np.ndarray]:
+        """Parameters of the faults relevant to ``layer`` (``_relevant``
+        order), as arrays for the classification of ``_states``. Computed on
+        first use: the faults must not be changed after a Geology evaluated
+        them."""
+        cache = self.__dict__.setdefault("_layer_tables", {})
+        t = cache.get(layer)
+        if t is not None:
+            return t
+        rel = self._relevant(layer)
+        fs = [self.faults[i] for i in rel]
+
+        def arr(get, dtype=np.float64):
+            return np.array([get(f) for f in fs], dtype=dtype).reshape(len(fs))
+
+        pos = {i: j for j, i in enumerate(rel)}
+        parent = arr(lambda f: pos[self._index[f.abuts[0]]] if f.abuts is not None else -1, np.intp)
+        is_parent = np.zeros(len(rel), dtype=bool)
+        is_parent[parent[parent >= 0]] = True
+        fac = arr(lambda f: float(f.layers.get(layer, 0.0)))
+        t = dict(rel=rel,
+                 ax=arr(lambda f: f.anchor[0]), ay=arr(lambda f: f.anchor[1]),
+                 s0=arr(lambda f: f.sdir[0]), s1=arr(lambda f: f.sdir[1]),
+                 n0=arr(lambda f: f.ndir[0]), n1=arr(lambda f: f.ndir[1]),
+                 um=arr(lambda f: f.um), hl=arr(lambda f: f.hl), bend=arr(lambda f: f.bend),
+                 reach=arr(lambda f: f.flat + f.decay), tan=arr(lambda f: f.tan_dip),
+                 zref=arr(lambda f: f.z_ref),
+                 heave=np.array([self._max_heave(i, layer) for i in rel], dtype=np.float64).reshape(len(rel)),
+                 tmax=arr(lambda f: f.throw * float(f.layers.get(layer, 0.0))),
+                 reverse=arr(lambda f: f.kind == "reverse", bool),
+                 abutter=parent >= 0, parent=parent, is_parent=is_parent, zero=fac == 0.0)
+        cache[layer] = t
+        return t
+
+    @staticmethod
+    def _chunks(X: np.ndarray, Y: np.ndarray, size: int) -> Tuple[np.ndarray, np.ndarray]:
+        """(order, chunk): the points in Z (Morton) order of their position and
+        the chunk of ``size`` consecutive points each of them falls in."""
+        n = X.size
+        if n <= size:
+            return np.arange(n), np.zeros(n, dtype=np.intp)
+        lo_x, lo_y = X.min(), Y.min()
+        span = max(float(X.max() - lo_x), float(Y.max() - lo_y), 1e-300)
+
+        def spread(v):  # 16 bits -> every other bit of 32
+            v = (v | (v << np.uint64(8))) & np.uint64(0x00FF00FF)
+            v = (v | (v << np.uint64(4))) & np.uint64(0x0F0F0F0F)
+            v = (v | (v << np.uint64(2))) & np.uint64(0x33333333)
+            return (v | (v << np.uint64(1))) & np.uint64(0x55555555)
+
+        qx = np.clip((X - lo_x) / span * 65535.0, 0, 65535).astype(np.uint64)
+        qy = np.clip((Y - lo_y) / span * 65535.0, 0, 65535).astype(np.uint64)
+        order = np.argsort(spread(qx) | (spread(qy) << np.uint64(1)), kind="stable")
+        return order, np.arange(n) // size
+
+    @staticmethod
+    def _bound(S, r_all, tt, zabs):
+        """How far (m) an elevation can be from the unfaulted top z0 (see
+        ``_states``): S R_all + T, plus 1e-6 m and 1e-12 relative, far above
+        the rounding of these sums."""
+        return S * r_all + tt + 1e-6 + 1e-12 * (zabs + S * r_all + tt)
+
+    def _moving(self, t, S, x0, x1, y0, y1, z_lo, z_hi, ex):
+        """The chunk level of ``_states``: for boxes [x0, x1] x [y0, y1]
+        (local) where the unfaulted top lies within [z_lo, z_hi] (used only
+        with a slope bound S), which faults of the layer table ``t`` can act
+        somewhere in each box: (mov (C, F) bool, the sums of the faults that
+        can move: ry (C, F) of the younger ones, r_all, t_up, t_dn (C,))."""
+        F = len(t["rel"])
+        C = len(x0)
+        eps = 1e-6  # metres: far above the rounding of u, w, d at these magnitudes
+
+        # Chunk level, (C, F): ranges of u, w (linear: over the box corners),
+        # of the bend offset and of d, and of the fault surface's elevation.
+        def lin(a, b):
+            vals = [(cx[:, None] - t["ax"]) * a + (cy[:, None] - t["ay"]) * b
+                    for cx, cy in ((x0, y0), (x1, y0), (x0, y1), (x1, y1))]
+            return np.minimum.reduce(vals) - eps, np.maximum.reduce(vals) + eps
+
+        u_lo, u_hi = lin(t["s0"], t["s1"])
+        w_lo, w_hi = lin(t["n0"], t["n1"])
+        off_max = np.maximum(np.abs(u_lo - t["um"]), np.abs(u_hi - t["um"]))
+        off_min = np.where((u_lo <= t["um"]) & (t["um"] <= u_hi), 0.0,
+                           np.minimum(np.abs(u_lo - t["um"]), np.abs(u_hi - t["um"])))
+        ca, cb = t["bend"] * (off_min / t["hl"]) ** 2, t["bend"] * (off_max / t["hl"]) ** 2
+        d_lo = w_lo - np.maximum(ca, cb) - eps
+        d_hi = w_hi - np.minimum(ca, cb) + eps
+        kb = np.abs(t["bend"]) / (t["hl"] * t["hl"])
+        never = t["zero"].copy()
+        if S is not None:
+            z_abs = np.maximum(np.abs(z_lo), np.abs(z_hi))
+            pz_lo = t["zref"] - d_hi * t["tan"] - eps
+
+        def sums(mov):
+            hv = np.where(mov, t["heave"], 0.0)
+            ry = np.cumsum(hv[:, ::-1], axis=1)[:, ::-1] - hv  # younger faults that can move
+            r_all = hv.sum(axis=1)
+            t_up = np.where(mov & t["reverse"], t["tmax"], 0.0).sum(axis=1)
+            t_dn = np.where(mov & ~t["reverse"], t["tmax"], 0.0).sum(axis=1)
+            return ry, r_all, t_up, t_dn
+
+        mov = np.broadcast_to(~never, (C, F)).copy()
+        if ex >= 0:
+            mov[:, ex] = True
+        act = np.arange(C)  # chunks whose set changed in the last round
+        while len(act):
+            m = mov[act]
+            ry, r_all, t_up, _ = sums(m)
+            dead = (off_min[act] >= t["hl"] + ry + eps) | \
+                (d_lo[act] - ry - kb * ry * (2.0 * off_max[act] + ry) >= t["reach"] + eps)
+            if S is not None:
+                dead |= (pz_lo[act] >= (z_hi[act] + self._bound(S, r_all, t_up, z_abs[act]))[:, None]) & \
+                    ~t["is_parent"]
+            if ex >= 0:
+                dead[:, ex] = False
+            changed = (m & dead).any(axis=1)
+            mov[act] = m & ~dead
+            act = act[changed]
+        sm = sums(mov)
+        # The parent of a fault that may act must be kept (it has zero throw
+        # there or was never dropped by the slope test, so the sums hold).
+        for j in np.flatnonzero(t["abutter"]):
+            mov[:, t["parent"][j]] |= mov[:, j]
+        return (mov,) + sm
+
+    def _states(self, layer: str, X: np.ndarray, Y: np.ndarray, exclude: Optional[int]):
+        """How each fault relevant to ``layer`` enters the enumeration at each
+        (finite) point: returns (pt, j, state) for the faults that are not
+        dropped there (pt: point index, j: position in ``_relevant(layer)``,
+        sorted by pt then j; state ``_FREE``: both sides tried, ``_HANGING``:
+        only its hanging wall can be valid); every other fault is ``_DROP``
+        there (only its footwall can be valid and its slip does not change
+        the elevation). Both shortcuts give the same valid elevations as
+        trying both sides, bit for bit:
 
         * zero throw: a fault undoes its slip at the position left by undoing
-          the younger faults, within R (the sum of their largest heaves) of
-          the final point. Where its throw is exactly zero on that whole disk
-          (outside the taper's along-strike range, or beyond flat + decay into
-          the hanging wall, where ``taper`` and ``decay_factor`` return exact
-          zeros), its backward step is the identity (x - 0.0 = x), so both
-          side assignments give the same elevation and exactly one passes its
-          side test: drop it.
-        * far from its surface (layers with a slope bound S): every candidate
-          elevation lies within S * R_all + T_all of the unfaulted top at the
-          point (R_all: the sum of all relevant faults' largest heaves, the
-          farthest a pre-image can be; T_all: the sum of their largest
-          throws). A fault surface above that range makes every hanging-wall
-          candidate invalid and every footwall candidate valid (drop); below
-          it, the reverse (hanging wall only; not for a fault that abuts
-          another, whose activity depends on its parent's side).
+          the younger faults, within R of the final point, R the sum of the
+          largest heaves of the younger faults that can move (not dropped).
+          Where its throw is exactly zero on that whole disk (outside the
+          taper's along-strike range, or beyond flat + decay into the hanging
+          wall, where ``taper`` and ``decay_factor`` return exact zeros), its
+          backward step is the identity (x - 0.0 = x), so both side
+          assignments give the same elevation and exactly one passes its side
+          test: drop it.
+        * far from its surface (layers with a slope bound S): in every
+          assignment that leaves the dropped faults on their footwall, an
+          elevation lies within [z0 - S R_all - T_normal, z0 + S R_all +
+          T_reverse] of the unfaulted top z0 at the point (R_all: the sum of
+          the largest heaves of the faults that can move, the farthest a
+          pre-image can be; T_normal / T_reverse: the sums of their largest
+          throws, normal faults lower the rock, reverse ones lift it). A
+          fault surface above that range makes its hanging wall invalid and
+          its footwall valid in every such assignment (drop); below it, the
+          reverse (hanging wall only; not for a fault that abuts another,
+          whose activity depends on its parent's side).
 
-        The excluded fault (``side_value``) and every older fault that a
-        non-dropped fault abuts (its side decides whether the younger one
-        acts) stay free."""
-        st = np.full((len(rel), X.size), self._FREE, dtype=np.int8)
-        pos = {i: j for j, i in enumerate(rel)}
+        Dropping a fault shrinks the sums, which may drop more faults: this
+        is iterated to a fixed point, per chunk of points (``_CHUNK``, bounds
+        over the chunk's bounding box and its range of z0), then each point
+        of a chunk tests the chunk's remaining faults once with the chunk's
+        sums. The excluded fault (``side_value``) is never dropped; an older
+        fault that another one abuts is not dropped by the slope test (it
+        may have to be tried on both sides after all: the side of the parent
+        of every fault that is not dropped at a point stays free there)."""
+        t = self._layer_table(layer)
+        F = len(t["rel"])
+        ex = t["rel"].index(exclude) if exclude is not None and exclude in t["rel"] else -1
+        fin = np.isfinite(X) & np.isfinite(Y)
+        # Non-finite points: every side test is False there, so they have no
+        # valid elevation whatever the states; leave them out.
+        pts = np.flatnonzero(fin)
+        Xf, Yf = X[pts], Y[pts]
         S = self.slopes.get(layer)
+        z0 = np.asarray(self.surfaces[layer](Xf, Yf), dtype=np.float64) * np.ones_like(Xf) \
+            if S is not None else None
+        order, chunk = self._chunks(Xf, Yf, self._CHUNK)
+        n = len(order)
+        if n == 0 or F == 0:
+            e = np.zeros(0, dtype=np.intp)
+            return e, e, np.zeros(0, dtype=np.int8)
+        starts = np.arange(0, n, self._CHUNK)
+        Xo, Yo = Xf[order], Yf[order]
+        x0, x1 = np.minimum.reduceat(Xo, starts), np.maximum.reduceat(Xo, starts)
+        y0, y1 = np.minimum.reduceat(Yo, starts), np.maximum.reduceat(Yo, starts)
         if S is not None:
-            R_all = sum(self._max_heave(i, layer) for i in rel)
-            T_all = sum(self.faults[i].throw * float(self.faults[i].layers.get(layer, 0.0)) for i in rel)
-            z0 = np.asarray(self.surfaces[layer](X, Y), dtype=np.float64) * np.ones_like(X)
-            # 1e-6 m plus 1e-12 relative: far above the rounding of these sums.
-            B = S * R_all + T_all + 1e-6 + 1e-12 * (np.abs(z0) + S * R_all + T_all)
-        younger = 0.0
-        for j in range(len(rel) - 1, -1, -1):
-            i = rel[j]
-            f = self.faults[i]
-            R = younger
-            younger += self._max_heave(i, layer)
-            if i == exclude:
-                continue
-            if R == 0.0:
-                # The fault's own position is its pre-image: the exact test.
-                dead = f.throw_at(layer, X, Y) == 0.0
-            else:
-                # Bounds over the disk of radius R (plus 1e-6 m for the
-                # rounding of u, w at these magnitudes).
-                u, w = f.uw(X, Y)
-                off = np.abs(u - f.um)
-                dead = off >= f.hl + R + 1e-6
-                dc = abs(f.bend) / (f.hl * f.hl) * R * (2.0 * off + R)
-                d = w - f.bend_offset(u)
-                dead |= d - R - dc >= f.flat + f.decay + 1e-6
-            if S is not None:
-                pz = f.plane_z(X, Y)
-                dead |= pz >= z0 + B
-                if f.abuts is None:
-                    st[j][(pz < z0 - B) & ~dead] = self._HANGING
-            st[j][dead] = self._DROP
-        for j in range(len(rel) - 1, -1, -1):
-            f = self.faults[rel[j]]
-            if f.abuts is not None:
-                p = self._index[f.abuts[0]]
-                if p in pos:
-                    st[pos[p]][st[j] != self._DROP] = self._FREE
-        return st
+            zo = z0[order]
+            z_lo, z_hi = np.minimum.reduceat(zo, starts), np.maximum.reduceat(zo, starts)
+        else:
+            z_lo = z_hi = None
+        mov, ry, r_all, t_up, t_dn = self._moving(t, S, x0, x1, y0, y1, z_lo, z_hi, ex)
+        eps = 1e-6  # metres: far above the rounding of u, w, d at these magnitudes
+        kb = np.abs(t["bend"]) / (t["hl"] * t["hl"])
+        C = len(starts)
+
+        def bound(r_all, tt, zabs):
+            return self._bound(S, r_all, tt, zabs)
+
+        # Point level: every point against its chunk's remaining faults.
+        cc, cj = np.nonzero(mov)                       # (chunk, fault), chunk-major
+        per_chunk = np.bincount(cc, minlength=C)
+        first = np.concatenate([[0], np.cumsum(per_chunk)[:-1]])
+        cnt = per_chunk[chunk]                         # per point in Z order
+        tot = int(cnt.sum())
+        pstart = np.concatenate([[0], np.cumsum(cnt)[:-1]])
+        k = np.arange(tot) - np.repeat(pstart, cnt)
+        pair = np.repeat(first[chunk], cnt) + k        # index into (cc, cj)
+        pc, j = cc[pair], cj[pair]
+        po = np.repeat(np.arange(n), cnt)              # point in Z order
+        px, py = Xo[po], Yo[po]
+        u = (px - t["ax"][j]) * t["s0"][j] + (py - t["ay"][j]) * t["s1"][j]
+        w = (px - t["ax"][j]) * t["n0"][j] + (py - t["ay"][j]) * t["n1"][j]
+        off = np.abs(u - t["um"][j])
+        d = w - t["bend"][j] * ((u - t["um"][j]) / t["hl"][j]) ** 2
+        r = ry[pc, j]
+        drop = (off >= t["hl"][j] + r + eps) | \
+            (d - r - kb[j] * r * (2.0 * off + r) >= t["reach"][j] + eps)
+        state = np.full(tot, self._FREE, dtype=np.int8)
+        if S is not None:
+            pz = t["zref"][j] - d * t["tan"][j]
+            zp = zo[po]
+            drop |= pz >= zp + bound(r_all[pc], t_up[pc], np.abs(zp))
+            hang = (pz < zp - bound(r_all[pc], t_dn[pc], np.abs(zp))) & ~t["abutter"][j]
+            state[hang] = self._HANGING
+        if ex >= 0:
+            drop &= j != ex
+            state[j == ex] = self._FREE
+        state[drop] = self._DROP
+        # The parent of every fault that is not dropped at a point stays free.
+        rank = np.cumsum(mov, axis=1) - 1
+        child = np.flatnonzero(t["abutter"][j] & (state != self._DROP))
+        if len(child):
+            q = pstart[po[child]] + rank[pc[child], t["parent"][j[child]]]
+            state[q] = self._FREE
+        keep = state != self._DROP
+        return pts[order[po[keep]]], j[keep], state[keep]
 
     def _combos(self, layer: str, X: np.ndarray, Y: np.ndarray, exclude: Optional[int] = None):
         """Yield (sides, z, valid, idx) for every assignment of a side (0 foot,
@@ -380,7 +556,8 @@ class Geology:
         cutoff). Points are grouped by the faults' states there (``_states``):
         only free faults are branched on, so faults far away (the usual case
         with many independent faults) do not multiply the work; ``sides``
-        holds the free and hanging-wall-only faults."""
+        holds the free and hanging-wall-only faults. Non-finite points are
+        left out (no side test holds there)."""
         rel = self._relevant(layer)
         surf = self.surfaces[layer]
         n = X.size
@@ -388,18 +565,57 @@ class Geology:
             z = np.asarray(surf(X, Y), dtype=np.float64) * np.ones_like(X)
             yield {}, z, np.ones(n, dtype=bool), np.arange(n)
             return
-        st = self._states(layer, rel, X, Y, exclude)
-        code = np.zeros(n, dtype=np.int64)
-        for j in range(len(rel)):
-            code = code * 3 + st[j]
-        pats, first, inv = np.unique(code, return_index=True, return_inverse=True)
+        pt, jj, stt = self._states(layer, X, Y, exclude)
+        live = np.flatnonzero(np.isfinite(X) & np.isfinite(Y))
+        if len(live) == 0:
+            return
+        # Each point's pattern: its (fault, state) pairs, in fault order (the
+        # pairs of a point are consecutive and sorted by fault).
+        code = (jj * 3 + stt).astype(np.int64)
+        new_pt = np.r_[True, pt[1:] != pt[:-1]] if len(pt) else np.zeros(0, dtype=bool)
+        heads = np.flatnonzero(new_pt)
+        cnt = np.diff(np.r_[heads, len(pt)])
+        width = max(1, int(cnt.max()) if len(cnt) else 1)
+        # Rows: the points with pairs (in the order _states gives them), then
+        # the points with none (every fault dropped).
+        has = np.zeros(X.size, dtype=bool)
+        has[pt[heads]] = True
+        rest = live[~has[live]]
+        rows = np.concatenate([pt[heads], rest])
+        M = np.full((len(rows), width), -1, dtype=np.int64)
+        M[np.repeat(np.arange(len(heads)), cnt), np.arange(len(pt)) - np.repeat(heads, cnt)] = code
+        # A dense key per row: the codes (0 .. 3F-1, -1 padding) as digits of
+        # base 3F + 1 when they fit in 62 bits, else refined column by column.
+        base = 3 * len(rel) + 1
+        if width * np.log2(base) < 62:
+            key = np.zeros(len(rows), dtype=np.int64)
+            for c in range(width):
+                key = key * base + (M[:, c] + 1)
+            _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+        else:
+            inv = np.zeros(len(rows), dtype=np.int64)
+            for c in range(width):
+                _, inv = np.unique(inv * base + (M[:, c] + 1), return_inverse=True)
+                inv = inv.reshape(-1).astype(np.int64)
+            _, first = np.unique(inv, return_index=True)
         inv = inv.reshape(-1)
-        for pi in range(len(pats)):
-            idx = np.flatnonzero(inv == pi)
-            col = st[:, first[pi]]
-            lrel = [i for j, i in enumerate(rel) if col[j] == self._FREE]
-            hang = [i for j, i in enumerate(rel) if col[j] == self._HANGING]
-            used = [i for j, i in enumerate(rel) if col[j] != self._DROP]
+        pats = M[first]
+        grp = np.argsort(inv, kind="stable")
+        bounds = np.flatnonzero(np.diff(inv[grp])) + 1
+        # Two passes: the side assignments and pre-images of every pattern
+        # first, then ONE evaluation of the surface at all of them (per call
+        # of the surface, not per assignment: the layer stacks are sums of
+        # several fields), then the side tests.
+        jobs = []   # (side, idx, planes, used, active, key into the evaluations, dz)
+        evx: List[np.ndarray] = []
+        evy: List[np.ndarray] = []
+        for pat, sel in zip(pats, np.split(grp, bounds)):
+            idx = rows[sel]
+            pat = pat[pat >= 0]
+            col = dict(zip((pat // 3).tolist(), (pat % 3).tolist()))
+            lrel = [rel[j] for j, s in col.items() if s == self._FREE]
+            hang = [rel[j] for j, s in col.items() if s == self._HANGING]
+            used = [rel[j] for j in col]
             Xs, Ys = X[idx], Y[idx]
             planes = {i: self.faults[i].plane_z(Xs, Ys) for i in used}
             base = None
@@ -430,19 +646,71 @@ class Geology:
                         dz = dz + s
                         moved = True
                 if moved:
-                    z = np.asarray(surf(Xc, Yc), dtype=np.float64) * np.ones_like(Xs) - dz
+                    key = len(evx)
+                    evx.append(Xc)
+                    evy.append(Yc)
                 else:
                     if base is None:
-                        base = np.asarray(surf(Xs, Ys), dtype=np.float64) * np.ones_like(Xs) - dz
-                    z = base
-                valid = np.ones(Xs.shape, dtype=bool)
-                for i in used:
-                    if i == exclude or not active[i]:
-                        continue
-                    # Hanging wall strictly above the surface, footwall on or below:
-                    # with zero throw exactly one side is valid.
-                    valid &= (z > planes[i]) if side[i] == 1 else (z <= planes[i])
-                yield side, z, valid, idx
+                        base = len(evx)
+                        evx.append(Xs)
+                        evy.append(Ys)
+                    key = base
+                jobs.append((side, idx, planes, used, active, key, dz))
+        if not jobs:
+            return
+        lens = [len(v) for v in evx]
+        zall = np.asarray(surf(np.concatenate(evx), np.concatenate(evy)), dtype=np.float64) * \
+            np.ones(sum(lens))
+        zev = np.split(zall, np.cumsum(lens)[:-1])
+        for side, idx, planes, used, active, key, dz in jobs:
+            z = zev[key] - dz
+            valid = np.ones(idx.shape, dtype=bool)
+            for i in used:
+                if i == exclude or not active[i]:
+                    continue
+                # Hanging wall strictly above the surface, footwall on or below:
+                # with zero throw exactly one side is valid.
+                valid &= (z > planes[i]) if side[i] == 1 else (z <= planes[i])
+            yield side, z, valid, idx
+
+    def near(self, fault: str, boxes) -> "Geology":
+        """The same ground with only the faults that can matter inside
+        ``boxes`` (rows x0, x1, y0, y1, global coordinates) when ``fault`` is
+        excluded from its own side test or not: every other fault is provably
+        dropped there (``_states``, with the bounds of the full fault set), so
+        ``sheets``, ``truth`` and ``side_value`` (of ``fault``) at points
+        inside the boxes are the same as this Geology's, bit for bit, at a
+        cost that does not grow with the number of faults elsewhere."""
+        boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+        k = self._index[fault]
+        keep = {k}
+        x0, x1 = boxes[:, 0] - self.origin[0], boxes[:, 1] - self.origin[0]
+        y0, y1 = boxes[:, 2] - self.origin[1], boxes[:, 3] - self.origin[1]
+        for layer in self.layers:
+            t = self._layer_table(layer)
+            if not t["rel"]:
+                continue
+            S = self.slopes.get(layer)
+            z_lo = z_hi = None
+            if S is not None:
+                # |z0(p) - z0(centre)| <= S |p - centre| in a box (plus 1e-6 m
+                # for the rounding of z0).
+                zc = np.asarray(self.surfaces[layer](0.5 * (x0 + x1), 0.5 * (y0 + y1)),
+                                dtype=np.float64) * np.ones_like(x0)
+                r = S * 0.5 * np.hypot(x1 - x0, y1 - y0) + 1e-6
+                z_lo, z_hi = zc - r, zc + r
+            ex = t["rel"].index(k) if k in t["rel"] else -1
+            mov = self._moving(t, S, x0, x1, y0, y1, z_lo, z_hi, ex)[0]
+            keep |= {t["rel"][j] for j in np.flatnonzero(mov.any(axis=0))}
+        while True:  # with the older faults the kept ones abut
+            more = {self._index[self.faults[i].abuts[0]] for i in keep if self.faults[i].abuts}
+            if more <= keep:
+                break
+            keep |= more
+        if len(keep) == len(self.faults):
+            return self
+        return Geology(list(self.layers), self.surfaces, [f for i, f in enumerate(self.faults) if i in keep],
+                       origin=self.origin, slopes=dict(self.slopes))
 
     # -- sheets and truth -----------------------------------------------------
     def sheets(self, layer: str, x, y) -> np.ndarray:
