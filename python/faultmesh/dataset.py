@@ -198,6 +198,33 @@ class Fault:
     __hash__ = None  # type: ignore[assignment]
 
 
+def _factorize(a: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """``np.unique(a, return_inverse=True)`` of a 1-D str array, without
+    sorting every string: the rows are grouped by a 64-bit hash of their code
+    points (one integer sort), the grouping is verified string by string (a
+    hash collision falls back to np.unique), and only the distinct strings are
+    sorted. A 10M-row table of 1M hole ids: seconds instead of tens."""
+    a = np.asarray(a).reshape(-1)
+    n = len(a)
+    if n < 100_000 or a.dtype.kind != "U" or a.dtype.itemsize == 0:
+        names, inv = np.unique(a, return_inverse=True)
+        return names, inv.reshape(-1)
+    cp = np.ascontiguousarray(a).view(np.uint32).reshape(n, -1)  # UCS-4, zero padded
+    h = np.full(n, 0xCBF29CE484222325, dtype=np.uint64)
+    with np.errstate(over="ignore"):
+        for k in range(cp.shape[1]):  # FNV-1a over the code points (wraps mod 2^64)
+            h ^= cp[:, k]
+            h *= np.uint64(0x100000001B3)
+    _, first, inv = np.unique(h, return_index=True, return_inverse=True)
+    inv = inv.reshape(-1)
+    reps = a[first]
+    if not np.array_equal(reps[inv], a):  # two strings with one hash
+        names, inv = np.unique(a, return_inverse=True)
+        return names, inv.reshape(-1)
+    names, rank = np.unique(reps, return_inverse=True)
+    return names, rank.reshape(-1)[inv]
+
+
 @dataclass(eq=False)
 class Boreholes:
     """Borehole layer tops, one row per hit: ``hole_id`` (n,) str, ``xy`` (n, 2),
@@ -241,8 +268,8 @@ class Boreholes:
         changed in place afterwards)."""
         cache = self.__dict__.get("_codes")
         if cache is None:
-            names, lc = np.unique(self.layer, return_inverse=True)
-            holes, hc = np.unique(self.hole_id, return_inverse=True)
+            names, lc = _factorize(self.layer)
+            holes, hc = _factorize(self.hole_id)
             cache = (list(names), lc.astype(np.int64), hc.astype(np.int64), holes)
             self.__dict__["_codes"] = cache
         return cache

@@ -100,7 +100,6 @@ from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ._core import (BEYOND_FAULT, GeometryError, boundary_loops, delaunay, fault_side,
                     triangulate_polygon)
@@ -169,6 +168,8 @@ def _median_spacing(xy: np.ndarray) -> float:
     xy = np.unique(np.asarray(xy, dtype=np.float64)[:, :2], axis=0)
     if len(xy) < 2:
         return 1.0
+    from scipy.spatial import cKDTree  # here: importing scipy costs a build that derives nothing 0.4 s
+
     d, _ = cKDTree(xy).query(xy, k=2)
     return float(np.median(d[:, 1]))
 
@@ -428,6 +429,8 @@ class SideSurface:
             raise ValueError("SideSurface: no data")
         self.data = data
         self.k = int(min(k, len(data)))
+        from scipy.spatial import cKDTree
+
         self.tree = cKDTree(data[:, :2])
         self.spacing = _median_spacing(data)
         if frame is None:
@@ -609,6 +612,8 @@ def _densify_sticks(P: np.ndarray, sticks: Optional[np.ndarray]) -> np.ndarray:
 
 
 def _median_spacing3(P: np.ndarray) -> float:
+    from scipy.spatial import cKDTree
+
     d, _ = cKDTree(P).query(P, k=2)
     v = d[:, 1][d[:, 1] > 0]
     return float(np.median(v)) if len(v) else 1.0
