@@ -35,7 +35,8 @@ def _ccw_ring(ring: np.ndarray) -> np.ndarray:
 # Steps 2 and 3: stratum TINs and the layer-crossing repair
 # ---------------------------------------------------------------------------
 def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repair: bool = True,
-                 max_repair_rounds: int = 50, progress=None) -> Tuple[Dict[str, LayerTin], Dict[str, Any]]:
+                 max_repair_rounds: int = 50, progress=None,
+                 fill_holes: bool = True) -> Tuple[Dict[str, LayerTin], Dict[str, Any]]:
     """Steps 2 and 3: the continuous TIN of every layer over the study area
     (:class:`faultmesh.LayerTin`), then, top down, each layer made to lie
     nowhere above the one over it (:func:`faultmesh.repair_crossings`).
@@ -43,13 +44,22 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
     prog = _progress_fn(progress)
     layers = list(dataset.layers)
     tins: Dict[str, LayerTin] = {}
+    filled: Dict[str, int] = {}
     for i, lay in enumerate(layers):
         prog("stratum TINs", i, len(layers))
-        tins[lay] = LayerTin(lay, dataset.layer_points(lay), area, spacing)
+        data = dataset.layer_points(lay)
+        tins[lay] = LayerTin(lay, data, area, spacing)
+        if fill_holes:
+            from .holes import hole_fill
+            fill = hole_fill(*tins[lay].mesh(), data, area.ring)
+            filled[lay] = len(fill)
+            if len(fill):
+                tins[lay].insert(fill)
     prog("stratum TINs", len(layers), len(layers))
     meta: Dict[str, Any] = {"tins": {lay: {"data_points": int(t.n_data), "outside_ignored": int(t.n_outside),
                                            "boundary_data": int(t.n_boundary_data),
-                                           "boundary_spacing": float(t.spacing)}
+                                           "boundary_spacing": float(t.spacing),
+                                           "hole_fill_points": filled.get(lay, 0)}
                                      for lay, t in tins.items()},
                             "repair": {}}
     if repair:
@@ -157,7 +167,8 @@ def _progress_fn(progress) -> Callable[[str, int, int], None]:
 def build_model(dataset, progress=None, loft_method: str = "min_area", refine: bool = True,
                 stitch_order: str = "quality", bridge: str = "extreme", repair: bool = True,
                 max_repair_rounds: int = 50, spacing: Optional[float] = None,
-                evaluate: bool = True, clearance: Optional[float] = None) -> Model:
+                evaluate: bool = True, clearance: Optional[float] = None,
+                fill_holes: bool = True) -> Model:
     """Build the faulted multi-layer model of ``dataset`` (docs/design.md §4).
     Faults without layer cutoffs (given by points, a surface or plane traces
     only) get them from :func:`faultmesh.derive.derive_faults` first (its
@@ -212,7 +223,8 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
 
     # Steps 2 and 3: stratum TINs, layer-crossing repair.
     t0 = time.perf_counter()
-    tins, tin_meta = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, prog)
+    tins, tin_meta = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, prog,
+                                  fill_holes=fill_holes)
     meta.update(tin_meta)
     timings["stratum_tins_and_repair"] = time.perf_counter() - t0
     # The continuous surfaces, with their half-edges (the stitcher then skips
