@@ -16,6 +16,7 @@ import numpy as np
 
 from ._core import LayerTin, PatchOverlapError, Stitcher, StudyArea, TriangleKind, repair_crossings
 from . import report as _report
+from .holes import hole_fill
 from .dataset import DatasetError, prepare_for_build
 from .model import Gap, Model, StitchedPatch, Surface
 
@@ -40,6 +41,8 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
     """Steps 2 and 3: the continuous TIN of every layer over the study area
     (:class:`faultmesh.LayerTin`), then, top down, each layer made to lie
     nowhere above the one over it (:func:`faultmesh.repair_crossings`).
+    With ``fill_holes``, each layer's data holes get points of a
+    minimum-curvature surface first (:func:`faultmesh.holes.hole_fill`).
     Returns (layer -> LayerTin, metadata with per-layer counts)."""
     prog = _progress_fn(progress)
     layers = list(dataset.layers)
@@ -50,8 +53,9 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
         data = dataset.layer_points(lay)
         tins[lay] = LayerTin(lay, data, area, spacing)
         if fill_holes:
-            from .holes import hole_fill
-            fill = hole_fill(*tins[lay].mesh(), data, area.ring)
+            t = tins[lay]
+            fill = hole_fill(*t.mesh(), data, area.ring,
+                             anchors=np.asarray(t.vertices)[np.asarray(t.boundary_vertices)])
             filled[lay] = len(fill)
             if len(fill):
                 tins[lay].insert(fill)
@@ -71,11 +75,11 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
 
 
 def continuous_layers(dataset, *, spacing: Optional[float] = None, repair: bool = True,
-                      max_repair_rounds: int = 50) -> Dict[str, Surface]:
+                      max_repair_rounds: int = 50, fill_holes: bool = True) -> Dict[str, Surface]:
     """The continuous layer surfaces of ``dataset`` before any fault (steps 2
     and 3 of :func:`build_model`, same code and defaults)."""
     area = StudyArea(np.asarray(dataset.boundary, dtype=np.float64))
-    tins, _ = stratum_tins(dataset, area, spacing, repair, max_repair_rounds)
+    tins, _ = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, fill_holes=fill_holes)
     return {lay: Surface(lay, *t.mesh(), kind="layer") for lay, t in tins.items()}
 
 
@@ -185,7 +189,11 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     patch outline (default: 0.4 x the layer's data spacing; 0 = only the
     triangles touching the patch, the paper's rule). evaluate: with a ground truth
     (built-in datasets), compare the model with the continuous TINs near the
-    faults (``metadata["accuracy"]``).
+    faults (``metadata["accuracy"]``). fill_holes: a layer's data holes
+    (empty circles wider than five data spacings) get points of a
+    minimum-curvature surface before its TIN is final
+    (:func:`faultmesh.holes.hole_fill`; counts in
+    ``metadata["tins"][layer]["hole_fill_points"]``).
 
     Returns a :class:`~faultmesh.Model`: ``surfaces`` (layer -> Surface, top
     down), ``faults`` (fault -> Surface), ``boundary``, ``gaps`` (one
