@@ -199,13 +199,14 @@ def test_every_build_model_option_has_a_cli_option(tmp_path, monkeypatch):
     rc = main(["build", "paper_like", "-o", str(tmp_path / "b"), "--formats", "3dt", "-q",
                "--plain-order", "--no-refine", "--bridge", "eberly", "--loft", "shortest_diagonal",
                "--clearance", "0", "--spacing", "40", "--no-repair", "--max-repair-rounds", "3",
-               "--no-evaluate", "--threads", "1"])
+               "--fill-holes", "--no-evaluate", "--threads", "1"])
     assert rc == 0
     params = set(inspect.signature(real).parameters) - {"dataset", "progress"}
     assert params <= set(seen), f"build_model options without a CLI option: {params - set(seen)}"
     assert seen["stitch_order"] == "plain" and seen["refine"] is False and seen["bridge"] == "eberly"
     assert seen["loft_method"] == "shortest_diagonal" and seen["clearance"] == 0.0
     assert seen["spacing"] == 40.0 and seen["repair"] is False and seen["max_repair_rounds"] == 3
+    assert seen["fill_holes"] is True
     assert seen["evaluate"] is False and seen["threads"] == 1
     # Bad values: a one-line error, exit 2.
     with pytest.raises(SystemExit) as e:

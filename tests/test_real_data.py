@@ -65,7 +65,7 @@ def full(md, data, tmp_path_factory):
     js = ds.save(tmp_path_factory.mktemp("claudius") / "dataset", version=2)
     loaded = faultmesh.load_dataset(js)
     derived = derive.derive_faults(loaded)
-    model = faultmesh.build_model(derived)
+    model = faultmesh.build_model(derived, fill_holes=True)
     return ds, js, loaded, derived, model
 
 
@@ -210,13 +210,16 @@ def test_picks_near_the_fault_withheld(md, data, full):
     r = md.run_check(h, fpts, ring, used, held)
     # The hand-made interpretation labelled the fault reverse here (issue 11).
     assert r["kind"] == "normal"
-    # Measured 12.0 m (before, each side extrapolated on its own by local
-    # plane fits: 16.4 m; the hand-made interpretation 24.8 m; LoopStructural
+    # Measured 11.36 m (12.0 m before the layers' data holes were filled,
+    # faultmesh.holes; 16.4 m with each side extrapolated on its own by
+    # local plane fits; the hand-made interpretation 24.8 m; LoopStructural
     # 1.9 11.1 m). Issue 11's target is 11 m: NOT met. Of the 238 withheld
-    # picks, the 48 beyond the fault's northern tip (where the layer is
-    # continuous and the layer TIN bridges the 600 m hole linearly) have a
-    # median error of 39 m, the others 10.2 m (examples/claudius/README.md).
-    assert r["misfit"]["val_330"]["median"] <= 12.5, r["misfit"]
+    # picks, the 53 beyond the fault's northern tip (where the layer is
+    # continuous, in a hole the fill bridges) had a median error of 23 m
+    # (39 m with the TIN's linear bridge), the others 9.3 m, in a build without
+    # the boundary anchors of the fill (11.07 m)
+    # (examples/claudius/README.md).
+    assert r["misfit"]["val_330"]["median"] <= 11.5, r["misfit"]
 
 
 def test_distance_2d_is_the_map_distance_to_the_contour():

@@ -43,7 +43,7 @@ import json
 import sys
 import time
 from pathlib import Path
-from typing import Callable, Dict, List, Optional, Tuple
+from typing import Callable, Dict, Optional
 
 import numpy as np
 
@@ -219,7 +219,9 @@ def run_check(horizons, fault_points, ring, used, held) -> Dict:
     measure it at ``held``."""
     t0 = time.perf_counter()
     ds = make_dataset(used, fault_points, boundary=ring)
-    model = faultmesh.build_model(ds, evaluate=False)
+    # The withheld picks leave holes in the layers: filled from a
+    # minimum-curvature surface (docs/derive.md, "Data holes of a layer").
+    model = faultmesh.build_model(ds, evaluate=False, fill_holes=True)
     model.check()
     rep = model.metadata["derived_faults"][FAULT]
     return {"kind": rep["kind"], "cut": sorted(rep["cutoffs"]), "ends": rep["ends"],
@@ -264,7 +266,7 @@ def main(argv=None) -> int:
     print(f"dataset written: {js}")
     loaded = faultmesh.load_dataset(js)
     derived = derive.derive_faults(loaded)          # what build_model does first
-    model = faultmesh.build_model(derived)
+    model = faultmesh.build_model(derived, fill_holes=True)
     model.check()
     print("Model.check(): passed")
     model.save(out / "claudius.3dt")

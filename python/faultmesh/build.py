@@ -39,23 +39,38 @@ def _ccw_ring(ring: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------------------
 def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repair: bool = True,
                  max_repair_rounds: int = 50, progress=None,
-                 threads: Optional[int] = None) -> Tuple[Dict[str, LayerTin], Dict[str, Any]]:
+                 threads: Optional[int] = None,
+                 fill_holes: bool = False) -> Tuple[Dict[str, LayerTin], Dict[str, Any]]:
     """Steps 2 and 3: the continuous TIN of every layer over the study area
     (:class:`faultmesh.LayerTin`), then, top down, each layer made to lie
     nowhere above the one over it (:func:`faultmesh.repair_crossings`).
+    With ``fill_holes``, each layer's data holes get points of a
+    minimum-curvature surface first (:func:`faultmesh.holes.hole_fill`).
     Returns (layer -> LayerTin, metadata with per-layer counts)."""
     prog = _progress_fn(progress)
     layers = list(dataset.layers)
     prog("stratum TINs", 0, len(layers))
+    data = {lay: dataset.layer_points(lay) for lay in layers}
     # One call for the stack: the XY points the layers share are triangulated once.
-    built = build_layer_tins([(lay, dataset.layer_points(lay)) for lay in layers], area, spacing,
+    built = build_layer_tins([(lay, data[lay]) for lay in layers], area, spacing,
                              threads=_threads(threads, len(layers)))
     tins: Dict[str, LayerTin] = dict(zip(layers, built))
+    filled: Dict[str, int] = {}
+    if fill_holes:
+        from .holes import hole_fill
+
+        for lay, t in tins.items():
+            fill = hole_fill(*t.mesh(), data[lay], area.ring,
+                             anchors=np.asarray(t.vertices)[np.asarray(t.boundary_vertices)])
+            filled[lay] = len(fill)
+            if len(fill):
+                t.insert(fill)
     prog("stratum TINs", len(layers), len(layers))
     meta: Dict[str, Any] = {"tins": {lay: {"data_points": int(t.n_data), "outside_ignored": int(t.n_outside),
                                            "boundary_data": int(t.n_boundary_data),
                                            "shared_vertices": int(t.n_shared),
-                                           "boundary_spacing": float(t.spacing)}
+                                           "boundary_spacing": float(t.spacing),
+                                           "hole_fill_points": filled.get(lay, 0)}
                                      for lay, t in tins.items()},
                             "repair": {}}
     if repair:
@@ -67,11 +82,13 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
 
 
 def continuous_layers(dataset, *, spacing: Optional[float] = None, repair: bool = True,
-                      max_repair_rounds: int = 50, threads: Optional[int] = None) -> Dict[str, Surface]:
+                      max_repair_rounds: int = 50, threads: Optional[int] = None,
+                      fill_holes: bool = False) -> Dict[str, Surface]:
     """The continuous layer surfaces of ``dataset`` before any fault (steps 2
     and 3 of :func:`build_model`, same code and defaults)."""
     area = StudyArea(np.asarray(dataset.boundary, dtype=np.float64))
-    tins, _ = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, threads=threads)
+    tins, _ = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, threads=threads,
+                           fill_holes=fill_holes)
     return {lay: Surface(lay, *t.mesh(), kind="layer") for lay, t in tins.items()}
 
 
@@ -246,7 +263,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                 stitch_order: str = "quality", bridge: str = "extreme", repair: bool = True,
                 max_repair_rounds: int = 50, spacing: Optional[float] = None,
                 evaluate: bool = True, clearance: Optional[float] = None,
-                threads: Optional[int] = None) -> Model:
+                threads: Optional[int] = None, fill_holes: bool = False) -> Model:
     """Build the faulted multi-layer model of ``dataset`` (docs/design.md §4).
     Faults without layer cutoffs (given by points, a surface or plane traces
     only) get them from :func:`faultmesh.derive.derive_faults` first (its
@@ -266,7 +283,12 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     faults (``metadata["accuracy"]``). threads: the layers' TINs are set up,
     and the layers stitched, on up to this many threads (default: the CPUs
     the process may use; 1 in an ensemble's workers). The model does not
-    depend on it.
+    depend on it. fill_holes: a layer's data holes (empty circles wider than
+    five data spacings) get points of a minimum-curvature surface before its
+    TIN is final (:func:`faultmesh.holes.hole_fill`; counts in
+    ``metadata["tins"][layer]["hole_fill_points"]``). Off by default: it
+    costs a pass over every layer's triangles, and its points change the
+    layer wherever the data leave a hole.
 
     Returns a :class:`~faultmesh.Model`: ``surfaces`` (layer -> Surface, top
     down), ``faults`` (fault -> Surface), ``boundary``, ``gaps`` (one
@@ -305,7 +327,8 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
 
     # Steps 2 and 3: stratum TINs, layer-crossing repair.
     t0 = time.perf_counter()
-    tins, tin_meta = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, prog, n_threads)
+    tins, tin_meta = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, prog, n_threads,
+                                  fill_holes=fill_holes)
     meta.update(tin_meta)
     timings["stratum_tins_and_repair"] = time.perf_counter() - t0
     # The continuous surfaces, with their half-edges (the stitcher then skips

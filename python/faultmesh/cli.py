@@ -176,6 +176,8 @@ def _build(dataset, args, progress: _Progress):
             kw[key] = getattr(args, opt)
     if getattr(args, "no_repair", False):
         kw["repair"] = False
+    if getattr(args, "fill_holes", False):
+        kw["fill_holes"] = True
     if getattr(args, "no_evaluate", False):
         kw["evaluate"] = False
     t0 = time.perf_counter()
@@ -646,6 +648,10 @@ def _add_build_options(p: argparse.ArgumentParser) -> None:
                         "the layer's data spacing)")
     g.add_argument("--no-repair", action="store_true",
                    help="skip the layer-crossing repair (layers may then cross)")
+    g.add_argument("--fill-holes", action="store_true",
+                   help="fill the layers' data holes (empty circles wider than five data "
+                        "spacings) from a minimum-curvature surface instead of the TIN's "
+                        "linear bridge (docs/derive.md)")
     g.add_argument("--max-repair-rounds", type=_positive_int, metavar="N",
                    help="rounds of the layer-crossing repair before it gives up (default 50)")
     g.add_argument("--no-evaluate", action="store_true",
