@@ -319,10 +319,15 @@ class Boreholes:
         return cache
 
     def moved(self, xy: np.ndarray) -> "Boreholes":
-        """The same rows at the positions ``xy`` (n, 2) (string codes kept)."""
+        """The same rows at the positions ``xy`` (n, 2) (string codes kept,
+        and the caches that do not depend on XY: :attr:`hole_rows`,
+        :attr:`shallowest`)."""
         out = Boreholes(self.hole_id, xy, self.layer, self.z, self.source, self.rows,
                         self.desurveyed)
         out.__dict__["_codes"] = self.codes
+        for key in ("_hole_rows", "_shallowest"):
+            if key in self.__dict__:
+                out.__dict__[key] = self.__dict__[key]
         return out
 
     def subset(self, keep: np.ndarray) -> "Boreholes":
@@ -1055,8 +1060,12 @@ def apply_boundary_policy(ds: Dataset, snap: Optional[float] = None) -> Dataset:
     for i in np.flatnonzero(~inside):
         adj.append(Adjustment("dropped", b.row_label(int(i)), _xy(b.xy[i]), None, float(dist[i]),
                               "beyond the study-area boundary"))
-    boreholes = b.moved(new_xy).subset(inside) \
-        if (moved.any() or not inside.all()) else b
+    if not inside.all():
+        boreholes = b.moved(new_xy).subset(inside)
+    elif moved.any():
+        boreholes = b.moved(new_xy)  # no row dropped: no copy of the columns
+    else:
+        boreholes = b
 
     # Extra points.
     points: Dict[str, np.ndarray] = {}
@@ -1376,9 +1385,11 @@ def check_layer_order(ds: Dataset) -> List[Adjustment]:
     names, lcode, hole_idx, hole_names = b.codes
     li = {lay: i for i, lay in enumerate(layers)}
     lay_idx = np.array([li.get(str(v), -1) for v in names], dtype=np.int64)[lcode]
-    ok = lay_idx >= 0
+    # Each hole's shallowest hit of each layer: one row per (layer, hole)
+    # (Boreholes.shallowest, cached for the build's later steps).
+    sel = np.flatnonzero((lay_idx >= 0) & b.shallowest)
     H = np.full((len(hole_names), len(layers)), -np.inf)
-    np.maximum.at(H, (hole_idx[ok], lay_idx[ok]), b.z[ok])
+    H[hole_idx[sel], lay_idx[sel]] = b.z[sel]
     def row_of(h: int, i: int) -> int:
         """The row of hole h's shallowest hit of layer i (for messages only)."""
         rows = np.flatnonzero((hole_idx == h) & (lay_idx == i))
