@@ -215,8 +215,18 @@ def _factorize(a: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
         for k in range(cp.shape[1]):  # FNV-1a over the code points (wraps mod 2^64)
             h ^= cp[:, k]
             h *= np.uint64(0x100000001B3)
-    _, first, inv = np.unique(h, return_index=True, return_inverse=True)
-    inv = inv.reshape(-1)
+    # A column of few distinct values (layer names): the distinct hashes of a
+    # sample, and every row found among them by binary search -- no sort of
+    # the whole column. Otherwise (hole ids) one integer sort.
+    few = np.unique(h[:: max(1, n // 4096)])
+    pos = np.minimum(np.searchsorted(few, h), len(few) - 1) if len(few) <= 256 else None
+    if pos is not None and np.array_equal(few[pos], h):
+        inv = pos
+        first = np.full(len(few), n, dtype=np.int64)
+        np.minimum.at(first, inv, np.arange(n, dtype=np.int64))
+    else:
+        _, first, inv = np.unique(h, return_index=True, return_inverse=True)
+        inv = inv.reshape(-1)
     reps = a[first]
     if not np.array_equal(reps[inv], a):  # two strings with one hash
         names, inv = np.unique(a, return_inverse=True)
@@ -281,9 +291,15 @@ class Boreholes:
         :attr:`codes`."""
         cache = self.__dict__.get("_hole_rows")
         if cache is None:
-            _, _, hcode, _ = self.codes
-            _, first, inv = np.unique(hcode, return_index=True, return_inverse=True)
-            cache = (first, inv.reshape(-1))
+            _, _, hcode, holes = self.codes
+            # np.unique(hcode, return_index=True, return_inverse=True) without
+            # its sort: the first row of each code by a minimum, the present
+            # codes (a subset may have lost holes) numbered in order.
+            n = len(hcode)
+            by_code = np.full(len(holes), n, dtype=np.int64)
+            np.minimum.at(by_code, hcode, np.arange(n, dtype=np.int64))
+            present = by_code < n
+            cache = (by_code[present], (np.cumsum(present) - 1)[hcode])
             self.__dict__["_hole_rows"] = cache
         return cache
 
@@ -303,6 +319,17 @@ class Boreholes:
         if cache is None:
             _, lc, hc, holes = self.codes
             cache = np.zeros(len(lc), dtype=bool)
+            cells = len(holes) * max(1, len(self.codes[0]))
+            if len(lc) and cells <= 8 * len(lc):
+                # Usually no (layer, hole) pair repeats (no reverse fault hit
+                # twice): every row is its pair's shallowest, seen by marking
+                # the pairs on a dense grid, without the sort below.
+                seen = np.zeros(cells, dtype=bool)
+                seen[hc * max(1, len(self.codes[0])) + lc] = True
+                if int(np.count_nonzero(seen)) == len(lc):
+                    cache[:] = True
+                    self.__dict__["_shallowest"] = cache
+                    return cache
             if len(lc):
                 # Groups (layer, hole) by one stable integer sort (a lexsort
                 # with z as a third key costs 8x more), the group maxima of z
