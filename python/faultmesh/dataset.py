@@ -303,6 +303,18 @@ class Boreholes:
             self.__dict__["_hole_rows"] = cache
         return cache
 
+    @property
+    def hole_offset(self) -> np.ndarray:
+        """float (n,): each row's map distance from its hole's first row
+        (0 exactly where the XY are equal), computed once like :attr:`codes`."""
+        cache = self.__dict__.get("_hole_offset")
+        if cache is None:
+            first, inv = self.hole_rows
+            ref = self.xy[first[inv]]
+            cache = np.hypot(self.xy[:, 0] - ref[:, 0], self.xy[:, 1] - ref[:, 1])
+            self.__dict__["_hole_offset"] = cache
+        return cache
+
     def row_label(self, i: int) -> str:
         """A readable name of row ``i``: ``boreholes.csv row 17 (hole 'BH3', layer 'L0')``."""
         what = f"hole {str(self.hole_id[i])!r}, layer {str(self.layer[i])!r}"
@@ -1132,8 +1144,7 @@ def _classify_rows(sn: "_Snapper", b: Boreholes):
     if len(b) < 2:
         return sn.classify(b.xy)
     first, inv = b.hole_rows
-    rep = first[inv]
-    same = np.all(b.xy == b.xy[rep], axis=1)
+    same = b.hole_offset == 0.0  # hypot is 0 only for equal XY
     if same.sum() < 2 * len(first):  # hardly any repeats: nothing to save
         return sn.classify(b.xy)
     new_f, moved_f, dist_f, inside_f = sn.classify(b.xy[first])
@@ -1375,8 +1386,7 @@ def check_hole_positions(ds: Dataset, tol: Optional[float] = None) -> None:
         tol = ds.snap_distance if ds.snap_distance is not None else \
             default_snap_distance(ds.boundary)
     first, inv = b.hole_rows
-    ref = b.xy[first[inv]]
-    d = np.hypot(*(b.xy - ref).T)
+    d = b.hole_offset
     bad = np.flatnonzero(d > tol)
     if bad.size:
         i = int(bad[0])
