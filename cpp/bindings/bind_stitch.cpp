@@ -1,5 +1,6 @@
 // Bindings for stitch: the LayerStitcher class (many faults into one layer),
 // the one-shot stitch() and triangles_touching_region().
+#include <faultmesh/layer_tin.hpp>
 #include <faultmesh/stitch.hpp>
 
 #include <pybind11/native_enum.h>
@@ -176,6 +177,19 @@ local merge with shared vertices. mesh() returns the compacted surface.
              py::arg("halfedges") = py::none(), py::arg("name") = "layer", py::arg("refine") = true,
              py::arg("order") = "quality", py::arg("bridge") = "extreme", py::arg("boundary_tolerance") = -1.0,
              py::arg("clearance") = 0.0)
+        .def_static(
+            "from_layer_tin",
+            [](const Shared<LayerTin>& layer, bool refine, const std::string& order, const std::string& bridge,
+               double tol, double clearance) {
+                StitchOptions opt = make_options(refine, order, bridge, tol, clearance, "Stitcher.from_layer_tin");
+                // The layer is read under its shared lock, the GIL released.
+                return read_locked(layer, [&](const LayerTin& l) { return std::make_unique<PyStitcher>(l, opt); });
+            },
+            py::arg("layer"), py::kw_only(), py::arg("refine") = true, py::arg("order") = "quality",
+            py::arg("bridge") = "extreme", py::arg("boundary_tolerance") = -1.0, py::arg("clearance") = 0.0,
+            "The Stitcher of a LayerTin: its mesh inside the study area (with half-edges), its study\n"
+            "area as the boundary and its name, taken over in C++ without going through arrays;\n"
+            "the options as for the constructor. The LayerTin is not changed.")
         .def(
             "stitch",
             [](PyStitcher& p, const py::handle& pv, const py::handle& pt, const std::string& name) {

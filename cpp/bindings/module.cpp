@@ -50,10 +50,12 @@ PYBIND11_MODULE(_core, m) {
     fb::bind_boundary(m);
     fb::bind_ear_clipping(m);
     fb::bind_loft(m);
-    fb::bind_stitch(m);
-    fb::bind_cutting(m);
+    // A class is registered before the signatures that name it (the stub and
+    // help() show its name): StudyArea before LayerTin before Stitcher.
     fb::bind_study_area(m);
     fb::bind_layer_tin(m);
+    fb::bind_stitch(m);
+    fb::bind_cutting(m);
     fb::bind_surface_sampling(m);
     fb::bind_fault_side(m);
 }

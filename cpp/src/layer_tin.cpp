@@ -1013,19 +1013,22 @@ std::shared_ptr<const LayerTinState::Topology> LayerTinState::topology() const {
 }
 }  // namespace detail
 
-LayerTinMesh LayerTin::mesh() const {
+LayerTinMesh LayerTin::mesh(std::size_t spare_vertices, std::size_t spare_triangles) const {
     const auto topo = s_->topology();
     const std::vector<double>& V = s_->tin->vertex_array();
     LayerTinMesh out;
-    out.triangles = topo->triangles;
-    out.halfedges = topo->halfedges;
+    const std::size_t nv = topo->tin_vertex.size(), nt = topo->triangles.size() / 3;
+    out.triangles.reserve(3 * (nt + spare_triangles));
+    out.triangles.assign(topo->triangles.begin(), topo->triangles.end());
+    out.halfedges.reserve(3 * (nt + spare_triangles));
+    out.halfedges.assign(topo->halfedges.begin(), topo->halfedges.end());
     out.tin_vertex = topo->tin_vertex;
+    out.vertices.reserve(3 * (nv + spare_vertices));
     out.vertices.resize(3 * topo->tin_vertex.size());
     for (std::size_t i = 0; i < topo->tin_vertex.size(); ++i)
         std::copy_n(&V[3 * static_cast<std::size_t>(topo->tin_vertex[i])], 3, &out.vertices[3 * i]);
     return out;
 }
-
 
 // ---------------------------------------------------------------- overlay walk
 namespace detail {

@@ -3,6 +3,7 @@
 // the export. See stitch.hpp for the algorithm.
 #include <faultmesh/aabb_tree.hpp>
 #include <faultmesh/errors.hpp>
+#include <faultmesh/layer_tin.hpp>
 #include <faultmesh/predicates.hpp>
 #include <faultmesh/stitch.hpp>
 #include <faultmesh/study_area.hpp>
@@ -63,26 +64,23 @@ StitcherState& state_of(LayerStitcher& st) { return *st.s_; }
 using detail::StitcherState;
 
 // ---------------------------------------------------------------- ctor
-LayerStitcher::LayerStitcher(const double* vertices, std::size_t n_vertices,
-                             const std::int64_t* triangles, std::size_t n_triangles,
-                             const double* boundary_xy, std::size_t n_boundary,
-                             const std::int64_t* halfedges, std::string name,
-                             const StitchOptions& options)
-    : s_(std::make_unique<StitcherState>()) {
-    StitcherState& s = *s_;
-    s.name = std::move(name);
-    s.opt = options;
+namespace {
+
+// Room for the patches and gaps to come: appending must not reallocate (and
+// copy) the whole mesh at the first stitch.
+std::size_t spare_of(std::size_t n) { return n / 4 + 1024; }
+
+}  // namespace
+
+namespace detail {
+
+// The set-up shared by the constructors: s.xyz and s.tri hold the mesh (with
+// spare capacity); s.adj its half-edges, or is empty (then built here).
+// boundary_xy: the study area, or null for the mesh's outer boundary loop.
+void set_up_stitcher(StitcherState& s, std::size_t n_vertices, std::size_t n_triangles, bool have_halfedges,
+                     const double* boundary_xy, std::size_t n_boundary, const StitchOptions& options) {
     const std::string fn = "LayerStitcher('" + s.name + "')";
-    if (n_triangles == 0) throw std::invalid_argument(fn + ": the mesh has no triangles");
-    if ((vertices == nullptr && n_vertices) || triangles == nullptr)
-        throw std::invalid_argument(fn + ": null array");
-    // Room for the patches and gaps to come: appending must not reallocate
-    // (and copy) the whole mesh at the first stitch.
-    const std::size_t spare_t = n_triangles / 4 + 1024, spare_v = n_vertices / 4 + 1024;
-    s.xyz.reserve(3 * (n_vertices + spare_v));
-    s.xyz.assign(vertices, vertices + 3 * n_vertices);
-    s.tri.reserve(3 * (n_triangles + spare_t));
-    s.tri.assign(triangles, triangles + 3 * n_triangles);
+    const std::size_t spare_t = spare_of(n_triangles);
     // Eager checks are sequential scans only. What needs random access (the
     // orientation of a triangle, the symmetry of given half-edges) is checked
     // lazily, for each triangle the first time a stitch touches it
@@ -100,19 +98,17 @@ LayerStitcher::LayerStitcher(const double* vertices, std::size_t n_vertices,
     for (std::size_t i = 0; i < 3 * n_vertices; ++i)
         if (i % 3 == 2 ? !std::isfinite(s.xyz[i]) : !coordinate_in_range(s.xyz[i]))
             throw_coordinate_error(fn, "vertices row " + std::to_string(i / 3), static_cast<int>(i % 3), s.xyz[i]);
-    s.adj.reserve(3 * (n_triangles + spare_t));
-    if (halfedges) {
-        s.adj.assign(halfedges, halfedges + 3 * n_triangles);
+    if (have_halfedges) {
         const std::int64_t nh = static_cast<std::int64_t>(3 * n_triangles);
         for (std::size_t h = 0; h < 3 * n_triangles; ++h)
             if (s.adj[h] < -1 || s.adj[h] >= nh)
                 throw std::invalid_argument(fn + ": halfedges[" + std::to_string(h) + "] = " +
-                                            std::to_string(s.adj[h]) + " is outside [-1, " +
-                                            std::to_string(nh) + ")");
+                                            std::to_string(s.adj[h]) + " is outside [-1, " + std::to_string(nh) +
+                                            ")");
     } else {
         s.adj = halfedge_twins(s.tri.data(), n_triangles, n_vertices, EdgeOrientation::consistent, fn);
-        s.adj.reserve(3 * (n_triangles + spare_t));
     }
+    s.adj.reserve(3 * (n_triangles + spare_t));
     s.kind.reserve(n_triangles + spare_t);
     s.kind.assign(n_triangles, static_cast<std::int8_t>(TriangleKind::layer));
     s.owner.reserve(n_triangles + spare_t);
@@ -183,6 +179,47 @@ LayerStitcher::LayerStitcher(const double* vertices, std::size_t n_vertices,
         if (bpts.empty()) throw GeometryError(fn + ": the mesh has no outer boundary loop");
     }
     s.study = StudyArea(bpts.data(), bpts.size() / 2, options.boundary_tolerance);
+}
+
+}  // namespace detail
+
+LayerStitcher::LayerStitcher(const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
+                             std::size_t n_triangles, const double* boundary_xy, std::size_t n_boundary,
+                             const std::int64_t* halfedges, std::string name, const StitchOptions& options)
+    : s_(std::make_unique<StitcherState>()) {
+    StitcherState& s = *s_;
+    s.name = std::move(name);
+    s.opt = options;
+    const std::string fn = "LayerStitcher('" + s.name + "')";
+    if (n_triangles == 0) throw std::invalid_argument(fn + ": the mesh has no triangles");
+    if ((vertices == nullptr && n_vertices) || triangles == nullptr) throw std::invalid_argument(fn + ": null array");
+    s.xyz.reserve(3 * (n_vertices + spare_of(n_vertices)));
+    s.xyz.assign(vertices, vertices + 3 * n_vertices);
+    s.tri.reserve(3 * (n_triangles + spare_of(n_triangles)));
+    s.tri.assign(triangles, triangles + 3 * n_triangles);
+    if (halfedges) {
+        s.adj.reserve(3 * (n_triangles + spare_of(n_triangles)));
+        s.adj.assign(halfedges, halfedges + 3 * n_triangles);
+    }
+    detail::set_up_stitcher(s, n_vertices, n_triangles, halfedges != nullptr, boundary_xy, n_boundary, options);
+}
+
+LayerStitcher::LayerStitcher(const LayerTin& layer, const StitchOptions& options)
+    : s_(std::make_unique<StitcherState>()) {
+    StitcherState& s = *s_;
+    s.name = layer.name();
+    s.opt = options;
+    // The layer's mesh inside the study area, made with the spare room and
+    // moved in: no copy of the arrays.
+    const std::size_t nv = layer.n_vertices();
+    LayerTinMesh m = layer.mesh(spare_of(nv), spare_of(2 * nv));
+    const std::size_t n_vertices = m.vertices.size() / 3, n_triangles = m.triangles.size() / 3;
+    if (n_triangles == 0) throw std::invalid_argument("LayerStitcher('" + s.name + "'): the mesh has no triangles");
+    s.xyz = std::move(m.vertices);
+    s.tri = std::move(m.triangles);
+    s.adj = std::move(m.halfedges);
+    const std::vector<double>& ring = layer.area().ring();
+    detail::set_up_stitcher(s, n_vertices, n_triangles, true, ring.data(), ring.size() / 2, options);
 }
 
 LayerStitcher::~LayerStitcher() = default;

@@ -3,6 +3,7 @@
 // early end when the layers are apart everywhere.
 #include <faultmesh/errors.hpp>
 #include <faultmesh/layer_tin.hpp>
+#include <faultmesh/stitch.hpp>
 #include <faultmesh/study_area.hpp>
 #include <gtest/gtest.h>
 
@@ -191,4 +192,40 @@ TEST(RepairCrossings, ACrossingNearTheEdgeOfACellIsStillRepaired) {
     EXPECT_GE(c.rule1, 1);
     const std::vector<double> q = {123.45, 678.9};
     EXPECT_LE(lo.interpolate(q.data(), 1)[0], up.interpolate(q.data(), 1)[0] + 1e-6);
+}
+
+TEST(LayerStitcherFromLayerTin, SameAsFromTheMeshArrays) {
+    // The stitcher taken over from a LayerTin and the one built from the
+    // LayerTin's mesh arrays stitch a patch into the same surface.
+    auto layers = stack(8, 512345.0, 7012345.0, 1500, 0, 1);
+    const fm::StudyArea area = l_area(512345.0, 7012345.0);
+    fm::LayerTin tin("L", layers[0].data(), layers[0].size() / 3, area);
+    const fm::LayerTinMesh m = tin.mesh();
+    fm::StitchOptions opt;
+    opt.clearance = 12.0;
+    fm::LayerStitcher a(tin, opt);
+    fm::LayerStitcher b(m.vertices.data(), m.vertices.size() / 3, m.triangles.data(), m.triangles.size() / 3,
+                        area.ring().data(), area.ring().size() / 2, m.halfedges.data(), "L", opt);
+    // A strip patch across the lower arm of the L, 8 m below the layer.
+    const double x0 = 512345.0, y0 = 7012345.0;
+    std::vector<double> pv;
+    std::vector<std::int64_t> pt;
+    for (int i = 0; i <= 4; ++i) {
+        const double y = y0 + 50.0 + 75.0 * i;
+        pv.insert(pv.end(), {x0 + 600.0, y, -8.0, x0 + 640.0, y, -9.0});
+        if (i) {
+            const std::int64_t k = 2 * (i - 1);
+            pt.insert(pt.end(), {k, k + 1, k + 3, k, k + 3, k + 2});
+        }
+    }
+    const fm::StitchReport ra = a.stitch(pv.data(), pv.size() / 3, pt.data(), pt.size() / 3, "F");
+    const fm::StitchReport rb = b.stitch(pv.data(), pv.size() / 3, pt.data(), pt.size() / 3, "F");
+    EXPECT_EQ(ra.removed, rb.removed);
+    const fm::StitchedMesh ma = a.mesh(), mb = b.mesh();
+    EXPECT_EQ(ma.vertices, mb.vertices);
+    EXPECT_EQ(ma.triangles, mb.triangles);
+    EXPECT_EQ(ma.kinds, mb.kinds);
+    EXPECT_EQ(a.name(), "L");
+    // The LayerTin is unchanged by the stitch.
+    EXPECT_EQ(tin.mesh().triangles, m.triangles);
 }

@@ -218,6 +218,139 @@ class BoundaryContours:
         """
         sorted vertices that lie on the boundary more than once
         """
+class StudyArea:
+    """
+    The study-area polygon: which points lie on its boundary, and points placed
+    on it (study_area.hpp). Counter-clockwise; side i runs from corner i to
+    corner i + 1. Every method takes points (k, 2) (or (k, 3): z is ignored).
+    """
+    def __init__(self, ring: typing.Any, tolerance: typing.Any = None) -> None:
+        """
+        ring (k, 2): a simple polygon, either orientation, closing point optional.
+        tolerance: distance within which a point counts as on a side (default 64 eps
+        max|coordinate|: the rounding of points constructed on a side).
+        """
+    def arc_position(self, side: typing.Any, s: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
+        """
+        Arc position from corner 0, in [0, perimeter).
+        """
+    def contains(self, points: typing.Any) -> numpy.typing.NDArray[numpy.bool]:
+        """
+        True for points inside or on the boundary (exact winding).
+        """
+    def locate(self, points: typing.Any) -> tuple[numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.float64]]:
+        """
+        (side (k,) int64, s (k,)): the side each point lies on (-1: not on the boundary;
+        a corner gives the side that starts there) and the arc length along it.
+        """
+    def nearest(self, points: typing.Any, max_distance: typing.SupportsFloat | typing.SupportsIndex = ...) -> tuple[numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.float64]]:
+        """
+        (side, s, distance) of the nearest boundary point within max_distance (side -1 if none).
+        """
+    def on_boundary(self, points: typing.Any) -> numpy.typing.NDArray[numpy.bool]:
+        """
+        True for points on a side (exactly or within the tolerance).
+        """
+    def place(self, side: typing.Any, s: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
+        """
+        (k, 2) points at arc length s along the sides: corners exact at the ends, the
+        constant coordinate exact on axis-parallel sides.
+        """
+    def ray_hit(self, points: typing.Any, directions: typing.Any) -> tuple[numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.float64]]:
+        """
+        (t, side, s, xy) of the first boundary point on each ray p + t d (t >= 0): t = 0
+        and xy = p for a point on the boundary; t = inf (side -1, NaN) for a miss. The hit
+        is placed on its side (place), not computed as p + t d.
+        """
+    @property
+    def n_sides(self) -> int:
+        ...
+    @property
+    def perimeter(self) -> float:
+        ...
+    @property
+    def ring(self) -> numpy.typing.NDArray[numpy.float64]:
+        """
+        (k, 2) corners, counter-clockwise
+        """
+    @property
+    def tolerance(self) -> float:
+        ...
+class LayerTin:
+    """
+    The continuous stratum TIN of one layer over the whole study area
+    (layer_tin.hpp): the Delaunay TIN of the layer's data inside the study area
+    plus densified, protected boundary vertices, so that mesh() covers exactly
+    the study area.
+    """
+    def __init__(self, name: str, data: typing.Any, boundary: typing.Any, spacing: typing.Any = None) -> None:
+        """
+        name: the layer's name (in messages). data (n, 3): x, y, z points. boundary: a
+        StudyArea or a ring (k, 2). spacing: boundary vertex spacing (default: about the
+        data spacing).
+        """
+    def insert(self, xyz: typing.Any) -> int:
+        """
+        Insert points (k, 3) keeping the boundary protected (points on the boundary become
+        boundary vertices, points outside are ignored); a point at an existing vertex's XY
+        gives it its z, and so does a point on the boundary within 1e-9 of the perimeter of
+        a boundary vertex along its side. Returns the number of new vertices.
+        """
+    def interpolate(self, xy: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
+        """
+        z at points (k, 2) with the current elevations; NaN outside the TIN's hull.
+        """
+    def mesh(self, halfedges: bool = False) -> tuple:
+        """
+        (vertices (n, 3), triangles (m, 3)) of the TIN inside the study area, compacted;
+        with halfedges=True also the opposite half-edges (3 m,) within the mesh (-1: none).
+        """
+    @property
+    def area(self) -> StudyArea:
+        ...
+    @property
+    def boundary_vertices(self) -> numpy.typing.NDArray[numpy.int64]:
+        """
+        TIN vertices on the study-area boundary, counter-clockwise
+        """
+    @property
+    def n_boundary_data(self) -> int:
+        """
+        data points on the study-area boundary (boundary vertices)
+        """
+    @property
+    def n_data(self) -> int:
+        """
+        data points used (inside or on the study area)
+        """
+    @property
+    def n_outside(self) -> int:
+        """
+        data points outside the study area (not used)
+        """
+    @property
+    def n_shared(self) -> int:
+        """
+        vertices taken from the triangulation shared with other layers (build_layer_tins);
+        0 for a LayerTin built alone
+        """
+    @property
+    def n_vertices(self) -> int:
+        ...
+    @property
+    def name(self) -> str:
+        ...
+    @property
+    def spacing(self) -> float:
+        ...
+    @property
+    def vertices(self) -> numpy.typing.NDArray[numpy.float64]:
+        """
+        (n, 3) every TIN vertex with its current elevation
+        """
+    @property
+    def z(self) -> numpy.typing.NDArray[numpy.float64]:
+        ...
 class TriangleKind(enum.IntEnum):
     """
     Kind of a triangle of a stitched layer (StitchedMesh.kinds, Surface.kinds):
@@ -374,6 +507,13 @@ class Stitcher:
     (with the study-area boundary for a fault that reaches it), ear clipping in XY,
     local merge with shared vertices. mesh() returns the compacted surface.
     """
+    @staticmethod
+    def from_layer_tin(layer: LayerTin, *, refine: bool = True, order: str = 'quality', bridge: str = 'extreme', boundary_tolerance: typing.SupportsFloat | typing.SupportsIndex = -1.0, clearance: typing.SupportsFloat | typing.SupportsIndex = 0.0) -> Stitcher:
+        """
+        The Stitcher of a LayerTin: its mesh inside the study area (with half-edges), its study
+        area as the boundary and its name, taken over in C++ without going through arrays;
+        the options as for the constructor. The LayerTin is not changed.
+        """
     def __init__(self, vertices: typing.Any, triangles: typing.Any, boundary: typing.Any = None, halfedges: typing.Any = None, name: str = 'layer', refine: bool = True, order: str = 'quality', bridge: str = 'extreme', boundary_tolerance: typing.SupportsFloat | typing.SupportsIndex = -1.0, clearance: typing.SupportsFloat | typing.SupportsIndex = 0.0) -> None:
         ...
     def mesh(self) -> StitchedMesh:
@@ -405,139 +545,6 @@ class Stitcher:
         ...
     @property
     def patch_names(self) -> list[str]:
-        ...
-class StudyArea:
-    """
-    The study-area polygon: which points lie on its boundary, and points placed
-    on it (study_area.hpp). Counter-clockwise; side i runs from corner i to
-    corner i + 1. Every method takes points (k, 2) (or (k, 3): z is ignored).
-    """
-    def __init__(self, ring: typing.Any, tolerance: typing.Any = None) -> None:
-        """
-        ring (k, 2): a simple polygon, either orientation, closing point optional.
-        tolerance: distance within which a point counts as on a side (default 64 eps
-        max|coordinate|: the rounding of points constructed on a side).
-        """
-    def arc_position(self, side: typing.Any, s: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
-        """
-        Arc position from corner 0, in [0, perimeter).
-        """
-    def contains(self, points: typing.Any) -> numpy.typing.NDArray[numpy.bool]:
-        """
-        True for points inside or on the boundary (exact winding).
-        """
-    def locate(self, points: typing.Any) -> tuple[numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.float64]]:
-        """
-        (side (k,) int64, s (k,)): the side each point lies on (-1: not on the boundary;
-        a corner gives the side that starts there) and the arc length along it.
-        """
-    def nearest(self, points: typing.Any, max_distance: typing.SupportsFloat | typing.SupportsIndex = ...) -> tuple[numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.float64]]:
-        """
-        (side, s, distance) of the nearest boundary point within max_distance (side -1 if none).
-        """
-    def on_boundary(self, points: typing.Any) -> numpy.typing.NDArray[numpy.bool]:
-        """
-        True for points on a side (exactly or within the tolerance).
-        """
-    def place(self, side: typing.Any, s: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
-        """
-        (k, 2) points at arc length s along the sides: corners exact at the ends, the
-        constant coordinate exact on axis-parallel sides.
-        """
-    def ray_hit(self, points: typing.Any, directions: typing.Any) -> tuple[numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.float64]]:
-        """
-        (t, side, s, xy) of the first boundary point on each ray p + t d (t >= 0): t = 0
-        and xy = p for a point on the boundary; t = inf (side -1, NaN) for a miss. The hit
-        is placed on its side (place), not computed as p + t d.
-        """
-    @property
-    def n_sides(self) -> int:
-        ...
-    @property
-    def perimeter(self) -> float:
-        ...
-    @property
-    def ring(self) -> numpy.typing.NDArray[numpy.float64]:
-        """
-        (k, 2) corners, counter-clockwise
-        """
-    @property
-    def tolerance(self) -> float:
-        ...
-class LayerTin:
-    """
-    The continuous stratum TIN of one layer over the whole study area
-    (layer_tin.hpp): the Delaunay TIN of the layer's data inside the study area
-    plus densified, protected boundary vertices, so that mesh() covers exactly
-    the study area.
-    """
-    def __init__(self, name: str, data: typing.Any, boundary: typing.Any, spacing: typing.Any = None) -> None:
-        """
-        name: the layer's name (in messages). data (n, 3): x, y, z points. boundary: a
-        StudyArea or a ring (k, 2). spacing: boundary vertex spacing (default: about the
-        data spacing).
-        """
-    def insert(self, xyz: typing.Any) -> int:
-        """
-        Insert points (k, 3) keeping the boundary protected (points on the boundary become
-        boundary vertices, points outside are ignored); a point at an existing vertex's XY
-        gives it its z, and so does a point on the boundary within 1e-9 of the perimeter of
-        a boundary vertex along its side. Returns the number of new vertices.
-        """
-    def interpolate(self, xy: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
-        """
-        z at points (k, 2) with the current elevations; NaN outside the TIN's hull.
-        """
-    def mesh(self, halfedges: bool = False) -> tuple:
-        """
-        (vertices (n, 3), triangles (m, 3)) of the TIN inside the study area, compacted;
-        with halfedges=True also the opposite half-edges (3 m,) within the mesh (-1: none).
-        """
-    @property
-    def area(self) -> StudyArea:
-        ...
-    @property
-    def boundary_vertices(self) -> numpy.typing.NDArray[numpy.int64]:
-        """
-        TIN vertices on the study-area boundary, counter-clockwise
-        """
-    @property
-    def n_boundary_data(self) -> int:
-        """
-        data points on the study-area boundary (boundary vertices)
-        """
-    @property
-    def n_data(self) -> int:
-        """
-        data points used (inside or on the study area)
-        """
-    @property
-    def n_outside(self) -> int:
-        """
-        data points outside the study area (not used)
-        """
-    @property
-    def n_shared(self) -> int:
-        """
-        vertices taken from the triangulation shared with other layers (build_layer_tins);
-        0 for a LayerTin built alone
-        """
-    @property
-    def n_vertices(self) -> int:
-        ...
-    @property
-    def name(self) -> str:
-        ...
-    @property
-    def spacing(self) -> float:
-        ...
-    @property
-    def vertices(self) -> numpy.typing.NDArray[numpy.float64]:
-        """
-        (n, 3) every TIN vertex with its current elevation
-        """
-    @property
-    def z(self) -> numpy.typing.NDArray[numpy.float64]:
         ...
 def boundary_contours(triangles: typing.Any, *, n_vertices: typing.Any = None) -> BoundaryContours:
     """

@@ -204,14 +204,13 @@ class _Inline:
         return (fn(x) for x in items)
 
 
-def _stitch_layer(lay: str, layer: Surface, halfedges: np.ndarray, ring: np.ndarray,
-                  patches: List[Tuple[str, List[str], np.ndarray, np.ndarray]], refine: bool,
-                  stitch_order: str, bridge: str, clearance: float):
-    """Steps 5-7 in one layer: every group's patch stitched in turn. Returns
-    (the stitched Surface, its live Gaps, its StitchedPatches, the per-patch
+def _stitch_layer(lay: str, tin: LayerTin, patches: List[Tuple[str, List[str], np.ndarray, np.ndarray]],
+                  refine: bool, stitch_order: str, bridge: str, clearance: float):
+    """Steps 5-7 in one layer: every group's patch stitched in turn into the
+    layer's TIN (taken over in C++, Stitcher.from_layer_tin). Returns (the
+    stitched Surface, its live Gaps, its StitchedPatches, the per-patch
     stitch records)."""
-    st = Stitcher(layer.vertices, layer.triangles, boundary=ring, halfedges=halfedges, name=lay, refine=refine,
-                  order=stitch_order, bridge=bridge, clearance=clearance)
+    st = Stitcher.from_layer_tin(tin, refine=refine, order=stitch_order, bridge=bridge, clearance=clearance)
     live_gaps: Dict[int, Tuple[Any, float]] = {}  # gap id -> (StitchGap, seconds)
     layer_patches: Dict[int, StitchedPatch] = {}
     records: List[Dict[str, Any]] = []
@@ -331,13 +330,6 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                                   fill_holes=fill_holes)
     meta.update(tin_meta)
     timings["stratum_tins_and_repair"] = time.perf_counter() - t0
-    # The continuous surfaces, with their half-edges (the stitcher then skips
-    # its adjacency build).
-    continuous: Dict[str, Surface] = {}
-    halfedges: Dict[str, np.ndarray] = {}
-    for lay in layers:
-        V, T, halfedges[lay] = tins[lay].mesh(halfedges=True)
-        continuous[lay] = Surface(lay, V, T, kind="layer")
 
     # Step 4: fine fault models, per group and layer.
     t0 = time.perf_counter()
@@ -413,8 +405,8 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     job = 0
 
     def stitch_layer(lay: str):
-        return _stitch_layer(lay, continuous[lay], halfedges[lay], ring, patches[lay], refine, stitch_order,
-                             bridge, _clearance(clearance, tins[lay]))
+        return _stitch_layer(lay, tins[lay], patches[lay], refine, stitch_order, bridge,
+                             _clearance(clearance, tins[lay]))
 
     prog("stitching", 0, n_jobs)
     with ThreadPoolExecutor(max_workers=n_threads) if n_threads > 1 else _Inline() as pool:
@@ -435,6 +427,9 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     meta["quality"] = _report.gap_quality(model)
     if evaluate and model.truth is not None:
         try:
+            # The continuous surfaces: the layer TINs before any fault (the
+            # stitchers took copies of them).
+            continuous = {lay: Surface(lay, *tins[lay].mesh(), kind="layer") for lay in layers}
             meta["accuracy"] = fault_accuracy(model, continuous)
         except Exception as e:  # pragma: no cover - evaluation must never break a build
             meta["accuracy"] = {"error": f"{type(e).__name__}: {e}"}

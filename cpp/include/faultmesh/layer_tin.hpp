@@ -109,8 +109,9 @@ public:
     void set_z(const std::int64_t* vertices, const double* z, std::size_t n);
     // z at n points (x, y interleaved), NaN outside the TIN's hull.
     std::vector<double> interpolate(const double* xy, std::size_t n) const;
-    // The triangles inside the study area, compacted.
-    LayerTinMesh mesh() const;
+    // The triangles inside the study area, compacted; the arrays reserve room
+    // for spare_vertices and spare_triangles more (a stitcher appends).
+    LayerTinMesh mesh(std::size_t spare_vertices = 0, std::size_t spare_triangles = 0) const;
 
 private:
     explicit LayerTin(std::unique_ptr<detail::LayerTinState> s);

@@ -126,6 +126,7 @@ struct StitchedMesh {
 };
 
 class LayerStitcher;
+class LayerTin;
 namespace detail {
 struct StitcherState;
 StitcherState& state_of(LayerStitcher& st);  // internal: the step tests reach the state
@@ -154,6 +155,11 @@ public:
                   std::size_t n_triangles, const double* boundary_xy, std::size_t n_boundary,
                   const std::int64_t* halfedges = nullptr, std::string name = "layer",
                   const StitchOptions& options = {});
+    // The stitcher of a stratum TIN (layer_tin.hpp): its mesh inside the
+    // study area, with its half-edges, its study area as the boundary and its
+    // name -- taken over without copying the arrays (the pipeline's way from
+    // step 3 to step 5).
+    explicit LayerStitcher(const LayerTin& layer, const StitchOptions& options = {});
     ~LayerStitcher();
     LayerStitcher(LayerStitcher&&) noexcept;
     LayerStitcher& operator=(LayerStitcher&&) noexcept;
