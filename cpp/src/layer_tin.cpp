@@ -224,6 +224,9 @@ struct LayerData {
         double s, x, y, z;
     };
     std::vector<double> interior;  // 3 per point
+    // Per interior point: its vertex in the shared triangulation, or -1
+    // (share_xy; empty for a layer built alone).
+    std::vector<std::int32_t> shared_vertex;
     std::vector<OnBoundary> on_boundary;
     double lo = std::numeric_limits<double>::infinity(), hi = -std::numeric_limits<double>::infinity();
     std::size_t n_outside = 0;
@@ -319,9 +322,8 @@ private:
 };
 
 // The interior XY points that a group of layers all have, triangulated once
-// (z NaN), and where each of them is in that triangulation.
+// (z NaN); each member's LayerData::shared_vertex says where its points are.
 struct SharedXY {
-    std::optional<XYIndex> index;  // XY -> template vertex (-1: not shared)
     std::optional<Tin> tin;
 };
 
@@ -334,7 +336,7 @@ struct SharedXY {
 // gain. Only the first 64 layers (a bit mask each) take part.
 constexpr double kMinShared = 0.75;
 
-SharedXY share_xy(const std::vector<LayerData>& layers, std::vector<char>& member) {
+SharedXY share_xy(std::vector<LayerData>& layers, std::vector<char>& member) {
     SharedXY out;
     member.assign(layers.size(), 0);
     const std::size_t nl = std::min<std::size_t>(layers.size(), 64);
@@ -352,15 +354,23 @@ SharedXY share_xy(const std::vector<LayerData>& layers, std::vector<char>& membe
         if (index.insert(&R[3 * i], static_cast<std::int64_t>(first.size())) ==
             static_cast<std::int64_t>(first.size()))
             first.push_back(i);
+    // Each point's reference slot, kept (as shared_vertex, renumbered below)
+    // so that no layer looks its points up again.
     std::vector<std::uint64_t> mask(first.size(), 0);
     for (std::size_t l = 0; l < nl; ++l) {
         const std::vector<double>& P = layers[l].interior;
+        std::vector<std::int32_t>& slot = layers[l].shared_vertex;
+        slot.resize(P.size() / 3);
         const std::uint64_t bit = std::uint64_t{1} << l;
         for (std::size_t i = 0; i < P.size() / 3; ++i) {
             const std::int64_t r = index.find(&P[3 * i]);
+            slot[i] = static_cast<std::int32_t>(r);
             if (r >= 0) mask[static_cast<std::size_t>(r)] |= bit;
         }
     }
+    auto forget = [&]() {
+        for (auto& l : layers) std::vector<std::int32_t>().swap(l.shared_vertex);
+    };
     // Drop the layer sharing the least until every member holds kMinShared.
     std::uint64_t group = nl == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << nl) - 1;
     std::size_t n_common = 0;
@@ -378,7 +388,10 @@ SharedXY share_xy(const std::vector<LayerData>& layers, std::vector<char>& membe
         if (worst >= kMinShared) break;
         group &= ~(std::uint64_t{1} << worst_l);
     }
-    if (__builtin_popcountll(group) < 2 || n_common < 3) return out;
+    if (__builtin_popcountll(group) < 2 || n_common < 3) {
+        forget();
+        return out;
+    }
     // The shared points in Hilbert order (the vertex numbering of every
     // member then starts spatially coherent, as a LayerTin built alone is).
     std::vector<double> pts;
@@ -400,13 +413,19 @@ SharedXY share_xy(const std::vector<LayerData>& layers, std::vector<char>& membe
     try {
         out.tin.emplace(sorted.data(), order.size());
     } catch (const GeometryError&) {
+        forget();
         return out;  // all collinear: each layer alone (and its own message)
     }
     // The points are distinct, so vertex k is the k-th sorted point.
-    out.index.emplace(n_common);
-    for (std::size_t r = 0; r < first.size(); ++r)
-        if (vertex_of_slot[r] >= 0) out.index->insert(&R[3 * first[r]], vertex_of_slot[r]);
-    for (std::size_t l = 0; l < nl; ++l) member[l] = group >> l & 1;
+    for (std::size_t l = 0; l < layers.size(); ++l) {
+        member[l] = l < nl && (group >> l & 1);
+        std::vector<std::int32_t>& sv = layers[l].shared_vertex;
+        if (!member[l]) {
+            std::vector<std::int32_t>().swap(sv);
+            continue;
+        }
+        for (auto& v : sv) v = v >= 0 ? static_cast<std::int32_t>(vertex_of_slot[static_cast<std::size_t>(v)]) : -1;
+    }
     return out;
 }
 
@@ -484,11 +503,17 @@ void set_up(LayerTinState& s, LayerData&& d, const SharedXY* shared) {
     // vertex numbering -- and every array derived from it, the stitcher's
     // included -- is then spatially coherent, whatever the input order.
     const std::size_t ni = interior.size() / 3;
+    std::vector<std::int32_t> shared_vertex;  // per sorted interior point (shared path)
     {
         const std::vector<std::uint32_t> order = hilbert_order(interior.data(), 3, ni);
         pts.reserve(pts.size() + interior.size());
         for (std::uint32_t i : order) pts.insert(pts.end(), &interior[3 * i], &interior[3 * i] + 3);
         std::vector<double>().swap(interior);
+        if (shared != nullptr) {
+            shared_vertex.resize(ni);
+            for (std::size_t k = 0; k < ni; ++k) shared_vertex[k] = d.shared_vertex[order[k]];
+            std::vector<std::int32_t>().swap(d.shared_vertex);
+        }
     }
     known.resize(pts.size() / 3, 1);
     // One grid over every vertex: the plane fits' neighbours (data only) and
@@ -550,7 +575,8 @@ void set_up(LayerTinState& s, LayerData&& d, const SharedXY* shared) {
         // the Hilbert-stable order, as the Tin constructor keeps); every other
         // point is inserted. Tin is canonical (tin.hpp), so the triangles are
         // those of the Tin built from pts at once.
-        Tin tin = *shared->tin;
+        const std::size_t n_shared_v = shared->tin->n_vertices();
+        Tin tin(*shared->tin, np > n_shared_v ? np - n_shared_v : 0);
         vmap.assign(np, -1);
         std::vector<char> has_z(tin.n_vertices(), 0);
         std::vector<std::int64_t> zv;
@@ -561,7 +587,7 @@ void set_up(LayerTinState& s, LayerData&& d, const SharedXY* shared) {
         for (std::size_t i = 0; i < np; ++i) {
             const double* p = &pts[3 * i];
             if (i >= nb && i < nb + ni) {
-                const std::int64_t v = shared->index->find(p);
+                const std::int64_t v = shared_vertex[i - nb];
                 if (v >= 0) {
                     vmap[i] = v;
                     if (!has_z[static_cast<std::size_t>(v)]) {

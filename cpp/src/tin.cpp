@@ -193,6 +193,24 @@ Tin::~Tin() = default;
 Tin::Tin(Tin&&) noexcept = default;
 Tin& Tin::operator=(Tin&&) noexcept = default;
 Tin::Tin(const Tin& o) : impl_(std::make_unique<detail::TinImpl>(*o.impl_)) {}
+Tin::Tin(const Tin& o, std::size_t extra_vertices) : impl_(std::make_unique<detail::TinImpl>()) {
+    detail::TinImpl& T = *impl_;
+    const detail::TinImpl& S = *o.impl_;
+    // Room first, then the copy into it (a vector assigned from a shorter one
+    // keeps its storage), so the insertions to come reallocate nothing: the
+    // engine's growth (DelaunayCore::ensure_slots) asks for 2 slots per
+    // vertex or 1.5 times what it has.
+    const std::size_t ids = S.core.xy.size() / 2 + extra_vertices;
+    const std::size_t slot_ints = std::max(3 * (2 * ids + 2), S.core.tv.size() + S.core.tv.size() / 2);
+    T.core.xy.reserve(2 * ids);
+    T.core.tv.reserve(slot_ints);
+    T.core.th.reserve(slot_ints);
+    T.xyz.reserve(S.xyz.size() + 3 * extra_vertices);
+    T.tin_of_id.reserve(ids);
+    T.z_of_id.reserve(ids);
+    T.compact.reserve(slot_ints / 3);
+    T = S;
+}
 Tin& Tin::operator=(const Tin& o) {
     if (this != &o) impl_ = std::make_unique<detail::TinImpl>(*o.impl_);
     return *this;

@@ -49,6 +49,9 @@ public:
     Tin(Tin&&) noexcept;
     Tin& operator=(Tin&&) noexcept;
     Tin(const Tin&);
+    // A copy with room for extra_vertices more vertices: inserting them
+    // then reallocates (and copies) none of the arrays.
+    Tin(const Tin& other, std::size_t extra_vertices);
     Tin& operator=(const Tin&);
 
     // Inserts n points (x, y, z interleaved) and returns, for each, the index of
