@@ -60,8 +60,9 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
         from .holes import hole_fill
 
         for lay, t in tins.items():
+            anchors = np.asarray(t.vertices)[np.asarray(t.boundary_vertices)]
             fill = hole_fill(*t.mesh(), data[lay], area.ring,
-                             anchors=np.asarray(t.vertices)[np.asarray(t.boundary_vertices)])
+                             anchors=anchors[~_in_fault_zones(dataset, lay, area, anchors)])
             filled[lay] = len(fill)
             if len(fill):
                 t.insert(fill)
@@ -79,6 +80,36 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
             meta["repair"][lo] = repair_crossings(tins[up], tins[lo], max_repair_rounds)
         prog("layer repair", len(layers) - 1, len(layers) - 1)
     return tins, meta
+
+
+def _in_fault_zones(dataset, layer: str, area: StudyArea, points: np.ndarray) -> np.ndarray:
+    """Which of ``points`` (k, 3) lie (in map view) in a fault patch of
+    ``layer``: the patches' XY footprints, as the build lofts them from the
+    faults' traces (:func:`faultmesh.faults.layer_patch`; z and the group
+    partners' extensions do not matter for the footprint used here).
+
+    The hole fill's anchors are the TIN's study-area boundary vertices,
+    whose z the TIN extrapolates from the data around them; in a fault's
+    zone that extrapolation bridges the fault's offset with a plane across
+    the two sides, and the patch replaces that part of the layer anyway.
+    Fitted as data, such anchors pull the fill (which the patch's
+    extension to the boundary and its tips follow, through the layer
+    surface's trend) towards the bridge: Claudius, every pick within 300 m
+    of the fault withheld, val_330 median error at those picks 11.36 m
+    with them, 11.07 m without them."""
+    from ._core import sample_surface
+    from . import faults as fm
+
+    inside = np.zeros(len(points), dtype=bool)
+    if not len(points):
+        return inside
+    xy = np.ascontiguousarray(np.asarray(points, dtype=np.float64)[:, :2])
+    for f in dataset.faults:
+        p = fm.layer_patch(f, layer, fm.fault_ends(f), area)
+        if p is None or not len(p.triangles):
+            continue
+        inside |= sample_surface(p.vertices, p.triangles, xy)[2] > 0
+    return inside
 
 
 def continuous_layers(dataset, *, spacing: Optional[float] = None, repair: bool = True,
