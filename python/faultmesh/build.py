@@ -50,7 +50,7 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
     prog = _progress_fn(progress)
     layers = list(dataset.layers)
     prog("stratum TINs", 0, len(layers))
-    data = {lay: dataset.layer_points(lay) for lay in layers}
+    data = dataset.all_layer_points()
     # One call for the stack: the XY points the layers share are triangulated once.
     built = build_layer_tins([(lay, data[lay]) for lay in layers], area, spacing,
                              threads=_threads(threads, len(layers)))
