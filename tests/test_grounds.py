@@ -343,3 +343,12 @@ def test_band_reaching_the_boundary_holds(seed, tmp_path_factory):
 @pytest.mark.parametrize("seed", [42, 61, 88, 162])
 def test_crossing_pair_keeps_the_reverse_fault_whole(seed, tmp_path_factory):
     assert_holds(outcome(seed, tmp_path_factory))
+
+
+# A fault crossing a notch of a concave study area between two of its traces:
+# the loft between the traces ran out of the area and back in ("the patch
+# leaves the study area": 418, a polygon; 454, an L). layer_patch now clips
+# the patch to the study area exactly (StudyArea.clip_surface).
+@pytest.mark.parametrize("seed", [418, 454])
+def test_patch_across_a_notch_of_the_study_area_holds(seed, tmp_path_factory):
+    assert_holds(outcome(seed, tmp_path_factory))

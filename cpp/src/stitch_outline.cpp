@@ -137,8 +137,9 @@ void outline_patch(const StitcherState& s, StitchJob& job) {
                         " to " + fmt_point(pb) + " crosses the study-area side from " + fmt_point(c) +
                         " to " + fmt_point(d) +
                         " (the fault runs out of the study area and back in between two of its traces, "
-                        "e.g. across a notch of a non-convex study area; a patch is not clipped to the "
-                        "study area)");
+                        "e.g. across a notch of a non-convex study area; the stitcher does not clip: "
+                        "clip the patch first (clip_to_study_area, StudyArea.clip_surface in Python) "
+                        "as the builder does)");
             }
         };
         for (const auto& loop : bc.loops) {

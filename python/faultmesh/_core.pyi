@@ -422,6 +422,14 @@ class StudyArea:
         """
         Arc position from corner 0, in [0, perimeter).
         """
+    def clip_surface(self, vertices: typing.Any, triangles: typing.Any, what: str = 'surface') -> tuple[numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.int64], int, int]:
+        """
+        (vertices (k, 3), triangles (m, 3), vertex_of (k,), n_cut, n_dropped): the surface
+        clipped to the study area in XY, triangle by triangle (clip_to_study_area in
+        study_area.hpp): the part inside kept, cut exactly where a side crosses it, new
+        vertices placed on their sides with z interpolated; vertex_of gives each output
+        vertex's input row (-1: new). Orientation kept (folded sheets too).
+        """
     def contains(self, points: typing.Any) -> numpy.typing.NDArray[numpy.bool]:
         """
         True for points inside or on the boundary (exact winding).

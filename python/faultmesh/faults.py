@@ -37,6 +37,11 @@ pinch vertices are cleaned up), so the group's patch is a set of disjoint
 pieces that the stitcher treats as one region: one removed set, one gap
 polygon with every piece as a hole.
 
+Each layer's patch is then clipped to the study area in XY
+(:meth:`StudyArea.clip_surface`, exact): a loft between two traces is a chord
+that can run out of a concave area and back in across a notch; the cut puts
+the patch's outline on the boundary there, as at an extended end.
+
 The fault surface itself is lofted from the fault-plane traces, closed at a
 tip by the end plane trace moved to the tip, and extended like the layers.
 """
@@ -586,6 +591,13 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 seq.append(add)
                 cuts.append(c)
     V, T = _assemble(seq, loft_method, cuts)
+    # The loft between two traces is a chord: where the study area is not
+    # convex it can run out of the area and back in (across a notch; sweep
+    # seeds 418, 454). The patch is cut to the area exactly there, its new
+    # outline on the boundary (the stitcher needs a patch inside the area).
+    V, T, _, n_cut, n_out = area.clip_surface(V, T, f"fault {fault.name!r} layer {layer!r}")
+    if n_cut or n_out:
+        meta["clipped_to_study_area"] = {"cut": int(n_cut), "dropped": int(n_out)}
     return LayerPatch(fault.name, layer, V, T, kinds, abuts, meta)
 
 
