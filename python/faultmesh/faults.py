@@ -25,7 +25,11 @@ Each end of a fault is closed in one of four ways:
   the nearest target within reach: the study-area boundary (paper: F22, a
   fault "without pinching at the boundary") or, for faults of one group, the
   outline of the partner fault that this one abuts (T-crossing). z follows
-  the continuous layer TIN's change along the way.
+  the continuous layer TIN's change along the way. A reverse fault is not
+  carried onto a partner: its fold would fold back along the partner's
+  outline, and clipped there its sheets would end at different places; a
+  pinch-out halfway to the partner closes it (kind ``synthetic_tip``,
+  metadata ``end<i>_tip_short_of``).
 * ``synthetic_tip``: nothing within reach: a tip half a trace spacing
   further along strike closes the patch (recorded in the metadata).
 
@@ -559,7 +563,28 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
             kinds.append("boundary")
         else:
             ext = _extend(poly, d, area, partners or {}, max_extension, surface_z)
-            if ext is not None:
+            if (ext is not None and ext[1] != "boundary" and fault.kind == "reverse"
+                    and len(ext[0]) > 1):
+                # A reverse fault's fold (footwall, strip, hanging wall)
+                # carried onto a partner would fold back along the partner's
+                # outline; clipped there by whole triangles its sheets end at
+                # different places, reaching past each other (sweep class
+                # "new triangles: edge used by 4 triangles", seeds 133, 177,
+                # 207, 218, 420, 460, ...). It is closed by a pinch-out
+                # halfway to the partner instead: the fan ends the fold with
+                # a simple outline, clear of the partner, and the gap joins
+                # the two. The partner is not reached, so it is not in
+                # ``abuts`` (group_patch then orders the fold by its folding).
+                _, target, dist = ext
+                sides = (with_layer[0] if end == 0 else with_layer[-1]).layers[layer]
+                cm = 0.5 * (np.asarray(sides["foot"])[-1] + np.asarray(sides["hanging"])[0])
+                xy = _pull_inside(area, cm[:2], cm[:2] + 0.5 * dist * d,
+                                  f"fault {fault.name!r} layer {layer!r}: the end cutoff")
+                add = np.array([[xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])]])
+                kinds.append("synthetic_tip")
+                meta[f"end{end}_tip_short_of"] = target
+                meta[f"end{end}_tip_distance"] = 0.5 * dist
+            elif ext is not None:
                 add, target, dist = ext
                 c_add = cuts[0] if end == 0 else cuts[-1]
                 if target == "boundary":
@@ -785,6 +810,48 @@ def _outline_crossings(V: np.ndarray, T: np.ndarray, area: Optional[StudyArea] =
     return np.unique(order[np.minimum(pos, len(order) - 1)] // 3)
 
 
+def _signed_cover_not_one(V: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """Rows of the triangles at whose centroid the patch does not cover the
+    XY plane exactly once, counted with orientation (+1 per counter-clockwise
+    triangle containing the point, -1 per clockwise one).
+
+    Why: the stitcher's region is what the patch's XY outline encloses, and
+    the gap fills the rest of the removed layer triangles. That holds only
+    if the patch's signed cover is 1 on its whole XY image: a folded patch
+    (footwall +, strip -, hanging wall +) has it, but one clipped sheet by
+    sheet can leave a strip triangle reaching past the sheets beside it
+    (cover 0 or -1: outside the outline, covered again by the gap), or a
+    sheet over a hole of the strip (cover 2). Sweep seeds 24, 147, 246, 395:
+    "internal error: new triangles: edge ... is used by 4 triangles" -- a
+    gap triangle on top of a patch triangle. Containment is decided with the
+    exact orient2d (strictly inside); the centroid is a sample point of the
+    triangle's interior."""
+    if len(T) == 0:
+        return np.zeros(0, dtype=np.int64)
+    xy = np.ascontiguousarray(V[:, :2])
+    P = xy[T]                                            # (m, 3, 2)
+    o = np.sign(np.asarray(orient2d(P[:, 0], P[:, 1], P[:, 2])))
+    centre = P.mean(axis=1)
+    tree = AabbTree(xy, T)
+    off, idx = (np.asarray(a) for a in tree.query(np.column_stack([centre, centre])))
+    i = np.repeat(np.arange(len(T)), np.diff(off))      # centroid of triangle i ...
+    j = idx                                               # ... in the box of triangle j
+    inside = o[j] != 0
+    for e in range(3):
+        u, v = P[j, e], P[j, (e + 1) % 3]
+        w = np.sign(np.asarray(orient2d(u, v, centre[i])))
+        # A centroid on the line of another triangle's edge (sheets of one
+        # fold share cutoff lines) is moved by an infinitesimal (+eps, +eps^2)
+        # (simulation of simplicity): the side is then the sign of
+        # -(v - u)_y, or of (v - u)_x for a horizontal edge -- so that the
+        # point lies in exactly one of two triangles sharing an edge.
+        dy, dx = np.sign(v[:, 1] - u[:, 1]), np.sign(v[:, 0] - u[:, 0])
+        w = np.where(w != 0, w, np.where(dy != 0, -dy, dx))
+        inside &= w * o[j] > 0
+    cover = np.bincount(i[inside], weights=o[j[inside]], minlength=len(T))
+    return np.flatnonzero(cover != 1.0)
+
+
 def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
                max_rounds: int = 50, tol: Optional[float] = None,
                area: Optional[StudyArea] = None) -> Tuple[np.ndarray, np.ndarray]:
@@ -817,7 +884,9 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
     # Clean-up: triangles at pinch vertices, then -- a folded (reverse-fault)
     # patch is clipped sheet by sheet at different places, and the outlines
     # of its sheets can cross in XY where they meet the partner -- the
-    # triangles at crossing outline edges, until the outline is simple.
+    # triangles at crossing outline edges, until the outline is simple; then
+    # the triangles where the patch does not cover its image once (a sheet
+    # end reaching past the others: _signed_cover_not_one), until none is left.
     for _ in range(max_rounds):
         if len(T) == 0:
             break
@@ -827,6 +896,8 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
             T = T[~np.isin(T, bad).any(axis=1)]
             continue
         rows = _outline_crossings(V, T, area)
+        if rows.size == 0:
+            rows = _signed_cover_not_one(V, T)
         if rows.size == 0:
             break
         keep = np.ones(len(T), dtype=bool)
