@@ -734,14 +734,14 @@ def test_reach_past_the_band_stops_at_the_boundary():
     assert len(_reach_past_the_band(foot, hang)[1]) == 3
 
 
-def test_signed_cover_flags_sheet_ends_reaching_past_the_fold():
+def test_cover_once_flags_sheet_ends_reaching_past_the_fold():
     # A fold in cross-section x: footwall 0 -> 2 (+), strip 2 -> 1 (-),
     # hanging wall 1 -> 3 (+), for y in [0, 1]: the signed cover is 1 on the
     # whole image [0, 3] x [0, 1], nothing flagged. Without the footwall over
     # the band x in [1, 2] the strip and the hanging wall there cover it
     # 0 times with orientation (the stitcher's gap would cover them again:
     # sweep seed 24): their triangles are flagged, the others are not.
-    from faultmesh.faults import _signed_cover_not_one
+    from faultmesh import triangles_not_covered_once
     xs = [0.0, 1.0, 2.0, 1.0, 3.0]  # footwall split at x = 1
     V = np.array([[x, y, 0.0] for y in (0.0, 1.0) for x in xs])
     n = len(xs)
@@ -752,11 +752,16 @@ def test_signed_cover_flags_sheet_ends_reaching_past_the_fold():
     T = np.array(T)
     o = faultmesh.orient2d(V[T[:, 0], :2], V[T[:, 1], :2], V[T[:, 2], :2])
     assert (o[4:6] < 0).all() and (o[[0, 1, 2, 3, 6, 7]] > 0).all()
-    assert _signed_cover_not_one(V, T).size == 0
+    assert triangles_not_covered_once(V, T).size == 0
     cut = np.delete(T, [2, 3], axis=0)  # the footwall over x in [1, 2]
-    flagged = set(_signed_cover_not_one(V, cut).tolist())
+    flagged = set(triangles_not_covered_once(V, cut).tolist())
     # Rows after the deletion: 0-1 footwall [0, 1], 2-3 strip, 4-5 hanging wall.
     assert {2, 3} <= flagged and not flagged & {0, 1}
     # The hanging wall's half over [1, 2] (row 5: centroid x = 5/3) is flagged,
     # the one whose centroid lies over [2, 3] (row 4: x = 7/3) is not.
     assert 5 in flagged and 4 not in flagged
+    # Orientation is per piece: the same fold lofted the other way round
+    # (every triangle reversed) covers its image once too.
+    assert triangles_not_covered_once(V, T[:, ::-1]).size == 0
+    with pytest.raises(ValueError, match="out of range"):
+        triangles_not_covered_once(V, [[0, 1, 99]])

@@ -370,7 +370,7 @@ def test_reverse_fault_abutting_a_partner_holds(seed, tmp_path_factory):
 # The same class where the folded sheets are clipped by the partner within
 # the traces' band (24: two disjoint folded pieces, yet a gap edge used 4
 # times; 147, 395): clip_patch now also removes the triangles where the
-# patch does not cover its XY image once (faults._signed_cover_not_one).
+# patch does not cover its XY image once (triangles_not_covered_once).
 # They build, pass check() and beat the TIN; the repetition left after the
 # clip is the separate "repetition" class (24: 39 % of F2's band in L3).
 @pytest.mark.parametrize("seed", [24, 147, 395])

@@ -59,7 +59,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ._core import (AabbTree, GeometryError, StudyArea, boundary_contours, loft, orient2d,
-                    triangles_touching_region)
+                    triangles_not_covered_once, triangles_touching_region)
 
 __all__ = ["LayerPatch", "FaultEnds", "EndMove", "EndMoveKind", "fault_ends", "trace_polyline",
            "layer_patch", "fault_surface", "group_patch", "patch_outline"]
@@ -810,48 +810,6 @@ def _outline_crossings(V: np.ndarray, T: np.ndarray, area: Optional[StudyArea] =
     return np.unique(order[np.minimum(pos, len(order) - 1)] // 3)
 
 
-def _signed_cover_not_one(V: np.ndarray, T: np.ndarray) -> np.ndarray:
-    """Rows of the triangles at whose centroid the patch does not cover the
-    XY plane exactly once, counted with orientation (+1 per counter-clockwise
-    triangle containing the point, -1 per clockwise one).
-
-    Why: the stitcher's region is what the patch's XY outline encloses, and
-    the gap fills the rest of the removed layer triangles. That holds only
-    if the patch's signed cover is 1 on its whole XY image: a folded patch
-    (footwall +, strip -, hanging wall +) has it, but one clipped sheet by
-    sheet can leave a strip triangle reaching past the sheets beside it
-    (cover 0 or -1: outside the outline, covered again by the gap), or a
-    sheet over a hole of the strip (cover 2). Sweep seeds 24, 147, 246, 395:
-    "internal error: new triangles: edge ... is used by 4 triangles" -- a
-    gap triangle on top of a patch triangle. Containment is decided with the
-    exact orient2d (strictly inside); the centroid is a sample point of the
-    triangle's interior."""
-    if len(T) == 0:
-        return np.zeros(0, dtype=np.int64)
-    xy = np.ascontiguousarray(V[:, :2])
-    P = xy[T]                                            # (m, 3, 2)
-    o = np.sign(np.asarray(orient2d(P[:, 0], P[:, 1], P[:, 2])))
-    centre = P.mean(axis=1)
-    tree = AabbTree(xy, T)
-    off, idx = (np.asarray(a) for a in tree.query(np.column_stack([centre, centre])))
-    i = np.repeat(np.arange(len(T)), np.diff(off))      # centroid of triangle i ...
-    j = idx                                               # ... in the box of triangle j
-    inside = o[j] != 0
-    for e in range(3):
-        u, v = P[j, e], P[j, (e + 1) % 3]
-        w = np.sign(np.asarray(orient2d(u, v, centre[i])))
-        # A centroid on the line of another triangle's edge (sheets of one
-        # fold share cutoff lines) is moved by an infinitesimal (+eps, +eps^2)
-        # (simulation of simplicity): the side is then the sign of
-        # -(v - u)_y, or of (v - u)_x for a horizontal edge -- so that the
-        # point lies in exactly one of two triangles sharing an edge.
-        dy, dx = np.sign(v[:, 1] - u[:, 1]), np.sign(v[:, 0] - u[:, 0])
-        w = np.where(w != 0, w, np.where(dy != 0, -dy, dx))
-        inside &= w * o[j] > 0
-    cover = np.bincount(i[inside], weights=o[j[inside]], minlength=len(T))
-    return np.flatnonzero(cover != 1.0)
-
-
 def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
                max_rounds: int = 50, tol: Optional[float] = None,
                area: Optional[StudyArea] = None) -> Tuple[np.ndarray, np.ndarray]:
@@ -886,7 +844,7 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
     # of its sheets can cross in XY where they meet the partner -- the
     # triangles at crossing outline edges, until the outline is simple; then
     # the triangles where the patch does not cover its image once (a sheet
-    # end reaching past the others: _signed_cover_not_one), until none is left.
+    # end reaching past the others: triangles_not_covered_once), until none is left.
     for _ in range(max_rounds):
         if len(T) == 0:
             break
@@ -897,7 +855,11 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
             continue
         rows = _outline_crossings(V, T, area)
         if rows.size == 0:
-            rows = _signed_cover_not_one(V, T)
+            # The stitcher's region is what the outline encloses: where the
+            # clip left a sheet reaching past the others (sweep seeds 24,
+            # 147, 246, 395: a gap edge used by 4 triangles), the patch does
+            # not cover its image once (triangles_not_covered_once).
+            rows = np.asarray(triangles_not_covered_once(V, T), dtype=np.int64)
         if rows.size == 0:
             break
         keep = np.ones(len(T), dtype=bool)
