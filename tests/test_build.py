@@ -534,6 +534,13 @@ def test_clip_patch_removes_triangles_that_round_just_outside_the_outline():
         clip_patch(V, T, [ring], tol=-1.0)
 
 
+def test_patch_outline_of_an_empty_patch_is_empty():
+    # A layer patch wholly outside the study area is clipped to nothing
+    # (sweep seed 368 then failed in boundary_contours).
+    from faultmesh.faults import patch_outline
+    assert patch_outline(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)) == []
+
+
 def test_x_crossing_faults_modelled_as_one_patch():
     ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], float)
     bh = _grid_boreholes({"L": lambda x, y: -100.0 - 0.001 * x})

@@ -379,3 +379,25 @@ def test_folded_pieces_clipped_by_a_partner_stitch(seed, tmp_path_factory):
     what = f"{out['describe']}: {out['stage']} {(out.get('error') or '')[:300]}"
     assert out["built"] and out["checked"], what
     assert out["accuracy"]["beats"], what
+
+
+# A dataset tip moved by a deeper layer's cutoff offset landed beside a
+# gently dipping reverse fault's end trace, on its inner side: the fan's edges
+# crossed the next loft's ("the patch outline is not simple", 48). The tip
+# is now put beyond the end trace (faults._layer_tip).
+@pytest.mark.parametrize("seed", [48])
+def test_layer_tip_beyond_the_end_trace_holds(seed, tmp_path_factory):
+    assert_holds(outcome(seed, tmp_path_factory))
+
+
+# Grounds that stopped in the fault models once the cover clean-up was in:
+# a layer patch wholly clipped away by the study area has no outline (368:
+# "boundary_contours: n_vertices must be a positive integer"); a clean-up
+# needing more than 50 rounds (494: "could not clean up the clipped
+# patch"). They build and pass check(); their repetition is the separate
+# "repetition" class.
+@pytest.mark.parametrize("seed", [368, 494])
+def test_fault_models_of_clipped_groups_build(seed, tmp_path_factory):
+    out = outcome(seed, tmp_path_factory)
+    what = f"{out['describe']}: {out['stage']} {(out.get('error') or '')[:300]}"
+    assert out["built"] and out["checked"], what

@@ -16,7 +16,8 @@ Each end of a fault is closed in one of four ways:
   closes the patch with a fan. The tip is given in XY for one layer (the
   one whose cutoff line it continues); for every other layer it is moved by
   that layer's cutoff offset on the end trace (a deeper layer meets a dipping
-  fault further down dip), and its z is the mean of the end trace's two
+  fault further down dip; where that puts it on the inner side of the end
+  trace it is put beyond it, along strike at the same distance), and its z is the mean of the end trace's two
   cutoffs plus the change of the continuous layer TIN between them.
 * ``zero_throw``: the end trace has zero throw (its cutoffs coincide): the
   patch simply ends there.
@@ -352,14 +353,33 @@ def _reference_cutoff(tr, tip: np.ndarray, direction: np.ndarray) -> Optional[np
 
 
 def _layer_tip(fault, traces_with, layer: str, end: int, tip: np.ndarray, direction: np.ndarray,
-               ring: np.ndarray, surface_z) -> np.ndarray:
-    """The tip (x, y, z) of ``layer`` at fault end ``end`` (see module doc)."""
+               ring: np.ndarray, surface_z, end_poly: Optional[np.ndarray] = None) -> np.ndarray:
+    """The tip (x, y, z) of ``layer`` at fault end ``end`` (see module doc).
+
+    ``end_poly``: the end trace's polyline in this layer. The tip closes it
+    with a fan, which covers the band once only if the tip lies strictly
+    beyond the polyline's line, on the side ``direction`` points to (exact
+    orient2d). Moved by another layer's cutoff offset, a tip beside a gently
+    dipping fault's end trace can land on the inner side, and the fan's edges
+    then cross the next loft's ("the patch outline is not simple": sweep
+    seeds 48, 350); it is then put at the same distance along ``direction``."""
     tr = traces_with[0] if end == 0 else traces_with[-1]
     mid_l = _cut_mid(tr, layer)
     ref = _reference_cutoff(tr, tip, direction)
     if ref is None:
         ref = mid_l
     v = tip - ref[:2]
+    if end_poly is not None and len(end_poly) > 1:
+        a = np.ascontiguousarray(end_poly[[0], :2])
+        b = np.ascontiguousarray(end_poly[[-1], :2])
+        if (a != b).any():
+            # The outward side: where a + direction lies (a point, like the
+            # tip, at a distance of the polyline's size).
+            scale = max(float(np.hypot(*(b[0] - a[0]))), float(np.hypot(*v)))
+            side = np.sign(orient2d(a, b, a + scale * direction[None, :]))[0]
+            t = np.sign(orient2d(a, b, (mid_l[:2] + v)[None, :]))[0]
+            if side != 0 and t != side:
+                v = float(np.hypot(*v)) * np.asarray(direction, dtype=np.float64)
     # Keep the tip inside the study area (a deep layer's shifted tip can
     # leave a study area that the fault's tip just fits in).
     xy = _pull_inside(as_study_area(ring), mid_l[:2], mid_l[:2] + v,
@@ -555,7 +575,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
         d = ends.directions[end]
         add: Optional[np.ndarray] = None
         if tip is not None:
-            add = _layer_tip(fault, with_layer, layer, end, tip, d, area, surface_z)[None, :]
+            add = _layer_tip(fault, with_layer, layer, end, tip, d, area, surface_z, poly)[None, :]
             kinds.append("tip")
         elif (throws[0] if end == 0 else throws[-1]) == 0.0:
             kinds.append("zero_throw")
@@ -695,7 +715,10 @@ def _area(ring) -> float:
 
 
 def patch_outline(V: np.ndarray, T: np.ndarray) -> List[np.ndarray]:
-    """The XY outline rings (k, 2) of a patch (its boundary loops)."""
+    """The XY outline rings (k, 2) of a patch (its boundary loops; none for
+    a patch without triangles, e.g. one wholly outside the study area)."""
+    if len(T) == 0:
+        return []
     c = boundary_contours(T, n_vertices=len(V))
     return [np.ascontiguousarray(V[np.asarray(l), :2]) for l in c.loops]
 
@@ -811,7 +834,7 @@ def _outline_crossings(V: np.ndarray, T: np.ndarray, area: Optional[StudyArea] =
 
 
 def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
-               max_rounds: int = 50, tol: Optional[float] = None,
+               max_rounds: Optional[int] = None, tol: Optional[float] = None,
                area: Optional[StudyArea] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Remove the triangles whose closed XY projection touches the region
     ``rings`` (exactly) or comes within ``tol`` of its outline, then the
@@ -826,7 +849,9 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
     partner's outline, and the gap polygon then has two holes that (almost)
     touch, which only a sliver can join (paper_like(0), 2F1-4F2 in "coal 8":
     a gap triangle of 3e-11 degrees in XY). ``tol`` None: :func:`_clip_tol`;
-    0: the exact test only."""
+    0: the exact test only. ``max_rounds`` None: as many clean-up rounds as
+    it takes (each removes at least one triangle, so at most one per
+    triangle; sweep seed 494 needed more than 50)."""
     if len(T) == 0 or not rings:
         return V, T
     if tol is None:
@@ -845,7 +870,7 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
     # triangles at crossing outline edges, until the outline is simple; then
     # the triangles where the patch does not cover its image once (a sheet
     # end reaching past the others: triangles_not_covered_once), until none is left.
-    for _ in range(max_rounds):
+    for _ in range(len(T) + 1 if max_rounds is None else max_rounds):
         if len(T) == 0:
             break
         c = boundary_contours(T, n_vertices=len(V))
