@@ -543,6 +543,13 @@ def test_clip_patch_removes_triangles_that_round_just_outside_the_outline():
         clip_patch(V, T, [ring], tol=-1.0)
 
 
+def test_patch_outline_of_an_empty_patch_is_empty():
+    # A layer patch wholly outside the study area is clipped to nothing
+    # (sweep seed 368 then failed in boundary_contours).
+    from faultmesh.faults import patch_outline
+    assert patch_outline(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)) == []
+
+
 def test_x_crossing_faults_modelled_as_one_patch():
     ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], float)
     bh = _grid_boreholes({"L": lambda x, y: -100.0 - 0.001 * x})
@@ -760,3 +767,36 @@ def test_threads_give_the_same_model():
     for bad in (0, -1, True, 1.5, "2"):
         with pytest.raises(ValueError, match="threads"):
             faultmesh.build_model(ds, threads=bad)
+
+
+def test_cover_once_flags_sheet_ends_reaching_past_the_fold():
+    # A fold in cross-section x: footwall 0 -> 2 (+), strip 2 -> 1 (-),
+    # hanging wall 1 -> 3 (+), for y in [0, 1]: the signed cover is 1 on the
+    # whole image [0, 3] x [0, 1], nothing flagged. Without the footwall over
+    # the band x in [1, 2] the strip and the hanging wall there cover it
+    # 0 times with orientation (the stitcher's gap would cover them again:
+    # sweep seed 24): their triangles are flagged, the others are not.
+    from faultmesh import triangles_not_covered_once
+    xs = [0.0, 1.0, 2.0, 1.0, 3.0]  # footwall split at x = 1
+    V = np.array([[x, y, 0.0] for y in (0.0, 1.0) for x in xs])
+    n = len(xs)
+    T = []
+    for k in range(n - 1):
+        a0, b0, a1, b1 = k, k + 1, n + k, n + k + 1
+        T += [[a0, b0, b1], [a0, b1, a1]]
+    T = np.array(T)
+    o = faultmesh.orient2d(V[T[:, 0], :2], V[T[:, 1], :2], V[T[:, 2], :2])
+    assert (o[4:6] < 0).all() and (o[[0, 1, 2, 3, 6, 7]] > 0).all()
+    assert triangles_not_covered_once(V, T).size == 0
+    cut = np.delete(T, [2, 3], axis=0)  # the footwall over x in [1, 2]
+    flagged = set(triangles_not_covered_once(V, cut).tolist())
+    # Rows after the deletion: 0-1 footwall [0, 1], 2-3 strip, 4-5 hanging wall.
+    assert {2, 3} <= flagged and not flagged & {0, 1}
+    # The hanging wall's half over [1, 2] (row 5: centroid x = 5/3) is flagged,
+    # the one whose centroid lies over [2, 3] (row 4: x = 7/3) is not.
+    assert 5 in flagged and 4 not in flagged
+    # Orientation is per piece: the same fold lofted the other way round
+    # (every triangle reversed) covers its image once too.
+    assert triangles_not_covered_once(V, T[:, ::-1]).size == 0
+    with pytest.raises(ValueError, match="out of range"):
+        triangles_not_covered_once(V, [[0, 1, 99]])

@@ -75,3 +75,30 @@ def test_locate_and_nearest():
     assert s[:3].tolist() == [5.0, 0.0, 2.5] and np.isnan(s[3])
     side, s, d = a.nearest([[5, -0.01], [5, 2]], 0.1)
     assert side.tolist() == [0, -1] and s[0] == 5.0 and d[0] == pytest.approx(0.01)
+
+
+def test_clip_surface_cuts_a_patch_across_a_notch_at_utm_offsets():
+    """A fault patch lofted across the notch of a concave study area (sweep
+    seeds 418, 454) is cut to the area: the notch's part (area 2 of 16) goes,
+    the new vertices lie on the notch's walls with the patch's z there, and
+    the outline runs along them; at UTM-sized offsets too."""
+    for off in (0.0, 5e5, 7e6):
+        ring = np.array([[0, 0], [10, 0], [10, 10], [6, 10], [5, 4], [4, 10], [0, 10]]) + off
+        a = StudyArea(ring)
+        V = np.array([[1, 6, 1], [9, 6, 9], [9, 8, 9], [1, 8, 1]], dtype=float)
+        V[:, :2] += off
+        T = np.array([[0, 1, 2], [0, 2, 3]])
+        W, U, vertex_of, n_cut, n_out = a.clip_surface(V, T, "F1")
+        assert (n_cut, n_out) == (2, 0)
+        xy = W[:, :2] - off
+        o = orient2d(W[U[:, 0], :2], W[U[:, 1], :2], W[U[:, 2], :2])
+        assert (o > 0).all()
+        area = 0.5 * np.sum((xy[U[:, 1], 0] - xy[U[:, 0], 0]) * (xy[U[:, 2], 1] - xy[U[:, 0], 1])
+                            - (xy[U[:, 1], 1] - xy[U[:, 0], 1]) * (xy[U[:, 2], 0] - xy[U[:, 0], 0]))
+        assert area == pytest.approx(14.0, rel=1e-9)
+        new = vertex_of < 0
+        assert new.sum() == 6 and a.on_boundary(W[new]).all()
+        np.testing.assert_allclose(W[:, 2], xy[:, 0], atol=1e-6)  # z = x was linear
+        assert (vertex_of[~new] == np.arange(4)).all()
+    with pytest.raises(ValueError, match="out of range"):
+        a.clip_surface(V, [[0, 1, 7]])

@@ -287,6 +287,28 @@ local merge with shared vertices. mesh() returns the compacted surface.
         py::arg("vertices"), py::arg("triangles"), py::arg("rings"),
         "Rows (int64) of the triangles whose closed XY projection meets the closed region given\n"
         "by rings (list of (k, 2) arrays, even-odd rule). Exact (orient2d).");
+
+    m.def(
+        "triangles_not_covered_once",
+        [](const py::handle& vertices, const py::handle& triangles) {
+            const char* fn = "triangles_not_covered_once";
+            auto V = as_points(vertices, fn, "vertices", 2, 3);
+            auto T = as_indices(triangles, fn, "triangles", 3, V.shape(0));
+            std::vector<std::int64_t> out;
+            {
+                py::gil_scoped_release release;
+                out = triangles_not_covered_once(V.data(), static_cast<std::size_t>(V.shape(0)),
+                                                 static_cast<std::size_t>(V.shape(1)), T.data(),
+                                                 static_cast<std::size_t>(T.shape(0)));
+            }
+            return to_numpy(std::move(out));
+        },
+        py::arg("vertices"), py::arg("triangles"),
+        "Rows (int64) of the triangles at whose centroid the surface does not cover the XY plane\n"
+        "exactly once with orientation (+1 per containing triangle oriented like its piece, -1\n"
+        "per one oriented against it: a fold's strip). Exact (orient2d, simulation of simplicity\n"
+        "on edges). A folded patch whose sheets end at different places reaches out of its\n"
+        "outline where this is not 1.");
 }
 
 }  // namespace faultmesh::bindings

@@ -188,7 +188,28 @@ void bind_study_area(py::module_& m) {
             py::arg("points"), py::arg("directions"),
             "(t, side, s, xy) of the first boundary point on each ray p + t d (t >= 0): t = 0\n"
             "and xy = p for a point on the boundary; t = inf (side -1, NaN) for a miss. The hit\n"
-            "is placed on its side (place), not computed as p + t d.");
+            "is placed on its side (place), not computed as p + t d.")
+        .def(
+            "clip_surface",
+            [](const StudyArea& a, const py::handle& vertices, const py::handle& triangles, const std::string& what) {
+                const char* fn = "StudyArea.clip_surface";
+                auto V = as_coordinates(vertices, fn, "vertices", 3, 3, 3);
+                auto T = as_indices(triangles, fn, "triangles", 3, V.shape(0));
+                ClippedSurface c;
+                {
+                    py::gil_scoped_release release;
+                    c = clip_to_study_area(a, V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
+                                           static_cast<std::size_t>(T.shape(0)), what);
+                }
+                return py::make_tuple(to_numpy(std::move(c.vertices), 3), to_numpy(std::move(c.triangles), 3),
+                                      to_numpy(std::move(c.vertex_of)), c.n_cut, c.n_dropped);
+            },
+            py::arg("vertices"), py::arg("triangles"), py::arg("what") = "surface",
+            "(vertices (k, 3), triangles (m, 3), vertex_of (k,), n_cut, n_dropped): the surface\n"
+            "clipped to the study area in XY, triangle by triangle (clip_to_study_area in\n"
+            "study_area.hpp): the part inside kept, cut exactly where a side crosses it, new\n"
+            "vertices placed on their sides with z interpolated; vertex_of gives each output\n"
+            "vertex's input row (-1: new). Orientation kept (folded sheets too).");
 }
 
 }  // namespace faultmesh::bindings

@@ -13,10 +13,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 #include <utility>
 
 namespace faultmesh {
@@ -371,6 +373,68 @@ std::vector<std::int64_t> triangles_touching_region(const double* vertices, std:
                     throw_coordinate_error(fn, "vertices row " + std::to_string((p - vertices) / static_cast<std::ptrdiff_t>(stride)) +
                                                " (used by triangles row " + std::to_string(t) + ")", k, p[k]);
         if (region.meets_closed_triangle(a, b, c)) out.push_back(static_cast<std::int64_t>(t));
+    }
+    return out;
+}
+
+std::vector<std::int64_t> triangles_not_covered_once(const double* vertices, std::size_t n_vertices,
+                                                     std::size_t stride, const std::int64_t* triangles,
+                                                     std::size_t n_triangles) {
+    const char* fn = "triangles_not_covered_once";
+    if (stride != 2 && stride != 3) throw std::invalid_argument(std::string(fn) + ": stride must be 2 or 3");
+    if (n_triangles == 0) return {};
+    // from_triangles checks the indices and the coordinate range.
+    const AabbTree tree = AabbTree::from_triangles(vertices, n_vertices, stride, triangles, n_triangles);
+    auto V = [&](std::int64_t i) { return vertices + stride * static_cast<std::size_t>(i); };
+    std::vector<int> o(n_triangles);
+    for (std::size_t t = 0; t < n_triangles; ++t)
+        o[t] = orient2d_sign(V(triangles[3 * t]), V(triangles[3 * t + 1]), V(triangles[3 * t + 2]));
+    // Pieces: triangles joined across shared edges (any orientation).
+    std::vector<std::size_t> parent(n_triangles);
+    for (std::size_t t = 0; t < n_triangles; ++t) parent[t] = t;
+    auto find = [&](std::size_t x) {
+        while (parent[x] != x) x = parent[x] = parent[parent[x]];
+        return x;
+    };
+    {
+        std::unordered_map<std::uint64_t, std::size_t> first;
+        first.reserve(3 * n_triangles);
+        for (std::size_t t = 0; t < n_triangles; ++t)
+            for (int k = 0; k < 3; ++k) {
+                const std::int64_t a = triangles[3 * t + k], b = triangles[3 * t + (k + 1) % 3];
+                const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) ^
+                                          static_cast<std::uint64_t>(std::max(a, b));
+                auto [it, fresh] = first.emplace(key, t);
+                if (!fresh) parent[find(t)] = find(it->second);
+            }
+    }
+    std::unordered_map<std::size_t, double> area;
+    for (std::size_t t = 0; t < n_triangles; ++t)
+        area[find(t)] += orient2d(V(triangles[3 * t]), V(triangles[3 * t + 1]), V(triangles[3 * t + 2]));
+    std::vector<int> sign(n_triangles);
+    for (std::size_t t = 0; t < n_triangles; ++t) sign[t] = area[find(t)] < 0.0 ? -o[t] : o[t];
+
+    std::vector<std::int64_t> out;
+    for (std::size_t t = 0; t < n_triangles; ++t) {
+        const double *a = V(triangles[3 * t]), *b = V(triangles[3 * t + 1]), *c = V(triangles[3 * t + 2]);
+        const double q[2] = {(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0};
+        int cover = 0;
+        tree.visit(Box2{q[0], q[1], q[0], q[1]}, [&](std::int64_t j) {
+            const int oj = o[static_cast<std::size_t>(j)];
+            if (oj == 0) return;
+            for (int k = 0; k < 3; ++k) {
+                const double* u = V(triangles[3 * j + k]);
+                const double* v = V(triangles[3 * j + (k + 1) % 3]);
+                int w = orient2d_sign(u, v, q);
+                // Simulation of simplicity: q + (eps, eps^2) is left of u -> v
+                // iff -(v - u)_y > 0, or (v - u)_x > 0 for a horizontal edge
+                // (the sign of a difference of two doubles is exact).
+                if (w == 0) w = v[1] != u[1] ? (v[1] < u[1] ? 1 : -1) : (v[0] > u[0] ? 1 : -1);
+                if (w != oj) return;
+            }
+            cover += sign[static_cast<std::size_t>(j)];
+        });
+        if (cover != 1) out.push_back(static_cast<std::int64_t>(t));
     }
     return out;
 }

@@ -137,8 +137,9 @@ void outline_patch(const StitcherState& s, StitchJob& job) {
                         " to " + fmt_point(pb) + " crosses the study-area side from " + fmt_point(c) +
                         " to " + fmt_point(d) +
                         " (the fault runs out of the study area and back in between two of its traces, "
-                        "e.g. across a notch of a non-convex study area; a patch is not clipped to the "
-                        "study area)");
+                        "e.g. across a notch of a non-convex study area; the stitcher does not clip: "
+                        "clip the patch first (clip_to_study_area, StudyArea.clip_surface in Python) "
+                        "as the builder does)");
             }
         };
         for (const auto& loop : bc.loops) {
@@ -207,6 +208,25 @@ void outline_patch(const StitcherState& s, StitchJob& job) {
                         " (a reverse fault must end at a pinch-out tip, a zero-throw trace or the "
                         "study-area boundary)");
             }
+        }
+    }
+    // The region R is what the outline encloses: the patch must cover it
+    // once, counted with orientation, everywhere (a fold: footwall +, strip
+    // -, hanging wall +). A sheet reaching past the others lies outside R
+    // and the gap would be laid over it (sweep seed 24: "new triangles: edge
+    // ... is used by 4 triangles").
+    {
+        const std::vector<std::int64_t> bad = triangles_not_covered_once(pv, npv, 3, ptri.data(), npt);
+        if (!bad.empty()) {
+            const std::int64_t* t = ptri.data() + 3 * bad[0];
+            const double *a = P(t[0]), *b = P(t[1]), *c = P(t[2]);
+            const double q[2] = {(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0};
+            throw GeometryError(
+                fn + ": the patch does not cover its XY image once: at the centroid " + fmt_point(q) +
+                " of patch triangle " + std::to_string(bad[0]) + " (vertices " + std::to_string(t[0]) + ", " +
+                std::to_string(t[1]) + ", " + std::to_string(t[2]) + "), counted with orientation, it " +
+                "does not (" + std::to_string(bad.size()) + " triangle(s)): a folded patch whose sheets "
+                "end at different places reaches out of its outline there");
         }
     }
     job.region = Region(ring_xy.data(), ring_off.data(), ring_off.size() - 1);

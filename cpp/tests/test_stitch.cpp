@@ -508,3 +508,33 @@ TEST(StitchSteps, LinkPairsEveryNewEdgeAndCommitIsTheOnlyChange) {
         expect_disk(f.st.mesh());
     }
 }
+
+TEST(Stitch, FoldedPatchCoversItsImageOnce) {
+    // A valid fold (footwall +, strip -, hanging wall +) covers its image once.
+    Mesh P = reverse_patch();
+    EXPECT_TRUE(faultmesh::triangles_not_covered_once(P.v.data(), P.v.size() / 3, 3, P.t.data(),
+                                                      P.t.size() / 3)
+                    .empty());
+    // A square with a flap folded back into itself (sweep seed 24): the
+    // outline A B E G C D is simple, but the clockwise triangle E G C lies
+    // in the notch at G, outside that outline (cover 0 there: + B E C, - E G C).
+    const double o = 40.0;
+    const std::vector<double> V = {o, o, 0, o + 10, o, 0, o + 10, o + 10, 0, o, o + 10, 0,
+                                   o + 15, o + 2, 0, o + 12, o + 4, 0};
+    enum { A, B, C, D, E, G };
+    const std::vector<std::int64_t> T = {A, B, C, A, C, D, B, E, C, E, G, C};
+    ASSERT_LT(faultmesh::orient2d(&V[3 * E], &V[3 * G], &V[3 * C]), 0.0);
+    EXPECT_EQ(faultmesh::triangles_not_covered_once(V.data(), 6, 3, T.data(), 4),
+              (std::vector<std::int64_t>{3}));
+    // The stitcher says so instead of laying its gap over the flap.
+    Mesh L = grid_tin();
+    LayerStitcher st(L.v.data(), L.v.size() / 3, L.t.data(), L.t.size() / 3, kSquare.data(), 4, nullptr, "L");
+    try {
+        st.stitch(V.data(), 6, T.data(), 4, "flap");
+        FAIL() << "no error";
+    } catch (const GeometryError& e) {
+        EXPECT_NE(std::string(e.what()).find("does not cover its XY image once"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("patch triangle 3"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(st.n_live_triangles(), L.t.size() / 3);  // nothing changed
+}

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <map>
+#include <utility>
 #include <cmath>
 #include <random>
 #include <stdexcept>
@@ -127,4 +129,123 @@ TEST(StudyArea, ContainsAndNearest) {
     EXPECT_DOUBLE_EQ(n.s, 5.0);
     EXPECT_NEAR(n.distance, 0.01, 1e-15);
     EXPECT_FALSE(a.nearest(in, 0.1).found);
+}
+
+namespace {
+
+// A 10 x 10 square with a notch cut from the top side down to the reflex
+// corner (5, 4).
+StudyArea notched() {
+    const std::vector<double> r = {0, 0, 10, 0, 10, 10, 6, 10, 5, 4, 4, 10, 0, 10};
+    return StudyArea(r.data(), 7);
+}
+
+double xy_area(const faultmesh::ClippedSurface& c) {
+    double a = 0.0;
+    for (std::size_t i = 0; i < c.triangles.size(); i += 3) {
+        const double* p = &c.vertices[3 * c.triangles[i]];
+        const double* q = &c.vertices[3 * c.triangles[i + 1]];
+        const double* r = &c.vertices[3 * c.triangles[i + 2]];
+        a += 0.5 * ((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]));
+    }
+    return a;
+}
+
+// Every vertex in the area with z = x (the input's linear z), every triangle
+// non-degenerate with the given orientation sign and its centroid in the
+// area, no outline edge properly crossing a side, each undirected edge in at
+// most two triangles and then in opposite directions (conforming).
+void expect_clipped_inside(const StudyArea& a, const faultmesh::ClippedSurface& c, int sign) {
+    const std::size_t nv = c.vertices.size() / 3;
+    for (std::size_t i = 0; i < nv; ++i) {
+        EXPECT_TRUE(a.contains(&c.vertices[3 * i])) << "vertex " << i;
+        EXPECT_NEAR(c.vertices[3 * i + 2], c.vertices[3 * i], 1e-12) << "vertex " << i;
+    }
+    std::map<std::pair<std::int64_t, std::int64_t>, int> directed;
+    for (std::size_t t = 0; t < c.triangles.size(); t += 3) {
+        const double* p[3];
+        for (int k = 0; k < 3; ++k) p[k] = &c.vertices[3 * c.triangles[t + k]];
+        const double o = faultmesh::orient2d(p[0], p[1], p[2]);
+        EXPECT_EQ(o > 0.0 ? 1 : (o < 0.0 ? -1 : 0), sign) << "triangle " << t / 3;
+        const double m[2] = {(p[0][0] + p[1][0] + p[2][0]) / 3.0, (p[0][1] + p[1][1] + p[2][1]) / 3.0};
+        EXPECT_TRUE(a.contains(m)) << "triangle " << t / 3;
+        for (int k = 0; k < 3; ++k) ++directed[{c.triangles[t + k], c.triangles[t + (k + 1) % 3]}];
+    }
+    for (const auto& [e, n] : directed) {
+        EXPECT_EQ(n, 1) << "edge " << e.first << "-" << e.second << " used twice in one direction";
+        if (directed.count({e.second, e.first})) continue;
+        // An outline edge: no side crossing it properly, except one its end
+        // lies on (rounding of a point placed on the side; the stitcher's rule).
+        const double *p = &c.vertices[3 * e.first], *q = &c.vertices[3 * e.second];
+        std::vector<StudyArea::Hit> hp, hq;
+        a.locate(p, hp);
+        a.locate(q, hq);
+        for (std::size_t k = 0; k < a.n_sides(); ++k) {
+            bool on = false;
+            for (const auto& h : hp) on |= h.side == k;
+            for (const auto& h : hq) on |= h.side == k;
+            if (on) continue;
+            const double *u = a.corner(k), *w = a.corner(k + 1);
+            const int o1 = faultmesh::orient2d_sign(p, q, u), o2 = faultmesh::orient2d_sign(p, q, w);
+            const int o3 = faultmesh::orient2d_sign(u, w, p), o4 = faultmesh::orient2d_sign(u, w, q);
+            EXPECT_FALSE(o1 * o2 < 0 && o3 * o4 < 0) << "outline edge crosses side " << k;
+        }
+    }
+}
+
+}  // namespace
+
+TEST(ClipToStudyArea, StripAcrossANotchIsCutInTwo) {
+    // A strip y in [6, 8] across the whole square: the notch (walls from
+    // (5, 4) to (4, 10) and (6, 10)) cuts it in two; the notch's part of it
+    // is a trapezoid of widths 2/3 and 4/3: area 2 of 16.
+    const StudyArea a = notched();
+    const std::vector<double> V = {1, 6, 1, 9, 6, 9, 9, 8, 9, 1, 8, 1};
+    const std::vector<std::int64_t> ccw = {0, 1, 2, 0, 2, 3}, cw = {0, 2, 1, 0, 3, 2};
+    const auto c = faultmesh::clip_to_study_area(a, V.data(), 4, ccw.data(), 2, "strip");
+    EXPECT_EQ(c.n_cut, 2u);
+    EXPECT_NEAR(xy_area(c), 14.0, 1e-12);
+    expect_clipped_inside(a, c, +1);
+    // The new vertices (where the strip's 3 edges cross the notch's 2
+    // walls) lie on the walls (found by locate).
+    std::size_t n_new = 0;
+    for (std::size_t i = 0; i < c.vertex_of.size(); ++i)
+        if (c.vertex_of[i] < 0) {
+            ++n_new;
+            EXPECT_TRUE(a.on_boundary(&c.vertices[3 * i])) << "vertex " << i;
+        }
+    EXPECT_EQ(n_new, 6u);
+    // A clockwise (folded) sheet stays clockwise.
+    const auto d = faultmesh::clip_to_study_area(a, V.data(), 4, cw.data(), 2, "strip");
+    EXPECT_NEAR(xy_area(d), -14.0, 1e-12);
+    expect_clipped_inside(a, d, -1);
+}
+
+TEST(ClipToStudyArea, ReflexCornerInsideATriangle) {
+    // y in [2, 6]: the notch's tip (5, 4) lies inside a triangle; the notch
+    // takes a triangle of width 2/3 and height 2 (area 2/3) of 32.
+    const StudyArea a = notched();
+    const std::vector<double> V = {1, 2, 1, 9, 2, 9, 9, 6, 9, 1, 6, 1};
+    const std::vector<std::int64_t> T = {0, 1, 2, 0, 2, 3};
+    const auto c = faultmesh::clip_to_study_area(a, V.data(), 4, T.data(), 2, "strip");
+    EXPECT_NEAR(xy_area(c), 32.0 - 2.0 / 3.0, 1e-12);
+    expect_clipped_inside(a, c, +1);
+    bool tip = false;
+    for (std::size_t i = 0; i < c.vertex_of.size(); ++i)
+        tip |= c.vertices[3 * i] == 5.0 && c.vertices[3 * i + 1] == 4.0;
+    EXPECT_TRUE(tip);
+}
+
+TEST(ClipToStudyArea, InsideKeptOutsideDroppedEdgesOnTheBoundaryKept) {
+    const StudyArea a = notched();
+    // Inside (touching the bottom side along an edge), and wholly outside.
+    const std::vector<double> V = {1, 0, 1, 3, 0, 3, 2, 2, 2, 11, 1, 11, 12, 1, 12, 11, 3, 11};
+    const std::vector<std::int64_t> T = {0, 1, 2, 3, 4, 5};
+    const auto c = faultmesh::clip_to_study_area(a, V.data(), 6, T.data(), 2, "t");
+    EXPECT_EQ(c.n_cut, 0u);
+    EXPECT_EQ(c.n_dropped, 1u);
+    EXPECT_EQ(c.triangles, (std::vector<std::int64_t>{0, 1, 2}));
+    EXPECT_EQ(c.vertex_of, (std::vector<std::int64_t>{0, 1, 2}));
+    const std::vector<std::int64_t> bad = {0, 1, 6};
+    EXPECT_THROW(faultmesh::clip_to_study_area(a, V.data(), 6, bad.data(), 1, "t"), std::invalid_argument);
 }

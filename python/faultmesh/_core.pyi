@@ -8,7 +8,7 @@ import enum
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'incircle', 'join_holes', 'loft', 'loft_area', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_touching_region', 'triangulate_polygon']
+__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'incircle', 'join_holes', 'loft', 'loft_area', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
 class GeometryError(ValueError):
     pass
 class PatchOverlapError(GeometryError):
@@ -233,6 +233,14 @@ class StudyArea:
     def arc_position(self, side: typing.Any, s: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
         """
         Arc position from corner 0, in [0, perimeter).
+        """
+    def clip_surface(self, vertices: typing.Any, triangles: typing.Any, what: str = 'surface') -> tuple[numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.int64], int, int]:
+        """
+        (vertices (k, 3), triangles (m, 3), vertex_of (k,), n_cut, n_dropped): the surface
+        clipped to the study area in XY, triangle by triangle (clip_to_study_area in
+        study_area.hpp): the part inside kept, cut exactly where a side crosses it, new
+        vertices placed on their sides with z interpolated; vertex_of gives each output
+        vertex's input row (-1: new). Orientation kept (folded sheets too).
         """
     def contains(self, points: typing.Any) -> numpy.typing.NDArray[numpy.bool]:
         """
@@ -729,6 +737,14 @@ def triangle_overlaps_region(a: typing.Any, b: typing.Any, c: typing.Any, rings:
     """
     Exact per-row test (brute force over the ring edges, no tree): does the open triangle
     (a[i], b[i], c[i]) meet the region's interior? Arrays (n, 2|3); returns bool (n,).
+    """
+def triangles_not_covered_once(vertices: typing.Any, triangles: typing.Any) -> numpy.typing.NDArray[numpy.int64]:
+    """
+    Rows (int64) of the triangles at whose centroid the surface does not cover the XY plane
+    exactly once with orientation (+1 per containing triangle oriented like its piece, -1
+    per one oriented against it: a fold's strip). Exact (orient2d, simulation of simplicity
+    on edges). A folded patch whose sheets end at different places reaches out of its
+    outline where this is not 1.
     """
 def triangles_touching_region(vertices: typing.Any, triangles: typing.Any, rings: typing.Any) -> numpy.typing.NDArray[numpy.int64]:
     """

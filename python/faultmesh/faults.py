@@ -16,7 +16,8 @@ Each end of a fault is closed in one of four ways:
   closes the patch with a fan. The tip is given in XY for one layer (the
   one whose cutoff line it continues); for every other layer it is moved by
   that layer's cutoff offset on the end trace (a deeper layer meets a dipping
-  fault further down dip), and its z is the mean of the end trace's two
+  fault further down dip; where that puts it on the inner side of the end
+  trace it is put beyond it, along strike at the same distance), and its z is the mean of the end trace's two
   cutoffs plus the change of the continuous layer TIN between them.
 * ``zero_throw``: the end trace has zero throw (its cutoffs coincide): the
   patch simply ends there.
@@ -25,7 +26,11 @@ Each end of a fault is closed in one of four ways:
   the nearest target within reach: the study-area boundary (paper: F22, a
   fault "without pinching at the boundary") or, for faults of one group, the
   outline of the partner fault that this one abuts (T-crossing). z follows
-  the continuous layer TIN's change along the way.
+  the continuous layer TIN's change along the way. A reverse fault is not
+  carried onto a partner: its fold would fold back along the partner's
+  outline, and clipped there its sheets would end at different places; a
+  pinch-out halfway to the partner closes it (kind ``synthetic_tip``,
+  metadata ``end<i>_tip_short_of``).
 * ``synthetic_tip``: nothing within reach: a tip half a trace spacing
   further along strike closes the patch (recorded in the metadata).
 
@@ -36,6 +41,11 @@ triangle whose closed XY projection touches them is removed, exactly, then
 pinch vertices are cleaned up), so the group's patch is a set of disjoint
 pieces that the stitcher treats as one region: one removed set, one gap
 polygon with every piece as a hole.
+
+Each layer's patch is then clipped to the study area in XY
+(:meth:`StudyArea.clip_surface`, exact): a loft between two traces is a chord
+that can run out of a concave area and back in across a notch; the cut puts
+the patch's outline on the boundary there, as at an extended end.
 
 The fault surface itself is lofted from the fault-plane traces, closed at a
 tip by the end plane trace moved to the tip, and extended like the layers.
@@ -50,7 +60,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ._core import (AabbTree, GeometryError, StudyArea, boundary_contours, loft, orient2d,
-                    triangles_touching_region)
+                    triangles_not_covered_once, triangles_touching_region)
 
 __all__ = ["LayerPatch", "FaultEnds", "EndMove", "EndMoveKind", "fault_ends", "trace_polyline",
            "layer_patch", "fault_surface", "group_patch", "patch_outline"]
@@ -343,14 +353,33 @@ def _reference_cutoff(tr, tip: np.ndarray, direction: np.ndarray) -> Optional[np
 
 
 def _layer_tip(fault, traces_with, layer: str, end: int, tip: np.ndarray, direction: np.ndarray,
-               ring: np.ndarray, surface_z) -> np.ndarray:
-    """The tip (x, y, z) of ``layer`` at fault end ``end`` (see module doc)."""
+               ring: np.ndarray, surface_z, end_poly: Optional[np.ndarray] = None) -> np.ndarray:
+    """The tip (x, y, z) of ``layer`` at fault end ``end`` (see module doc).
+
+    ``end_poly``: the end trace's polyline in this layer. The tip closes it
+    with a fan, which covers the band once only if the tip lies strictly
+    beyond the polyline's line, on the side ``direction`` points to (exact
+    orient2d). Moved by another layer's cutoff offset, a tip beside a gently
+    dipping fault's end trace can land on the inner side, and the fan's edges
+    then cross the next loft's ("the patch outline is not simple": sweep
+    seeds 48, 350); it is then put at the same distance along ``direction``."""
     tr = traces_with[0] if end == 0 else traces_with[-1]
     mid_l = _cut_mid(tr, layer)
     ref = _reference_cutoff(tr, tip, direction)
     if ref is None:
         ref = mid_l
     v = tip - ref[:2]
+    if end_poly is not None and len(end_poly) > 1:
+        a = np.ascontiguousarray(end_poly[[0], :2])
+        b = np.ascontiguousarray(end_poly[[-1], :2])
+        if (a != b).any():
+            # The outward side: where a + direction lies (a point, like the
+            # tip, at a distance of the polyline's size).
+            scale = max(float(np.hypot(*(b[0] - a[0]))), float(np.hypot(*v)))
+            side = np.sign(orient2d(a, b, a + scale * direction[None, :]))[0]
+            t = np.sign(orient2d(a, b, (mid_l[:2] + v)[None, :]))[0]
+            if side != 0 and t != side:
+                v = float(np.hypot(*v)) * np.asarray(direction, dtype=np.float64)
     # Keep the tip inside the study area (a deep layer's shifted tip can
     # leave a study area that the fault's tip just fits in).
     xy = _pull_inside(as_study_area(ring), mid_l[:2], mid_l[:2] + v,
@@ -546,7 +575,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
         d = ends.directions[end]
         add: Optional[np.ndarray] = None
         if tip is not None:
-            add = _layer_tip(fault, with_layer, layer, end, tip, d, area, surface_z)[None, :]
+            add = _layer_tip(fault, with_layer, layer, end, tip, d, area, surface_z, poly)[None, :]
             kinds.append("tip")
         elif (throws[0] if end == 0 else throws[-1]) == 0.0:
             kinds.append("zero_throw")
@@ -554,7 +583,28 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
             kinds.append("boundary")
         else:
             ext = _extend(poly, d, area, partners or {}, max_extension, surface_z)
-            if ext is not None:
+            if (ext is not None and ext[1] != "boundary" and fault.kind == "reverse"
+                    and len(ext[0]) > 1):
+                # A reverse fault's fold (footwall, strip, hanging wall)
+                # carried onto a partner would fold back along the partner's
+                # outline; clipped there by whole triangles its sheets end at
+                # different places, reaching past each other (sweep class
+                # "new triangles: edge used by 4 triangles", seeds 133, 177,
+                # 207, 218, 420, 460, ...). It is closed by a pinch-out
+                # halfway to the partner instead: the fan ends the fold with
+                # a simple outline, clear of the partner, and the gap joins
+                # the two. The partner is not reached, so it is not in
+                # ``abuts`` (group_patch then orders the fold by its folding).
+                _, target, dist = ext
+                sides = (with_layer[0] if end == 0 else with_layer[-1]).layers[layer]
+                cm = 0.5 * (np.asarray(sides["foot"])[-1] + np.asarray(sides["hanging"])[0])
+                xy = _pull_inside(area, cm[:2], cm[:2] + 0.5 * dist * d,
+                                  f"fault {fault.name!r} layer {layer!r}: the end cutoff")
+                add = np.array([[xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])]])
+                kinds.append("synthetic_tip")
+                meta[f"end{end}_tip_short_of"] = target
+                meta[f"end{end}_tip_distance"] = 0.5 * dist
+            elif ext is not None:
                 add, target, dist = ext
                 c_add = cuts[0] if end == 0 else cuts[-1]
                 if target == "boundary":
@@ -586,6 +636,13 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 seq.append(add)
                 cuts.append(c)
     V, T = _assemble(seq, loft_method, cuts)
+    # The loft between two traces is a chord: where the study area is not
+    # convex it can run out of the area and back in (across a notch; sweep
+    # seeds 418, 454). The patch is cut to the area exactly there, its new
+    # outline on the boundary (the stitcher needs a patch inside the area).
+    V, T, _, n_cut, n_out = area.clip_surface(V, T, f"fault {fault.name!r} layer {layer!r}")
+    if n_cut or n_out:
+        meta["clipped_to_study_area"] = {"cut": int(n_cut), "dropped": int(n_out)}
     return LayerPatch(fault.name, layer, V, T, kinds, abuts, meta)
 
 
@@ -658,7 +715,10 @@ def _area(ring) -> float:
 
 
 def patch_outline(V: np.ndarray, T: np.ndarray) -> List[np.ndarray]:
-    """The XY outline rings (k, 2) of a patch (its boundary loops)."""
+    """The XY outline rings (k, 2) of a patch (its boundary loops; none for
+    a patch without triangles, e.g. one wholly outside the study area)."""
+    if len(T) == 0:
+        return []
     c = boundary_contours(T, n_vertices=len(V))
     return [np.ascontiguousarray(V[np.asarray(l), :2]) for l in c.loops]
 
@@ -774,7 +834,7 @@ def _outline_crossings(V: np.ndarray, T: np.ndarray, area: Optional[StudyArea] =
 
 
 def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
-               max_rounds: int = 50, tol: Optional[float] = None,
+               max_rounds: Optional[int] = None, tol: Optional[float] = None,
                area: Optional[StudyArea] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Remove the triangles whose closed XY projection touches the region
     ``rings`` (exactly) or comes within ``tol`` of its outline, then the
@@ -789,7 +849,9 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
     partner's outline, and the gap polygon then has two holes that (almost)
     touch, which only a sliver can join (paper_like(0), 2F1-4F2 in "coal 8":
     a gap triangle of 3e-11 degrees in XY). ``tol`` None: :func:`_clip_tol`;
-    0: the exact test only."""
+    0: the exact test only. ``max_rounds`` None: as many clean-up rounds as
+    it takes (each removes at least one triangle, so at most one per
+    triangle; sweep seed 494 needed more than 50)."""
     if len(T) == 0 or not rings:
         return V, T
     if tol is None:
@@ -805,8 +867,10 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
     # Clean-up: triangles at pinch vertices, then -- a folded (reverse-fault)
     # patch is clipped sheet by sheet at different places, and the outlines
     # of its sheets can cross in XY where they meet the partner -- the
-    # triangles at crossing outline edges, until the outline is simple.
-    for _ in range(max_rounds):
+    # triangles at crossing outline edges, until the outline is simple; then
+    # the triangles where the patch does not cover its image once (a sheet
+    # end reaching past the others: triangles_not_covered_once), until none is left.
+    for _ in range(len(T) + 1 if max_rounds is None else max_rounds):
         if len(T) == 0:
             break
         c = boundary_contours(T, n_vertices=len(V))
@@ -815,6 +879,12 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
             T = T[~np.isin(T, bad).any(axis=1)]
             continue
         rows = _outline_crossings(V, T, area)
+        if rows.size == 0:
+            # The stitcher's region is what the outline encloses: where the
+            # clip left a sheet reaching past the others (sweep seeds 24,
+            # 147, 246, 395: a gap edge used by 4 triangles), the patch does
+            # not cover its image once (triangles_not_covered_once).
+            rows = np.asarray(triangles_not_covered_once(V, T), dtype=np.int64)
         if rows.size == 0:
             break
         keep = np.ones(len(T), dtype=bool)

@@ -17,7 +17,10 @@
 //     its signed XY areas is positive (outer loops CCW). Checks: every loop is
 //     simple in XY and no two loops meet, except along the study-area
 //     boundary (where the end trace of a fault that reaches the boundary may
-//     fold back on itself); every vertex of P lies in the study area.
+//     fold back on itself); every vertex of P lies in the study area; P
+//     covers R once, counted with orientation, at every triangle's centroid
+//     (triangles_not_covered_once: a folded patch whose sheets end at
+//     different places reaches out of R, and the gap would cover it again).
 //  2. Overlap (find_overlap, two stages): the AABB tree gives the triangles
 //     whose XY box meets R's box (the tree is built once per layer over
 //     blocks of 8 consecutive triangles -- a Delaunay TIN's rows are spatially
@@ -210,5 +213,22 @@ std::vector<std::int64_t> triangles_touching_region(const double* vertices, std:
                                                     std::size_t n_triangles, const double* ring_xy,
                                                     const std::int64_t* ring_offsets,
                                                     std::size_t n_rings);
+
+// Rows of the triangles at whose centroid the surface does not cover the XY
+// plane exactly once, counted with orientation: a triangle containing the
+// point counts +1 if its XY orientation agrees with its edge-connected
+// piece's (the sign of the piece's signed XY area), -1 if not (the strip of
+// a fold). A folded patch (footwall +, strip -, hanging wall +) covers its
+// image once; one whose sheets end at different places does not: a sheet
+// reaching past the others (cover 0 or -1) lies outside the region its
+// outline encloses, which is the stitcher's region R, and the gap would
+// cover it again; a sheet over a hole of the strip has cover 2. Containment
+// is exact (orient2d); a centroid on the line of another triangle's edge is
+// moved by an infinitesimal (+eps, +eps^2) (simulation of simplicity), so
+// that it lies in exactly one of two triangles sharing an edge. Zero-area
+// triangles count for nothing. stride: 2 or 3 doubles per vertex.
+std::vector<std::int64_t> triangles_not_covered_once(const double* vertices, std::size_t n_vertices,
+                                                     std::size_t stride, const std::int64_t* triangles,
+                                                     std::size_t n_triangles);
 
 }  // namespace faultmesh

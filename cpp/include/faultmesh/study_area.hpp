@@ -31,6 +31,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <faultmesh/aabb_tree.hpp>
@@ -106,5 +107,38 @@ private:
     int cell_class(const double* p) const;
     bool inside_strictly(const double* p) const;
 };
+
+// A triangulated surface (a fault's patch in one layer, possibly folded in
+// XY: a reverse fault's strip runs backwards) clipped to the study area in
+// XY, triangle by triangle: the part of each triangle inside the closed
+// study area is kept, exactly where the boundary cuts it.
+//  * Triangles wholly inside (no side meets them) are kept as they are;
+//    wholly outside ones are dropped.
+//  * A triangle a side crosses is cut: its boundary is split at the proper
+//    crossings of its edges with the sides (exact orientations; a side that
+//    an edge's end lies on -- StudyArea::locate -- does not cross that edge
+//    there) and at the corners lying inside its open edges; the pieces of
+//    its boundary inside the area, joined by the pieces of the study-area
+//    boundary inside the triangle (with the corners there), form the
+//    polygon(s) of the kept part, ear-clipped (ear_clipping.hpp).
+//  * New vertices: a crossing is placed ON its side (StudyArea::place, so
+//    that locate finds it) and shared by the two triangles of the edge (the
+//    result stays conforming); its z is interpolated along the edge. A
+//    corner inside a triangle gets the triangle's z there (one vertex per
+//    triangle: the sheets of a folded patch each get their own).
+// The kept triangles keep the input orientation (CW triangles of a folded
+// sheet stay CW). Vertices no kept triangle uses are dropped.
+// `what` names the surface in errors (GeometryError for a cut that the
+// exact tests find inconsistent, naming the triangle).
+struct ClippedSurface {
+    std::vector<double> vertices;          // 3 per vertex
+    std::vector<std::int64_t> triangles;   // 3 per triangle
+    std::vector<std::int64_t> vertex_of;   // per output vertex: input vertex, or -1 for a new one
+    std::size_t n_cut = 0;                 // input triangles cut (neither kept whole nor dropped)
+    std::size_t n_dropped = 0;             // input triangles wholly outside
+};
+ClippedSurface clip_to_study_area(const StudyArea& area, const double* vertices, std::size_t n_vertices,
+                                  const std::int64_t* triangles, std::size_t n_triangles,
+                                  const std::string& what = "surface");
 
 }  // namespace faultmesh
