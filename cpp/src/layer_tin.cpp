@@ -321,10 +321,12 @@ private:
     std::size_t mask_ = 0;
 };
 
-// The interior XY points that a group of layers all have, triangulated once
-// (z NaN); each member's LayerData::shared_vertex says where its points are.
-struct SharedXY {
-    std::optional<Tin> tin;
+// The interior XY points that a group of layers all have, to be
+// triangulated once (z NaN), in Hilbert order: vertex k of that
+// triangulation is point k (the points are distinct). Each member's
+// LayerData::shared_vertex says where its points are.
+struct SharedPlan {
+    std::vector<double> points;  // 3 per point; empty: no group
 };
 
 // Builds the shared triangulation for the layers that have most of their
@@ -336,8 +338,8 @@ struct SharedXY {
 // gain. Only the first 64 layers (a bit mask each) take part.
 constexpr double kMinShared = 0.75;
 
-SharedXY share_xy(std::vector<LayerData>& layers, std::vector<char>& member) {
-    SharedXY out;
+SharedPlan plan_shared(std::vector<LayerData>& layers, std::vector<char>& member) {
+    SharedPlan out;
     member.assign(layers.size(), 0);
     const std::size_t nl = std::min<std::size_t>(layers.size(), 64);
     if (nl < 2) return out;
@@ -381,8 +383,8 @@ SharedXY share_xy(std::vector<LayerData>& layers, std::vector<char>& member) {
         std::size_t worst_l = 0;
         for (std::size_t l = 0; l < nl; ++l) {
             if (!(group >> l & 1)) continue;
-            const double share = static_cast<double>(n_common) /
-                                 static_cast<double>(std::max<std::size_t>(1, layers[l].interior.size() / 3));
+            const std::size_t own = layers[l].interior.size() / 3;
+            const double share = own ? static_cast<double>(n_common) / static_cast<double>(own) : 0.0;
             if (share < worst) worst = share, worst_l = l;
         }
         if (worst >= kMinShared) break;
@@ -410,13 +412,7 @@ SharedXY share_xy(std::vector<LayerData>& layers, std::vector<char>& member) {
         std::copy_n(&pts[3 * order[k]], 3, &sorted[3 * k]);
         vertex_of_slot[slot_of[order[k]]] = static_cast<std::int64_t>(k);
     }
-    try {
-        out.tin.emplace(sorted.data(), order.size());
-    } catch (const GeometryError&) {
-        forget();
-        return out;  // all collinear: each layer alone (and its own message)
-    }
-    // The points are distinct, so vertex k is the k-th sorted point.
+    out.points = std::move(sorted);
     for (std::size_t l = 0; l < layers.size(); ++l) {
         member[l] = l < nl && (group >> l & 1);
         std::vector<std::int32_t>& sv = layers[l].shared_vertex;
@@ -431,9 +427,18 @@ SharedXY share_xy(std::vector<LayerData>& layers, std::vector<char>& member) {
 
 }  // namespace
 
-// The set-up of a LayerTin from its sorted-out data; with `shared`, the
-// layer's TIN starts as a copy of the shared triangulation.
-void set_up(LayerTinState& s, LayerData&& d, const SharedXY* shared) {
+// The set-up of a LayerTin from its sorted-out data, in two parts: prepare()
+// makes its points (boundary vertices with their z, the interior data in
+// Hilbert order, the protection's splits), finish() its TIN -- with
+// `shared`, a copy of the shared triangulation plus its other points. The
+// shared triangulation is built while the layers are prepared.
+struct Prepared {
+    std::vector<double> pts;  // 3 per point: nb boundary, ni interior, then splits
+    std::size_t nb = 0, ni = 0;
+    std::vector<std::int32_t> shared_vertex;  // per interior point (in pts order), or empty
+};
+
+Prepared prepare(LayerTinState& s, LayerData&& d) {
     const std::string fn = "LayerTin('" + s.name + "')";
     const StudyArea& area = s.area;
     const LayerTinOptions& options = s.opt;
@@ -509,7 +514,7 @@ void set_up(LayerTinState& s, LayerData&& d, const SharedXY* shared) {
         pts.reserve(pts.size() + interior.size());
         for (std::uint32_t i : order) pts.insert(pts.end(), &interior[3 * i], &interior[3 * i] + 3);
         std::vector<double>().swap(interior);
-        if (shared != nullptr) {
+        if (!d.shared_vertex.empty()) {
             shared_vertex.resize(ni);
             for (std::size_t k = 0; k < ni; ++k) shared_vertex[k] = d.shared_vertex[order[k]];
             std::vector<std::int32_t>().swap(d.shared_vertex);
@@ -565,6 +570,20 @@ void set_up(LayerTinState& s, LayerData&& d, const SharedXY* shared) {
         work.emplace_back(pc.side, pc.sa);
         work.emplace_back(pc.side, sm);
     }
+    Prepared out;
+    out.pts = std::move(pts);
+    out.nb = nb;
+    out.ni = ni;
+    out.shared_vertex = std::move(shared_vertex);
+    return out;
+}
+
+void finish(LayerTinState& s, Prepared&& prep, const Tin* shared) {
+    const std::string fn = "LayerTin('" + s.name + "')";
+    std::vector<double>& pts = prep.pts;
+    const std::size_t nb = prep.nb, ni = prep.ni;
+    const std::vector<std::int32_t>& shared_vertex = prep.shared_vertex;
+    if (shared_vertex.empty()) shared = nullptr;
     const std::size_t np = pts.size() / 3;
     std::vector<std::int64_t> vmap;  // pts index -> TIN vertex
     if (shared == nullptr) {
@@ -575,8 +594,8 @@ void set_up(LayerTinState& s, LayerData&& d, const SharedXY* shared) {
         // the Hilbert-stable order, as the Tin constructor keeps); every other
         // point is inserted. Tin is canonical (tin.hpp), so the triangles are
         // those of the Tin built from pts at once.
-        const std::size_t n_shared_v = shared->tin->n_vertices();
-        Tin tin(*shared->tin, np > n_shared_v ? np - n_shared_v : 0);
+        const std::size_t n_shared_v = shared->n_vertices();
+        Tin tin(*shared, np > n_shared_v ? np - n_shared_v : 0);
         vmap.assign(np, -1);
         std::vector<char> has_z(tin.n_vertices(), 0);
         std::vector<std::int64_t> zv;
@@ -626,7 +645,8 @@ LayerTin::LayerTin(std::string name, const double* data, std::size_t n, const St
     s_->name = std::move(name);
     s_->area = area;
     s_->opt = options;
-    detail::set_up(*s_, detail::sort_out("LayerTin('" + s_->name + "')", data, n, area), nullptr);
+    detail::finish(*s_, detail::prepare(*s_, detail::sort_out("LayerTin('" + s_->name + "')", data, n, area)),
+                   nullptr);
 }
 
 LayerTin::LayerTin(std::unique_ptr<detail::LayerTinState> s) : s_(std::move(s)) {}
@@ -634,20 +654,13 @@ LayerTin::LayerTin(std::unique_ptr<detail::LayerTinState> s) : s_(std::move(s)) 
 namespace {
 
 // Runs job(i) for i in [0, n) on up to `threads` threads (the calling one
-// included). Every job runs, whatever others throw; the exception of the
-// lowest failing i is rethrown, so the error does not depend on timing.
+// included). A job must not throw (build_layer_tins keeps each layer's
+// error itself).
 template <class Job>
 void for_each_parallel(std::size_t n, unsigned threads, const Job& job) {
-    std::vector<std::exception_ptr> errors(n);
     std::atomic<std::size_t> next{0};
     auto worker = [&]() {
-        for (std::size_t i; (i = next.fetch_add(1)) < n;) {
-            try {
-                job(i);
-            } catch (...) {
-                errors[i] = std::current_exception();
-            }
-        }
+        for (std::size_t i; (i = next.fetch_add(1)) < n;) job(i);
     };
     const std::size_t k = std::min<std::size_t>(std::max(1u, threads), n);
     std::vector<std::thread> pool;
@@ -659,8 +672,6 @@ void for_each_parallel(std::size_t n, unsigned threads, const Job& job) {
     }
     worker();
     for (auto& t : pool) t.join();
-    for (const auto& e : errors)
-        if (e) std::rethrow_exception(e);
 }
 
 }  // namespace
@@ -668,22 +679,59 @@ void for_each_parallel(std::size_t n, unsigned threads, const Job& job) {
 std::vector<LayerTin> build_layer_tins(const std::vector<LayerTinInput>& layers, const StudyArea& area,
                                        const LayerTinOptions& options, unsigned threads) {
     const std::size_t n = layers.size();
+    // Each layer's first error stops its later steps; the error thrown at the
+    // end is the first layer's (in layer order), as building the layers one
+    // after another alone would throw, whatever the threads' timing.
+    std::vector<std::exception_ptr> error(n);
+    auto guarded = [&](std::size_t l, auto&& step) {
+        if (error[l]) return;
+        try {
+            step();
+        } catch (...) {
+            error[l] = std::current_exception();
+        }
+    };
     std::vector<detail::LayerData> data(n);
     for_each_parallel(n, threads, [&](std::size_t l) {
-        data[l] = detail::sort_out("LayerTin('" + layers[l].name + "')", layers[l].data, layers[l].n, area);
+        guarded(l, [&] { data[l] = detail::sort_out("LayerTin('" + layers[l].name + "')", layers[l].data, layers[l].n, area); });
     });
     std::vector<char> member;
-    const detail::SharedXY shared = detail::share_xy(data, member);
+    detail::SharedPlan plan = detail::plan_shared(data, member);
+    // The shared triangulation (job 0) is built while the layers' points are
+    // prepared (jobs 1..n): the two need nothing of each other.
+    std::optional<Tin> shared;
     std::vector<std::unique_ptr<LayerTinState>> states(n);
-    for_each_parallel(n, threads, [&](std::size_t l) {
-        auto s = std::make_unique<LayerTinState>();
-        s->name = layers[l].name;
-        s->area = area;
-        s->opt = options;
-        // The shared Tin is only read (copied) here.
-        detail::set_up(*s, std::move(data[l]), member[l] ? &shared : nullptr);
-        states[l] = std::move(s);
+    std::vector<detail::Prepared> prepared(n);
+    for_each_parallel(n + 1, threads, [&](std::size_t j) {
+        if (j == 0) {
+            if (plan.points.empty()) return;
+            try {
+                shared.emplace(plan.points.data(), plan.points.size() / 3);
+            } catch (...) {
+                // All collinear, or out of memory: each layer alone (with its
+                // own message, if it fails too).
+                shared.reset();
+            }
+            return;
+        }
+        const std::size_t l = j - 1;
+        guarded(l, [&] {
+            auto s = std::make_unique<LayerTinState>();
+            s->name = layers[l].name;
+            s->area = area;
+            s->opt = options;
+            prepared[l] = detail::prepare(*s, std::move(data[l]));
+            states[l] = std::move(s);
+        });
     });
+    for_each_parallel(n, threads, [&](std::size_t l) {
+        // The shared Tin is only read (copied) here.
+        guarded(l, [&] {
+            detail::finish(*states[l], std::move(prepared[l]), member[l] && shared ? &*shared : nullptr);
+        });
+    });
+    for (const auto& e : error)
+        if (e) std::rethrow_exception(e);
     std::vector<LayerTin> out;
     out.reserve(n);
     for (auto& s : states) out.push_back(LayerTin(std::move(s)));

@@ -161,6 +161,25 @@ TEST(BuildLayerTins, ErrorsNameTheLayer) {
             EXPECT_NE(std::string(e.what()).find("first bad"), std::string::npos) << e.what();
         }
     }
+    // The first failing layer in layer order, whichever step fails: "far
+    // away" fails when its points are set up, the later layer already when
+    // its data are read (a NaN); building them one by one alone, "far away"
+    // throws first.
+    std::vector<double> nan_layer = layers[1];
+    nan_layer[3 * 2] = std::nan("");
+    const std::vector<fm::LayerTinInput> mixed = {{"top", layers[0].data(), layers[0].size() / 3},
+                                                  {"far away", outside.data(), 3},
+                                                  {"nan", nan_layer.data(), nan_layer.size() / 3}};
+    for (unsigned threads : {1u, 2u}) {
+        try {
+            fm::build_layer_tins(mixed, area, {}, threads);
+            FAIL() << "no error";
+        } catch (const fm::GeometryError& e) {
+            EXPECT_NE(std::string(e.what()).find("far away"), std::string::npos) << e.what();
+        } catch (const std::exception& e) {
+            FAIL() << "not the first layer's error: " << e.what();
+        }
+    }
     std::vector<double> bad = layers[1];
     bad[3 * 7 + 2] = std::nan("");
     in = {{"top", layers[0].data(), layers[0].size() / 3}, {"base", bad.data(), bad.size() / 3}};
