@@ -800,3 +800,24 @@ def test_cover_once_flags_sheet_ends_reaching_past_the_fold():
     assert triangles_not_covered_once(V, T[:, ::-1]).size == 0
     with pytest.raises(ValueError, match="out of range"):
         triangles_not_covered_once(V, [[0, 1, 99]])
+
+
+def test_repair_stack_is_repair_crossings_pair_after_pair(paper):
+    """The paper-like layers need rule 1 and 1b; repair_stack (first tests
+    at once on threads, full repairs top down) gives the counts and layers of
+    repair_crossings pair after pair."""
+    from faultmesh._core import repair_stack
+
+    ring = np.asarray(paper.boundary, dtype=np.float64)
+    pts = [(lay, paper.layer_points(lay)) for lay in paper.layers]
+    one = faultmesh.build_layer_tins(pts, ring)
+    two = faultmesh.build_layer_tins(pts, ring)
+    pairwise = [repair_crossings(a, b) for a, b in zip(one[:-1], one[1:])]
+    assert repair_stack(two, threads=2) == pairwise
+    assert sum(c["rule1"] + c["rule1b"] for c in pairwise) > 0
+    for a, b in zip(one, two):
+        assert all(np.array_equal(x, y) for x, y in zip(a.mesh(), b.mesh()))
+    with pytest.raises(ValueError, match=r"repair_stack: layers\[1\] is not a LayerTin"):
+        repair_stack([one[0], "L2"])
+    with pytest.raises(ValueError, match="threads"):
+        repair_stack(one, threads=0)

@@ -2,6 +2,7 @@
 // faultmesh.LayerTin, faultmesh.repair_crossings.
 #include <faultmesh/layer_tin.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -21,6 +22,30 @@ StudyArea as_area(const py::handle& boundary, const char* fn) {
     if (py::isinstance<StudyArea>(boundary)) return boundary.cast<StudyArea>();
     auto R = as_coordinates(boundary, fn, "boundary", 2, 2, 2);
     return StudyArea(R.data(), static_cast<std::size_t>(R.shape(0)));
+}
+
+RepairOptions repair_options(const std::string& fn, int max_rounds, const py::object& tol, int midpoint_rounds,
+                             double max_inserted_per_vertex) {
+    RepairOptions opt;
+    opt.max_rounds = max_rounds;
+    opt.midpoint_rounds = midpoint_rounds;
+    opt.max_inserted_per_vertex = max_inserted_per_vertex;
+    if (max_rounds < 1) throw std::invalid_argument(fn + ": max_rounds must be >= 1");
+    if (!tol.is_none()) {
+        opt.tolerance = tol.cast<double>();
+        if (!(opt.tolerance >= 0.0)) throw std::invalid_argument(fn + ": tol must be >= 0");
+    }
+    return opt;
+}
+
+py::dict counts_dict(const RepairCounts& c) {
+    py::dict d;
+    d["rule1"] = c.rule1;
+    d["rule1b"] = c.rule1b;
+    d["rule2"] = c.rule2;
+    d["rule2_crossing"] = c.rule2_crossing;
+    d["rounds"] = c.rounds;
+    return d;
 }
 
 py::tuple mesh_tuple(LayerTinMesh&& m, bool with_halfedges) {
@@ -170,18 +195,49 @@ void bind_layer_tin(py::module_& m) {
         "set up on up to that many threads (same result; the error of the first failing layer).");
 
     m.def(
+        "repair_stack",
+        [](const py::typing::List<PyLayerTin>& layers, int max_rounds, py::object tol, int midpoint_rounds,
+           double max_inserted_per_vertex, int threads) -> py::typing::List<py::dict> {
+            RepairOptions opt = repair_options("repair_stack", max_rounds, tol, midpoint_rounds,
+                                               max_inserted_per_vertex);
+            if (threads < 1) throw std::invalid_argument("repair_stack: threads must be >= 1, got " + std::to_string(threads));
+            std::vector<PyLayerTin*> shared;
+            for (std::size_t i = 0; i < layers.size(); ++i) {
+                py::object item = layers[i];
+                if (!py::isinstance<PyLayerTin>(item))
+                    throw std::invalid_argument("repair_stack: layers[" + std::to_string(i) + "] is not a LayerTin");
+                shared.push_back(&item.cast<PyLayerTin&>());
+            }
+            std::vector<LayerTin*> stack;
+            for (PyLayerTin* p : shared) stack.push_back(&p->obj);
+            std::vector<RepairCounts> counts;
+            {
+                // Every layer locked exclusively, once, in address order (no
+                // deadlock with another call taking some of them).
+                std::vector<PyLayerTin*> order = shared;
+                std::sort(order.begin(), order.end());
+                order.erase(std::unique(order.begin(), order.end()), order.end());
+                py::gil_scoped_release release;
+                std::vector<std::unique_lock<std::shared_mutex>> locks;
+                for (PyLayerTin* p : order) locks.emplace_back(p->mu);
+                counts = repair_stack(stack, opt, static_cast<unsigned>(threads));
+            }
+            py::typing::List<py::dict> out;
+            for (const auto& c : counts) out.append(counts_dict(c));
+            return out;
+        },
+        py::arg("layers"), py::arg("max_rounds") = 50, py::arg("tol") = py::none(), py::arg("midpoint_rounds") = 8,
+        py::arg("max_inserted_per_vertex") = 4.0, py::arg("threads") = 1,
+        "repair_crossings down a stack, layers[i] over layers[i + 1], with the same result as pair\n"
+        "after pair: every pair's first test (are they apart everywhere?) at once on up to `threads`\n"
+        "threads, the full repair top down only where needed. Returns the counts of each pair.");
+
+    m.def(
         "repair_crossings",
         [](const PyLayerTin& upper, PyLayerTin& lower, int max_rounds, py::object tol, int midpoint_rounds,
            double max_inserted_per_vertex) {
-            RepairOptions opt;
-            opt.max_rounds = max_rounds;
-            opt.midpoint_rounds = midpoint_rounds;
-            opt.max_inserted_per_vertex = max_inserted_per_vertex;
-            if (max_rounds < 1) throw std::invalid_argument("repair_crossings: max_rounds must be >= 1");
-            if (!tol.is_none()) {
-                opt.tolerance = tol.cast<double>();
-                if (!(opt.tolerance >= 0.0)) throw std::invalid_argument("repair_crossings: tol must be >= 0");
-            }
+            RepairOptions opt = repair_options("repair_crossings", max_rounds, tol, midpoint_rounds,
+                                               max_inserted_per_vertex);
             RepairCounts c;
             {
                 // lower changes (exclusive lock), upper is read (shared, unless it is lower);
@@ -201,13 +257,7 @@ void bind_layer_tin(py::module_& m) {
                 }
                 c = repair_crossings(upper.obj, lower.obj, opt);
             }
-            py::dict d;
-            d["rule1"] = c.rule1;
-            d["rule1b"] = c.rule1b;
-            d["rule2"] = c.rule2;
-            d["rule2_crossing"] = c.rule2_crossing;
-            d["rounds"] = c.rounds;
-            return d;
+            return counts_dict(c);
         },
         py::arg("upper"), py::arg("lower"), py::arg("max_rounds") = 50, py::arg("tol") = py::none(),
         py::arg("midpoint_rounds") = 8, py::arg("max_inserted_per_vertex") = 4.0,

@@ -1334,6 +1334,45 @@ struct ZBound {
 }  // namespace detail
 
 // ---------------------------------------------------------------- repair
+namespace {
+
+// The repair's elevation tolerance for the pair (layer_tin.hpp).
+double repair_tolerance(const std::vector<double>& UV, const std::vector<std::int64_t>& uvm,
+                        const std::vector<double>& LV, const RepairOptions& opt) {
+    if (opt.tolerance >= 0.0) return opt.tolerance;
+    double zscale = 1.0;
+    for (std::int64_t v : uvm) zscale = std::max(zscale, std::fabs(UV[3 * static_cast<std::size_t>(v) + 2]));
+    for (std::size_t i = 2; i < LV.size(); i += 3) zscale = std::max(zscale, std::fabs(LV[i]));
+    return 1e-9 * zscale;
+}
+
+// Where the lower surface's high bound is not above the upper surface's
+// low bound (plus tol) in any cell, no rule applies anywhere: a lower
+// vertex or edge point, or an upper vertex, in cell c has lower z <=
+// high(c) and upper z >= low(c). Layers tens of metres apart end here,
+// after two passes over the triangles.
+bool apart_in_every_cell(const detail::ZBound& frame, const detail::ZBound& upper_low, const LayerTin& lower,
+                         const std::vector<double>& LV, const LayerTinState::Topology& lt, double tol) {
+    (void)lower;
+    const detail::ZBound lower_high(frame, LV, lt.tin_vertex, lt.triangles, /*high_bound=*/true);
+    for (std::size_t c = 0; c < upper_low.z.size(); ++c)
+        if (lower_high.z[c] - upper_low.z[c] > tol) return false;
+    return true;
+}
+
+}  // namespace
+
+bool layers_apart(const LayerTin& upper, const LayerTin& lower, const RepairOptions& opt) {
+    const auto utopo = upper.s_->topology();
+    const auto ltopo = lower.s_->topology();
+    const std::vector<double>& UV = upper.s_->tin->vertex_array();
+    const std::vector<double>& LV = lower.s_->tin->vertex_array();
+    const double tol = repair_tolerance(UV, utopo->tin_vertex, LV, opt);
+    const detail::ZBound frame(UV, utopo->tin_vertex, utopo->triangles.size() / 3);
+    const detail::ZBound upper_low(frame, UV, utopo->tin_vertex, utopo->triangles, /*high_bound=*/false);
+    return apart_in_every_cell(frame, upper_low, lower, LV, *ltopo, tol);
+}
+
 RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const RepairOptions& opt) {
     const std::string fn = "repair_crossings('" + upper.name() + "', '" + lower.name() + "')";
     RepairCounts counts;
@@ -1344,13 +1383,7 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
     const std::vector<std::int64_t>& uvm = utopo->tin_vertex;
     const std::size_t nu = uvm.size();
     auto up = [&](std::size_t i) { return &UV[3 * static_cast<std::size_t>(uvm[i])]; };
-    double zscale = 1.0;
-    for (std::size_t i = 0; i < nu; ++i) zscale = std::max(zscale, std::fabs(up(i)[2]));
-    {
-        const std::vector<double>& LV = lower.s_->tin->vertex_array();
-        for (std::size_t i = 2; i < LV.size(); i += 3) zscale = std::max(zscale, std::fabs(LV[i]));
-    }
-    const double tol = opt.tolerance >= 0.0 ? opt.tolerance : 1e-9 * zscale;
+    const double tol = repair_tolerance(UV, uvm, lower.s_->tin->vertex_array(), opt);
     // The overlay walk needs the upper TIN's arrays: made on first use (the
     // elevation bounds usually rule every edge out).
     std::unique_ptr<detail::UpperWalk> walk_ptr;
@@ -1364,21 +1397,9 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
     };
     const detail::ZBound frame(UV, uvm, utopo->triangles.size() / 3);
     const detail::ZBound upper_low(frame, UV, uvm, utopo->triangles, /*high_bound=*/false);
-    {
-        // Where the lower surface's high bound is not above the upper
-        // surface's low bound (plus tol) in any cell, no rule applies
-        // anywhere: a lower vertex or edge point, or an upper vertex, in cell
-        // c has lower z <= high(c) and upper z >= low(c). Layers tens of
-        // metres apart end here, after two passes over the triangles.
-        const auto lt = lower.s_->topology();
-        const detail::ZBound lower_high(frame, lower.s_->tin->vertex_array(), lt->tin_vertex, lt->triangles,
-                                        /*high_bound=*/true);
-        bool close = false;
-        for (std::size_t c = 0; c < upper_low.z.size() && !close; ++c) close = lower_high.z[c] - upper_low.z[c] > tol;
-        if (!close) {
-            counts.rounds = 1;
-            return counts;
-        }
+    if (apart_in_every_cell(frame, upper_low, lower, lower.s_->tin->vertex_array(), *lower.s_->topology(), tol)) {
+        counts.rounds = 1;
+        return counts;
     }
     const std::size_t n_start = lower.n_vertices();
     std::int64_t inserted = 0;
@@ -1535,6 +1556,36 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
     }
     throw GeometryError(fn + ": '" + lower.name() + "' still crosses '" + upper.name() + "' after " +
                         std::to_string(opt.max_rounds) + " rounds");
+}
+
+std::vector<RepairCounts> repair_stack(const std::vector<LayerTin*>& stack, const RepairOptions& opt,
+                                       unsigned threads) {
+    const std::size_t n = stack.size() < 2 ? 0 : stack.size() - 1;
+    // Every pair's first test at once (each reads its two layers only)...
+    std::vector<char> apart(n, 0);
+    std::vector<std::exception_ptr> error(n);
+    for_each_parallel(n, threads, [&](std::size_t i) {
+        try {
+            apart[i] = layers_apart(*stack[i], *stack[i + 1], opt) ? 1 : 0;
+        } catch (...) {
+            error[i] = std::current_exception();
+        }
+    });
+    // ...then, top down, the full repair where the pair is not apart or its
+    // upper layer was just changed by the pair above (the result is that of
+    // repair_crossings pair after pair).
+    std::vector<RepairCounts> out(n);
+    bool changed = false;
+    for (std::size_t i = 0; i < n; ++i) {
+        if (apart[i] && !changed && !error[i]) {
+            out[i].rounds = 1;
+            continue;
+        }
+        out[i] = repair_crossings(*stack[i], *stack[i + 1], opt);
+        const RepairCounts& c = out[i];
+        changed = c.rule1 + c.rule1b + c.rule2 + c.rule2_crossing > 0;
+    }
+    return out;
 }
 
 }  // namespace faultmesh

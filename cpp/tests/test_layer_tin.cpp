@@ -248,3 +248,41 @@ TEST(LayerStitcherFromLayerTin, SameAsFromTheMeshArrays) {
     // The LayerTin is unchanged by the stitch.
     EXPECT_EQ(tin.mesh().triangles, m.triangles);
 }
+
+TEST(RepairStack, SameAsPairAfterPair) {
+    // Three layers 30 m apart, the middle one raised above the top in one
+    // spot (the top pair is repaired, changing the middle layer, so the
+    // bottom pair is repaired in full too), the bottom one higher there but
+    // still below the middle one.
+    auto layers = stack(9, 0.0, 0.0, 2000, 0, 3);
+    layers[1].insert(layers[1].end(), {123.45, 678.9, 500.0});  // middle above top
+    layers[2].insert(layers[2].end(), {123.45, 678.9, -25.0});  // bottom high there
+    const fm::StudyArea area = l_area(0.0, 0.0);
+    auto make = [&]() {
+        std::vector<fm::LayerTin> t;
+        for (std::size_t l = 0; l < layers.size(); ++l)
+            t.emplace_back("L" + std::to_string(l), layers[l].data(), layers[l].size() / 3, area);
+        return t;
+    };
+    std::vector<fm::LayerTin> a = make(), b = make();
+    std::vector<fm::RepairCounts> ca;
+    for (std::size_t i = 0; i + 1 < a.size(); ++i) ca.push_back(fm::repair_crossings(a[i], a[i + 1]));
+    EXPECT_TRUE(fm::layers_apart(b[1], b[2]));  // before the top pair's repair
+    for (unsigned threads : {1u, 2u}) {
+        std::vector<fm::LayerTin> c = threads == 1 ? std::move(b) : make();
+        std::vector<fm::LayerTin*> ptrs;
+        for (auto& t : c) ptrs.push_back(&t);
+        const std::vector<fm::RepairCounts> cb = fm::repair_stack(ptrs, {}, threads);
+        ASSERT_EQ(cb.size(), ca.size());
+        for (std::size_t i = 0; i < ca.size(); ++i) {
+            EXPECT_EQ(cb[i].rule1, ca[i].rule1) << i;
+            EXPECT_EQ(cb[i].rule1b, ca[i].rule1b) << i;
+            EXPECT_EQ(cb[i].rule2, ca[i].rule2) << i;
+            EXPECT_EQ(cb[i].rule2_crossing, ca[i].rule2_crossing) << i;
+            EXPECT_EQ(cb[i].rounds, ca[i].rounds) << i;
+        }
+        for (std::size_t l = 0; l < a.size(); ++l) EXPECT_EQ(mesh_set(c[l]), mesh_set(a[l])) << l;
+    }
+    EXPECT_GT(ca[0].rule1, 0);
+    EXPECT_EQ(ca[1].rule1 + ca[1].rule1b + ca[1].rule2 + ca[1].rule2_crossing, 0);
+}

@@ -8,7 +8,7 @@ import enum
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'incircle', 'join_holes', 'loft', 'loft_area', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
+__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'incircle', 'join_holes', 'loft', 'loft_area', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
 class GeometryError(ValueError):
     pass
 class PatchOverlapError(GeometryError):
@@ -706,6 +706,12 @@ def repair_crossings(upper: LayerTin, lower: LayerTin, max_rounds: typing.Suppor
     rule 1b and rule 2. Returns the counts {rule1, rule1b, rule2, rule2_crossing, rounds}.
     Raises GeometryError if crossings remain after max_rounds rounds or the lower layer
     needed more than max_inserted_per_vertex new points per vertex (a wrong layer order).
+    """
+def repair_stack(layers: list[LayerTin], max_rounds: typing.SupportsInt | typing.SupportsIndex = 50, tol: typing.Any = None, midpoint_rounds: typing.SupportsInt | typing.SupportsIndex = 8, max_inserted_per_vertex: typing.SupportsFloat | typing.SupportsIndex = 4.0, threads: typing.SupportsInt | typing.SupportsIndex = 1) -> list[dict]:
+    """
+    repair_crossings down a stack, layers[i] over layers[i + 1], with the same result as pair
+    after pair: every pair's first test (are they apart everywhere?) at once on up to `threads`
+    threads, the full repair top down only where needed. Returns the counts of each pair.
     """
 def sample_surface(vertices: typing.Any, triangles: typing.Any, xy: typing.Any) -> tuple:
     """

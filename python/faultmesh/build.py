@@ -17,7 +17,7 @@ from typing import Any, Callable, Dict, List, Optional, Tuple
 import numpy as np
 
 from ._core import (LayerTin, PatchOverlapError, Stitcher, StudyArea, TriangleKind, build_layer_tins,
-                    repair_crossings)
+                    repair_crossings, repair_stack)
 from . import report as _report
 from .dataset import DatasetError, prepare_for_build
 from .model import Gap, Model, StitchedPatch, Surface
@@ -75,9 +75,12 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
                                      for lay, t in tins.items()},
                             "repair": {}}
     if repair:
-        for i, (up, lo) in enumerate(zip(layers[:-1], layers[1:])):
-            prog("layer repair", i, len(layers) - 1)
-            meta["repair"][lo] = repair_crossings(tins[up], tins[lo], max_repair_rounds)
+        # Pair after pair, top down; the pairs' first tests (apart
+        # everywhere?) run at once on the threads (repair_stack).
+        prog("layer repair", 0, len(layers) - 1)
+        counts = repair_stack([tins[lay] for lay in layers], max_repair_rounds,
+                              threads=_threads(threads, len(layers)))
+        meta["repair"] = dict(zip(layers[1:], counts))
         prog("layer repair", len(layers) - 1, len(layers) - 1)
     return tins, meta
 

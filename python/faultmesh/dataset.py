@@ -552,15 +552,20 @@ class Dataset:
         b = self.boreholes
         names, lcode, _, _ = b.codes
         sel = np.flatnonzero(b.shallowest)
-        order = sel[np.argsort(lcode[sel].astype(np.int32), kind="stable")]
+        # 16-bit keys: numpy's stable sort of them is a radix sort.
+        key = lcode[sel].astype(np.int16 if len(names) < 2**15 else np.int64)
+        order = sel[np.argsort(key, kind="stable")]
         cut = np.searchsorted(lcode[order], np.arange(len(names) + 1))
+        # One gather of every selected row; each layer is a contiguous slice.
+        allp = np.empty((len(order), 3))
+        allp[:, :2] = b.xy[order]
+        allp[:, 2] = b.z[order]
         out: Dict[str, np.ndarray] = {}
         for lay in self.layers:
-            rows = np.zeros(0, dtype=np.int64)
+            pts = np.zeros((0, 3))
             if lay in names:
                 k = names.index(lay)
-                rows = order[cut[k]:cut[k + 1]]
-            pts = np.column_stack([b.xy[rows], b.z[rows]]) if len(rows) else np.zeros((0, 3))
+                pts = allp[cut[k]:cut[k + 1]]
             extra = self.points.get(lay)
             if extra is not None and len(extra):
                 pts = np.vstack([pts, np.asarray(extra, dtype=np.float64).reshape(-1, 3)])

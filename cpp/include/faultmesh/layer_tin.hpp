@@ -117,6 +117,7 @@ private:
     explicit LayerTin(std::unique_ptr<detail::LayerTinState> s);
     std::unique_ptr<detail::LayerTinState> s_;
     friend struct RepairCounts repair_crossings(const LayerTin&, LayerTin&, const struct RepairOptions&);
+    friend bool layers_apart(const LayerTin&, const LayerTin&, const struct RepairOptions&);
     friend std::vector<LayerTin> build_layer_tins(const std::vector<struct LayerTinInput>&, const StudyArea&,
                                                   const LayerTinOptions&, unsigned);
 };
@@ -172,5 +173,17 @@ struct RepairCounts {
 // GeometryError if crossings remain after max_rounds rounds or the insertion
 // budget is spent.
 RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const RepairOptions& options = {});
+
+// The repair's first test alone: true when lower lies below upper by more
+// than the tolerance everywhere, as their per-cell elevation bounds show
+// (then repair_crossings changes nothing). Reads both layers only.
+bool layers_apart(const LayerTin& upper, const LayerTin& lower, const RepairOptions& options = {});
+
+// repair_crossings down a stack (stack[i] over stack[i + 1]), with the same
+// result as pair after pair: the first test of every pair runs at once, on
+// up to `threads` threads, and the full repair, top down, only where a pair
+// is not apart or its upper layer was just changed.
+std::vector<RepairCounts> repair_stack(const std::vector<LayerTin*>& stack, const RepairOptions& options = {},
+                                       unsigned threads = 1);
 
 }  // namespace faultmesh
