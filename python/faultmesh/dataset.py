@@ -225,8 +225,12 @@ def _factorize(a: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
         first = np.full(len(few), n, dtype=np.int64)
         np.minimum.at(first, inv, np.arange(n, dtype=np.int64))
     else:
-        _, first, inv = np.unique(h, return_index=True, return_inverse=True)
-        inv = inv.reshape(-1)
+        # Tables list a hole's rows together: one integer sort of the runs'
+        # hashes instead of the rows' (a value's first run holds its first row).
+        heads = np.flatnonzero(np.r_[True, h[1:] != h[:-1]])
+        _, first_run, run_inv = np.unique(h[heads], return_index=True, return_inverse=True)
+        first = heads[first_run]
+        inv = np.repeat(run_inv.reshape(-1), np.diff(np.r_[heads, n]))
     reps = a[first]
     if not np.array_equal(reps[inv], a):  # two strings with one hash
         names, inv = np.unique(a, return_inverse=True)
