@@ -7,6 +7,20 @@ import csv
 import numpy as np
 
 
+def loft_sequence(seq) -> tuple[np.ndarray, np.ndarray]:
+    """Consecutive polylines (k_i, 3) lofted pair by pair with
+    faultmesh.loft into one patch: (vertices, triangles)."""
+    import faultmesh
+
+    offs = np.cumsum([0] + [len(p) for p in seq])
+    tris = []
+    for i in range(len(seq) - 1):
+        t = np.asarray(faultmesh.loft(seq[i], seq[i + 1]))
+        k = len(seq[i])
+        tris.append(np.where(t < k, t + offs[i], t - k + offs[i + 1]))
+    return np.vstack(seq), np.vstack(tris)
+
+
 def tri_set(t) -> set[tuple[int, int, int]]:
     """Triangles as a set, each rotated so that its smallest index is first
     (orientation kept)."""

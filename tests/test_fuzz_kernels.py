@@ -24,7 +24,7 @@ from hypothesis import given
 import faultmesh as fm
 from faultmesh.invariants import check_surface
 from faultmesh.model import Surface
-from helpers import fuzz_settings, tri_set
+from helpers import fuzz_settings, loft_sequence, tri_set
 
 LIMIT = 1e60  # faultmesh::kMaxCoordinate (predicates.hpp)
 SPECIAL = [0.0, -0.0, 1.0, -1.0, 0.5, 1e60, -1e60, 1e61, -1e100, 1e155, 1e300, 5e-324, -5e-324,
@@ -739,14 +739,7 @@ def patches(draw, scale, offset):
         seq = [a, b]
         if draw(st.booleans()):
             seq = [np.r_[c - 0.5 * length * d - 3 * d, 0.0][None, :]] + seq  # a tip
-        V = np.vstack(seq)
-        offs = np.cumsum([0] + [len(q) for q in seq])
-        tris = []
-        for i in range(len(seq) - 1):
-            t = np.asarray(fm.loft(seq[i], seq[i + 1]))
-            kk = len(seq[i])
-            tris.append(np.where(t < kk, t + offs[i], t - kk + offs[i + 1]))
-        T = np.vstack(tris)
+        V, T = loft_sequence(seq)
     V = V.copy()
     V[:, :2] = V[:, :2] * scale + offset
     if len(V) and draw(st.integers(0, 5)) == 0:

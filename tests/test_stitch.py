@@ -16,6 +16,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 import faultmesh
 from faultmesh.invariants import check_surface
 from faultmesh.model import Surface
+from helpers import loft_sequence
 
 SQUARE = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]])
 
@@ -51,13 +52,7 @@ def patch(polys, tips=(None, None)):
     """Loft consecutive polylines (with optional tip points) into one patch."""
     seq = ([np.asarray(tips[0], dtype=float)[None, :]] if tips[0] is not None else []) + list(polys) \
         + ([np.asarray(tips[1], dtype=float)[None, :]] if tips[1] is not None else [])
-    offs = np.cumsum([0] + [len(p) for p in seq])
-    tris = []
-    for i in range(len(seq) - 1):
-        t = np.asarray(faultmesh.loft(seq[i], seq[i + 1]))
-        k = len(seq[i])
-        tris.append(np.where(t < k, t + offs[i], t - k + offs[i + 1]))
-    return np.vstack(seq), np.vstack(tris)
+    return loft_sequence(seq)
 
 
 def reverse_patch(x0=30.0, y0=40.0, y1=60.0, ty=10.0):
