@@ -225,7 +225,7 @@ struct LayerData {
     };
     std::vector<double> interior;  // 3 per point
     // Per interior point: its vertex in the shared triangulation, or -1
-    // (share_xy; empty for a layer built alone).
+    // (plan_shared; empty for a layer built alone).
     std::vector<std::int32_t> shared_vertex;
     std::vector<OnBoundary> on_boundary;
     double lo = std::numeric_limits<double>::infinity(), hi = -std::numeric_limits<double>::infinity();
@@ -1351,9 +1351,8 @@ double repair_tolerance(const std::vector<double>& UV, const std::vector<std::in
 // vertex or edge point, or an upper vertex, in cell c has lower z <=
 // high(c) and upper z >= low(c). Layers tens of metres apart end here,
 // after two passes over the triangles.
-bool apart_in_every_cell(const detail::ZBound& frame, const detail::ZBound& upper_low, const LayerTin& lower,
+bool apart_in_every_cell(const detail::ZBound& frame, const detail::ZBound& upper_low,
                          const std::vector<double>& LV, const LayerTinState::Topology& lt, double tol) {
-    (void)lower;
     const detail::ZBound lower_high(frame, LV, lt.tin_vertex, lt.triangles, /*high_bound=*/true);
     for (std::size_t c = 0; c < upper_low.z.size(); ++c)
         if (lower_high.z[c] - upper_low.z[c] > tol) return false;
@@ -1370,7 +1369,7 @@ bool layers_apart(const LayerTin& upper, const LayerTin& lower, const RepairOpti
     const double tol = repair_tolerance(UV, utopo->tin_vertex, LV, opt);
     const detail::ZBound frame(UV, utopo->tin_vertex, utopo->triangles.size() / 3);
     const detail::ZBound upper_low(frame, UV, utopo->tin_vertex, utopo->triangles, /*high_bound=*/false);
-    return apart_in_every_cell(frame, upper_low, lower, LV, *ltopo, tol);
+    return apart_in_every_cell(frame, upper_low, LV, *ltopo, tol);
 }
 
 RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const RepairOptions& opt) {
@@ -1397,7 +1396,7 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
     };
     const detail::ZBound frame(UV, uvm, utopo->triangles.size() / 3);
     const detail::ZBound upper_low(frame, UV, uvm, utopo->triangles, /*high_bound=*/false);
-    if (apart_in_every_cell(frame, upper_low, lower, lower.s_->tin->vertex_array(), *lower.s_->topology(), tol)) {
+    if (apart_in_every_cell(frame, upper_low, lower.s_->tin->vertex_array(), *lower.s_->topology(), tol)) {
         counts.rounds = 1;
         return counts;
     }

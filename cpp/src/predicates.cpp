@@ -665,14 +665,8 @@ double orient3d_adapt(const double* pa, const double* pb, const double* pc, cons
     return certify_orient3d(orient3d_exact(pa, pb, pc, pd), pa, pb, pc, pd);
 }
 
-double orient3d_small(const double* pa, const double* pb, const double* pc, const double* pd) {
-    const double adx = pa[0] - pd[0], bdx = pb[0] - pd[0], cdx = pc[0] - pd[0];
-    const double ady = pa[1] - pd[1], bdy = pb[1] - pd[1], cdy = pc[1] - pd[1];
-    const double adz = pa[2] - pd[2], bdz = pb[2] - pd[2], cdz = pc[2] - pd[2];
-    const double bdxcdy = bdx * cdy, cdxbdy = cdx * bdy;
-    const double cdxady = cdx * ady, adxcdy = adx * cdy;
-    const double adxbdy = adx * bdy, bdxady = bdx * ady;
-    const double det = adz * (bdxcdy - cdxbdy) + bdz * (cdxady - adxcdy) + cdz * (adxbdy - bdxady);
+double orient3d_small(const double* pa, const double* pb, const double* pc, const double* pd, double det,
+                      double permanent) {
     bool finite = true;
     for (const double* p : {pa, pb, pc, pd}) finite = finite && std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
     if (!finite) return det;  // NaN / inf in, NaN / inf out
@@ -680,9 +674,6 @@ double orient3d_small(const double* pa, const double* pb, const double* pc, cons
     // No product can have underflowed: the permanent is 0 (then so is the
     // determinant, every product having a zero factor) or a normal double,
     // and the adaptive stages are exact.
-    const double permanent = (std::fabs(bdxcdy) + std::fabs(cdxbdy)) * std::fabs(adz) +
-                             (std::fabs(cdxady) + std::fabs(adxcdy)) * std::fabs(bdz) +
-                             (std::fabs(adxbdy) + std::fabs(bdxady)) * std::fabs(cdz);
     if (permanent == 0.0) return 0.0;
     const double errbound = kO3dErrBoundA * permanent;
     if (det > errbound || -det > errbound) return det;

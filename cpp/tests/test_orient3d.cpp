@@ -5,6 +5,8 @@
 #include <cmath>
 #include <random>
 
+#include "test_support.hpp"
+
 using faultmesh::orient3d;
 using faultmesh::orient3d_sign;
 
@@ -104,11 +106,7 @@ TEST(Orient3d, TinyScaledIntegerPointsMatchIntegerDeterminant) {
         for (int t = 0; t < 3000; ++t) {
             long long P[4][3];
             double D[4][3];
-            for (int i = 0; i < 4; ++i)
-                for (int k = 0; k < 3; ++k) {
-                    P[i][k] = U(rng);
-                    D[i][k] = static_cast<double>(P[i][k]) * scale;
-                }
+            faultmesh::test::scaled_integer_points(rng, U, scale, P, D);
             long long r[3][3];
             for (int i = 0; i < 3; ++i)
                 for (int k = 0; k < 3; ++k) r[i][k] = P[i][k] - P[3][k];

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <random>
 
+#include "test_support.hpp"
+
 using faultmesh::incircle_sign;
 using faultmesh::orient2d_sign;
 
@@ -82,11 +84,7 @@ TEST(Predicates, TinyCoordinatesKeepExactSigns) {
         for (int t = 0; t < 3000; ++t) {
             long long P[4][2];
             double D[4][2];
-            for (int i = 0; i < 4; ++i)
-                for (int k = 0; k < 2; ++k) {
-                    P[i][k] = U(rng);
-                    D[i][k] = static_cast<double>(P[i][k]) * scale;
-                }
+            faultmesh::test::scaled_integer_points(rng, U, scale, P, D);
             ASSERT_EQ(orient2d_sign(D[0], D[1], D[2]), sgn(orient_int(P[0], P[1], P[2]))) << scale;
             ASSERT_EQ(incircle_sign(D[0], D[1], D[2], D[3]), sgn(incircle_int(P[0], P[1], P[2], P[3]))) << scale;
         }

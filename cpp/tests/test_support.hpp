@@ -3,7 +3,9 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
+#include <random>
 #include <set>
 #include <vector>
 
@@ -22,6 +24,19 @@ inline std::set<Tri> tri_set(const std::vector<std::int64_t>& t) {
         s.insert(a);
     }
     return s;
+}
+
+// Four points of small integers drawn by U, and the same points times
+// `scale` as doubles (exact: the integers need few bits): the tiny-coordinate
+// tests compare a predicate on D with the integer determinant of P.
+template <std::size_t Dim>
+void scaled_integer_points(std::mt19937_64& rng, std::uniform_int_distribution<long long>& U, double scale,
+                           long long (&P)[4][Dim], double (&D)[4][Dim]) {
+    for (std::size_t i = 0; i < 4; ++i)
+        for (std::size_t k = 0; k < Dim; ++k) {
+            P[i][k] = U(rng);
+            D[i][k] = static_cast<double>(P[i][k]) * scale;
+        }
 }
 
 }  // namespace faultmesh::test

@@ -543,10 +543,14 @@ class Dataset:
             # Each hole's shallowest hit of the layer, in file order.
             sel = np.flatnonzero((lcode == names.index(layer)) & b.shallowest)
             out = np.column_stack([b.xy[sel], b.z[sel]])
+        return self._with_extra_points(layer, out)
+
+    def _with_extra_points(self, layer: str, hits: np.ndarray) -> np.ndarray:
+        """A layer's borehole hits (n, 3) followed by its extra points."""
         extra = self.points.get(layer)
         if extra is not None and len(extra):
-            out = np.vstack([out, np.asarray(extra, dtype=np.float64).reshape(-1, 3)])
-        return np.ascontiguousarray(out, dtype=np.float64)
+            hits = np.vstack([hits, np.asarray(extra, dtype=np.float64).reshape(-1, 3)])
+        return np.ascontiguousarray(hits, dtype=np.float64)
 
     def all_layer_points(self) -> Dict[str, np.ndarray]:
         """:meth:`layer_points` of every layer (layer -> (n, 3)), the same
@@ -570,10 +574,7 @@ class Dataset:
             if lay in names:
                 k = names.index(lay)
                 pts = allp[cut[k]:cut[k + 1]]
-            extra = self.points.get(lay)
-            if extra is not None and len(extra):
-                pts = np.vstack([pts, np.asarray(extra, dtype=np.float64).reshape(-1, 3)])
-            out[lay] = np.ascontiguousarray(pts, dtype=np.float64)
+            out[lay] = self._with_extra_points(lay, pts)
         return out
 
     def fault_groups(self) -> List[List[Fault]]:

@@ -192,8 +192,10 @@ double orient3d_adapt(const double* pa, const double* pb, const double* pc, cons
                       double permanent);
 // The permanent is below kUnderflowGuard (or not a number): the same
 // underflow handling as orient2d_small, with exact integers on the raw
-// doubles where a coordinate is tiny (below 2^-280: degree 3).
-double orient3d_small(const double* pa, const double* pb, const double* pc, const double* pd);
+// doubles where a coordinate is tiny (below 2^-280: degree 3). det and
+// permanent: the filter's values, as orient3d computed them.
+double orient3d_small(const double* pa, const double* pb, const double* pc, const double* pd, double det,
+                      double permanent);
 }  // namespace detail
 
 // Six times the signed volume of the tetrahedron (a, b, c, d), with Shewchuk's
@@ -218,7 +220,7 @@ inline double orient3d(const double* pa, const double* pb, const double* pc, con
     const double permanent = (std::fabs(bdxcdy) + std::fabs(cdxbdy)) * std::fabs(adz) +
                              (std::fabs(cdxady) + std::fabs(adxcdy)) * std::fabs(bdz) +
                              (std::fabs(adxbdy) + std::fabs(bdxady)) * std::fabs(cdz);
-    if (!(permanent >= detail::kUnderflowGuard)) return detail::orient3d_small(pa, pb, pc, pd);
+    if (!(permanent >= detail::kUnderflowGuard)) return detail::orient3d_small(pa, pb, pc, pd, det, permanent);
     const double errbound = detail::kO3dErrBoundA * permanent;
     if (det > errbound || -det > errbound) return det;
     return detail::orient3d_adapt(pa, pb, pc, pd, permanent);
