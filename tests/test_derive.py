@@ -662,3 +662,19 @@ def test_reverse_fault_folding_along_the_boundary_keeps_its_sections():
     m2.check()
     e1, e2 = near_fault_error([m1, m2], ds.geology, np.asarray(ds.boundary))
     assert e2 <= 1.25 * e1, (e1, e2)
+
+
+def test_derived_polylines_stay_out_of_another_faults_room():
+    """Regression (random_ground(6) as v2: two separate normal faults whose
+    footwalls face each other, 22 boreholes): with data a kilometre apart the
+    derived polylines reached a kilometre from their cutoffs, the two
+    faults' patches overlapped and the build raised "faults too close".
+    Each far end now stops ROOM_SHARE of the way to the other fault."""
+    from faultmesh import grounds
+
+    ds = grounds.random_ground(6)
+    assert len(ds.faults) == 2 and not any(f.group for f in ds.faults)
+    d = derive.derive_faults(v2_of(ds))
+    m = faultmesh.build_model(d, evaluate=False)
+    m.check()
+    assert set(m.metadata["derived_faults"]) == {f.name for f in ds.faults}

@@ -1120,7 +1120,8 @@ def _regional_throw(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, data: np.nd
 
 def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float, float],
                   used_names: set, fs: FaultSurface, warn: List[str],
-                  partners: Sequence[FaultSurface] = ()) -> Tuple[Fault, Dict[str, Section],
+                  partners: Sequence[FaultSurface] = (),
+                  others: Sequence[FaultSurface] = ()) -> Tuple[Fault, Dict[str, Section],
                                                                  FaultDerivation]:
     ring = np.asarray(ds.boundary, dtype=np.float64)
     u0, u1 = fs.u_range
@@ -1486,7 +1487,8 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
             hinted = r.get("hinted", {}).get(i)
             surf_f = hinted[1] if hinted and hinted[0] == "foot" else _sides_of(r, i)["foot"]
             surf_h = hinted[1] if hinted and hinted[0] == "hanging" else _sides_of(r, i)["hanging"]
-            poly = _wall_polylines(tr, f, h, surf_f, surf_h, *fars[lay], r["spacing"])
+            poly = _wall_polylines(tr, f, h, surf_f, surf_h, *fars[lay], r["spacing"],
+                                   _room_between_faults(tr, f, h, others))
             if poly is None:
                 continue
             layers[lay] = poly
@@ -1631,11 +1633,62 @@ def _far_distances(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, r: Dict[str,
     return far(fw, sf, -1.0), far(hw, sh, 1.0)
 
 
+#: Share of the way to another fault that a derived polyline may take
+#: (:func:`_room_between_faults`).
+ROOM_SHARE = 0.4
+
+
+def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray,
+                         others: Sequence[FaultSurface]) -> Tuple[float, float]:
+    """(lo, hi) along the section: how far the footwall polyline may reach
+    back (s >= lo) and the hanging-wall polyline forward (s <= hi) before it
+    enters the half of the room that belongs to another fault (one not in
+    this fault's group): ROOM_SHARE of the way from the cutoff to where that
+    fault's own extent crosses the section line at the cutoff's elevation.
+    Less than half: the two faults' sections run in different directions,
+    so two far ends each half way along their own lines can still meet
+    (random_ground(6): two normal faults whose footwalls face each other
+    1.5 km apart). With sparse
+    data the far ends reach past every continuous-TIN triangle that joins
+    the two sides, often a kilometre; two separate faults a kilometre apart
+    then get patches that overlap, which the stitcher rejects
+    (random_ground(6) as v2, 22 holes)."""
+    lo, hi = -np.inf, np.inf
+    sf = float((f[:2] - tr.origin) @ tr.direction)
+    sh = float((h[:2] - tr.origin) @ tr.direction)
+    for o in others:
+        segs, real = _cut_section(o, tr.origin, tr.direction)
+        segs = segs[real]
+        if not len(segs):
+            continue
+        z0, z1 = segs[:, 0, 2], segs[:, 1, 2]
+        s0 = (segs[:, 0, :2] - tr.origin) @ tr.direction
+        s1 = (segs[:, 1, :2] - tr.origin) @ tr.direction
+        for zc, sc, below in ((f[2], sf, True), (h[2], sh, False)):
+            m = (np.minimum(z0, z1) <= zc) & (zc <= np.maximum(z0, z1))
+            if not m.any():
+                continue
+            dz = z1[m] - z0[m]
+            t = np.where(dz != 0.0, (zc - z0[m]) / np.where(dz != 0.0, dz, 1.0), 0.5)
+            sx = s0[m] + t * (s1[m] - s0[m])
+            if below:
+                back = sx[sx < sc]
+                if len(back):
+                    lo = max(lo, sc - ROOM_SHARE * (sc - float(back.max())))
+            else:
+                ahead = sx[sx > sc]
+                if len(ahead):
+                    hi = min(hi, sc + ROOM_SHARE * (float(ahead.min()) - sc))
+    return lo, hi
+
+
 def _wall_polylines(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, surf_f, surf_h,
-                    far_f: float, far_h: float, dsp: float):
+                    far_f: float, far_h: float, dsp: float,
+                    room: Tuple[float, float] = (-np.inf, np.inf)):
     """``foot`` (far end -> footwall cutoff) and ``hanging`` (hanging-wall
-    cutoff -> far end) on the section, z from each side's surface, or None
-    if they do not fit in the study area."""
+    cutoff -> far end) on the section, z from each side's surface, the far
+    ends within ``room`` (:func:`_room_between_faults`), or None if they do
+    not fit in the study area."""
     sf = float((f[:2] - tr.origin) @ tr.direction)
     sh = float((h[:2] - tr.origin) @ tr.direction)
     a, b = tr.interval
@@ -1645,8 +1698,8 @@ def _wall_polylines(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, surf_f, sur
     # polygon that touches itself: paper_like(0), F22 in "third impervious
     # bed").
     eps = min(0.5 * dsp, 0.25 * (b - a))
-    s_ff = max(sf - far_f, a + eps)
-    s_hf = min(sh + far_h, b - eps)
+    s_ff = max(sf - far_f, a + eps, room[0])
+    s_hf = min(sh + far_h, b - eps, room[1])
     if not (s_ff < sf and sh < s_hf):
         return None
     step = 0.5 * dsp
@@ -1741,14 +1794,29 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
             warns[f.name] = []
             surfs[f.name] = fault_surface(f, ring, z_range, reach=opt.reach,
                                           max_z_dip=opt.max_z_dip, warnings=warns[f.name])
+    # Surfaces of the other faults too (given with cutoffs): a derived
+    # fault's polylines stay out of their room (_room_between_faults).
+    other_surfs: Dict[str, FaultSurface] = {}
+    if todo and len(dataset.faults) > 1:
+        for f in dataset.faults:
+            if f.name in surfs:
+                continue
+            try:
+                other_surfs[f.name] = fault_surface(f, ring, z_range, reach=opt.reach,
+                                                    max_z_dip=opt.max_z_dip, warnings=[])
+            except (GeometryError, ValueError):
+                continue  # e.g. a fault of one trace: no room taken from it
+    every = {**other_surfs, **surfs}
     for f in dataset.faults:
         if id(f) not in todo:
             faults.append(f)
             continue
         partners = [surfs[g.name] for g in dataset.faults
                     if g is not f and f.group and g.group == f.group and g.name in surfs]
+        others = [every[g.name] for g in dataset.faults
+                  if g is not f and not (f.group and g.group == f.group) and g.name in every]
         nf, secs, rep = _derive_fault(dataset, f, opt, z_range, used, surfs[f.name],
-                                      warns[f.name], partners)
+                                      warns[f.name], partners, others)
         sections.update(secs)
         faults.append(nf)
         report.faults[f.name] = rep
