@@ -678,3 +678,29 @@ def test_derived_polylines_stay_out_of_another_faults_room():
     m = faultmesh.build_model(d, evaluate=False)
     m.check()
     assert set(m.metadata["derived_faults"]) == {f.name for f in ds.faults}
+
+
+@pytest.mark.parametrize("case", ["collinear", "horizontal", "beyond_range"])
+def test_degenerate_fault_points_are_named_errors(case):
+    """Fault points that cannot define a dipping surface (on one line, in a
+    horizontal plane) are a GeometryError naming the fault, before any
+    triangulation (collinear points used to build a model with the fault
+    silently ignored); points beyond the coordinate limit are a
+    DatasetError naming the fault and the point."""
+    ds = datasets.synthetic(0, kind="normal", dip=60.0, n_boreholes=60, n_layers=2)
+    P = v2_of(ds).faults[0].points
+    if case == "beyond_range":
+        with pytest.raises(DatasetError, match=r"fault 'F1': point 1 has a coordinate beyond"):
+            Fault("F1", points=P * 1e70)
+        return
+    if case == "collinear":
+        t = np.linspace(0.0, 1.0, 20)[:, None]
+        P = P[0] + t * (P[-1] - P[0])
+        want = "lie on one line"
+    else:
+        P = np.column_stack([P[:, :2], np.full(len(P), -200.0)])
+        want = "horizontal plane"
+    v2 = Dataset(name="degenerate", layers=ds.layers, boundary=ds.boundary,
+                 boreholes=ds.boreholes, sections={}, faults=[Fault("F1", points=P)])
+    with pytest.raises(faultmesh.GeometryError, match=rf"fault 'F1'.*{want}"):
+        derive.derive_faults(v2)

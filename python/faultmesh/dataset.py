@@ -152,6 +152,10 @@ class Fault:
             if bad.any():
                 raise DatasetError(f"fault {self.name!r}: point {int(np.flatnonzero(bad)[0]) + 1} "
                                    "is not finite")
+            far = ~(np.abs(pts) <= COORD_MAX).all(axis=1)
+            if far.any():
+                raise DatasetError(f"fault {self.name!r}: point {int(np.flatnonzero(far)[0]) + 1} "
+                                   f"has a coordinate beyond +-{COORD_MAX:g}")
             self.points = pts
             if self.sticks is not None:
                 self.sticks = np.asarray(self.sticks).reshape(-1)
@@ -170,6 +174,11 @@ class Fault:
             T = np.asarray(T)
             if V.ndim != 2 or V.shape[1] != 3 or not np.isfinite(V).all():
                 raise DatasetError(f"fault {self.name!r}: surface vertices must be finite (n, 3)")
+            far = ~(np.abs(V) <= COORD_MAX).all(axis=1)
+            if far.any():
+                raise DatasetError(f"fault {self.name!r}: surface vertex "
+                                   f"{int(np.flatnonzero(far)[0]) + 1} has a coordinate beyond "
+                                   f"+-{COORD_MAX:g}")
             if T.ndim != 2 or T.shape[1] != 3 or (T.size and (T.min() < 0 or T.max() >= len(V))):
                 raise DatasetError(f"fault {self.name!r}: surface triangles must be (t, 3) "
                                    f"indices into its {len(V)} vertices")

@@ -668,7 +668,17 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
     if len(P) < 3:
         raise GeometryError(f"derive: fault {fault.name!r}: {len(P)} point(s); a fault surface "
                             "needs at least 3")
+    sv = np.linalg.svd(P - P.mean(axis=0), compute_uv=False)
+    # 1e-9 of the points' spread: off one line by less than a micrometre per
+    # kilometre, below any survey's precision (and above the rounding of
+    # doubles at UTM coordinates, 1e-9 m over a spread of kilometres).
+    if not sv[1] > 1e-9 * sv[0]:
+        raise GeometryError(f"derive: fault {fault.name!r}: its {len(P)} points lie on one line "
+                            "(or one point); they do not define a fault surface")
     centre, normal = _best_plane(P)
+    if not float(np.hypot(*normal[:2])) > 1e-9:
+        raise GeometryError(f"derive: fault {fault.name!r}: its points lie in a horizontal plane; "
+                            "a fault surface must dip (a flat fault is not supported)")
     dip = math.degrees(math.acos(min(1.0, abs(float(normal[2])))))
     if dip > max_z_dip:
         axis = 0 if abs(normal[0]) >= abs(normal[1]) else 1
