@@ -669,7 +669,8 @@ def test_derived_polylines_stay_out_of_another_faults_room():
     footwalls face each other, 22 boreholes): with data a kilometre apart the
     derived polylines reached a kilometre from their cutoffs, the two
     faults' patches overlapped and the build raised "faults too close".
-    Each far end now stops ROOM_SHARE of the way to the other fault."""
+    Each far end now stays in its fault's share of the room between them
+    (derive._room_between_faults)."""
     from faultmesh import grounds
 
     ds = grounds.random_ground(6)
@@ -704,3 +705,19 @@ def test_degenerate_fault_points_are_named_errors(case):
                  boreholes=ds.boreholes, sections={}, faults=[Fault("F1", points=P)])
     with pytest.raises(faultmesh.GeometryError, match=rf"fault 'F1'.*{want}"):
         derive.derive_faults(v2)
+
+
+def test_sparse_crossing_ground_derives_and_builds():
+    """Regression (random_ground(75) as v2: an X pair and a third fault, 30
+    boreholes over 5.5 km): the joint fit of a gap section had no datum of a
+    side in its frame (ZeroDivisionError); then the third fault's derived
+    polylines, kilometres long with data that sparse, ran into the pair's
+    zone ("faults too close"). A side without data in the frame now keeps
+    its own surface, and every far end stays in its fault's share of the
+    room (_room_between_faults)."""
+    from faultmesh import grounds
+
+    ds = grounds.random_ground(75)
+    d = derive.derive_faults(v2_of(ds))
+    assert set(d.derivation.faults) == {f.name for f in ds.faults}
+    faultmesh.build_model(d, evaluate=False).check()
