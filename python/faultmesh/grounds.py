@@ -41,6 +41,35 @@ Measures for a built model (used by ``bench/sweep.py`` and the tests):
 :func:`repetition_coverage`, :func:`near_fault_accuracy`, and
 :func:`evaluate_ground`, which runs one seed from drawing to the checks and
 says where it stopped (:func:`failure_class`).
+
+**Format 2 without cutoffs** (issue 11): :func:`write_v2` (or
+``random_ground(seed, path, version=2)``) writes the same ground again as
+the data geologists have, for :func:`faultmesh.derive.derive_faults`:
+
+* each fault as fault sticks on the truth's fault surface (one every
+  60-140 m along strike within the fault's extent near the study area,
+  points every 15-35 m down the stick over the layers' depths; a fault that
+  abuts another only on its side of it), rounded like the traces; no
+  traces, no kind, no tips (the group is kept);
+* the layer tops as collar, survey and interval tables of the v1 holes
+  (same ids and collar x, y; collar z the top layer's truth rounded as
+  v1's tops): half vertical, a quarter straight and inclined (dip -60 to
+  -85, any azimuth), a quarter curved (stations every 30 m); the intervals
+  logged from the truth along each desurveyed path (contacts bisected with
+  the fault block fixed, :meth:`Geology.tops_in_block`), depths to 1 mm,
+  angles to 0.01 degree, fault rock (:data:`FAULT_ROCK`) where a hole
+  crosses a fault and the unit changes, :data:`COVER` above the top layer
+  under a thrust; so a hole through a reverse fault's repetition enters the
+  layer twice, and the reader gives both tops (of the top layer only one:
+  nothing lies above it);
+* the v1 topography as points.
+
+It draws from its own generator (``default_rng([seed, 2])``): the v1 files
+do not change. :func:`evaluate_ground_v2` builds and checks both versions of
+a seed and compares them: :func:`cutoff_distance` (derived against true
+cutoffs), :func:`near_fault_errors` (each model's error near the faults,
+on the same points) and their ratio (limit :data:`V2_RATIO`);
+``bench/sweep.py --v2`` runs it over many seeds.
 """
 from __future__ import annotations
 
