@@ -362,7 +362,7 @@ def render_v2(outs: List[Dict], meta: Dict[str, Any]) -> str:
           "or tips; the layer tops as collar/survey/interval tables of the same holes, about half of "
           "them deviated). Both are loaded, built and checked; the v2 one through "
           "`derive.derive_faults`. Measured: the distance of each derived cutoff point from the true "
-          "cutoff on its section (`grounds.cutoff_distance`), the derived kind, and the mean \|dz\| "
+          "cutoff on its section (`grounds.cutoff_distance`), the derived kind, and the mean \\|dz\\| "
           "within 150 m of the truth's fault bands of each model (`grounds.near_fault_errors`) and "
           f"their ratio v2 / v1; a seed passes when the v2 model derives, builds, passes `check()` "
           f"and its ratio is at most {V2_RATIO:g}. Too-close pairs (which must be rejected) are not "
@@ -398,6 +398,8 @@ def render_v2(outs: List[Dict], meta: Dict[str, Any]) -> str:
           f"| error ratio v2 / v1 | {len(ratios)} | {_quantiles(ratios)} |",
           f"| error near the faults, v1 (m) | {len(done)} | {_quantiles([o['error_v1'] for o in done])} |",
           f"| error near the faults, v2 (m) | {len(done)} | {_quantiles([o['error_v2'] for o in done])} |",
+          f"| excess error near the faults, v2 - v1 (m) | {len(done)} | "
+          f"{_quantiles([o['error_v2'] - o['error_v1'] for o in done])} |",
           f"| cutoff distance, mean per seed (m) | {len(cm)} | {_quantiles(cm)} |",
           f"| cutoff distance, max per seed (m) | {len(cx)} | {_quantiles(cx)} |", ""]
     for k in (1, 2, 3, 4):
