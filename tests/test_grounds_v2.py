@@ -196,11 +196,20 @@ def test_derived_model_holds(seed, tmp_path):
 DERIVE_FAILS = {
     # Normal fault at 73 degrees, 166 holes, one layer: every section's
     # cutoff throw is normal (14-30 m), the kind comes out reverse and the
-    # throws are set to zero.
+    # throws are set to zero. On 5 of 8 sections the nearest hanging-wall
+    # datum is just over two data spacings from its cutoff (102-144 m
+    # against 106 m), so _regional_throw decides there: -9.9, -0.3, -0.3,
+    # -10.2, -3.3 m (the ground's throw decays over 100-350 m into the
+    # hanging wall; the step of a common line over the wide window sees
+    # little of it); the median of the eight is -0.3 m.
     34: "kind derived reverse",
     # Reverse fault at 46 degrees across the area, 105 holes: layer L1
     # dropped from 5 of 8 sections ('cutoffs made the patch cross itself'),
     # so L1 has almost no patch; cutoffs within 0.33 m (mean), ratio 6.3.
+    # derive._patch_problem flags the TRUE (v1) patches of this fault too
+    # (a reverse fault's folded patch outline is not simple in XY), which
+    # build and pass check(); without the drops the derived model's ratio
+    # is 1.03.
     0: "patch crossed itself",
     # Reverse fault at 35 degrees, 82 holes, no warning, cutoffs within
     # 1.5 m (mean): ratio 1.68.
