@@ -21,7 +21,10 @@ import faultmesh
 from faultmesh import datasets, derive
 from faultmesh.dataset import Boreholes, Dataset, DatasetError, Fault, Section, points_in_polygon
 from faultmesh.geology import FaultModel, Geology, smooth_field
-from faultmesh.grounds import cutoff_distance, near_fault_errors
+# One implementation of each measure (faultmesh.grounds), under the names
+# these tests have used.
+from faultmesh.grounds import cutoff_distance as true_cutoff_distance
+from faultmesh.grounds import near_fault_errors as near_fault_error
 
 # Borehole count of the generated grounds: a jittered grid of about 160 m
 # over 3 km x 2.5 km. The derived model's error near the fault is 0.45-0.90x
@@ -333,7 +336,7 @@ def test_derived_cutoffs_kind_and_accuracy(ground):
     assert fr.ends == ["tip", "tip"] and len(d.fault(ftrue.name).tips) == 2
     # Every layer is displaced, and cut on most sections.
     assert set(fr.cutoffs) == set(ds.layers)
-    dist = np.concatenate([cutoff_distance(ds.geology, ftrue.name, lay, side, cl[side],
+    dist = np.concatenate([true_cutoff_distance(ds.geology, ftrue.name, lay, side, cl[side],
                                                 fr.surface.dip_dir)
                            for lay, cl in fr.cutoffs.items() for side in ("foot", "hanging")])
     assert np.isfinite(dist).all()
@@ -343,7 +346,7 @@ def test_derived_cutoffs_kind_and_accuracy(ground):
     m2 = faultmesh.build_model(d, evaluate=False)
     m1.check()
     m2.check()
-    e1, e2 = near_fault_errors([m1, m2], ds.geology, np.asarray(ds.boundary))
+    e1, e2 = near_fault_error([m1, m2], ds.geology, np.asarray(ds.boundary))
     print(f"{name}: near-fault error v1 {e1:.3f} derived {e2:.3f} ratio {e2 / e1:.2f}")
     assert e2 <= 1.25 * e1, (name, e1, e2)
 
@@ -373,7 +376,7 @@ def test_sparse_boreholes(name):
     m1 = faultmesh.build_model(ds, evaluate=False)
     m2 = faultmesh.build_model(d, evaluate=False)
     m2.check()
-    e1, e2 = near_fault_errors([m1, m2], ds.geology, np.asarray(ds.boundary))
+    e1, e2 = near_fault_error([m1, m2], ds.geology, np.asarray(ds.boundary))
     print(f"{name} (60 holes): near-fault error v1 {e1:.3f} derived {e2:.3f} ratio {e2 / e1:.2f}")
     assert e2 <= limit * e1, (name, e1, e2)
 
@@ -500,7 +503,7 @@ def test_fault_from_surface_or_trace_planes():
         assert fr.surface.source == ("sticks" if src == "points" else src)
         results[src] = fr
         lay = ds.layers[0]
-        dist = cutoff_distance(ds.geology, "F1", lay, "hanging", fr.cutoffs[lay]["hanging"],
+        dist = true_cutoff_distance(ds.geology, "F1", lay, "hanging", fr.cutoffs[lay]["hanging"],
                                     fr.surface.dip_dir)
         # The trace planes span only the v1 sections' depth range and length:
         # a shorter fault, but its cutoffs lie as close to the true ones.
