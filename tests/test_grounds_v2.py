@@ -172,11 +172,12 @@ def test_v1_dataset_unchanged_by_the_v2_writer(tmp_path):
 # the derived sections), as on the hand-made grounds of tests/test_derive.py.
 CUTOFF_MEAN, CUTOFF_MAX = 2.0, 12.0
 
-# The grounds of seeds 0-99 on which the derived model holds
-# (docs/bench/sweep_v2.md: 3 of 91): two single faults, a reverse one at 77
-# degrees with 234 holes (27, ratio 0.37) and a normal one at 40 degrees
-# across the area (59, ratio 1.02), and three independent faults (7, 1.16).
-# No crossing pair holds yet.
+# Grounds of seeds 0-99 on which the derived model holds: two single
+# faults, a reverse one at 77 degrees with 234 holes (27, ratio 0.37) and a
+# normal one at 40 degrees across the area (59, ratio 1.02), and three
+# independent faults (7, 1.16). With main's fd1aaf9 (derive: the stitcher's
+# outline test, the room between faults) 0, 3, 24, 26, 68 and 80 hold too
+# (docs/bench/sweep_v2.md), among them the T-crossing pairs 3, 24 and 68.
 HOLDING_V2 = [27, 59, 7]
 
 
@@ -190,9 +191,10 @@ def test_derived_model_holds(seed, tmp_path):
     assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
 
 
-# One seed per class of derive's failures on these grounds (sweep_v2.md):
-# reproducers that must start to hold (strict: a fix shows here and moves
-# the seed to HOLDING_V2).
+# One seed per class of derive's failures on these grounds (sweep_v2.md),
+# each failing the same way before and after main's fd1aaf9 (which fixed
+# the classes of seeds 0, 29 and 75): reproducers that must start to hold
+# (strict: a fix shows here and moves the seed to HOLDING_V2).
 DERIVE_FAILS = {
     # Normal fault at 73 degrees, 166 holes, one layer: every section's
     # cutoff throw is normal (14-30 m), the kind comes out reverse and the
@@ -203,24 +205,20 @@ DERIVE_FAILS = {
     # hanging wall; the step of a common line over the wide window sees
     # little of it); the median of the eight is -0.3 m.
     34: "kind derived reverse",
-    # Reverse fault at 46 degrees across the area, 105 holes: layer L1
-    # dropped from 5 of 8 sections ('cutoffs made the patch cross itself'),
-    # so L1 has almost no patch; cutoffs within 0.33 m (mean), ratio 6.3.
-    # derive._patch_problem flags the TRUE (v1) patches of this fault too
-    # (a reverse fault's folded patch outline is not simple in XY), which
-    # build and pass check(); without the drops the derived model's ratio
-    # is 1.03.
-    0: "patch crossed itself",
     # Reverse fault at 35 degrees, 82 holes, no warning, cutoffs within
-    # 1.5 m (mean): ratio 1.68.
+    # 1.5 m (mean): error near the fault 0.50 m against 0.30 m (1.68x).
     22: "no warning, ratio 1.68",
-    # Two independent faults: the derived patches (far ends half a data
-    # spacing past the band, 31 holes over 4 km) overlap: the stitcher
-    # rejects them as too close.
-    29: "derived zones overlap",
-    # An X-crossing pair: _joint_sides -> _min_curvature with no datum in a
-    # block: ZeroDivisionError.
-    75: "ZeroDivisionError in _min_curvature",
+    # Reverse fault at 34 degrees across the area, 28 holes: cutoff throws
+    # of a normal fault (5-12 m) on six layer sections (set to zero),
+    # ratio 4.1.
+    12: "cutoff throws of the wrong sign",
+    # Normal fault at 49 degrees, 35 holes over 1.7 km: no hanging-wall
+    # data within about 420 m of the cutoffs on six layer sections
+    # (extrapolated), ratio 2.1.
+    43: "no hanging-wall data near the fault",
+    # Three faults, 20 holes over 4.7 km: the derived patches of F2 and F3
+    # (independent) overlap, the stitcher rejects them as too close.
+    91: "derived zones overlap",
 }
 
 
