@@ -1,7 +1,7 @@
 """How often faultmesh holds on grounds it was not written for.
 
     python bench/sweep.py [--seeds N] [--start S] [--jobs J] [--timeout SEC] [--quick]
-                          [--out DIR] [--no-write]
+                          [--out DIR] [--no-write] [--v2]
 
 Runs ``faultmesh.grounds.evaluate_ground`` for seeds S .. S+N-1 (default 0 ..
 499): each seed draws a random ground (study area, layers, faults, sections,
@@ -20,6 +20,13 @@ table to stdout and bench/results/quick/sweep.{md,json}; --no-write: stdout
 only. Progress (one line per seed) goes to stderr; the per-seed outcomes are
 also appended to <out>/sweep.jsonl as they come, so an interrupted sweep
 leaves what it did.
+
+--v2 runs ``faultmesh.grounds.evaluate_ground_v2`` instead: each ground also
+written as format 2 without cutoffs (fault sticks, drillhole tables with
+deviated holes), its faults derived, built and checked, the derived cutoffs
+and the error near the faults compared with the v1 model of the true
+cutoffs; writes sweep_v2.md / sweep_v2.json (the v1 sweep's files are not
+touched).
 """
 from __future__ import annotations
 
@@ -42,7 +49,7 @@ use_dev_build()
 QUICK_OUT = ROOT / "bench" / "results" / "quick"
 
 
-def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float) -> None:
+def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2: bool = False) -> None:
     try:
         import resource
         lim = int(mem_gb * 2 ** 30)
@@ -55,9 +62,9 @@ def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float) -> Non
     faulthandler.dump_traceback_later(tb_after, exit=False, file=tb_file)
     import warnings
     warnings.simplefilter("ignore")
-    from faultmesh.grounds import evaluate_ground
+    from faultmesh.grounds import evaluate_ground, evaluate_ground_v2
     try:
-        out = evaluate_ground(seed)
+        out = evaluate_ground_v2(seed) if v2 else evaluate_ground(seed)
     except BaseException as e:  # evaluate_ground records failures; this is its own defect
         out = {"seed": seed, "ok": False, "stage": "crash", "error_type": type(e).__name__,
                "error": str(e)[:2000], "pattern": str(e)[:160]}
@@ -65,7 +72,8 @@ def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float) -> Non
     conn.close()
 
 
-def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl: Path = None) -> List[Dict]:
+def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl: Path = None,
+              v2: bool = False) -> List[Dict]:
     """Outcomes of the seeds, each in its own forked process."""
     import tempfile
     ctx = mp.get_context("fork")
@@ -81,7 +89,8 @@ def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl:
                 s = pending.pop(0)
                 r, w = ctx.Pipe(duplex=False)
                 tb = os.path.join(tb_dir, f"seed{s}.txt")
-                p = ctx.Process(target=_child, args=(s, w, mem_gb, tb, 0.95 * timeout), daemon=True)
+                p = ctx.Process(target=_child, args=(s, w, mem_gb, tb, 0.95 * timeout, v2),
+                               daemon=True)
                 p.start()
                 w.close()
                 running[s] = (p, r, time.perf_counter())
@@ -328,6 +337,94 @@ def render(outs: List[Dict], meta: Dict[str, Any]) -> str:
     return "\n".join(L).rstrip() + "\n"
 
 
+def _quantiles(v: List[float], fmt: str = "{:.2f}") -> str:
+    """min / median / 90th percentile / max of v."""
+    if not v:
+        return "-"
+    v = sorted(v)
+    q = [v[0], statistics.median(v), v[min(len(v) - 1, int(round(0.9 * (len(v) - 1))))], v[-1]]
+    return " / ".join(fmt.format(x) for x in q)
+
+
+def render_v2(outs: List[Dict], meta: Dict[str, Any]) -> str:
+    """The table of a --v2 sweep: format-2 grounds without cutoffs against
+    the same grounds' v1 models."""
+    from faultmesh.grounds import V2_RATIO
+    L = ["## Random grounds as format 2 without cutoffs: derived against true cutoffs", "",
+         f"Command: `{meta['command']}`  ", f"Date: {meta['date']}  ", f"Machine: {meta['machine']}  "]
+    seeds = [o["seed"] for o in outs]
+    L += [f"Seeds: {min(seeds)}-{max(seeds)} ({len(seeds)}), {meta['jobs']} processes, "
+          f"time limit {meta['timeout']:.0f} s and {meta['memory_gb']:g} GiB per seed; "
+          f"wall time {meta['elapsed'] / 60.0:.1f} min.  ", ""]
+    L += ["Each seed's ground (`faultmesh.grounds.random_ground(seed)`) is written twice: as its v1 "
+          "dataset (hand-drawn traces up to the true cutoffs) and by `faultmesh.grounds.write_v2` as "
+          "format 2 without cutoffs (each fault as fault sticks on the truth's surface, no traces, kind "
+          "or tips; the layer tops as collar/survey/interval tables of the same holes, about half of "
+          "them deviated). Both are loaded, built and checked; the v2 one through "
+          "`derive.derive_faults`. Measured: the distance of each derived cutoff point from the true "
+          "cutoff on its section (`grounds.cutoff_distance`), the derived kind, and the mean \\|dz\\| "
+          "within 150 m of the truth's fault bands of each model (`grounds.near_fault_errors`) and "
+          f"their ratio v2 / v1; a seed passes when the v2 model derives, builds, passes `check()` "
+          f"and its ratio is at most {V2_RATIO:g}. Too-close pairs (which must be rejected) are not "
+          "run. `python -c \"import faultmesh.grounds as g; print(g.evaluate_ground_v2(SEED))\"` reruns "
+          "one seed.", ""]
+    run = [o for o in outs if o.get("stage") != "reject"]
+    n = len(run)
+    v1ok = [o for o in run if o.get("stage") not in ("generate", "load:v1", "build:v1", "check:v1",
+                                                     "timeout", "crash") or o.get("ok")]
+    v1ok = [o for o in v1ok if o.get("stage") not in ("timeout", "crash")]
+    nv = len(v1ok)
+
+    def count(pred, pool):
+        return _pct(sum(1 for o in pool if pred(o)), len(pool))
+
+    derived = lambda o: o.get("stage") not in ("generate:v2", "load:v2", "derive")
+    built = lambda o: derived(o) and not str(o.get("stage")).startswith("build:v2")
+    checked = lambda o: built(o) and o.get("stage") != "check:v2"
+    rows = [("seeds", str(len(outs))), ("too-close pairs (not run)", str(len(outs) - n)),
+            ("grounds run", str(n)),
+            ("- v1 reference built and checked (else not compared)", _pct(nv, n)),
+            ("of these: v2 written and loaded, faults derived", count(derived, v1ok)),
+            ("- v2 built", count(built, v1ok)), ("- v2 built and `check()` passed", count(checked, v1ok)),
+            ("- every fault's kind derived right", count(lambda o: checked(o) and o.get("kind_ok"), v1ok)),
+            (f"- **error near the faults at most {V2_RATIO:g} x v1's (pass)**", count(lambda o: o.get("ok"), v1ok))]
+    L += ["| | seeds |", "|---|---:|"] + [f"| {a} | {b} |" for a, b in rows] + [""]
+    done = [o for o in v1ok if o.get("ratio") is not None]
+    ratios = [o["ratio"] for o in done if o["ratio"] == o["ratio"]]
+    cm = [o["cutoff_mean"] for o in v1ok if o.get("cutoff_mean") is not None]
+    cx = [o["cutoff_max"] for o in v1ok if o.get("cutoff_max") is not None]
+    L += ["Distributions (min / median / 90th percentile / max over the seeds):", "",
+          "| measure | seeds | value |", "|---|---:|---|",
+          f"| error ratio v2 / v1 | {len(ratios)} | {_quantiles(ratios)} |",
+          f"| error near the faults, v1 (m) | {len(done)} | {_quantiles([o['error_v1'] for o in done])} |",
+          f"| error near the faults, v2 (m) | {len(done)} | {_quantiles([o['error_v2'] for o in done])} |",
+          f"| excess error near the faults, v2 - v1 (m) | {len(done)} | "
+          f"{_quantiles([o['error_v2'] - o['error_v1'] for o in done])} |",
+          f"| cutoff distance, mean per seed (m) | {len(cm)} | {_quantiles(cm)} |",
+          f"| cutoff distance, max per seed (m) | {len(cx)} | {_quantiles(cx)} |", ""]
+    for k in (1, 2, 3, 4):
+        sub = [o for o in done if len((o.get("spec") or {}).get("faults") or []) == k]
+        if sub:
+            r = [o["ratio"] for o in sub]
+            L.append(f"{k} fault{'s' if k > 1 else ''}: {len(sub)} compared, "
+                     f"{sum(o['ok'] for o in sub)} within {V2_RATIO:g}, ratio median "
+                     f"{statistics.median(r):.2f}.  ")
+    L += ["", "### Failure classes", "",
+          "Stage: where the seed stopped (`load:v1` ... `check:v1`: the reference model, the "
+          "robustness sweep's failures; `generate:v2`, `load:v2`: the generator's or the drillhole "
+          "reader's; `derive`, `build:v2:<step>`, `check:v2`: derived faults; `ratio`: built and "
+          "checked, error near the faults above the limit, with what derive got visibly wrong: the kind, "
+          "or its most frequent warning). Pattern: names ('S') and numbers (N) replaced.", "",
+          "| # | stage | exception | pattern | seeds | examples |", "|---:|---|---|---|---:|---|"]
+    for i, ((stage, et, pat), os_) in enumerate(failure_classes([o for o in outs if o.get("stage") != "reject"]), 1):
+        ex = "<br>".join(f"{o.get('describe') or ('seed %d' % o['seed'])}"
+                         + (f" -- {o['error'][:160]}" if o.get("error") else "") for o in os_[:3])
+        all_seeds = ", ".join(str(o["seed"]) for o in os_)
+        L.append(f"| {i} | {stage} | {et} | {pat.replace('|', chr(92) + '|')} | {len(os_)} ({all_seeds}) | "
+                 f"{ex.replace('|', chr(92) + '|')} |")
+    return "\n".join(L).rstrip() + "\n"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, default=500, help="number of seeds (default 500)")
@@ -338,19 +435,24 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="8 seeds; results under bench/results/quick/")
     ap.add_argument("--out", type=Path, default=None, help="folder for sweep.md / sweep.json")
     ap.add_argument("--no-write", action="store_true", help="print the table only")
+    ap.add_argument("--v2", action="store_true",
+                    help="each ground also as format 2 without cutoffs (grounds.evaluate_ground_v2): "
+                         "derived against true cutoffs; writes sweep_v2.md / sweep_v2.json")
     ap.add_argument("--render", type=Path, default=None, metavar="JSON",
                     help="no sweep: render the table again from a sweep.json (into --out or its folder)")
     args = ap.parse_args(argv)
     if args.render is not None:
         doc = json.loads(args.render.read_text())
         outs = doc["seeds"]
-        renormalise(outs)
-        fill_specs(outs)
-        mark_rejects(outs)
-        text = render(outs, doc["meta"])
+        v2 = bool(doc["meta"].get("v2"))
+        if not v2:
+            renormalise(outs)
+            fill_specs(outs)
+            mark_rejects(outs)
+        text = render_v2(outs, doc["meta"]) if v2 else render(outs, doc["meta"])
         print(text)
         if not args.no_write:
-            out = (args.out or args.render.parent) / "sweep.md"
+            out = (args.out or args.render.parent) / ("sweep_v2.md" if v2 else "sweep.md")
             out.write_text(text)
             print(f"wrote {out}", file=sys.stderr)
         return 0
@@ -362,29 +464,31 @@ def main(argv=None) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     seeds = list(range(args.start, args.start + args.seeds))
     t0 = time.perf_counter()
+    stem = "sweep_v2" if args.v2 else "sweep"
     outs = run_seeds(seeds, args.jobs, args.timeout, args.memory_gb,
-                     jsonl=None if args.no_write else out_dir / "sweep.jsonl")
+                     jsonl=None if args.no_write else out_dir / f"{stem}.jsonl", v2=args.v2)
     elapsed = time.perf_counter() - t0
-    fill_specs(outs)
-    mark_rejects(outs)
+    if not args.v2:
+        fill_specs(outs)
+        mark_rejects(outs)
     meta = {"command": command_line("sweep.py"), "date": today(),
             "machine": machine(numpy=True, faultmesh=True), "jobs": args.jobs, "timeout": args.timeout,
-            "memory_gb": args.memory_gb, "elapsed": elapsed}
-    text = render(outs, meta)
+            "memory_gb": args.memory_gb, "elapsed": elapsed, "v2": args.v2}
+    text = render_v2(outs, meta) if args.v2 else render(outs, meta)
     print(text)
     if not args.no_write:
-        (out_dir / "sweep.md").write_text(text)
+        (out_dir / f"{stem}.md").write_text(text)
         slim = []
         for o in outs:
             o = {k: v for k, v in o.items() if k != "traceback"}
             slim.append(o)
         doc = {"meta": meta, "seeds": slim}
-        (out_dir / "sweep.json").write_text(json.dumps(doc, default=float, separators=(",", ":")) + "\n")
+        (out_dir / f"{stem}.json").write_text(json.dumps(doc, default=float, separators=(",", ":")) + "\n")
         try:
-            (out_dir / "sweep.jsonl").unlink()
+            (out_dir / f"{stem}.jsonl").unlink()
         except OSError:
             pass
-        print(f"wrote {out_dir / 'sweep.md'} and sweep.json", file=sys.stderr)
+        print(f"wrote {out_dir / (stem + '.md')} and {stem}.json", file=sys.stderr)
     return 0
 
 

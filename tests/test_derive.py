@@ -16,13 +16,15 @@ from fractions import Fraction
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
-from scipy.ndimage import distance_transform_edt
 
 import faultmesh
 from faultmesh import datasets, derive
-from faultmesh.build import surface_z
 from faultmesh.dataset import Boreholes, Dataset, DatasetError, Fault, Section, points_in_polygon
 from faultmesh.geology import FaultModel, Geology, smooth_field
+# One implementation of each measure (faultmesh.grounds), under the names
+# these tests have used.
+from faultmesh.grounds import cutoff_distance as true_cutoff_distance
+from faultmesh.grounds import near_fault_errors as near_fault_error
 
 # Borehole count of the generated grounds: a jittered grid of about 160 m
 # over 3 km x 2.5 km. The derived model's error near the fault is 0.45-0.90x
@@ -65,53 +67,6 @@ def v2_of(ds: Dataset, **fault_kw) -> Dataset:
     return Dataset(name=ds.name + "-v2", layers=ds.layers, boundary=ds.boundary,
                    boreholes=ds.boreholes, points=ds.points, sections={}, faults=faults,
                    crs=ds.crs, truth=ds.truth, geology=ds.geology)
-
-
-def true_cutoff_distance(geo: Geology, fault: str, layer: str, side: str, P: np.ndarray,
-                         direction: np.ndarray, half: float = 400.0, step: float = 1.0) -> np.ndarray:
-    """3D distance from each derived cutoff point P (k, 3) to the true cutoff
-    of ``side`` on the vertical section line through it along ``direction``
-    (the root of side value - fault elevation nearest to it, 1 m brackets
-    refined linearly)."""
-    s = np.arange(-half, half + step, step)
-    out = np.full(len(P), np.nan)
-    for i, p in enumerate(P):  # a few dozen cutoff points per ground
-        xy = p[None, :2] + s[:, None] * direction[None, :]
-        g = geo.side_value(layer, fault, side, xy[:, 0], xy[:, 1]) - geo.plane_z(fault, xy[:, 0], xy[:, 1])
-        ok = np.isfinite(g[:-1]) & np.isfinite(g[1:]) & ((g[:-1] > 0) != (g[1:] > 0))
-        idx = np.flatnonzero(ok)
-        if not len(idx):
-            continue
-        j = idx[np.argmin(np.abs(s[idx]))]
-        t = g[j] / (g[j] - g[j + 1])
-        q = xy[j] + t * (xy[j + 1] - xy[j])
-        out[i] = float(np.linalg.norm(np.r_[q, geo.plane_z(fault, q[0:1], q[1:2])[0]] - p))
-    return out
-
-
-def near_fault_error(models, geo: Geology, ring: np.ndarray, near: float = 150.0, samples: int = 200):
-    """Mean |dz| of each model's upper sheet against the truth on the SAME
-    grid points: those within ``near`` m (on a ``samples``-cell grid) of
-    where some layer of the truth is absent or doubled (the fault bands),
-    as build_model's metadata["accuracy"] measures, but independent of the
-    models' patch footprints so two models are compared on equal terms."""
-    lo, hi = ring.min(axis=0), ring.max(axis=0)
-    h = float(max(hi - lo)) / samples
-    X, Y = np.meshgrid(np.arange(lo[0] + h / 2, hi[0], h), np.arange(lo[1] + h / 2, hi[1], h))
-    P = np.column_stack([X.ravel(), Y.ravel()])
-    inside = points_in_polygon(P, ring)
-    errs = [[] for _ in models]
-    for lay in geo.layers:
-        band = (geo.n_sheets(lay, P[:, 0], P[:, 1]) != 1).reshape(X.shape)
-        if not band.any():
-            continue
-        sel = np.flatnonzero((distance_transform_edt(~band).ravel() * h <= near) & inside)
-        t = geo.truth(lay, P[sel, 0], P[sel, 1])
-        zs = [surface_z(m.surfaces[lay].vertices, m.surfaces[lay].triangles, P[sel])[1] for m in models]
-        ok = np.isfinite(t) & np.all([np.isfinite(z) for z in zs], axis=0)
-        for e, z in zip(errs, zs):
-            e.append(np.abs(z[ok] - t[ok]))
-    return [float(np.concatenate(e).mean()) for e in errs]
 
 
 def curved_ground(kind: str, dip: float, bend: float = 150.0, seed: int = 0) -> Dataset:

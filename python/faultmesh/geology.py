@@ -767,6 +767,45 @@ class Geology:
             out[idx] = np.where(valid & ~(o >= z), z, o)
         return out
 
+    def hanging(self, x, y, z) -> np.ndarray:
+        """(n, F) bool: True where the 3D point (x, y, z) lies strictly above
+        the surface of fault i (its hanging wall; on the surface counts as
+        footwall, as in the side tests of :meth:`sheets`)."""
+        x, y, z = (np.ravel(np.asarray(v, dtype=np.float64)) for v in (x, y, z))
+        X, Y = self.local(x, y)
+        out = np.zeros((len(X), len(self.faults)), dtype=bool)
+        for i, f in enumerate(self.faults):
+            out[:, i] = z > f.plane_z(X, Y)
+        return out
+
+    def tops_in_block(self, x, y, hanging: np.ndarray) -> np.ndarray:
+        """(n, L): every layer's top at global (x, y) in the fault block given
+        per point by ``hanging`` ((n, F) bool, e.g. :meth:`hanging` of a 3D
+        point), continued past its cutoffs within that block as
+        :meth:`side_value` continues one side. Within a block the tops keep
+        the layer order, so the unit a 3D point lies in is the number of its
+        block's tops at or above it, minus one. The undoing of the slip is
+        :meth:`_combos`' (youngest fault first; a fault that abuts another
+        acts only on its side of it), for one given block per point instead
+        of every block."""
+        X, Y = self.local(np.ravel(x), np.ravel(y))
+        H = np.asarray(hanging, dtype=bool).reshape(len(X), len(self.faults))
+        out = np.empty((len(X), len(self.layers)))
+        for k, lay in enumerate(self.layers):
+            Xc, Yc, dz = X, Y, np.zeros_like(X)
+            for i in reversed(self._relevant(lay)):
+                f = self.faults[i]
+                act = H[:, i]
+                if f.abuts is not None:
+                    act = act & (H[:, self._index[f.abuts[0]]] == (f.abuts[1] == "hanging"))
+                if f.layers.get(lay, 0.0) <= 0.0 or not act.any():
+                    continue  # zero throw: backward() is the identity
+                Xb, Yb, s = f.backward(lay, Xc, Yc)
+                Xc, Yc = np.where(act, Xb, Xc), np.where(act, Yb, Yc)
+                dz = dz + np.where(act, s, 0.0)
+            out[:, k] = np.asarray(self.surfaces[lay](Xc, Yc), dtype=np.float64) - dz
+        return out
+
     def truth(self, layer: str, x, y) -> np.ndarray:
         """Ground-truth elevation of ``layer`` at global (x, y), one value per
         point: the single sheet; in a reverse-fault overlap band the upper

@@ -41,6 +41,35 @@ Measures for a built model (used by ``bench/sweep.py`` and the tests):
 :func:`repetition_coverage`, :func:`near_fault_accuracy`, and
 :func:`evaluate_ground`, which runs one seed from drawing to the checks and
 says where it stopped (:func:`failure_class`).
+
+**Format 2 without cutoffs** (issue 11): :func:`write_v2` (or
+``random_ground(seed, path, version=2)``) writes the same ground again as
+the data geologists have, for :func:`faultmesh.derive.derive_faults`:
+
+* each fault as fault sticks on the truth's fault surface (one every
+  60-140 m along strike within the fault's extent near the study area,
+  points every 15-35 m down the stick over the layers' depths; a fault that
+  abuts another only on its side of it), rounded like the traces; no
+  traces, no kind, no tips (the group is kept);
+* the layer tops as collar, survey and interval tables of the v1 holes
+  (same ids and collar x, y; collar z the top layer's truth rounded as
+  v1's tops): half vertical, a quarter straight and inclined (dip -60 to
+  -85, any azimuth), a quarter curved (stations every 30 m); the intervals
+  logged from the truth along each desurveyed path (contacts bisected with
+  the fault block fixed, :meth:`Geology.tops_in_block`), depths to 1 mm,
+  angles to 0.01 degree, fault rock (:data:`FAULT_ROCK`) where a hole
+  crosses a fault and the unit changes, :data:`COVER` above the top layer
+  under a thrust; so a hole through a reverse fault's repetition enters the
+  layer twice, and the reader gives both tops (of the top layer only one:
+  nothing lies above it);
+* the v1 topography as points.
+
+It draws from its own generator (``default_rng([seed, 2])``): the v1 files
+do not change. :func:`evaluate_ground_v2` builds and checks both versions of
+a seed and compares them: :func:`cutoff_distance` (derived against true
+cutoffs), :func:`near_fault_errors` (each model's error near the faults,
+on the same points) and their ratio (limit :data:`V2_RATIO`);
+``bench/sweep.py --v2`` runs it over many seeds.
 """
 from __future__ import annotations
 
@@ -62,7 +91,8 @@ from .geology import FaultModel, Geology, layer_stack, smooth_field
 
 __all__ = ["GroundSpec", "random_ground", "make_ground", "draw_plan", "KINDS",
            "repetition_coverage", "near_fault_accuracy", "evaluate_ground", "failure_class",
-           "COVERAGE_THRESHOLD"]
+           "COVERAGE_THRESHOLD", "write_v2", "evaluate_ground_v2", "cutoff_distance",
+           "near_fault_errors", "V2_RATIO", "FAULT_ROCK", "COVER"]
 
 #: A reverse fault "repeats" a layer if the model folds (footwall, strip,
 #: hanging wall) over at least this share of the places where the truth has
@@ -1313,7 +1343,7 @@ def make_ground(seed: int, folder, **overrides) -> Tuple[GroundSpec, Geology, Pa
     raise RuntimeError(f"random_ground: seed {seed}: could not realise {plan} (last: {why})")
 
 
-def random_ground(seed: int, path=None, **overrides) -> Dataset:
+def random_ground(seed: int, path=None, version: int = 1, **overrides) -> Dataset:
     """The dataset of ground ``seed``: drawn (see the module docstring),
     written to ``path`` (a folder; a temporary one if None) and read back
     with :func:`faultmesh.load_dataset`. ``dataset.truth`` /
@@ -1321,13 +1351,19 @@ def random_ground(seed: int, path=None, **overrides) -> Dataset:
     :class:`GroundSpec`. ``overrides`` (see :func:`draw_plan`) fix parts of
     the draw, e.g. ``random_ground(3, coords="utm", area="L", n_faults=2,
     pair="X")``. Raises the loader's :class:`DatasetError` if it rejects
-    what was written."""
+    what was written. ``version=2``: the same ground as format 2 without
+    cutoffs (:func:`write_v2`, into ``path/v2``; the v1 dataset is written
+    too, unchanged)."""
     from .dataset import load_dataset
+    if version not in (1, 2):
+        raise ValueError(f"random_ground: version must be 1 or 2, got {version!r}")
     if path is None:
         with tempfile.TemporaryDirectory(prefix="faultmesh-ground-") as tmp:
-            return random_ground(seed, tmp, **overrides)
+            return random_ground(seed, tmp, version, **overrides)
     spec, geo, p = make_ground(seed, path, **overrides)
     ds = load_dataset(p)
+    if version == 2:
+        ds = load_dataset(write_v2(ds, geo, spec, Path(path) / "v2"))
     ds.truth = geo.truth
     ds.geology = geo
     ds.spec = spec
@@ -1675,6 +1711,544 @@ def evaluate_ground(seed: int, folder=None, coverage_threshold: float = COVERAGE
         out["ok"] = True
         out["stage"] = "ok"
         return out
+    finally:
+        if tmp is not None:
+            tmp.cleanup()
+
+
+# ---------------------------------------------------------------------------
+# Format v2: the same ground as fault points and drillhole tables
+# ---------------------------------------------------------------------------
+#: Interval unit logged where a v2 drillhole crosses a fault surface and the
+#: unit changes across it (listed in ``other_units``). A contact between two
+#: layers in stratigraphic order that is in fact a fault (a normal fault
+#: cutting out layers, or a reverse fault where a younger layer lies below)
+#: would otherwise be read as a layer top on the fault (docs/dataset.md,
+#: "Layer tops"); logging the fault rock is what the format asks for.
+FAULT_ROCK = "fault"
+
+#: Interval unit logged above the top layer below the collar: in the
+#: footwall of a reverse fault that repeats the top layer, between the fault
+#: and the footwall's top layer (the truth has no layer above its top one).
+#: It is not a layer, so the footwall's second top of the top layer is not
+#: given (docs/dataset.md: a contact next to an other unit gives no top; a
+#: cover logged as a layer would give it), unlike the v1 borehole table.
+COVER = "cover"
+
+#: Half the thickness (m) of the fault rock logged at a crossing: 1 cm either
+#: side of it, the thinnest gouge a log records at the depths' 1 mm
+#: resolution. It hides a stratigraphic contact only where the hole crosses
+#: the fault within 1 cm of it (a hole through a cutoff line).
+_FAULT_ROCK_HALF = 0.01
+
+#: Depth step (m) of the scan along the holes before bisection. Within one
+#: fault block a layer's top is crossed once by a hole steeper than 55
+#: degrees (the hole sinks by sin(55) = 0.82 m per metre, a top of slope
+#: below 1.6 -- layer slope plus the drag of a decaying throw -- rises by at
+#: most 0.57 m per metre along it), so the scan brackets each top of each
+#: layer separately, also a layer thinner than the step; fault surfaces
+#: (planes bent along strike) are crossed once by a straight or gently
+#: curved hole.
+_SCAN_STEP = 2.0
+
+#: Bisection steps: 2 m / 2**52 is below the spacing of doubles at the
+#: depths of the holes; the contacts are exact to rounding.
+_BISECT = 52
+
+#: The kinds of v2 drillholes (share of the holes): vertical, straight and
+#: inclined (dip -60..-85), curved (stations every 30 m, turning by up to 1.5
+#: degrees in dip and 2 in azimuth between stations, always steeper than 55).
+_HOLE_KINDS = ("vertical", "inclined", "curved")
+_HOLE_SHARES = (0.5, 0.25, 0.25)
+
+
+def _bisect(f, lo: np.ndarray, hi: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """Shrink brackets [lo, hi] (depths) to the change of the predicate
+    ``f(depths) -> bool`` (True at lo); vectorised over brackets."""
+    lo, hi = lo.copy(), hi.copy()
+    for _ in range(_BISECT):
+        if not len(lo):
+            break
+        mid = 0.5 * (lo + hi)
+        same = f(mid)
+        lo, hi = np.where(same, mid, lo), np.where(same, hi, mid)
+    return lo, hi
+
+
+def _hole_contacts(geo: Geology, holes, length: np.ndarray):
+    """Where the holes of ``holes`` (:class:`faultmesh.drillholes.Drillholes`,
+    desurveyed) meet the truth down to ``length`` (per hole): the unit at the
+    collar (rank in ``geo.layers``, -1 above the top layer) and the events
+    (hole, depth, unit below, crossing a fault?) sorted by hole and depth.
+
+    The scan samples every hole every :data:`_SCAN_STEP` m. Fault crossings:
+    where the side of some fault surface changes between samples, bisected.
+    They cut each hole into stretches in one fault block; in each, every
+    layer's top in that block (:meth:`Geology.tops_in_block`) minus the
+    hole's elevation changes sign where the hole crosses it, bisected with
+    the block fixed. The unit at a point is the number of its block's tops at
+    or above it minus one."""
+    H = len(length)
+    n_s = np.floor(length / _SCAN_STEP).astype(np.int64) + 2
+    hole = np.repeat(np.arange(H), n_s)
+    k = np.arange(len(hole)) - np.repeat(np.cumsum(n_s) - n_s, n_s)
+    depth = np.minimum(k * _SCAN_STEP, length[hole])
+    P = holes.positions(hole, depth)
+    S = geo.hanging(P[:, 0], P[:, 1], P[:, 2])
+    # Fault crossings.
+    j = np.flatnonzero((hole[1:] == hole[:-1]) & np.any(S[1:] != S[:-1], axis=1))
+    fh, S_up = hole[j], S[j]
+
+    def upper(d):
+        Q = holes.positions(fh, d)
+        return np.all(geo.hanging(Q[:, 0], Q[:, 1], Q[:, 2]) == S_up, axis=1)
+
+    f_lo, f_hi = _bisect(upper, depth[j], depth[j + 1])
+    Q_lo, Q_hi = holes.positions(fh, f_lo), holes.positions(fh, f_hi)
+    # Nodes: the samples and both ends of every crossing; a stretch (block)
+    # starts at the lower end of each crossing.
+    n_hole = np.concatenate([hole, fh, fh])
+    n_depth = np.concatenate([depth, f_lo, f_hi])
+    n_P = np.vstack([P, Q_lo, Q_hi])
+    S_dn = geo.hanging(Q_hi[:, 0], Q_hi[:, 1], Q_hi[:, 2])
+    f_unit = (geo.tops_in_block(Q_hi[:, 0], Q_hi[:, 1], S_dn) - Q_hi[:, 2:3] >= 0.0).sum(axis=1) - 1
+    n_S = np.vstack([S, S_up, S_dn])
+    tie = np.concatenate([np.full(len(hole), 2), np.zeros(len(fh)), np.ones(len(fh))])
+    o = np.lexsort((tie, n_depth, n_hole))
+    n_hole, n_depth, n_P, n_S, tie = n_hole[o], n_depth[o], n_P[o], n_S[o], tie[o]
+    block = np.cumsum(tie == 1)
+    G = geo.tops_in_block(n_P[:, 0], n_P[:, 1], n_S) - n_P[:, 2:3]
+    unit = (G >= 0.0).sum(axis=1) - 1
+    a = np.flatnonzero((n_hole[1:] == n_hole[:-1]) & (block[1:] == block[:-1])
+                       & np.all(n_S[1:] == n_S[:-1], axis=1))
+    ba, lay = np.nonzero((G[a] >= 0.0) != (G[a + 1] >= 0.0))
+    ba = a[ba]
+    th, tS, t_up = n_hole[ba], n_S[ba], G[ba, lay] >= 0.0
+
+    def above_top(d):
+        Q = holes.positions(th, d)
+        g = geo.tops_in_block(Q[:, 0], Q[:, 1], tS)[np.arange(len(d)), lay] - Q[:, 2]
+        return (g >= 0.0) == t_up
+
+    t_lo, t_hi = _bisect(above_top, n_depth[ba], n_depth[ba + 1])
+    Q = holes.positions(th, t_hi)
+    t_unit = (geo.tops_in_block(Q[:, 0], Q[:, 1], tS) - Q[:, 2:3] >= 0.0).sum(axis=1) - 1
+    collar_unit = unit[np.r_[0, np.flatnonzero(n_hole[1:] != n_hole[:-1]) + 1]]
+    ev_hole = np.concatenate([th, fh])
+    ev_depth = np.concatenate([t_hi, f_hi])
+    ev_unit = np.concatenate([t_unit, f_unit])
+    ev_fault = np.concatenate([np.zeros(len(th), bool), np.ones(len(fh), bool)])
+    o = np.lexsort((ev_depth, ev_hole))
+    return collar_unit, ev_hole[o], ev_depth[o], ev_unit[o], ev_fault[o]
+
+
+def _fault_sticks(geo: Geology, fm: FaultModel, ring: np.ndarray, z_range: Tuple[float, float],
+                  rng: np.random.Generator, dec_xy: int, dec_z: int) -> Tuple[np.ndarray, np.ndarray]:
+    """Fault sticks on the truth's fault surface, as a seismic interpreter
+    picks them: one stick every 60-140 m along strike over the fault's
+    extent (its ``u_range``, cut to the study area's reach along strike plus
+    up to 100 m), points every 15-35 m down the stick over ``z_range``; a
+    fault that abuts another only on its side of it. Rounded to ``dec_xy``
+    (the traces' rounding) and ``dec_z`` decimals. Returns (points (m, 3),
+    stick labels (m,) 1, 2, ...)."""
+    uc = (ring - geo.origin - fm.anchor) @ fm.sdir
+    m = float(rng.uniform(0.0, 100.0))
+    lo, hi = max(fm.u_range[0], float(uc.min()) - m), min(fm.u_range[1], float(uc.max()) + m)
+    n = max(4, int(math.ceil((hi - lo) / float(rng.uniform(60.0, 140.0)))) + 1)
+    u = np.linspace(lo, hi, n)
+    step_z = float(rng.uniform(15.0, 35.0))
+    z = np.arange(z_range[1] - float(rng.uniform(0.0, step_z)), z_range[0], -step_z)
+    U, Z = (a.ravel() for a in np.meshgrid(u, z, indexing="ij"))  # stick by stick, top down
+    xy = fm.xy(U, (fm.z_ref - Z) / fm.tan_dip + fm.bend_offset(U))
+    stick = np.repeat(np.arange(1, n + 1), len(z))
+    keep = np.ones(len(U), dtype=bool)
+    if fm.abuts is not None:
+        parent = geo.fault(fm.abuts[0])
+        keep = (Z > parent.plane_z(xy[:, 0], xy[:, 1])) == (fm.abuts[1] == "hanging")
+    P = np.column_stack([np.round(xy + geo.origin, dec_xy), np.round(Z, dec_z)])[keep]
+    stick = stick[keep]
+    count = np.bincount(stick, minlength=n + 1)
+    keep = count[stick] >= 2  # a stick has at least two points
+    return P[keep], stick[keep]
+
+
+def _v2_drillholes(geo: Geology, ds1: Dataset, spec: GroundSpec, rng: np.random.Generator):
+    """Collar, survey and interval tables of the v1 dataset's holes (same ids
+    and collar x, y; collar z the top layer's truth, rounded as v1's tops), a
+    share of them deviated (:data:`_HOLE_KINDS`; the holes placed in
+    reverse-fault bands stay vertical), logged from the truth along their
+    desurveyed paths: depths to 1 mm, angles to 0.01 degree; fault rock
+    (:data:`FAULT_ROCK`) where a hole crosses a fault and the unit changes,
+    and at the collar of a hole collared in the top layer's normal-fault gap
+    (on the fault); :data:`COVER` above the top layer under a thrust. A hole ends a little below the last top of the deepest
+    layer its v1 rows reach (before the next contact; a curved hole at its
+    next survey station). Returns (DrillholeTables, hole kinds)."""
+    from .drillholes import CollarTable, Drillholes, DrillholeTables, IntervalTable, SurveyTable
+    b = ds1.boreholes
+    layers = list(ds1.layers)
+    ids, first, inv = np.unique(b.hole_id, return_index=True, return_inverse=True)
+    srt = np.argsort(first)  # holes in table order
+    rank_of = np.argsort(srt)
+    hi_ = rank_of[inv]
+    ids, first = ids[srt], first[srt]
+    H = len(ids)
+    li = np.array([layers.index(v) for v in b.layer.tolist()], dtype=np.int64)
+    deep = np.full(H, -1)
+    np.maximum.at(deep, hi_, li)
+    z_low = np.full(H, np.inf)
+    np.minimum.at(z_low, hi_, b.z)
+    xy = b.xy[first]
+    zdec = int(spec.rounding["z"])
+    zc = np.round(geo.truth(layers[0], xy[:, 0], xy[:, 1]), zdec)
+    kind = np.array(_HOLE_KINDS)[rng.choice(len(_HOLE_KINDS), size=H, p=_HOLE_SHARES)]
+    kind[np.char.startswith(ids.astype(str), "R")] = "vertical"  # the band holes
+    length = np.where(kind == "vertical", zc - z_low + 20.0, (zc - z_low + 150.0) / 0.8)
+    st_h, st_d, st_a, st_p = [], [], [], []
+    for h in range(H):
+        if kind[h] == "vertical":
+            if rng.random() < 0.5:
+                st_h.append(h), st_d.append(0.0), st_a.append(0.0), st_p.append(-90.0)
+            continue
+        az, dip = float(rng.uniform(0.0, 360.0)), float(rng.uniform(-85.0, -60.0))
+        if kind[h] == "inclined":
+            step = float(length[h]) + 1.0 if rng.random() < 0.5 else 50.0
+            for d in np.arange(0.0, length[h], step):
+                st_h.append(h), st_d.append(float(d)), st_a.append(round(az, 2)), st_p.append(round(dip, 2))
+            continue
+        for d in np.arange(0.0, length[h] + 30.0, 30.0):
+            st_h.append(h), st_d.append(float(d)), st_a.append(round(az % 360.0, 2)), st_p.append(round(dip, 2))
+            az += float(rng.uniform(-2.0, 2.0))
+            dip = float(np.clip(dip + rng.uniform(-1.5, 1.5), -89.5, -55.0))
+    st_h = np.array(st_h, dtype=np.int64)
+    st_d, st_a, st_p = (np.array(v, dtype=np.float64) for v in (st_d, st_a, st_p))
+    collars = CollarTable(ids, np.column_stack([xy, zc]))
+    path = Drillholes(collars, SurveyTable(ids[st_h], st_d, st_a, st_p))
+    c_unit, e_hole, e_depth, e_unit, e_fault = _hole_contacts(geo, path, length)
+    gap = geo.n_sheets(layers[0], xy[:, 0], xy[:, 1]) == 0
+    margin = rng.uniform(1.0, 8.0, size=H)
+    cuts = np.searchsorted(e_hole, np.arange(H + 1))
+    rows = []          # (hole, from, to, unit)
+    end = np.zeros(H)
+    names = layers + [FAULT_ROCK, COVER]  # unit -1 (above the top layer): COVER
+    for h in range(H):  # per hole: its dozen events
+        ev = range(cuts[h], cuts[h + 1])
+        cur = max(int(c_unit[h]), 0)
+        starts = [(0.0, cur)]
+        zones = [(0.0, _FAULT_ROCK_HALF)] if gap[h] else []
+        last_top = 0.0
+        for k in ev:
+            d, u = float(e_depth[k]), int(e_unit[k])
+            if u == cur:
+                continue
+            if e_fault[k]:
+                zones.append((d - _FAULT_ROCK_HALF, d + _FAULT_ROCK_HALF))
+            elif cur < u <= deep[h]:
+                last_top = d
+            starts.append((d, u))
+            cur = u
+        nxt = np.array([a for a, _ in starts[1:] if a > last_top])  # the next change of unit
+        room = (float(nxt[0]) if len(nxt) else float(length[h])) - last_top
+        e = last_top + min(float(margin[h]), 0.5 * room)
+        if kind[h] == "curved":
+            sd = st_d[st_h == h]
+            e = float(sd[sd >= e][0]) if np.any(sd >= e) else e
+        e = round(e, 3)
+        end[h] = e
+        segs = [(a, bnd, u) for (a, u), (bnd, _) in zip(starts, starts[1:] + [(e, -2)]) if a < e]
+        segs = [(a, min(bnd, e), u) for a, bnd, u in segs]
+        for z0, z1 in zones:  # paint the fault rock over what it hides
+            z0, z1 = max(z0, 0.0), min(z1, e)
+            if z1 <= z0:
+                continue
+            out = []
+            for a, bnd, u in segs:
+                if bnd <= z0 or a >= z1:
+                    out.append((a, bnd, u))
+                    continue
+                if a < z0:
+                    out.append((a, z0, u))
+                if bnd > z1:
+                    out.append((z1, bnd, u))
+            out.append((z0, z1, len(layers)))
+            segs = sorted(out)
+        merged = []
+        for a, bnd, u in segs:  # logged to 1 mm
+            a, bnd = round(a, 3), round(bnd, 3)
+            if bnd <= a:
+                continue
+            if merged and merged[-1][2] == u and merged[-1][1] == a:
+                merged[-1] = (merged[-1][0], bnd, u)
+            elif merged:
+                merged.append((merged[-1][1], bnd, u))
+            else:
+                merged.append((a, bnd, u))
+        rows += [(h, a, bnd, names[u]) for a, bnd, u in merged]
+    keep = st_d <= end[st_h]
+    collars = CollarTable(ids, np.column_stack([xy, zc]), end)
+    surveys = SurveyTable(ids[st_h[keep]], st_d[keep], st_a[keep], st_p[keep])
+    R = np.array([r[0] for r in rows], dtype=np.int64)
+    intervals = IntervalTable(ids[R], [r[1] for r in rows], [r[2] for r in rows], [r[3] for r in rows])
+    tables = DrillholeTables(Drillholes(collars, surveys, intervals), (FAULT_ROCK, COVER))
+    return tables, kind
+
+
+def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder) -> Path:
+    """Write ground ``spec.seed`` (its v1 dataset ``ds1`` as loaded, its truth
+    ``geo``) as a format-2 dataset into ``folder`` without cutoffs: each fault
+    as fault sticks on the truth's surface (:func:`_fault_sticks`; no traces,
+    no kind, no tips: :func:`faultmesh.derive.derive_faults` derives them;
+    the group kept), the layer tops as collar, survey and interval tables of
+    the same holes with a share of them deviated (:func:`_v2_drillholes`),
+    the v1 topography as points. Drawn from ``np.random.default_rng([seed,
+    2])``, so the v1 dataset (and the sweep) does not change. Returns the
+    JSON path; the hole kinds are written to ``v2.json`` beside it."""
+    from dataclasses import replace
+    from .dataset import apply_boundary_policy
+    rng = np.random.default_rng([int(spec.seed), 2])
+    folder = Path(folder)
+    b = ds1.boreholes
+    margin = float(rng.uniform(20.0, 80.0))
+    z_range = (float(b.z.min()) - margin, float(b.z.max()) + margin)
+    ring = np.asarray(ds1.boundary, dtype=np.float64)
+    faults = []
+    for f in ds1.faults:
+        P, st = _fault_sticks(geo, geo.fault(f.name), ring, z_range, rng, int(spec.rounding["traces"]),
+                              int(spec.rounding["z"]))
+        faults.append(Fault(f.name, None, f.group, points=P, sticks=st))
+    tables, kinds = _v2_drillholes(geo, ds1, spec, rng)
+    ds2 = Dataset(name=f"{ds1.name}-v2", layers=list(ds1.layers), boundary=ring,
+                  boreholes=tables.tops(ds1.layers), points=dict(ds1.points), faults=faults,
+                  crs=ds1.crs, drillholes=tables)
+    # The tops as the loader will give them (beyond the boundary dropped):
+    # what save checks the tables against.
+    ds2.boreholes = apply_boundary_policy(replace(ds2, points={}, faults=[], adjustments=[])).boreholes
+    path = ds2.save(folder, version=2)
+    info = {"holes": {k: int(np.sum(kinds == k)) for k in _HOLE_KINDS},
+            "fault_points": {f.name: int(len(f.points)) for f in faults}}
+    (folder / "v2.json").write_text(json.dumps(info, indent=1) + "\n", encoding="utf-8")
+    return path
+
+
+# ---------------------------------------------------------------------------
+# Derived against true cutoffs
+# ---------------------------------------------------------------------------
+#: A v2 model "holds" when its error near the faults is at most this
+#: multiple of the error of the model built from the true cutoffs (issue 11).
+V2_RATIO = 1.25
+
+
+def cutoff_distance(geo: Geology, fault: str, layer: str, side: str, P: np.ndarray,
+                    direction: np.ndarray, half: float = 400.0, step: float = 1.0) -> np.ndarray:
+    """3D distance from each derived cutoff point P (k, 3) to the true cutoff
+    of ``side`` ("foot" or "hanging") of ``layer`` on ``fault``, on the
+    vertical section line through it along ``direction`` (unit XY, e.g. the
+    fault's dip direction): the root of side value minus fault elevation
+    nearest to P within ``half`` m, bracketed on a ``step`` m grid and
+    refined linearly. NaN where the section has none (the layer not cut
+    there by the truth)."""
+    P = np.asarray(P, dtype=np.float64).reshape(-1, 3)
+    d = np.asarray(direction, dtype=np.float64).reshape(2)
+    s = np.arange(-half, half + step, step)
+    k, m = len(P), len(s)
+    xy = (P[:, None, :2] + s[None, :, None] * d[None, None, :]).reshape(-1, 2)
+    g = (geo.side_value(layer, fault, side, xy[:, 0], xy[:, 1])
+         - geo.plane_z(fault, xy[:, 0], xy[:, 1])).reshape(k, m)
+    ok = np.isfinite(g[:, :-1]) & np.isfinite(g[:, 1:]) & ((g[:, :-1] > 0) != (g[:, 1:] > 0))
+    out = np.full(k, np.nan)
+    rows = np.flatnonzero(ok.any(axis=1))
+    if not len(rows):
+        return out
+    # The bracket nearest to P on each section.
+    dist = np.where(ok[rows], np.abs(s[:-1])[None, :], np.inf)
+    j = np.argmin(dist, axis=1)
+    g0, g1 = g[rows, j], g[rows, j + 1]
+    t = g0 / (g0 - g1)
+    q = P[rows, :2] + (s[j] + t * step)[:, None] * d[None, :]
+    qz = geo.plane_z(fault, q[:, 0], q[:, 1])
+    out[rows] = np.linalg.norm(np.column_stack([q, qz]) - P[rows], axis=1)
+    return out
+
+
+def near_fault_errors(models, geo: Geology, ring: np.ndarray, near: float = 150.0,
+                      samples: int = 200) -> List[float]:
+    """Mean |dz| of each model's upper sheet against the truth on the SAME
+    grid points: those within ``near`` m (on a ``samples``-cell grid over the
+    study area's box) of where some layer of the truth is absent or doubled
+    (the fault bands), as build_model's ``metadata["accuracy"]`` measures,
+    but independent of the models' patch footprints, so that two models are
+    compared on equal terms. NaN for a model when no point has a finite z in
+    every model."""
+    from scipy.ndimage import distance_transform_edt
+    from .build import surface_z
+    ring = np.asarray(ring, dtype=np.float64)
+    lo, hi = ring.min(axis=0), ring.max(axis=0)
+    h = float(max(hi - lo)) / samples
+    X, Y = np.meshgrid(np.arange(lo[0] + h / 2, hi[0], h), np.arange(lo[1] + h / 2, hi[1], h))
+    P = np.column_stack([X.ravel(), Y.ravel()])
+    inside = points_in_polygon(P, ring)
+    errs: List[List[np.ndarray]] = [[] for _ in models]
+    for lay in geo.layers:
+        band = (geo.n_sheets(lay, P[:, 0], P[:, 1]) != 1).reshape(X.shape)
+        if not band.any():
+            continue
+        sel = np.flatnonzero((distance_transform_edt(~band).ravel() * h <= near) & inside)
+        t = geo.truth(lay, P[sel, 0], P[sel, 1])
+        zs = [surface_z(m.surfaces[lay].vertices, m.surfaces[lay].triangles, P[sel])[1] for m in models]
+        ok = np.isfinite(t) & np.all([np.isfinite(z) for z in zs], axis=0)
+        for e, z in zip(errs, zs):
+            e.append(np.abs(z[ok] - t[ok]))
+    return [float(np.concatenate(e).mean()) if e and sum(len(v) for v in e) else float("nan")
+            for e in errs]
+
+
+def _derive_symptom(out: Dict[str, Any]) -> str:
+    """What derive got visibly wrong on a seed whose v2 model is too far off
+    (for the failure classes): a wrong kind, else its most frequent warning
+    (normalised), else "no warning"."""
+    if out.get("kind_ok") is False:
+        return "kind derived wrong"
+    pats = [normalise_message(re.sub(r"^fault '[^']*'(, layer '[^']*')?(, section [^:]*)?: ", "", w))
+            for w in out.get("warnings") or []]
+    if not pats:
+        return "no warning"
+    best = max(sorted(set(pats)), key=pats.count)
+    return f"warns: {best}"
+
+
+def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, **overrides) -> Dict[str, Any]:
+    """Ground ``seed`` as v1 (true cutoffs) and as v2 without cutoffs
+    (:func:`write_v2`), each loaded, built and checked; never raises for a
+    failure of faultmesh (it is recorded). Returns a JSON-serialisable dict:
+    seed, spec, describe, tags, v2 (hole kinds, fault points), ok (v2 derived,
+    built, checked, error ratio <= ``ratio_limit``), stage (where it stopped:
+    generate, load:v1, build:v1, check:v1 -- the v1 model is the reference,
+    these are the robustness sweep's failures --, generate:v2, load:v2,
+    derive, build:v2:<step>, check:v2, ratio; "reject" for a too-close pair,
+    not run), error_type, error, pattern, kinds ({fault: [true, derived]}),
+    kind_ok, cutoffs ({fault: {layer: {side: [distances]}}} over the derived
+    cutoff points; NaN where the truth has no cutoff on that section),
+    cutoff_mean / cutoff_max (over the finite distances), cutoff_nan (count),
+    uncut (true (fault, layer) pairs that no derived section cuts), error_v1,
+    error_v2 (:func:`near_fault_errors`), ratio, warnings (derive's),
+    seconds."""
+    from ._core import GeometryError  # noqa: F401  (check() raises it)
+    from .build import build_model
+    from .dataset import load_dataset
+    from .derive import derive_faults
+
+    out: Dict[str, Any] = {"seed": int(seed), "spec": None, "describe": "", "tags": {}, "ok": False,
+                           "stage": None, "error_type": None, "error": None, "pattern": None,
+                           "v2": None, "kinds": {}, "kind_ok": None, "cutoffs": {}, "cutoff_mean": None,
+                           "cutoff_max": None, "cutoff_nan": None, "uncut": [], "error_v1": None,
+                           "error_v2": None, "ratio": None, "warnings": [], "seconds": {}}
+
+    def fail(stage, e):
+        out["stage"] = stage
+        out["error_type"] = type(e).__name__
+        out["error"] = str(e)[:2000]
+        out["pattern"] = normalise_message(str(e))
+        if stage.startswith("generate"):
+            out["traceback"] = traceback.format_exc()[-3000:]
+        return out
+
+    tmp = None
+    if folder is None:
+        tmp = tempfile.TemporaryDirectory(prefix="faultmesh-ground-v2-")
+        folder = tmp.name
+    folder = Path(folder)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            t0 = time.perf_counter()
+            try:
+                spec, geo, path1 = make_ground(seed, folder, **overrides)
+            except Exception as e:
+                return fail("generate", e)
+            out["spec"], out["describe"], out["tags"] = spec.to_dict(), spec.describe(), spec.tags()
+            if spec.expect == "reject":
+                out["stage"] = "reject"
+                return out
+            try:
+                ds1 = load_dataset(path1)
+            except Exception as e:
+                return fail("load:v1", e)
+            try:
+                path2 = write_v2(ds1, geo, spec, folder / "v2")
+                out["v2"] = json.loads((folder / "v2" / "v2.json").read_text())
+            except Exception as e:
+                return fail("generate:v2", e)
+            out["seconds"]["generate"] = time.perf_counter() - t0
+            try:
+                ds2 = load_dataset(path2)
+            except Exception as e:
+                return fail("load:v2", e)
+            t0 = time.perf_counter()
+            try:
+                m1 = build_model(ds1, evaluate=False)
+            except Exception as e:
+                return fail("build:v1", e)
+            try:
+                m1.check()
+            except Exception as e:
+                return fail("check:v1", e)
+            out["seconds"]["v1"] = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            try:
+                d2 = derive_faults(ds2)
+            except Exception as e:
+                return fail("derive", e)
+            out["seconds"]["derive"] = time.perf_counter() - t0
+            rep = d2.derivation
+            out["warnings"] = [str(w)[:300] for w in rep.warnings]
+            out["kinds"] = {f.name: [geo.fault(f.name).kind, rep.faults[f.name].kind]
+                            for f in ds2.faults if f.name in rep.faults}
+            out["kind_ok"] = all(a == b for a, b in out["kinds"].values())
+            dists = []
+            for name, fr in rep.faults.items():
+                fm = geo.fault(name)
+                res: Dict[str, Dict[str, List[float]]] = {}
+                for lay, cl in fr.cutoffs.items():
+                    res[lay] = {}
+                    for side in ("foot", "hanging"):
+                        dd = cutoff_distance(geo, name, lay, side, cl[side], fr.surface.dip_dir)
+                        res[lay][side] = [round(float(v), 4) for v in dd]
+                        dists.append(dd)
+                out["cutoffs"][name] = res
+                out["uncut"] += [[name, lay] for lay, fac in fm.layers.items()
+                                 if fac > 0.0 and lay not in fr.cutoffs]
+            D = np.concatenate(dists) if dists else np.zeros(0)
+            out["cutoff_nan"] = int(np.sum(~np.isfinite(D)))
+            if np.isfinite(D).any():
+                out["cutoff_mean"] = float(np.nanmean(D))
+                out["cutoff_max"] = float(np.nanmax(D))
+            step = {"name": "start"}
+
+            def progress(name, i, n):
+                step["name"] = name
+
+            t0 = time.perf_counter()
+            try:
+                m2 = build_model(d2, evaluate=False, progress=progress)
+            except Exception as e:
+                return fail(f"build:v2:{step['name']}", e)
+            try:
+                m2.check()
+            except Exception as e:
+                return fail("check:v2", e)
+            out["seconds"]["v2"] = time.perf_counter() - t0
+            e1, e2 = near_fault_errors([m1, m2], geo, np.asarray(ds1.boundary))
+            out["error_v1"], out["error_v2"] = e1, e2
+            out["ratio"] = e2 / e1 if e1 > 0 else float("nan")
+            if not out["ratio"] <= ratio_limit:
+                out["stage"] = "ratio"
+                out["error_type"] = ""
+                out["pattern"] = (f"error near the faults above {ratio_limit:g} x the model from the "
+                                  "true cutoffs; " + _derive_symptom(out))
+                out["error"] = f"v1 {e1:.3f} m, v2 {e2:.3f} m, ratio {out['ratio']:.2f}"
+                return out
+            out["ok"] = True
+            out["stage"] = "ok"
+            return out
     finally:
         if tmp is not None:
             tmp.cleanup()

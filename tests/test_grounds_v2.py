@@ -1,0 +1,229 @@
+"""Random grounds as format 2 without cutoffs (faultmesh.grounds.write_v2,
+issue 11 item 4): fault sticks on the truth's fault surface, layer tops as
+collar/survey/interval tables with deviated holes, and the model derived
+from them against the model built from the true cutoffs."""
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import faultmesh as fm
+from faultmesh import grounds as gr
+
+
+@pytest.fixture(scope="module")
+def pair(tmp_path_factory):
+    """Ground seed -> (spec, geology, v1 dataset, v2 dataset), written once."""
+    cache = {}
+
+    def get(seed):
+        if seed not in cache:
+            d = tmp_path_factory.mktemp(f"v2ground{seed}")
+            spec, geo, p = gr.make_ground(seed, d)
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")  # the writer writes no unknown keys
+                ds1 = fm.load_dataset(p)
+                ds2 = fm.load_dataset(gr.write_v2(ds1, geo, spec, d / "v2"))
+            cache[seed] = (spec, geo, ds1, ds2)
+        return cache[seed]
+
+    return get
+
+
+def vertical_holes(ds2) -> set:
+    """Ids of the holes without a survey station off the vertical."""
+    s = ds2.drillholes.holes.surveys
+    tilted = set(s.hole_id[s.dip != -90.0].tolist())
+    return set(ds2.drillholes.holes.collars.hole_id.tolist()) - tilted
+
+
+# Seeds: a reverse fault across the area with holes in its repetition band
+# (0), a steep normal fault (18), an X-crossing pair of a reverse and a
+# normal fault (8), four faults at a big coordinate offset (4).
+TOPS_SEEDS = [0, 18, 8, 4]
+
+
+@pytest.mark.parametrize("seed", TOPS_SEEDS)
+def test_vertical_holes_give_the_v1_tops(pair, seed):
+    """The tables' vertical holes give the v1 table's rows: same layers in
+    the same order, the same x, y; the collar top is the collar elevation
+    (surveyed as v1's tops are, to the same rounding: equal), every other top
+    within 1 mm of the truth's sheet (depths logged to 1 mm) and so within
+    1 mm plus v1's rounding of v1's row. What v1 has and v2 cannot: a second
+    top of the TOP layer under a thrust, whose footwall has no layer above it
+    (logged as grounds.COVER, not a layer: no top)."""
+    spec, geo, ds1, ds2 = pair(seed)
+    b1, b2 = ds1.boreholes, ds2.boreholes
+    zt = 0.5 * 10.0 ** -spec.rounding["z"]
+    rank = {lay: i for i, lay in enumerate(ds1.layers)}
+    vert = vertical_holes(ds2)
+    assert len(vert) >= 5
+    compared = cover = 0
+    for h in sorted(vert):
+        m1 = np.flatnonzero(b1.hole_id == h)
+        m2 = np.flatnonzero(b2.hole_id == h)
+        deep = max(rank[v] for v in b1.layer[m1])
+        m2 = m2[[rank[v] <= deep for v in b2.layer[m2]]]
+        # v1's second top of the top layer (after another of its rows): not in v2.
+        top = ds1.layers[0]
+        second_top = [k for i, k in enumerate(m1) if b1.layer[k] == top and i > 0]
+        cover += len(second_top)
+        m1 = np.array([k for k in m1 if k not in second_top], dtype=np.int64)
+        assert b2.layer[m2].tolist() == b1.layer[m1].tolist(), h
+        assert np.array_equal(b2.xy[m2], b1.xy[m1]), h
+        assert b2.z[m2[0]] == b1.z[m1[0]], h          # the collar
+        if len(m1) > 1:
+            assert np.abs(b2.z[m2[1:]] - b1.z[m1[1:]]).max() <= zt + 1e-3, h
+            rest = m2[1:]
+            for k in rest:
+                S = geo.sheets(b2.layer[k], b2.xy[k:k + 1, 0], b2.xy[k:k + 1, 1])
+                assert np.nanmin(np.abs(S - b2.z[k])) <= 1e-3, (h, b2.layer[k])
+        compared += len(m1)
+    assert compared > 20
+    if seed == 0:
+        # The band holes of its reverse fault meet L2 twice in v2 too; L1's
+        # footwall top under the thrust is the cover case.
+        assert any(np.sum((b2.hole_id == h) & (b2.layer == "L2")) == 2 for h in vert)
+        assert cover > 0
+
+
+@pytest.mark.parametrize("seed", TOPS_SEEDS)
+def test_deviated_holes_tops_lie_on_the_truth(pair, seed):
+    """Tops of the deviated holes, at the positions the reader desurveys,
+    lie within 1 mm of a sheet of their layer at their own x, y (or of the
+    truth in a normal fault's gap); the collar tops are the surveyed collar
+    elevation. The holes really are deviated, and on seeds 0 and 8 some
+    cross a fault (fault rock logged)."""
+    spec, geo, ds1, ds2 = pair(seed)
+    b2 = ds2.boreholes
+    vert = vertical_holes(ds2)
+    dev = ~np.isin(b2.hole_id, sorted(vert))
+    first = np.r_[True, b2.hole_id[1:] != b2.hole_id[:-1]]
+    n = 0
+    for lay in ds2.layers:
+        m = (b2.layer == lay) & dev & ~first
+        if not m.any():
+            continue
+        x, y = b2.xy[m, 0], b2.xy[m, 1]
+        cand = np.column_stack([geo.sheets(lay, x, y), geo.truth(lay, x, y)])
+        dz = np.nanmin(np.abs(cand - b2.z[m][:, None]), axis=1)
+        assert dz.max() <= 1e-3, (lay, dz.max())
+        n += int(m.sum())
+    assert n >= 10
+    collars = ds2.drillholes.holes.collars
+    c_xy = dict(zip(collars.hole_id.tolist(), collars.xyz[:, :2].tolist()))
+    off = np.hypot(*(b2.xy[dev] - np.array([c_xy[h] for h in b2.hole_id[dev]])).T)
+    assert off.max() > 5.0  # seed 0: a stack 5 m thick, 9.7 m
+    it = ds2.drillholes.holes.intervals
+    if seed in (0, 8):  # holes of these cross a fault where it changes the unit
+        assert gr.FAULT_ROCK in set(it.unit.tolist())
+    # Logged as a logging program writes them: depths to 1 mm, angles to 0.01 degree.
+    assert np.array_equal(it.depth_from, np.round(it.depth_from, 3))
+    s = ds2.drillholes.holes.surveys
+    assert np.array_equal(s.dip, np.round(s.dip, 2)) and np.array_equal(s.azimuth, np.round(s.azimuth, 2))
+
+
+@pytest.mark.parametrize("seed", [0, 8])
+def test_v2_faults_are_sticks_on_the_truth(pair, seed):
+    """Each fault is given by sticks only (no trace, kind or tip; the group
+    kept), on the truth's fault surface up to the written rounding (a
+    horizontal rounding of r moves a point up to tan(dip) r sqrt 2 across
+    the surface), within the fault's extent along strike."""
+    spec, geo, ds1, ds2 = pair(seed)
+    assert ds2.sections == {}
+    rt = 0.5 * 10.0 ** -spec.rounding["traces"]
+    rz = 0.5 * 10.0 ** -spec.rounding["z"]
+    for f1, f2 in zip(ds1.faults, ds2.faults):
+        assert f2.name == f1.name and f2.kind is None and f2.traces == [] and len(f2.tips) == 0
+        assert f2.group == f1.group and f2.sticks is not None
+        fmod = geo.fault(f2.name)
+        P = f2.points
+        dz = np.abs(geo.plane_z(f2.name, P[:, 0], P[:, 1]) - P[:, 2])
+        assert dz.max() <= rt * math.sqrt(2.0) * fmod.tan_dip + rz + 1e-9, f2.name
+        u, _ = fmod.uw(*geo.local(P[:, 0], P[:, 1]))
+        assert u.min() >= fmod.u_range[0] - 1.0 and u.max() <= fmod.u_range[1] + 1.0
+        assert len(np.unique(f2.sticks)) >= 4
+
+
+def test_v1_dataset_unchanged_by_the_v2_writer(tmp_path):
+    """write_v2 draws from its own generator: the v1 files of a ground are
+    the same bytes whether or not v2 was written after them, and v2 itself
+    is deterministic per seed."""
+    spec, geo, p = gr.make_ground(11, tmp_path / "a")
+    before = {q.name: q.read_bytes() for q in (tmp_path / "a").iterdir() if q.is_file()}
+    ds1 = fm.load_dataset(p)
+    gr.write_v2(ds1, geo, spec, tmp_path / "a" / "v2")
+    gr.write_v2(ds1, geo, spec, tmp_path / "b")
+    after = {q.name: q.read_bytes() for q in (tmp_path / "a").iterdir() if q.is_file()}
+    assert after == before
+    for q in (tmp_path / "b").iterdir():
+        assert (tmp_path / "a" / "v2" / q.name).read_bytes() == q.read_bytes(), q.name
+    ds2 = gr.random_ground(11, tmp_path / "c", version=2)
+    assert ds2.name == "ground-11-v2" and ds2.drillholes is not None and ds2.geology is not None
+
+
+# ---------------------------------------------------------------------------
+# Derived against true cutoffs (issue 11, item 4)
+# ---------------------------------------------------------------------------
+# The stated bound of the derived cutoffs' distance from the true ones (on
+# the derived sections), as on the hand-made grounds of tests/test_derive.py.
+CUTOFF_MEAN, CUTOFF_MAX = 2.0, 12.0
+
+# Grounds of seeds 0-99 on which the derived model holds: two single
+# faults, a reverse one at 77 degrees with 234 holes (27, ratio 0.37) and a
+# normal one at 40 degrees across the area (59, ratio 1.02), and three
+# independent faults (7, 1.16). With main's fd1aaf9 (derive: the stitcher's
+# outline test, the room between faults) 0, 3, 24, 26, 68 and 80 hold too
+# (docs/bench/sweep_v2.md), among them the T-crossing pairs 3, 24 and 68.
+HOLDING_V2 = [27, 59, 7]
+
+
+@pytest.mark.parametrize("seed", HOLDING_V2)
+def test_derived_model_holds(seed, tmp_path):
+    out = gr.evaluate_ground_v2(seed, tmp_path)
+    assert out["stage"] == "ok", (out["stage"], out["error"])  # derived, built, check() passed
+    assert out["kind_ok"], out["kinds"]
+    assert out["cutoff_mean"] <= CUTOFF_MEAN and out["cutoff_max"] <= CUTOFF_MAX, \
+        (out["cutoff_mean"], out["cutoff_max"])
+    assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
+
+
+# One seed per class of derive's failures on these grounds (sweep_v2.md),
+# each failing the same way before and after main's fd1aaf9 (which fixed
+# the classes of seeds 0, 29 and 75): reproducers that must start to hold
+# (strict: a fix shows here and moves the seed to HOLDING_V2).
+DERIVE_FAILS = {
+    # Normal fault at 73 degrees, 166 holes, one layer: every section's
+    # cutoff throw is normal (14-30 m), the kind comes out reverse and the
+    # throws are set to zero. On 5 of 8 sections the nearest hanging-wall
+    # datum is just over two data spacings from its cutoff (102-144 m
+    # against 106 m), so _regional_throw decides there: -9.9, -0.3, -0.3,
+    # -10.2, -3.3 m (the ground's throw decays over 100-350 m into the
+    # hanging wall; the step of a common line over the wide window sees
+    # little of it); the median of the eight is -0.3 m.
+    34: "kind derived reverse",
+    # Reverse fault at 35 degrees, 82 holes, no warning, cutoffs within
+    # 1.5 m (mean): error near the fault 0.50 m against 0.30 m (1.68x).
+    22: "no warning, ratio 1.68",
+    # Reverse fault at 34 degrees across the area, 28 holes: cutoff throws
+    # of a normal fault (5-12 m) on six layer sections (set to zero),
+    # ratio 4.1.
+    12: "cutoff throws of the wrong sign",
+    # Normal fault at 49 degrees, 35 holes over 1.7 km: no hanging-wall
+    # data within about 420 m of the cutoffs on six layer sections
+    # (extrapolated), ratio 2.1.
+    43: "no hanging-wall data near the fault",
+    # Three faults, 20 holes over 4.7 km: the derived patches of F2 and F3
+    # (independent) overlap, the stitcher rejects them as too close.
+    91: "derived zones overlap",
+}
+
+
+@pytest.mark.parametrize("seed", sorted(DERIVE_FAILS))
+def test_derive_failure_reproducers(seed, tmp_path, request):
+    request.applymarker(pytest.mark.xfail(strict=True, reason=DERIVE_FAILS[seed]))
+    out = gr.evaluate_ground_v2(seed, tmp_path)
+    assert out["stage"] == "ok", (out["stage"], out["pattern"])
