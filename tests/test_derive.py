@@ -676,3 +676,15 @@ def test_sparse_crossing_ground_derives_and_builds():
     d = derive.derive_faults(v2_of(ds))
     assert set(d.derivation.faults) == {f.name for f in ds.faults}
     faultmesh.build_model(d, evaluate=False).check()
+
+
+def test_kind_from_cutoff_throws_where_the_data_are_near():
+    """Regression (random_ground(34) as v2, a normal fault at 73 degrees):
+    every section's cutoff throw said normal, but where the hanging-wall
+    data stopped just over two data spacings from the cutoff the regional
+    step decided, and the kind came out reverse. The cutoff throws now
+    decide wherever both sides have data within `near` (4 spacings)."""
+    from faultmesh import grounds
+
+    d = derive.derive_faults(grounds.random_ground(34, version=2))
+    assert d.derivation.faults["F1"].kind == "normal"

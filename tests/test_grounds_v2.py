@@ -175,10 +175,12 @@ CUTOFF_MEAN, CUTOFF_MAX = 2.0, 12.0
 # Grounds of seeds 0-99 on which the derived model holds: two single
 # faults, a reverse one at 77 degrees with 234 holes (27, ratio 0.37) and a
 # normal one at 40 degrees across the area (59, ratio 1.02), and three
-# independent faults (7, 1.16). With main's fd1aaf9 (derive: the stitcher's
-# outline test, the room between faults) 0, 3, 24, 26, 68 and 80 hold too
-# (docs/bench/sweep_v2.md), among them the T-crossing pairs 3, 24 and 68.
-HOLDING_V2 = [27, 59, 7]
+# independent faults (7, 1.16); and a reverse fault across a rotated
+# rectangle (0, ratio 1.03: derive's outline test dropped 5 of its 8
+# sections until it used the stitcher's). The T-crossing pairs 3, 24 and
+# 68 are within 1.25 too, but with cutoffs up to 18-29 m from the true ones
+# (docs/bench/sweep_v2.md).
+HOLDING_V2 = [27, 59, 7, 0]
 
 
 @pytest.mark.parametrize("seed", HOLDING_V2)
@@ -196,15 +198,13 @@ def test_derived_model_holds(seed, tmp_path):
 # the classes of seeds 0, 29 and 75): reproducers that must start to hold
 # (strict: a fix shows here and moves the seed to HOLDING_V2).
 DERIVE_FAILS = {
-    # Normal fault at 73 degrees, 166 holes, one layer: every section's
-    # cutoff throw is normal (14-30 m), the kind comes out reverse and the
-    # throws are set to zero. On 5 of 8 sections the nearest hanging-wall
-    # datum is just over two data spacings from its cutoff (102-144 m
-    # against 106 m), so _regional_throw decides there: -9.9, -0.3, -0.3,
-    # -10.2, -3.3 m (the ground's throw decays over 100-350 m into the
-    # hanging wall; the step of a common line over the wide window sees
-    # little of it); the median of the eight is -0.3 m.
-    34: "kind derived reverse",
+    # Normal fault at 73 degrees, 166 holes, one layer. Its kind came out
+    # reverse (the regional step decided on sections whose hanging-wall data
+    # stop just over two data spacings from the cutoffs); now the cutoff
+    # throws decide up to `near` and the kind is right, but the error near
+    # the fault is 2.1x: the ground's throw decays over 100-350 m into the
+    # hanging wall, and the side surfaces extrapolate that bend.
+    34: "ratio 2.1 (throw decaying into the hanging wall)",
     # Reverse fault at 35 degrees, 82 holes, no warning, cutoffs within
     # 1.5 m (mean): error near the fault 0.50 m against 0.30 m (1.68x).
     22: "no warning, ratio 1.68",
