@@ -915,3 +915,49 @@ def test_patch_follows_the_layer_between_distant_traces():
     check_surface(Surface("p", V, p.triangles, kind="fault"))
     with pytest.raises(ValueError, match="along_step must be > 0"):
         layer_patch(f, "L", fault_ends(f), area, surface_z, along_step=0.0)
+
+
+def test_fault_surface_ends_where_the_layers_pinch_out():
+    # A reverse fault abutting a partner is closed in each layer by a
+    # pinch-out halfway to the partner (faults.layer_patch); the fault
+    # surface's end was shifted by half a trace spacing instead, so it ended
+    # elsewhere (grounds seed 381, F2 towards F1: the layers pinch out 12-74 m
+    # beyond the end trace, the fault surface ended 141 m beyond it). The
+    # pinch-out points are now decided once (faults._pinch_out) and are
+    # vertices on the fault surface's outline.
+    from faultmesh.grounds import random_ground
+
+    ds = random_ground(381)
+    m = build(ds)
+    F = m.faults["F2"]
+    (loop,) = faultmesh.boundary_loops(F.triangles)
+    outline = F.vertices[np.asarray(loop)]
+    layers = m.metadata["faults"]["F2"]["layers"]
+    tips = [np.asarray(r["end1_tip"]) for r in layers.values() if r["ends"][1] == "synthetic_tip"]
+    assert len(tips) == len(ds.layers) == 6
+    for t in tips:
+        assert np.all(outline == t, axis=1).any(), t
+    check_surface(F)
+
+
+def test_pinched_end_trace_takes_the_pinch_out_points():
+    from faultmesh import faults as fm
+
+    # A plane trace falling from z = 0 to -100; two layers cut it at z = -20
+    # and -70 (cutoff midpoints) and pinch out 30 m and 50 m further along x.
+    plane = np.column_stack([np.zeros(6), np.linspace(0.0, 50.0, 6), np.linspace(0.0, -100.0, 6)])
+    cut = np.array([[0.0, 10.0, -20.0], [0.0, 35.0, -70.0]])
+    tip = cut + [[30.0, 0.0, 1.0], [50.0, 0.0, -2.0]]
+    moved, origin = fm._pinched(plane, fm.EndMove.pinch(cut[::-1], tip[::-1]))
+    # z = -20 (plane point 1) gives way to the first pinch-out point; -70
+    # falls between points 3 and 4.
+    np.testing.assert_array_equal(moved[[1, 4]], tip)
+    np.testing.assert_array_equal(origin[[1, 4]], cut)
+    assert len(moved) == 7 and np.all(np.diff(moved[:, 2]) < 0)
+    # Above the top layer and below the bottom one the nearest layer's move,
+    # between them the moves taken along z.
+    np.testing.assert_allclose(moved[0], plane[0] + [30.0, 0.0, 1.0])
+    np.testing.assert_allclose(moved[-1], plane[-1] + [50.0, 0.0, -2.0])
+    np.testing.assert_allclose(moved[2], plane[2] + [30.0 + 20.0 * 20.0 / 50.0, 0.0, 1.0 - 3.0 * 20.0 / 50.0])
+    with pytest.raises(ValueError, match="cutoffs and tips must be"):
+        fm.EndMove.pinch(cut, tip[:1])

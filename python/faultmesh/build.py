@@ -391,6 +391,11 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     patches: Dict[str, List[Tuple[str, List[str], np.ndarray, np.ndarray]]] = {lay: [] for lay in layers}
     fault_meta: Dict[str, Any] = {f.name: {"kind": f.kind, "layers": {}} for f in dataset.faults}
     end_moves: Dict[str, List[Optional[fm.EndMove]]] = {f.name: [None, None] for f in dataset.faults}
+    # Per fault end, the layers' synthetic tips (cutoff midpoint, pinch-out
+    # point): the fault surface's end is moved onto them, unless a layer's
+    # patch was extended there (the surface then follows the extension).
+    pinches: Dict[str, List[List[Tuple[np.ndarray, np.ndarray]]]] = {f.name: [[], []]
+                                                                     for f in dataset.faults}
     for gi, (group, gname) in enumerate(zip(groups, group_names)):
         prog("fault models", gi, len(groups))
         for lay in layers:
@@ -422,9 +427,8 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                         else:
                             end_moves[p.fault][e] = fm.EndMove.shift(ends[p.fault].directions[e]
                                                                      * p.metadata[f"end{e}_extension"])
-                    elif p.ends[e] == "synthetic_tip" and end_moves[p.fault][e] is None:
-                        end_moves[p.fault][e] = fm.EndMove.shift(ends[p.fault].directions[e]
-                                                                 * 0.5 * ends[p.fault].spacing)
+                    elif p.ends[e] == "synthetic_tip":
+                        pinches[p.fault][e].append(p.pinch_outs[e])
             if len(plist) == 1:
                 V, T = plist[0].vertices, plist[0].triangles
             else:
@@ -433,6 +437,10 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
             if len(T):
                 patches[lay].append((gname, [p.fault for p in plist], V, T))
     prog("fault models", len(groups), len(groups))
+    for name, per_end in pinches.items():
+        for e, pts in enumerate(per_end):
+            if pts and end_moves[name][e] is None:
+                end_moves[name][e] = fm.EndMove.pinch([c for c, _ in pts], [t for _, t in pts])
     fault_surfaces: Dict[str, Surface] = {}
     for f in dataset.faults:
         res = fm.fault_surface(f, ends[f.name], area, loft_method, end_moves[f.name])

@@ -33,7 +33,10 @@ Each end of a fault is closed in one of four ways:
   pinch-out halfway to the partner closes it (kind ``synthetic_tip``,
   metadata ``end<i>_tip_short_of``).
 * ``synthetic_tip``: nothing within reach: a tip half a trace spacing
-  further along strike closes the patch (recorded in the metadata).
+  further along strike closes the patch (recorded in the metadata:
+  ``end<i>_tip``). Both pinch-outs are decided in one place
+  (:func:`_pinch_out`), and the fault surface's end trace is moved onto the
+  layers' pinch-out points, which become its vertices.
 
 Between two traces (and between an end trace and its extension) the patch
 follows the continuous layer surface: with ``along_step`` (``build_model``
@@ -93,17 +96,23 @@ class EndMoveKind(enum.Enum):
     layers' patches were extended there (see :class:`EndMove`)."""
 
     ray = "ray"      # each point of the end trace carried along a direction onto the study-area boundary
-    shift = "shift"  # the end trace moved by a vector (to the extended end or a synthetic tip)
+    shift = "shift"  # the end trace moved by a vector (to an end extended onto a partner)
+    pinch = "pinch"  # the end trace moved onto the layers' pinch-out points (synthetic tips)
 
 
 @dataclass(frozen=True, eq=False)
 class EndMove:
     """One end move of a fault plane: ``kind`` and its ``vector`` (2,) -- the
     direction of the ray (``EndMoveKind.ray``) or the displacement
-    (``EndMoveKind.shift``)."""
+    (``EndMoveKind.shift``; for ``EndMoveKind.pinch`` the layers' mean
+    displacement). A pinch also has ``cutoffs`` and ``tips`` (k, 3): per
+    layer, the cutoff midpoint on the end trace and the pinch-out point it
+    moves to (:attr:`LayerPatch.pinch_outs`)."""
 
     kind: EndMoveKind
     vector: np.ndarray
+    cutoffs: Optional[np.ndarray] = None
+    tips: Optional[np.ndarray] = None
 
     @classmethod
     def ray(cls, direction) -> "EndMove":
@@ -112,6 +121,15 @@ class EndMove:
     @classmethod
     def shift(cls, offset) -> "EndMove":
         return cls(EndMoveKind.shift, np.asarray(offset, dtype=np.float64).reshape(2))
+
+    @classmethod
+    def pinch(cls, cutoffs, tips) -> "EndMove":
+        c = np.asarray(cutoffs, dtype=np.float64).reshape(-1, 3)
+        t = np.asarray(tips, dtype=np.float64).reshape(-1, 3)
+        if len(c) == 0 or c.shape != t.shape:
+            raise ValueError(f"EndMove.pinch: cutoffs and tips must be (k, 3) with k >= 1, got "
+                             f"{c.shape} and {t.shape}")
+        return cls(EndMoveKind.pinch, (t - c)[:, :2].mean(axis=0), c, t)
 
 
 @dataclass
@@ -125,6 +143,9 @@ class LayerPatch:
     ends: List[str] = field(default_factory=list)         # closing kind per end
     abuts: List[str] = field(default_factory=list)        # partners reached by an extension
     metadata: Dict[str, Any] = field(default_factory=dict)
+    #: per end closed by a synthetic tip: (the end trace's cutoff midpoint,
+    #: the pinch-out point) (3,) each, from :func:`_pinch_out`
+    pinch_outs: Dict[int, Tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
 
 # ---------------------------------------------------------------------------
@@ -490,6 +511,56 @@ def _around_corners(area: StudyArea, pts: np.ndarray,
     return np.ascontiguousarray(out), cut
 
 
+def _pinch_out(fault, layer: str, tr, d: np.ndarray, ahead: float, area: StudyArea,
+               surface_z) -> Tuple[np.ndarray, np.ndarray]:
+    """The synthetic tip of ``layer`` at a fault end: (the end trace ``tr``'s
+    cutoff midpoint (3,), the pinch-out point (3,)). The pinch-out lies
+    halfway to what is ahead along ``d`` -- ``ahead`` is the distance to a
+    partner's outline, or a trace spacing where nothing is in reach -- kept
+    in the study area, z changed as the continuous surface changes. The one
+    place that decides it: the layer's patch closes there, and the fault
+    surface's end trace is moved onto these points (:attr:`EndMoveKind.pinch`
+    in :func:`fault_surface`)."""
+    sides = tr.layers[layer]
+    cm = 0.5 * (np.asarray(sides["foot"], dtype=np.float64)[-1]
+                + np.asarray(sides["hanging"], dtype=np.float64)[0])
+    xy = _pull_inside(area, cm[:2], cm[:2] + 0.5 * ahead * d,
+                      f"fault {fault.name!r} layer {layer!r}: the end cutoff")
+    return cm, np.array([xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])])
+
+
+def _pinched(plane: np.ndarray, move: "EndMove") -> Tuple[np.ndarray, np.ndarray]:
+    """The end plane trace moved onto the layers' pinch-out points, and where
+    each of its points comes from: each plane point moved by the displacement
+    (x, y and z) of the layers' cutoffs, taken along z between the layers
+    (the nearest layer's beyond them), and the pinch-out points themselves
+    put in where their cutoffs' z falls on the trace, so that every layer's
+    patch ends ON the fault surface's end (coming from its cutoff). A plane
+    point within the merge tolerance of a cutoff's z gives way to the
+    pinch-out point (one vertex, not two). A trace whose z is not strictly
+    monotone has no place for them: it is moved only."""
+    c, t = move.cutoffs, move.tips
+    up = np.argsort(c[:, 2], kind="stable")
+    off = t[up] - c[up]
+    moved = plane.copy()
+    for k in range(3):
+        moved[:, k] += np.interp(plane[:, 2], c[up, 2], off[:, k])
+    z = plane[:, 2]
+    dz = np.diff(z)
+    if len(plane) < 2 or not (np.all(dz < 0.0) or np.all(dz > 0.0)):
+        return moved, plane
+    rising = bool(z[-1] > z[0])
+    order = up if rising else up[::-1]   # the cutoffs in the trace's order
+    c, t = c[order], t[order]
+    # The plane points before each cutoff along the trace.
+    pos = np.searchsorted(z, c[:, 2]) if rising else len(z) - np.searchsorted(z[::-1], c[:, 2])
+    tol = _merge_tol(np.vstack([plane, c]))
+    keep = np.abs(z[:, None] - c[None, :, 2]).min(axis=1) > tol
+    at = np.searchsorted(np.flatnonzero(keep), pos)
+    return (np.ascontiguousarray(np.insert(moved[keep], at, t, axis=0)),
+            np.ascontiguousarray(np.insert(plane[keep], at, c, axis=0)))
+
+
 def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
             partners: Dict[str, List[np.ndarray]], max_dist: float,
             surface_z) -> Optional[Tuple[np.ndarray, str, float]]:
@@ -722,6 +793,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
     if max_extension is None:
         max_extension = max(1.5 * ends.spacing, 0.25 * math.sqrt(abs(_area(area.ring))))
     kinds, abuts, meta = [], [], {}
+    pinch: Dict[int, Tuple[np.ndarray, np.ndarray]] = {}
     for end in (0, 1):
         poly = seq[0] if end == 0 else seq[-1]
         tip = ends.tips[end]
@@ -749,14 +821,13 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 # the two. The partner is not reached, so it is not in
                 # ``abuts`` (group_patch then orders the fold by its folding).
                 _, target, dist = ext
-                sides = (with_layer[0] if end == 0 else with_layer[-1]).layers[layer]
-                cm = 0.5 * (np.asarray(sides["foot"])[-1] + np.asarray(sides["hanging"])[0])
-                xy = _pull_inside(area, cm[:2], cm[:2] + 0.5 * dist * d,
-                                  f"fault {fault.name!r} layer {layer!r}: the end cutoff")
-                add = np.array([[xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])]])
+                pinch[end] = _pinch_out(fault, layer, with_layer[0] if end == 0 else with_layer[-1],
+                                        d, dist, area, surface_z)
+                add = pinch[end][1][None, :]
                 kinds.append("synthetic_tip")
                 meta[f"end{end}_tip_short_of"] = target
                 meta[f"end{end}_tip_distance"] = 0.5 * dist
+                meta[f"end{end}_tip"] = pinch[end][1].tolist()
             elif ext is not None:
                 add, target, dist = ext
                 c_add = cuts[0] if end == 0 else cuts[-1]
@@ -769,12 +840,11 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                     abuts.append(target)
             else:
                 # Nothing within reach: close by a synthetic pinch-out.
-                sides = (with_layer[0] if end == 0 else with_layer[-1]).layers[layer]
-                cm = 0.5 * (np.asarray(sides["foot"])[-1] + np.asarray(sides["hanging"])[0])
-                xy = _pull_inside(area, cm[:2], cm[:2] + 0.5 * ends.spacing * d,
-                                  f"fault {fault.name!r} layer {layer!r}: the end cutoff")
-                add = np.array([[xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])]])
+                pinch[end] = _pinch_out(fault, layer, with_layer[0] if end == 0 else with_layer[-1],
+                                        d, ends.spacing, area, surface_z)
+                add = pinch[end][1][None, :]
                 kinds.append("synthetic_tip")
+                meta[f"end{end}_tip"] = pinch[end][1].tolist()
         if add is not None:
             # An extension is the end polyline carried point by point: its
             # cutoffs sit where the end polyline's do. A tip is one point.
@@ -797,7 +867,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
     V, T, _, n_cut, n_out = area.clip_surface(V, T, f"fault {fault.name!r} layer {layer!r}")
     if n_cut or n_out:
         meta["clipped_to_study_area"] = {"cut": int(n_cut), "dropped": int(n_out)}
-    return LayerPatch(fault.name, layer, V, T, kinds, abuts, meta)
+    return LayerPatch(fault.name, layer, V, T, kinds, abuts, meta, pinch)
 
 
 def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
@@ -809,9 +879,11 @@ def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
     offset from the cutoff midpoint of the layer whose cutoff line passes
     closest to the tip). ``end_moves`` (per end, None or an :class:`EndMove`:
     ``EndMove.ray(d)``, each point carried along d onto the study-area
-    boundary, or ``EndMove.shift(v)``, the trace moved by v) extends an end
-    like the layers' patches. An end plane trace that already lies on the
-    boundary stays as it is."""
+    boundary, ``EndMove.shift(v)``, the trace moved by v, or
+    ``EndMove.pinch(cutoffs, tips)``, the trace moved onto the layers'
+    pinch-out points, which become its vertices: :func:`_pinched`) extends
+    an end like the layers' patches. An end plane trace that already lies
+    on the boundary stays as it is."""
     area = as_study_area(ring)
     seq = [np.asarray(tr.plane, dtype=np.float64).reshape(-1, 3) for tr in fault.traces]
     seq = [p for p in seq if len(p) >= 1]
@@ -822,6 +894,7 @@ def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
         plane = seq[0] if end == 0 else seq[-1]
         tip = ends.tips[end]
         moved = None
+        origin = plane  # where each point of the moved trace comes from
         if tip is not None:
             ref = _reference_cutoff(tr, tip, ends.directions[end])
             if ref is None:
@@ -839,6 +912,8 @@ def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
                 moved, t = _to_boundary(area, plane, move.vector, None)
                 miss = ~np.isfinite(t)
                 moved[miss] = plane[miss]
+            elif move.kind is EndMoveKind.pinch:
+                moved, origin = _pinched(plane, move)
             else:
                 moved = plane.copy()
                 moved[:, :2] += move.vector[None, :]
@@ -848,7 +923,7 @@ def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
             for _ in range(60):
                 if inside.all():
                     break
-                moved[~inside, :2] = 0.5 * (moved[~inside, :2] + plane[~inside, :2])
+                moved[~inside, :2] = 0.5 * (moved[~inside, :2] + origin[~inside, :2])
                 inside = area.contains(moved[:, :2])
             else:
                 raise GeometryError(f"fault_surface: fault {fault.name!r}: the end plane trace "
