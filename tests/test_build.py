@@ -961,3 +961,28 @@ def test_pinched_end_trace_takes_the_pinch_out_points():
     np.testing.assert_allclose(moved[2], plane[2] + [30.0 + 20.0 * 20.0 / 50.0, 0.0, 1.0 - 3.0 * 20.0 / 50.0])
     with pytest.raises(ValueError, match="cutoffs and tips must be"):
         fm.EndMove.pinch(cut, tip[:1])
+
+
+def test_patch_keeps_the_loft_where_the_layer_departs_less_than_the_throw():
+    # Near a fault the continuous TIN interpolates across it, and its
+    # departure from a straight line between two traces is no evidence of
+    # the layer's shape until it exceeds the throw (sweep seed 345: a flat
+    # layer with 40 m of throw, where following the TIN's 10-25 m departures
+    # raised the near-fault error from 1.27 m to 3.5 m). A 5 m bump under a
+    # 10 m throw leaves the plain loft.
+    from faultmesh import StudyArea
+    from faultmesh.faults import fault_ends, layer_patch
+
+    area = StudyArea(np.array([[-10.0, -_W], [1010.0, -_W], [1010.0, _W], [-10.0, _W]]))
+    f, L = _bump_fault(5.0)
+
+    def surface_z(xy):
+        return L(np.asarray(xy)[:, 0])
+
+    plain = layer_patch(f, "L", fault_ends(f), area, surface_z)
+    p = layer_patch(f, "L", fault_ends(f), area, surface_z, along_step=50.0)
+    np.testing.assert_array_equal(p.vertices, plain.vertices)
+    np.testing.assert_array_equal(p.triangles, plain.triangles)
+    f, L = _bump_fault(12.0)  # above the throw: followed
+    p = layer_patch(f, "L", fault_ends(f), area, surface_z, along_step=50.0)
+    assert len(p.vertices) > len(plain.vertices)

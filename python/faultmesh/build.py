@@ -181,18 +181,16 @@ def _clearance(clearance: Optional[float], tin: "LayerTin") -> float:
 _CLEARANCE_FACTOR = 0.4
 
 # Between two traces (and along an extension) a layer's patch follows the
-# continuous layer TIN's trend (faultmesh.faults, "between the traces"), by
-# polylines at most this many data spacings of the layer apart. Over shorter
-# distances the TIN's departure from a straight line near a fault is mostly
-# how its triangles straddle the fault (an error of up to about half the
-# throw, which moves with the triangles), not the layer's shape; over
-# longer ones the layer's folds show. Near-fault mean |dz| (plain TIN in
-# brackets) at factors 0.5 / 1.0 / 1.5 / 2.0 and without: paper_like(0)
-# 2.64 / 2.57 / 2.48 / 2.42 / 2.42 (4.13) -- its traces are ~500 m apart
-# at a data spacing of ~400 m, and 2.0 leaves its patches as they were;
-# sweep seed 381 (traces 2.5 km apart, data spacing 650 m, a layer rising
-# 80 m between two traces) 7.74 / 8.00 / 7.99 / 7.79 / 10.13 (9.51);
-# seed 338 1.52 / 1.47 / 1.42 / 1.45 / 1.56 (1.77).
+# continuous layer TIN's trend where the TIN departs from the straight line
+# by more than the throw (faultmesh.faults, "between the traces"), by
+# polylines at most this many data spacings of the layer apart: over
+# shorter distances the TIN's departure near a fault is mostly how its
+# triangles straddle the fault, not the layer's shape. Near-fault mean |dz|
+# (plain TIN in brackets) at factors 0.5 / 1.0 / 2.0: sweep seed 381 (traces
+# 2.5 km apart, data spacing 650 m, a layer rising 80 m between two traces;
+# 10.13 m without) 8.13 / 8.20 / 7.89 (9.51); seed 338 1.71 / 1.56 / 1.56
+# (1.77); paper_like(0) 2.57 / - / 2.42 (4.13; 2.42 without: its traces are
+# ~500 m apart at a data spacing of ~400 m).
 _ALONG_STEP_FACTOR = 2.0
 
 
