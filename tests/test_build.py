@@ -821,3 +821,168 @@ def test_repair_stack_is_repair_crossings_pair_after_pair(paper):
         repair_stack([one[0], "L2"])
     with pytest.raises(ValueError, match="threads"):
         repair_stack(one, threads=0)
+
+
+def test_end_direction_is_the_strike_where_a_trace_is_cut_short():
+    # A fault's end direction (the way its ends are extended along strike)
+    # came from the centres of its last two plane traces. A section that
+    # stops at the study-area boundary records the plane at one depth only,
+    # its centre lies down-dip of the other trace's, and the direction ran
+    # off strike: 13 degrees for F1 of sweep seed 338, whose L1 patch,
+    # carried 805 m along it onto the boundary, put the fault ~185 m beside
+    # the truth's (not better than the plain TIN). The traces are now
+    # compared at equal elevations.
+    from faultmesh.faults import fault_ends
+
+    strike = np.array([np.sin(np.radians(20.0)), np.cos(np.radians(20.0))])
+    dip_dir = np.array([strike[1], -strike[0]])
+    tan_dip = np.tan(np.radians(40.0))
+
+    def plane(u, z):  # points of the planar fault at along-strike u, elevations z
+        z = np.asarray(z, dtype=np.float64)
+        xy = 5.0e5 + u * strike[None, :] + (-z / tan_dip)[:, None] * dip_dir[None, :]
+        return np.column_stack([xy, z])
+
+    f = Fault("F", kind="normal", traces=[Trace("a", plane(0.0, np.linspace(100.0, -300.0, 9))),
+                                          Trace("b", plane(700.0, np.linspace(-180.0, -300.0, 4)))])
+    e = fault_ends(f)
+    np.testing.assert_allclose(e.directions[1], strike, atol=1e-9)
+    np.testing.assert_allclose(e.directions[0], -strike, atol=1e-9)
+
+
+# Half the width of the study area of _bump_fault: a value whose blends
+# (1 - s) w + s w are not all w in floating point.
+_W = 123.456
+
+
+def _bump_fault(bump: float):
+    """A normal fault along x (dipping 60 degrees to -y, throw 10 m) cutting
+    one layer L(x) = -100 + bump exp(-((x - 500)/150)^2), given by two
+    traces 1000 m apart (x = 0, 1000) where L = -100; the layer's far ends
+    lie on the sides y = +-_W of the study area."""
+    tan = np.tan(np.radians(60.0))
+
+    def L(x):
+        return -100.0 + bump * np.exp(-((np.asarray(x) - 500.0) / 150.0) ** 2)
+
+    def trace(x):
+        z = float(L(x))
+        yf, yh = z / tan, (z - 10.0) / tan
+        foot = np.array([[x, _W, z], [x, 50.0, z], [x, yf, z]])
+        hang = np.array([[x, yh, z - 10.0], [x, 0.5 * (yh - _W), z - 10.0], [x, -_W, z - 10.0]])
+        zs = np.linspace(z + 20.0, z - 30.0, 6)
+        return Trace(None, np.column_stack([np.full(6, x), zs / tan, zs]),
+                     {"L": {"foot": foot, "hanging": hang}})
+
+    return Fault("F", kind="normal", traces=[trace(0.0), trace(1000.0)]), L
+
+
+def test_patch_follows_the_layer_between_distant_traces():
+    # Between two traces the patch was a plain loft: straight in z from one
+    # trace to the next. Where the layer bulges between traces far apart the
+    # patch cut through the bulge (sweep seed 381: L4 rises 80 m between
+    # F1's traces 2.5 km apart, the patch stayed at the traces' -280 m and
+    # the model was worse than the plain TIN near the faults). With
+    # along_step the patch follows the continuous layer surface's trend
+    # there, as an extension does along the way.
+    from faultmesh import StudyArea, sample_surface
+    from faultmesh.faults import fault_ends, layer_patch
+
+    area = StudyArea(np.array([[-10.0, -_W], [1010.0, -_W], [1010.0, _W], [-10.0, _W]]))
+    f, L = _bump_fault(60.0)
+
+    def surface_z(xy):  # the continuous surface (here the footwall's layer)
+        return L(np.asarray(xy)[:, 0])
+
+    probe = np.array([[500.0, 90.0], [500.0, -90.0], [430.0, 80.0]])
+    want = np.array([L(500.0), L(500.0) - 10.0, L(430.0)])
+    plain = layer_patch(f, "L", fault_ends(f), area, surface_z)
+    lo, hi, hits = sample_surface(plain.vertices, plain.triangles, probe)
+    assert (hits == 1).all() and np.abs(hi - want).max() > 50.0  # the loft cuts the bulge
+    p = layer_patch(f, "L", fault_ends(f), area, surface_z, along_step=50.0)
+    lo, hi, hits = sample_surface(p.vertices, p.triangles, probe)
+    assert (hits >= 1).all() and (hi - lo < 1e-9).all()  # on a polyline: the two triangles at it
+    # On the polylines (x = 500) exactly; between them (x = 430) within the
+    # chord of the bump over 50 m.
+    np.testing.assert_allclose(hi[:2], want[:2], atol=1e-9)
+    assert abs(hi[2] - want[2]) < 2.0
+    # The polylines between the traces start and end on the sides y = +-_W
+    # of the study area, placed there exactly (not a rounded blend).
+    assert p.ends == ["extended", "extended"]
+    V = p.vertices
+    far = (np.abs(V[:, 1]) > 120.0) & (V[:, 0] > 0.0) & (V[:, 0] < 1000.0)
+    assert far.sum() == 2 * 19 and (np.abs(V[far, 1]) == _W).all()
+    check_surface(Surface("p", V, p.triangles, kind="fault"))
+    with pytest.raises(ValueError, match="along_step must be > 0"):
+        layer_patch(f, "L", fault_ends(f), area, surface_z, along_step=0.0)
+
+
+def test_fault_surface_ends_where_the_layers_pinch_out():
+    # A reverse fault abutting a partner is closed in each layer by a
+    # pinch-out halfway to the partner (faults.layer_patch); the fault
+    # surface's end was shifted by half a trace spacing instead, so it ended
+    # elsewhere (grounds seed 381, F2 towards F1: the layers pinch out 12-74 m
+    # beyond the end trace, the fault surface ended 141 m beyond it). The
+    # pinch-out points are now decided once (faults._pinch_out) and are
+    # vertices on the fault surface's outline.
+    from faultmesh.grounds import random_ground
+
+    ds = random_ground(381)
+    m = build(ds)
+    F = m.faults["F2"]
+    (loop,) = faultmesh.boundary_loops(F.triangles)
+    outline = F.vertices[np.asarray(loop)]
+    layers = m.metadata["faults"]["F2"]["layers"]
+    tips = [np.asarray(r["end1_tip"]) for r in layers.values() if r["ends"][1] == "synthetic_tip"]
+    assert len(tips) == len(ds.layers) == 6
+    for t in tips:
+        assert np.all(outline == t, axis=1).any(), t
+    check_surface(F)
+
+
+def test_pinched_end_trace_takes_the_pinch_out_points():
+    from faultmesh import faults as fm
+
+    # A plane trace falling from z = 0 to -100; two layers cut it at z = -20
+    # and -70 (cutoff midpoints) and pinch out 30 m and 50 m further along x.
+    plane = np.column_stack([np.zeros(6), np.linspace(0.0, 50.0, 6), np.linspace(0.0, -100.0, 6)])
+    cut = np.array([[0.0, 10.0, -20.0], [0.0, 35.0, -70.0]])
+    tip = cut + [[30.0, 0.0, 1.0], [50.0, 0.0, -2.0]]
+    moved, origin = fm._pinched(plane, fm.EndMove.pinch(cut[::-1], tip[::-1]))
+    # z = -20 (plane point 1) gives way to the first pinch-out point; -70
+    # falls between points 3 and 4.
+    np.testing.assert_array_equal(moved[[1, 4]], tip)
+    np.testing.assert_array_equal(origin[[1, 4]], cut)
+    assert len(moved) == 7 and np.all(np.diff(moved[:, 2]) < 0)
+    # Above the top layer and below the bottom one the nearest layer's move,
+    # between them the moves taken along z.
+    np.testing.assert_allclose(moved[0], plane[0] + [30.0, 0.0, 1.0])
+    np.testing.assert_allclose(moved[-1], plane[-1] + [50.0, 0.0, -2.0])
+    np.testing.assert_allclose(moved[2], plane[2] + [30.0 + 20.0 * 20.0 / 50.0, 0.0, 1.0 - 3.0 * 20.0 / 50.0])
+    with pytest.raises(ValueError, match="cutoffs and tips must be"):
+        fm.EndMove.pinch(cut, tip[:1])
+
+
+def test_patch_keeps_the_loft_where_the_layer_departs_less_than_the_throw():
+    # Near a fault the continuous TIN interpolates across it, and its
+    # departure from a straight line between two traces is no evidence of
+    # the layer's shape until it exceeds the throw (sweep seed 345: a flat
+    # layer with 40 m of throw, where following the TIN's 10-25 m departures
+    # raised the near-fault error from 1.27 m to 3.5 m). A 5 m bump under a
+    # 10 m throw leaves the plain loft.
+    from faultmesh import StudyArea
+    from faultmesh.faults import fault_ends, layer_patch
+
+    area = StudyArea(np.array([[-10.0, -_W], [1010.0, -_W], [1010.0, _W], [-10.0, _W]]))
+    f, L = _bump_fault(5.0)
+
+    def surface_z(xy):
+        return L(np.asarray(xy)[:, 0])
+
+    plain = layer_patch(f, "L", fault_ends(f), area, surface_z)
+    p = layer_patch(f, "L", fault_ends(f), area, surface_z, along_step=50.0)
+    np.testing.assert_array_equal(p.vertices, plain.vertices)
+    np.testing.assert_array_equal(p.triangles, plain.triangles)
+    f, L = _bump_fault(12.0)  # above the throw: followed
+    p = layer_patch(f, "L", fault_ends(f), area, surface_z, along_step=50.0)
+    assert len(p.vertices) > len(plain.vertices)

@@ -22,7 +22,8 @@ Each end of a fault is closed in one of four ways:
 * ``zero_throw``: the end trace has zero throw (its cutoffs coincide): the
   patch simply ends there.
 * ``extended``: no tip and non-zero throw: the end trace is carried along
-  strike (each point along the strike direction of the last two traces) onto
+  strike (each point along the strike direction of the last two traces, from
+  their plane points at equal elevations) onto
   the nearest target within reach: the study-area boundary (paper: F22, a
   fault "without pinching at the boundary") or, for faults of one group, the
   outline of the partner fault that this one abuts (T-crossing). z follows
@@ -32,7 +33,24 @@ Each end of a fault is closed in one of four ways:
   pinch-out halfway to the partner closes it (kind ``synthetic_tip``,
   metadata ``end<i>_tip_short_of``).
 * ``synthetic_tip``: nothing within reach: a tip half a trace spacing
-  further along strike closes the patch (recorded in the metadata).
+  further along strike closes the patch (recorded in the metadata:
+  ``end<i>_tip``). Both pinch-outs are decided in one place
+  (:func:`_pinch_out`), and the fault surface's end trace is moved onto the
+  layers' pinch-out points, which become its vertices.
+
+Between two traces (and between an end trace and its extension) the patch
+follows the continuous layer surface: with ``along_step`` (``build_model``
+gives two of the layer's data spacings) polylines are put in between, at most
+that far apart, each point on the straight XY line between a pair of points
+of the two polylines (paired part by part: footwall, strip, hanging wall;
+resampled along a part where the two have different counts) with z the
+straight line's plus the continuous TIN's departure from its own straight
+line there -- where that departure exceeds the fault's throw somewhere
+between the two (the TIN interpolates across the fault, so its error there
+is up to the throw; a smaller departure is no evidence, and the plain loft
+stands). A plain loft between traces kilometres apart cut through what the
+layer does in between (sweep seed 381: a layer rising 80 m between two traces
+2.5 km apart, throw about 20 m). A tip's fan is not filled in.
 
 Faults of one group (T- or X-crossings) are modelled together as ONE patch
 per layer (:func:`group_patch`): faults that abut no partner come first; each
@@ -81,17 +99,23 @@ class EndMoveKind(enum.Enum):
     layers' patches were extended there (see :class:`EndMove`)."""
 
     ray = "ray"      # each point of the end trace carried along a direction onto the study-area boundary
-    shift = "shift"  # the end trace moved by a vector (to the extended end or a synthetic tip)
+    shift = "shift"  # the end trace moved by a vector (to an end extended onto a partner)
+    pinch = "pinch"  # the end trace moved onto the layers' pinch-out points (synthetic tips)
 
 
 @dataclass(frozen=True, eq=False)
 class EndMove:
     """One end move of a fault plane: ``kind`` and its ``vector`` (2,) -- the
     direction of the ray (``EndMoveKind.ray``) or the displacement
-    (``EndMoveKind.shift``)."""
+    (``EndMoveKind.shift``; for ``EndMoveKind.pinch`` the layers' mean
+    displacement). A pinch also has ``cutoffs`` and ``tips`` (k, 3): per
+    layer, the cutoff midpoint on the end trace and the pinch-out point it
+    moves to (:attr:`LayerPatch.pinch_outs`)."""
 
     kind: EndMoveKind
     vector: np.ndarray
+    cutoffs: Optional[np.ndarray] = None
+    tips: Optional[np.ndarray] = None
 
     @classmethod
     def ray(cls, direction) -> "EndMove":
@@ -100,6 +124,15 @@ class EndMove:
     @classmethod
     def shift(cls, offset) -> "EndMove":
         return cls(EndMoveKind.shift, np.asarray(offset, dtype=np.float64).reshape(2))
+
+    @classmethod
+    def pinch(cls, cutoffs, tips) -> "EndMove":
+        c = np.asarray(cutoffs, dtype=np.float64).reshape(-1, 3)
+        t = np.asarray(tips, dtype=np.float64).reshape(-1, 3)
+        if len(c) == 0 or c.shape != t.shape:
+            raise ValueError(f"EndMove.pinch: cutoffs and tips must be (k, 3) with k >= 1, got "
+                             f"{c.shape} and {t.shape}")
+        return cls(EndMoveKind.pinch, (t - c)[:, :2].mean(axis=0), c, t)
 
 
 @dataclass
@@ -113,6 +146,9 @@ class LayerPatch:
     ends: List[str] = field(default_factory=list)         # closing kind per end
     abuts: List[str] = field(default_factory=list)        # partners reached by an extension
     metadata: Dict[str, Any] = field(default_factory=dict)
+    #: per end closed by a synthetic tip: (the end trace's cutoff midpoint,
+    #: the pinch-out point) (3,) each, from :func:`_pinch_out`
+    pinch_outs: Dict[int, Tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
 
 # ---------------------------------------------------------------------------
@@ -262,6 +298,33 @@ def _pull_inside(area: StudyArea, origin: np.ndarray, xy: np.ndarray, what: str)
                         "the study area")
 
 
+def _strike_between(a: np.ndarray, b: np.ndarray, ca: np.ndarray, cb: np.ndarray) -> np.ndarray:
+    """The unit XY direction from fault-plane trace ``a`` (k, 3) to trace
+    ``b``, compared at the same elevations: the mean XY offset of the two
+    traces' points at equal z over the z range they share (on a planar
+    fault a horizontal line in the plane: the strike). Without a shared z
+    range, the direction between the traces' centres ``ca``, ``cb``.
+
+    Why not the centres alone: a trace whose section stops at the study
+    area's boundary records only part of the plane (one layer's depth), and
+    its centre then lies down-dip of the other's; the centre line is turned
+    off strike by the offset. Sweep seed 338: F1's northern trace only
+    reaches L2, its centre line ran 13 degrees off the fault's strike, and
+    L1's patch, carried 805 m along it onto the boundary, put the fault
+    ~185 m beside the truth's (seed 381: 7 degrees, 1.7 km)."""
+    za, zb = a[:, 2], b[:, 2]
+    lo, hi = max(float(za.min()), float(zb.min())), min(float(za.max()), float(zb.max()))
+    if hi >= lo:
+        levels = np.linspace(lo, hi, 9)
+        oa, ob = np.argsort(za, kind="stable"), np.argsort(zb, kind="stable")
+        pa = np.column_stack([np.interp(levels, za[oa], a[oa, 0]), np.interp(levels, za[oa], a[oa, 1])])
+        pb = np.column_stack([np.interp(levels, zb[ob], b[ob, 0]), np.interp(levels, zb[ob], b[ob, 1])])
+        d = (pb - pa).mean(axis=0)
+        if np.hypot(d[0], d[1]) > 0.0:
+            return _unit(d)
+    return _unit(cb - ca)
+
+
 def fault_ends(fault) -> FaultEnds:
     """Tips assigned to the two ends and the outward strike directions."""
     if not fault.traces:
@@ -270,8 +333,9 @@ def fault_ends(fault) -> FaultEnds:
     tips = [np.asarray(t, dtype=np.float64) for t in np.asarray(fault.tips).reshape(-1, 2)]
     end_tips: List[Optional[np.ndarray]] = [None, None]
     if len(centres) >= 2:
-        d_start = _unit(centres[0] - centres[1])
-        d_end = _unit(centres[-1] - centres[-2])
+        planes = [np.asarray(tr.plane, dtype=np.float64).reshape(-1, 3) for tr in fault.traces]
+        d_start = _strike_between(planes[1], planes[0], centres[1], centres[0])
+        d_end = _strike_between(planes[-2], planes[-1], centres[-2], centres[-1])
         spacing = float(np.mean([np.hypot(*(b - a)) for a, b in zip(centres[:-1], centres[1:])]))
         for t in tips:
             e = 0 if np.hypot(*(t - centres[0])) <= np.hypot(*(t - centres[-1])) else 1
@@ -450,6 +514,56 @@ def _around_corners(area: StudyArea, pts: np.ndarray,
     return np.ascontiguousarray(out), cut
 
 
+def _pinch_out(fault, layer: str, tr, d: np.ndarray, ahead: float, area: StudyArea,
+               surface_z) -> Tuple[np.ndarray, np.ndarray]:
+    """The synthetic tip of ``layer`` at a fault end: (the end trace ``tr``'s
+    cutoff midpoint (3,), the pinch-out point (3,)). The pinch-out lies
+    halfway to what is ahead along ``d`` -- ``ahead`` is the distance to a
+    partner's outline, or a trace spacing where nothing is in reach -- kept
+    in the study area, z changed as the continuous surface changes. The one
+    place that decides it: the layer's patch closes there, and the fault
+    surface's end trace is moved onto these points (:attr:`EndMoveKind.pinch`
+    in :func:`fault_surface`)."""
+    sides = tr.layers[layer]
+    cm = 0.5 * (np.asarray(sides["foot"], dtype=np.float64)[-1]
+                + np.asarray(sides["hanging"], dtype=np.float64)[0])
+    xy = _pull_inside(area, cm[:2], cm[:2] + 0.5 * ahead * d,
+                      f"fault {fault.name!r} layer {layer!r}: the end cutoff")
+    return cm, np.array([xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])])
+
+
+def _pinched(plane: np.ndarray, move: "EndMove") -> Tuple[np.ndarray, np.ndarray]:
+    """The end plane trace moved onto the layers' pinch-out points, and where
+    each of its points comes from: each plane point moved by the displacement
+    (x, y and z) of the layers' cutoffs, taken along z between the layers
+    (the nearest layer's beyond them), and the pinch-out points themselves
+    put in where their cutoffs' z falls on the trace, so that every layer's
+    patch ends ON the fault surface's end (coming from its cutoff). A plane
+    point within the merge tolerance of a cutoff's z gives way to the
+    pinch-out point (one vertex, not two). A trace whose z is not strictly
+    monotone has no place for them: it is moved only."""
+    c, t = move.cutoffs, move.tips
+    up = np.argsort(c[:, 2], kind="stable")
+    off = t[up] - c[up]
+    moved = plane.copy()
+    for k in range(3):
+        moved[:, k] += np.interp(plane[:, 2], c[up, 2], off[:, k])
+    z = plane[:, 2]
+    dz = np.diff(z)
+    if len(plane) < 2 or not (np.all(dz < 0.0) or np.all(dz > 0.0)):
+        return moved, plane
+    rising = bool(z[-1] > z[0])
+    order = up if rising else up[::-1]   # the cutoffs in the trace's order
+    c, t = c[order], t[order]
+    # The plane points before each cutoff along the trace.
+    pos = np.searchsorted(z, c[:, 2]) if rising else len(z) - np.searchsorted(z[::-1], c[:, 2])
+    tol = _merge_tol(np.vstack([plane, c]))
+    keep = np.abs(z[:, None] - c[None, :, 2]).min(axis=1) > tol
+    at = np.searchsorted(np.flatnonzero(keep), pos)
+    return (np.ascontiguousarray(np.insert(moved[keep], at, t, axis=0)),
+            np.ascontiguousarray(np.insert(plane[keep], at, c, axis=0)))
+
+
 def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
             partners: Dict[str, List[np.ndarray]], max_dist: float,
             surface_z) -> Optional[Tuple[np.ndarray, str, float]]:
@@ -471,6 +585,131 @@ def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
             xy = poly[:, :2] + t[:, None] * d[None, :]
             best = (np.column_stack([xy, _shift_z(poly, xy, surface_z)]), name, med)
     return best
+
+
+def _resample(p: np.ndarray, m: int) -> np.ndarray:
+    """``p`` (k, 3) as ``m`` points at equal steps of its 3D arc length (its
+    ends kept exactly); ``p`` itself when it has ``m`` points already."""
+    if len(p) == m:
+        return p
+    L = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))]
+    if len(p) == 1 or L[-1] == 0.0:
+        return np.repeat(p[:1], m, axis=0)
+    t = np.linspace(0.0, L[-1], m)
+    out = np.column_stack([np.interp(t, L, p[:, c]) for c in range(3)])
+    out[0], out[-1] = p[0], p[-1]
+    return out
+
+
+def _pieces(k: int, c: Optional[Tuple[int, int]]) -> List[Tuple[int, int]]:
+    """(start, stop) of the footwall, strip and hanging-wall parts of a
+    polyline of ``k`` points with cutoffs at ``c`` (sharing the cutoff
+    points), or the whole polyline without ``c``."""
+    if c is None:
+        return [(0, k)]
+    fw, hw = c
+    return [(0, fw + 1), (fw, hw + 1), (hw, k)]
+
+
+def _vertical_throw(p: np.ndarray, c: Optional[Tuple[int, int]]) -> float:
+    """The vertical throw of a polyline with cutoffs at ``c`` (0 without)."""
+    return 0.0 if c is None else abs(float(p[c[0], 2] - p[c[1], 2]))
+
+
+def _between(area: StudyArea, a: np.ndarray, b: np.ndarray, ca: Optional[Tuple[int, int]],
+             cb: Optional[Tuple[int, int]], surface_z, step: float
+             ) -> Tuple[List[np.ndarray], List[Optional[Tuple[int, int]]]]:
+    """Polylines between two consecutive polylines ``a`` and ``b`` of a
+    layer's patch, at most ``step`` apart in XY, whose z follows the
+    continuous layer surface ``surface_z`` (module doc: "between the
+    traces"), with their cutoff positions. Their points pair up part by
+    part (footwall, strip, hanging wall; resampled along each part where
+    the two have different counts) and lie on the straight XY line between
+    their pair; a pair on one side of the study area gives points placed
+    on that side (StudyArea.place), an identical pair that point itself
+    (an extension keeps the points already on the boundary; so do all the
+    polylines between). None (empty lists) where the surface departs from
+    its straight line by no more than the larger vertical throw of the two
+    polylines: the TIN's own error near the fault."""
+    pa, pb = _pieces(len(a), ca), _pieces(len(b), cb)
+    if len(pa) != len(pb):
+        pa, pb = [(0, len(a))], [(0, len(b))]
+    ra, rb, cut = [], [], []
+    for (a0, a1), (b0, b1) in zip(pa, pb):
+        m = max(a1 - a0, b1 - b0)
+        x, y = _resample(a[a0:a1], m), _resample(b[b0:b1], m)
+        if ra:  # the part starts at the previous one's last point
+            x, y = x[1:], y[1:]
+        ra.append(x)
+        rb.append(y)
+        cut.append(sum(len(r) for r in ra) - 1)
+    A, B = np.vstack(ra), np.vstack(rb)
+    c = (cut[0], cut[1]) if len(cut) == 3 else None
+    gap = float(np.hypot(*(B[:, :2] - A[:, :2]).T).max())
+    n = int(math.ceil(gap / step)) - 1
+    if n <= 0:
+        return [], []
+    s = (np.arange(1, n + 1) / (n + 1))[:, None, None]
+    P = (1.0 - s) * A[None] + s * B[None]                                    # (n, m, 3)
+    # z: the straight line between the pair plus the continuous surface's
+    # departure from its own straight line there (where it is defined).
+    za, zb = surface_z(A[:, :2]), surface_z(B[:, :2])
+    zp = surface_z(P[:, :, :2].reshape(-1, 2)).reshape(n, -1)
+    dz = zp - ((1.0 - s[:, :, 0]) * za[None] + s[:, :, 0] * zb[None])
+    dz = np.where(np.isfinite(dz), dz, 0.0)
+    # Near a fault the continuous TIN interpolates across it: its error there
+    # is up to the fault's throw, and so is the noise of its departure (sweep
+    # seed 345, traces 0.4-1.1 km apart over a flat layer, 40 m of throw: the
+    # TIN departs 10-25 m from the straight line; followed, the near-fault
+    # error rose from 1.27 m to 3.5 m). Only a departure larger than the
+    # larger throw of the pair is the layer's shape; below it the loft stands.
+    if not np.abs(dz).max() > max(_vertical_throw(a, ca), _vertical_throw(b, cb)):
+        return [], []
+    P[:, :, 2] += dz
+    # Pairs on one side of the study area: the points placed on that side.
+    side_a, sa = area.locate(A[:, :2])
+    side_b, sb = area.locate(B[:, :2])
+    n_sides = int(area.n_sides)
+    ring = np.asarray(area.ring, dtype=np.float64)
+    side_len = np.hypot(*(np.roll(ring, -1, axis=0) - ring).T)
+    # A corner is the start of its side (locate) and the end of the one before.
+    b_on_a = np.where((side_b >= 0) & (side_b == (side_a + 1) % n_sides) & (sb == 0.0),
+                      side_a, side_b)
+    sb_on_a = np.where(b_on_a != side_b, side_len[np.maximum(side_a, 0)], sb)
+    a_on_b = np.where((side_a >= 0) & (side_a == (side_b + 1) % n_sides) & (sa == 0.0),
+                      side_b, side_a)
+    sa_on_b = np.where(a_on_b != side_a, side_len[np.maximum(side_b, 0)], sa)
+    same = (side_a >= 0) & (side_a == b_on_a)
+    same_b = ~same & (side_b >= 0) & (side_b == a_on_b)
+    for mask, side, s0, s1 in ((same, side_a, sa, sb_on_a), (same_b, side_b, sa_on_b, sb)):
+        k = np.flatnonzero(mask)
+        if len(k):
+            sk = (1.0 - s[:, :, 0]) * s0[k][None] + s[:, :, 0] * s1[k][None]    # (n, len(k))
+            P[:, k, :2] = area.place(np.broadcast_to(side[k][None], sk.shape).ravel(),
+                                     sk.ravel()).reshape(n, len(k), 2)
+    eq = np.all(A == B, axis=1)
+    P[:, eq] = A[eq][None]
+    return [np.ascontiguousarray(p) for p in P], [c] * n
+
+
+def _follow_surface(area: StudyArea, seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
+                    surface_z, step: Optional[float]
+                    ) -> Tuple[List[np.ndarray], List[Optional[Tuple[int, int]]]]:
+    """``seq`` with polylines :func:`_between` every two consecutive ones
+    (not towards a single point: a tip's fan)."""
+    if surface_z is None or step is None or len(seq) < 2:
+        return seq, cuts
+    if not step > 0.0:
+        raise ValueError(f"layer_patch: along_step must be > 0, got {step}")
+    out, out_c = [seq[0]], [cuts[0]]
+    for i in range(len(seq) - 1):
+        if len(seq[i]) > 1 and len(seq[i + 1]) > 1:
+            mid, mid_c = _between(area, seq[i], seq[i + 1], cuts[i], cuts[i + 1], surface_z, step)
+            out += mid
+            out_c += mid_c
+        out.append(seq[i + 1])
+        out_c.append(cuts[i + 1])
+    return out, out_c
 
 
 # ---------------------------------------------------------------------------
@@ -547,13 +786,17 @@ def _assemble(seq: List[np.ndarray], method: str,
 def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 loft_method: str = "min_area",
                 partners: Optional[Dict[str, List[np.ndarray]]] = None,
-                max_extension: Optional[float] = None) -> Optional[LayerPatch]:
+                max_extension: Optional[float] = None,
+                along_step: Optional[float] = None) -> Optional[LayerPatch]:
     """The fine model of ``fault`` in ``layer`` (None if no trace has it).
 
     ``ring``: the study area (a (k, 2) ring or a :class:`faultmesh.StudyArea`).
     ``surface_z(xy) -> z`` is the continuous layer surface (tips and
     extensions follow its trend); ``partners``: group partners' XY outlines
     in this layer (extension targets besides the study-area boundary).
+    ``along_step`` (m, with ``surface_z``): the patch follows the surface
+    between consecutive polylines, by polylines at most this far apart
+    (module doc); None: a plain loft.
 
     An end trace that lies on the study-area boundary (every point of its
     polyline, by :meth:`StudyArea.on_boundary`) closes the patch there: the
@@ -569,6 +812,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
     if max_extension is None:
         max_extension = max(1.5 * ends.spacing, 0.25 * math.sqrt(abs(_area(area.ring))))
     kinds, abuts, meta = [], [], {}
+    pinch: Dict[int, Tuple[np.ndarray, np.ndarray]] = {}
     for end in (0, 1):
         poly = seq[0] if end == 0 else seq[-1]
         tip = ends.tips[end]
@@ -596,14 +840,13 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 # the two. The partner is not reached, so it is not in
                 # ``abuts`` (group_patch then orders the fold by its folding).
                 _, target, dist = ext
-                sides = (with_layer[0] if end == 0 else with_layer[-1]).layers[layer]
-                cm = 0.5 * (np.asarray(sides["foot"])[-1] + np.asarray(sides["hanging"])[0])
-                xy = _pull_inside(area, cm[:2], cm[:2] + 0.5 * dist * d,
-                                  f"fault {fault.name!r} layer {layer!r}: the end cutoff")
-                add = np.array([[xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])]])
+                pinch[end] = _pinch_out(fault, layer, with_layer[0] if end == 0 else with_layer[-1],
+                                        d, dist, area, surface_z)
+                add = pinch[end][1][None, :]
                 kinds.append("synthetic_tip")
                 meta[f"end{end}_tip_short_of"] = target
                 meta[f"end{end}_tip_distance"] = 0.5 * dist
+                meta[f"end{end}_tip"] = pinch[end][1].tolist()
             elif ext is not None:
                 add, target, dist = ext
                 c_add = cuts[0] if end == 0 else cuts[-1]
@@ -616,12 +859,11 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                     abuts.append(target)
             else:
                 # Nothing within reach: close by a synthetic pinch-out.
-                sides = (with_layer[0] if end == 0 else with_layer[-1]).layers[layer]
-                cm = 0.5 * (np.asarray(sides["foot"])[-1] + np.asarray(sides["hanging"])[0])
-                xy = _pull_inside(area, cm[:2], cm[:2] + 0.5 * ends.spacing * d,
-                                  f"fault {fault.name!r} layer {layer!r}: the end cutoff")
-                add = np.array([[xy[0], xy[1], float(_shift_z(cm[None, :], xy[None, :], surface_z)[0])]])
+                pinch[end] = _pinch_out(fault, layer, with_layer[0] if end == 0 else with_layer[-1],
+                                        d, ends.spacing, area, surface_z)
+                add = pinch[end][1][None, :]
                 kinds.append("synthetic_tip")
+                meta[f"end{end}_tip"] = pinch[end][1].tolist()
         if add is not None:
             # An extension is the end polyline carried point by point: its
             # cutoffs sit where the end polyline's do. A tip is one point.
@@ -635,6 +877,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
             else:
                 seq.append(add)
                 cuts.append(c)
+    seq, cuts = _follow_surface(area, seq, cuts, surface_z, along_step)
     V, T = _assemble(seq, loft_method, cuts)
     # The loft between two traces is a chord: where the study area is not
     # convex it can run out of the area and back in (across a notch; sweep
@@ -643,7 +886,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
     V, T, _, n_cut, n_out = area.clip_surface(V, T, f"fault {fault.name!r} layer {layer!r}")
     if n_cut or n_out:
         meta["clipped_to_study_area"] = {"cut": int(n_cut), "dropped": int(n_out)}
-    return LayerPatch(fault.name, layer, V, T, kinds, abuts, meta)
+    return LayerPatch(fault.name, layer, V, T, kinds, abuts, meta, pinch)
 
 
 def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
@@ -655,9 +898,11 @@ def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
     offset from the cutoff midpoint of the layer whose cutoff line passes
     closest to the tip). ``end_moves`` (per end, None or an :class:`EndMove`:
     ``EndMove.ray(d)``, each point carried along d onto the study-area
-    boundary, or ``EndMove.shift(v)``, the trace moved by v) extends an end
-    like the layers' patches. An end plane trace that already lies on the
-    boundary stays as it is."""
+    boundary, ``EndMove.shift(v)``, the trace moved by v, or
+    ``EndMove.pinch(cutoffs, tips)``, the trace moved onto the layers'
+    pinch-out points, which become its vertices: :func:`_pinched`) extends
+    an end like the layers' patches. An end plane trace that already lies
+    on the boundary stays as it is."""
     area = as_study_area(ring)
     seq = [np.asarray(tr.plane, dtype=np.float64).reshape(-1, 3) for tr in fault.traces]
     seq = [p for p in seq if len(p) >= 1]
@@ -668,6 +913,7 @@ def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
         plane = seq[0] if end == 0 else seq[-1]
         tip = ends.tips[end]
         moved = None
+        origin = plane  # where each point of the moved trace comes from
         if tip is not None:
             ref = _reference_cutoff(tr, tip, ends.directions[end])
             if ref is None:
@@ -685,6 +931,8 @@ def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
                 moved, t = _to_boundary(area, plane, move.vector, None)
                 miss = ~np.isfinite(t)
                 moved[miss] = plane[miss]
+            elif move.kind is EndMoveKind.pinch:
+                moved, origin = _pinched(plane, move)
             else:
                 moved = plane.copy()
                 moved[:, :2] += move.vector[None, :]
@@ -694,7 +942,7 @@ def fault_surface(fault, ends: FaultEnds, ring, loft_method: str = "min_area",
             for _ in range(60):
                 if inside.all():
                     break
-                moved[~inside, :2] = 0.5 * (moved[~inside, :2] + plane[~inside, :2])
+                moved[~inside, :2] = 0.5 * (moved[~inside, :2] + origin[~inside, :2])
                 inside = area.contains(moved[:, :2])
             else:
                 raise GeometryError(f"fault_surface: fault {fault.name!r}: the end plane trace "
