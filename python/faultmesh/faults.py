@@ -63,7 +63,7 @@ from ._core import (AabbTree, GeometryError, StudyArea, boundary_contours, loft,
                     triangles_not_covered_once, triangles_touching_region)
 
 __all__ = ["LayerPatch", "FaultEnds", "EndMove", "EndMoveKind", "fault_ends", "trace_polyline",
-           "layer_patch", "fault_surface", "group_patch", "patch_outline"]
+           "layer_patch", "fault_surface", "group_patch", "group_order", "is_folded", "patch_outline"]
 
 
 @dataclass
@@ -544,16 +544,168 @@ def _assemble(seq: List[np.ndarray], method: str,
     return np.ascontiguousarray(V), np.ascontiguousarray(T)
 
 
+def _assemble_runs(runs: List[Tuple[List[np.ndarray], List[Optional[Tuple[int, int]]]]],
+                   method: str) -> Tuple[np.ndarray, np.ndarray]:
+    """:func:`_assemble` of each run (polylines, cuts), the runs side by side
+    as separate pieces of one patch."""
+    Vs, Ts, off = [], [], 0
+    for seq, cuts in runs:
+        V, T = _assemble(seq, method, cuts)
+        Vs.append(V)
+        Ts.append(T + off)
+        off += len(V)
+    if not Vs:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
+    return np.ascontiguousarray(np.vstack(Vs)), np.ascontiguousarray(np.vstack(Ts))
+
+
+def _touches(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray], tol: float) -> np.ndarray:
+    """Rows of the triangles that :func:`clip_patch` removes first: those
+    whose closed XY projection touches the region ``rings`` (exactly) or
+    comes within ``tol`` of its outline."""
+    if len(T) == 0 or not rings:
+        return np.zeros(0, dtype=np.int64)
+    rows = np.asarray(triangles_touching_region(V, T, rings), dtype=np.int64)
+    if tol > 0.0:
+        rows = np.union1d(rows, _triangles_near_region(V, T, rings, tol))
+    return rows
+
+
+def _cut_centre(poly: np.ndarray, cut: Optional[Tuple[int, int]]) -> np.ndarray:
+    """The midpoint of a polyline's cutoffs (x, y, z); its middle point
+    without cutoffs (a tip: the point itself)."""
+    if cut is None:
+        return poly[len(poly) // 2]
+    return 0.5 * (poly[cut[0]] + poly[cut[1]])
+
+
+def _closing_tip(poly: np.ndarray, cut: Optional[Tuple[int, int]], toward: np.ndarray,
+                 area: StudyArea, surface_z, rings: List[np.ndarray], tol: float,
+                 first: bool, method: str) -> Optional[np.ndarray]:
+    """A pinch-out tip (x, y, z) that closes the fold at ``poly`` towards
+    the point ``toward`` with a fan clear of ``rings``: on the line from the
+    cutoff midpoint to ``toward``, first halfway (as a synthetic tip short of
+    a partner), then nearer and nearer (halved, 20 times: a millionth of the
+    way). The fan covers the band once only if the tip lies strictly beyond
+    the polyline's chord, on the side ``toward`` is (exact orient2d, as
+    :func:`_layer_tip`); the tip must lie in the study area. None if no such
+    tip is clear."""
+    c = _cut_centre(poly, cut)
+    way = np.asarray(toward[:2], dtype=np.float64) - c[:2]
+    if not float(np.hypot(way[0], way[1])) > 0.0:
+        return None
+    a = np.ascontiguousarray(poly[[0], :2])
+    b = np.ascontiguousarray(poly[[-1], :2])
+    chord = bool((a != b).any())
+    side = np.sign(orient2d(a, b, np.ascontiguousarray(toward[None, :2])))[0] if chord else 0.0
+    if chord and side == 0.0:
+        return None
+    s = 0.5
+    for _ in range(20):
+        xy = c[:2] + s * way
+        s *= 0.5
+        if chord and np.sign(orient2d(a, b, xy[None, :]))[0] != side:
+            continue
+        if not area.contains(xy[None, :])[0]:
+            continue
+        tip = np.array([xy[0], xy[1], float(_shift_z(c[None, :], xy[None, :], surface_z)[0])])
+        fan = [tip[None, :], poly] if first else [poly, tip[None, :]]
+        V, T = _assemble(fan, method)
+        if len(T) and not len(_touches(V, T, rings, tol)):
+            return tip
+    return None
+
+
+def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
+              clear_of: Dict[str, List[np.ndarray]], area: StudyArea, surface_z, method: str):
+    """The polylines of a patch (``seq`` with their ``cuts``) as runs that
+    stay clear of the partners' outlines ``clear_of``: (runs, note), each run
+    a (polylines, cuts) pair to loft on its own, note None if nothing had to
+    change.
+
+    Why: :func:`group_patch` clips a later member of a group by the regions
+    of the earlier ones, removing whole triangles. A folded (reverse-fault)
+    patch clipped so ends its footwall, strip and hanging-wall sheets at
+    different places; the clean-up that makes its outline simple again then
+    removes triangles round after round, far from the partner, and the
+    repetition goes (sweep class "repetition": 31 of 500 grounds, F2 of a T
+    or X pair, 0-87 % of the band the data give left, where the patch alone
+    covered all of it). A fold cannot be cut along a line inside the study
+    area at all: its three sheets would end on one line, and the layer
+    surface would not be a disk there (docs/design.md §5). It can only be
+    closed by a pinch-out, as at a fault's tip.
+
+    So the lofts between consecutive polylines (traces, extensions, tips)
+    that would touch a partner's region -- decided as :func:`clip_patch`
+    decides it, exactly, with the same tolerance -- are left out; every
+    remaining run of at least two polylines is kept, and a run end where a
+    loft was left out is closed by a fan to a pinch-out tip towards the
+    next polyline (:func:`_closing_tip`), clear of the partners. A run end
+    that cannot be closed so loses its end polyline, until one can."""
+    rings = [np.asarray(r, dtype=np.float64).reshape(-1, 2) for rs in clear_of.values() for r in rs]
+    if not rings or len(seq) < 2:
+        return [(seq, cuts)], None
+    tol = _clip_tol(np.vstack(seq), rings)
+    n = len(seq)
+    touched = np.zeros(n - 1, dtype=bool)
+    for i in range(n - 1):
+        V, T = _assemble(seq[i:i + 2], method, cuts[i:i + 2])
+        touched[i] = len(_touches(V, T, rings, tol)) > 0
+    if not touched.any():
+        return [(seq, cuts)], None
+    runs, closed = [], []
+    # Maximal runs of polylines joined by lofts that stay clear.
+    starts = [0] + [i + 1 for i in np.flatnonzero(touched)]
+    stops = [i for i in np.flatnonzero(touched)] + [n - 1]
+    for lo, hi in zip(starts, stops):
+        while hi > lo:
+            pre = None
+            if lo > 0:
+                pre = _closing_tip(seq[lo], cuts[lo], _cut_centre(seq[lo - 1], cuts[lo - 1]), area,
+                                   surface_z, rings, tol, True, method)
+                if pre is None:
+                    lo += 1
+                    continue
+            post = None
+            if hi < n - 1:
+                post = _closing_tip(seq[hi], cuts[hi], _cut_centre(seq[hi + 1], cuts[hi + 1]), area,
+                                    surface_z, rings, tol, False, method)
+                if post is None:
+                    hi -= 1
+                    continue
+            run = list(seq[lo:hi + 1])
+            rc = list(cuts[lo:hi + 1])
+            if pre is not None:
+                run.insert(0, pre[None, :])
+                rc.insert(0, None)
+                closed.append(lo)
+            if post is not None:
+                run.append(post[None, :])
+                rc.append(None)
+                closed.append(hi)
+            runs.append((run, rc))
+            break
+    note = {"partners": sorted(clear_of), "lofts_left_out": [int(i) for i in np.flatnonzero(touched)],
+            "closed_at": [int(i) for i in closed], "runs": len(runs), "polylines": n}
+    return runs, note
+
+
 def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 loft_method: str = "min_area",
                 partners: Optional[Dict[str, List[np.ndarray]]] = None,
-                max_extension: Optional[float] = None) -> Optional[LayerPatch]:
+                max_extension: Optional[float] = None,
+                clear_of: Optional[Dict[str, List[np.ndarray]]] = None) -> Optional[LayerPatch]:
     """The fine model of ``fault`` in ``layer`` (None if no trace has it).
 
     ``ring``: the study area (a (k, 2) ring or a :class:`faultmesh.StudyArea`).
     ``surface_z(xy) -> z`` is the continuous layer surface (tips and
     extensions follow its trend); ``partners``: group partners' XY outlines
     in this layer (extension targets besides the study-area boundary).
+    ``clear_of``: XY outlines (per partner) that the patch must stay clear
+    of -- the group members before it in :func:`group_order`, whose region
+    :func:`group_patch` would otherwise clip it by (see :func:`_clear_of`:
+    the lofts between consecutive polylines that would touch them are left
+    out and the fold is closed by a pinch-out short of them).
 
     An end trace that lies on the study-area boundary (every point of its
     polyline, by :meth:`StudyArea.on_boundary`) closes the patch there: the
@@ -635,7 +787,13 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
             else:
                 seq.append(add)
                 cuts.append(c)
-    V, T = _assemble(seq, loft_method, cuts)
+    if clear_of:
+        runs, note = _clear_of(seq, cuts, clear_of, area, surface_z, loft_method)
+        if note is not None:
+            meta["clear_of"] = note
+        V, T = _assemble_runs(runs, loft_method)
+    else:
+        V, T = _assemble(seq, loft_method, cuts)
     # The loft between two traces is a chord: where the study area is not
     # convex it can run out of the area and back in (across a notch; sweep
     # seeds 418, 454). The patch is cut to the area exactly there, its new
@@ -858,11 +1016,8 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
         tol = _clip_tol(V, rings)
     if not tol >= 0.0:
         raise ValueError(f"clip_patch: tol must be >= 0, got {tol}")
-    rows = np.asarray(triangles_touching_region(V, T, rings), dtype=np.int64)
     keep = np.ones(len(T), dtype=bool)
-    keep[rows] = False
-    if tol > 0.0:
-        keep[_triangles_near_region(V, T, rings, tol)] = False
+    keep[_touches(V, T, rings, tol)] = False
     T = T[keep]
     # Clean-up: triangles at pinch vertices, then -- a folded (reverse-fault)
     # patch is clipped sheet by sheet at different places, and the outlines
@@ -897,6 +1052,25 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
     return _compact(V, T)
 
 
+def is_folded(p: LayerPatch) -> bool:
+    """The patch has triangles both ways up in XY (exact orient2d): a fold,
+    a reverse fault repeating the layer."""
+    V, T = p.vertices, p.triangles
+    if len(T) == 0:
+        return False
+    xy = np.ascontiguousarray(V[:, :2])
+    o = orient2d(xy[T[:, 0]], xy[T[:, 1]], xy[T[:, 2]])
+    return bool((o < 0.0).any() and (o > 0.0).any())
+
+
+def group_order(patches: List[LayerPatch]) -> List[int]:
+    """The order in which :func:`group_patch` puts a group's patches
+    together (each clipped by the outlines of those before it): faults that
+    abut no partner first, then the abutting ones; among each, folded
+    patches before flat ones, else in the given order."""
+    return sorted(range(len(patches)), key=lambda i: (bool(patches[i].abuts), not is_folded(patches[i]), i))
+
+
 def group_patch(patches: List[LayerPatch], area: Optional[StudyArea] = None
                 ) -> Tuple[np.ndarray, np.ndarray, Dict[str, Any]]:
     """One patch per layer for a group of crossing faults (module doc).
@@ -912,16 +1086,7 @@ def group_patch(patches: List[LayerPatch], area: Optional[StudyArea] = None
     left). A flat patch clipped by a folded outline has no such crossings.
     Returns (vertices, triangles, info) with info["pieces"] listing, per
     fault, the triangles kept and removed."""
-    def folded(p: LayerPatch) -> bool:
-        V, T = p.vertices, p.triangles
-        if len(T) == 0:
-            return False
-        xy = np.ascontiguousarray(V[:, :2])
-        o = orient2d(xy[T[:, 0]], xy[T[:, 1]], xy[T[:, 2]])
-        return bool((o < 0.0).any() and (o > 0.0).any())  # both ways up in XY: a fold
-
-    order = sorted(range(len(patches)),
-                   key=lambda i: (bool(patches[i].abuts), not folded(patches[i]), i))
+    order = group_order(patches)
     Vs, Ts, rings, info = [], [], [], {"order": [patches[i].fault for i in order], "pieces": {}}
     off = 0
     for i in order:
