@@ -579,40 +579,99 @@ def _cut_centre(poly: np.ndarray, cut: Optional[Tuple[int, int]]) -> np.ndarray:
     return 0.5 * (poly[cut[0]] + poly[cut[1]])
 
 
-def _closing_tip(poly: np.ndarray, cut: Optional[Tuple[int, int]], toward: np.ndarray,
-                 area: StudyArea, surface_z, rings: List[np.ndarray], tol: float,
-                 first: bool, method: str) -> Optional[np.ndarray]:
-    """A pinch-out tip (x, y, z) that closes the fold at ``poly`` towards
-    the point ``toward`` with a fan clear of ``rings``: on the line from the
-    cutoff midpoint to ``toward``, first halfway (as a synthetic tip short of
-    a partner), then nearer and nearer (halved, 20 times: a millionth of the
-    way). The fan covers the band once only if the tip lies strictly beyond
-    the polyline's chord, on the side ``toward`` is (exact orient2d, as
-    :func:`_layer_tip`); the tip must lie in the study area. None if no such
-    tip is clear."""
+def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], toward: np.ndarray,
+             area: StudyArea, surface_z, rings: List[np.ndarray], tol: float,
+             first: bool, method: str, carry: bool = True
+             ) -> Optional[List[Tuple[np.ndarray, Optional[Tuple[int, int]]]]]:
+    """How to close the fold at ``poly`` (its cutoffs ``cut``) towards the
+    point ``toward`` (the next polyline's cutoff midpoint, whose loft would
+    touch ``rings``), clear of ``rings``: the polylines (with their cuts) to
+    add after ``poly`` (before it with ``first``), or None.
+
+    The data say the band runs on towards ``toward``. So ``poly``'s band
+    (its strip and the sheets' points just past it, else the whole
+    polyline) is first
+    carried on along the line to ``toward`` -- a fraction 0.9, 0.8, ... 0.1
+    of the way to ``toward`` or to the partners' outline, whichever is
+    nearer -- keeping the band's full width there, and closed by a pinch-out
+    tip halfway from it to that point; failing that, a pinch-out tip alone
+    (a fan from ``poly``) halfway to ``toward``, then nearer and nearer
+    (halved, 20 times); with ``carry`` False only the latter. z follows the continuous layer surface's change
+    (:func:`_shift_z`). Each candidate must lie in the study area, each new
+    polyline strictly beyond the one before it on the side ``toward`` is
+    (exact orient2d: otherwise the lofts fold back over each other, as a tip
+    on the inner side did: :func:`_layer_tip`), and its lofts must stay
+    clear of ``rings`` (:func:`_touches`)."""
     c = _cut_centre(poly, cut)
     way = np.asarray(toward[:2], dtype=np.float64) - c[:2]
-    if not float(np.hypot(way[0], way[1])) > 0.0:
+    dist = float(np.hypot(way[0], way[1]))
+    if not dist > 0.0:
         return None
-    a = np.ascontiguousarray(poly[[0], :2])
-    b = np.ascontiguousarray(poly[[-1], :2])
-    chord = bool((a != b).any())
-    side = np.sign(orient2d(a, b, np.ascontiguousarray(toward[None, :2])))[0] if chord else 0.0
-    if chord and side == 0.0:
-        return None
-    s = 0.5
+    u = way / dist
+    hit = float(_ray_hits(c[None, :2], u, rings)[0])
+    reach = min(dist, hit)
+
+    def beyond(chord: np.ndarray, pts: np.ndarray) -> bool:
+        # Every point of pts strictly on the side of chord's line that u points to.
+        a = np.ascontiguousarray(chord[[0], :2])
+        b = np.ascontiguousarray(chord[[-1], :2])
+        if not (a != b).any():
+            return True
+        side = np.sign(orient2d(a, b, a + u[None, :] * max(dist, 1.0)))[0]
+        got = np.sign(orient2d(np.repeat(a, len(pts), 0), np.repeat(b, len(pts), 0),
+                               np.ascontiguousarray(pts[:, :2])))
+        return side != 0.0 and bool((got == side).all())
+
+    def moved(pts: np.ndarray, by: float) -> np.ndarray:
+        xy = pts[:, :2] + by * u[None, :]
+        return np.column_stack([xy, _shift_z(pts, xy, surface_z)])
+
+    def clear(parts) -> bool:
+        seq = [p for p, _ in parts]
+        if not area.contains(np.vstack(seq)[:, :2]).all():
+            return False
+        V, T = _assemble(seq, method, [c_ for _, c_ in parts])
+        return len(T) > 0 and not len(_touches(V, T, rings, tol))
+
+    def ordered(parts):
+        return parts[::-1] if first else parts
+
+    cores = []
+    if cut is not None and len(poly) > 1 and (poly[0, :2] != poly[-1, :2]).any():
+        # The carried part must reach past the band on both sides, as the
+        # polylines do (_reach_past_the_band): a footwall point before the
+        # band's near edge and a hanging-wall point after its far edge.
+        # Cut to the strip alone, the outline edges from the far ends of
+        # ``poly`` to the carried band's ends would cross (the band's ends
+        # swap sides across a fold).
+        fw, hw = cut
+        d = poly[-1, :2] - poly[0, :2]
+        pos = (poly[:, :2] - poly[fw, :2]) @ d
+        lo_band, hi_band = float(pos[fw:hw + 1].min()), float(pos[fw:hw + 1].max())
+        before = np.flatnonzero(pos[:fw + 1] < lo_band)
+        after = hw + np.flatnonzero(pos[hw:] > hi_band)
+        if len(before) and len(after):
+            cores.append((int(before[-1]), int(after[0])))
+        cores.append((0, len(poly) - 1))
+    if carry and np.isfinite(reach) and reach > 0.0:
+        for frac in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1):
+            for lo, hi in cores:
+                carried = moved(poly[lo:hi + 1], frac * reach)
+                cc = (cut[0] - lo, cut[1] - lo)
+                tip = moved(_cut_centre(carried, cc)[None, :], 0.5 * (1.0 - frac) * reach)
+                if not (beyond(poly, carried) and beyond(carried, tip)):
+                    continue
+                parts = ordered([(poly, cut), (carried, cc), (tip, None)])
+                if clear(parts):
+                    return ordered([(carried, cc), (tip, None)])
+    by = 0.5 * dist
     for _ in range(20):
-        xy = c[:2] + s * way
-        s *= 0.5
-        if chord and np.sign(orient2d(a, b, xy[None, :]))[0] != side:
+        tip = moved(c[None, :], by)
+        by *= 0.5
+        if not beyond(poly, tip):
             continue
-        if not area.contains(xy[None, :])[0]:
-            continue
-        tip = np.array([xy[0], xy[1], float(_shift_z(c[None, :], xy[None, :], surface_z)[0])])
-        fan = [tip[None, :], poly] if first else [poly, tip[None, :]]
-        V, T = _assemble(fan, method)
-        if len(T) and not len(_touches(V, T, rings, tol)):
-            return tip
+        if clear(ordered([(poly, cut), (tip, None)])):
+            return [(tip, None)]
     return None
 
 
@@ -640,7 +699,8 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
     decides it, exactly, with the same tolerance -- are left out; every
     remaining run of at least two polylines is kept, and a run end where a
     loft was left out is closed by a fan to a pinch-out tip towards the
-    next polyline (:func:`_closing_tip`), clear of the partners. A run end
+    next polyline (:func:`_closing`: the band carried on most of the way
+    first), clear of the partners. A run end
     that cannot be closed so loses its end polyline, until one can."""
     rings = [np.asarray(r, dtype=np.float64).reshape(-1, 2) for rs in clear_of.values() for r in rs]
     if not rings or len(seq) < 2:
@@ -657,34 +717,48 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
     # Maximal runs of polylines joined by lofts that stay clear.
     starts = [0] + [i + 1 for i in np.flatnonzero(touched)]
     stops = [i for i in np.flatnonzero(touched)] + [n - 1]
+    def simple(run, rc) -> bool:
+        # What the stitcher needs of a patch (clip_patch's clean-up tests):
+        # no pinch vertex, an outline that does not cross itself, covered
+        # once counted with orientation.
+        V, T = _assemble(run, method, rc)
+        if len(T) == 0 or len(boundary_contours(T, n_vertices=len(V)).pinch_vertices):
+            return False
+        return not len(_outline_crossings(V, T, area)) and not len(triangles_not_covered_once(V, T))
+
     for lo, hi in zip(starts, stops):
-        while hi > lo:
-            pre = None
-            if lo > 0:
-                pre = _closing_tip(seq[lo], cuts[lo], _cut_centre(seq[lo - 1], cuts[lo - 1]), area,
-                                   surface_z, rings, tol, True, method)
-                if pre is None:
-                    lo += 1
-                    continue
-            post = None
-            if hi < n - 1:
-                post = _closing_tip(seq[hi], cuts[hi], _cut_centre(seq[hi + 1], cuts[hi + 1]), area,
-                                    surface_z, rings, tol, False, method)
-                if post is None:
-                    hi -= 1
-                    continue
-            run = list(seq[lo:hi + 1])
-            rc = list(cuts[lo:hi + 1])
-            if pre is not None:
-                run.insert(0, pre[None, :])
-                rc.insert(0, None)
-                closed.append(lo)
-            if post is not None:
-                run.append(post[None, :])
-                rc.append(None)
-                closed.append(hi)
-            runs.append((run, rc))
-            break
+        # Closed with the band carried on first; if that run's outline is
+        # not simple, with pinch-out fans alone (whose outline is that of a
+        # tip's fan).
+        for carry in (True, False):
+            got_run = None
+            a, b = lo, hi
+            while b > a:
+                pre: List[Tuple[np.ndarray, Optional[Tuple[int, int]]]] = []
+                if a > 0:
+                    got = _closing(seq[a], cuts[a], _cut_centre(seq[a - 1], cuts[a - 1]), area,
+                                   surface_z, rings, tol, True, method, carry)
+                    if got is None:
+                        a += 1
+                        continue
+                    pre = got
+                post: List[Tuple[np.ndarray, Optional[Tuple[int, int]]]] = []
+                if b < n - 1:
+                    got = _closing(seq[b], cuts[b], _cut_centre(seq[b + 1], cuts[b + 1]), area,
+                                   surface_z, rings, tol, False, method, carry)
+                    if got is None:
+                        b -= 1
+                        continue
+                    post = got
+                run = [p for p, _ in pre] + list(seq[a:b + 1]) + [p for p, _ in post]
+                rc = [c for _, c in pre] + list(cuts[a:b + 1]) + [c for _, c in post]
+                got_run = (run, rc, [a] if pre else [], [b] if post else [])
+                break
+            if got_run is not None and (not carry or simple(got_run[0], got_run[1])):
+                break
+        if got_run is not None:
+            runs.append((got_run[0], got_run[1]))
+            closed.extend(got_run[2] + got_run[3])
     note = {"partners": sorted(clear_of), "lofts_left_out": [int(i) for i in np.flatnonzero(touched)],
             "closed_at": [int(i) for i in closed], "runs": len(runs), "polylines": n}
     return runs, note
