@@ -579,6 +579,28 @@ def _cut_centre(poly: np.ndarray, cut: Optional[Tuple[int, int]]) -> np.ndarray:
     return 0.5 * (poly[cut[0]] + poly[cut[1]])
 
 
+def _band_core(poly: np.ndarray, cut: Optional[Tuple[int, int]]) -> Optional[Tuple[int, int]]:
+    """The shortest part (first, last index) of a polyline that holds its
+    fault strip and reaches past the band on both sides, as the polylines
+    do (_reach_past_the_band): the last footwall point before the band's
+    near edge and the first hanging-wall point after its far edge, along
+    the polyline's direction. None without cutoffs, or if the polyline does
+    not reach past the band. Cut to the strip alone, the outline edges from
+    a neighbouring polyline's far ends to the band's ends would cross (the
+    band's ends swap sides across a fold)."""
+    if cut is None or len(poly) < 2 or not (poly[0, :2] != poly[-1, :2]).any():
+        return None
+    fw, hw = cut
+    d = poly[-1, :2] - poly[0, :2]
+    pos = (poly[:, :2] - poly[fw, :2]) @ d
+    lo_band, hi_band = float(pos[fw:hw + 1].min()), float(pos[fw:hw + 1].max())
+    before = np.flatnonzero(pos[:fw + 1] < lo_band)
+    after = hw + np.flatnonzero(pos[hw:] > hi_band)
+    if not len(before) or not len(after):
+        return None
+    return int(before[-1]), int(after[0])
+
+
 def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], toward: np.ndarray,
              area: StudyArea, surface_z, rings: List[np.ndarray], tol: float,
              first: bool, method: str, carry: bool = True
@@ -637,21 +659,10 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], toward: np.ndarra
         return parts[::-1] if first else parts
 
     cores = []
-    if cut is not None and len(poly) > 1 and (poly[0, :2] != poly[-1, :2]).any():
-        # The carried part must reach past the band on both sides, as the
-        # polylines do (_reach_past_the_band): a footwall point before the
-        # band's near edge and a hanging-wall point after its far edge.
-        # Cut to the strip alone, the outline edges from the far ends of
-        # ``poly`` to the carried band's ends would cross (the band's ends
-        # swap sides across a fold).
-        fw, hw = cut
-        d = poly[-1, :2] - poly[0, :2]
-        pos = (poly[:, :2] - poly[fw, :2]) @ d
-        lo_band, hi_band = float(pos[fw:hw + 1].min()), float(pos[fw:hw + 1].max())
-        before = np.flatnonzero(pos[:fw + 1] < lo_band)
-        after = hw + np.flatnonzero(pos[hw:] > hi_band)
-        if len(before) and len(after):
-            cores.append((int(before[-1]), int(after[0])))
+    if cut is not None and len(poly) > 1:
+        core = _band_core(poly, cut)
+        if core is not None:
+            cores.append(core)
         cores.append((0, len(poly) - 1))
     if carry and np.isfinite(reach) and reach > 0.0:
         for frac in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1):
@@ -707,16 +718,18 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
         return [(seq, cuts)], None
     tol = _clip_tol(np.vstack(seq), rings)
     n = len(seq)
-    touched = np.zeros(n - 1, dtype=bool)
-    for i in range(n - 1):
-        V, T = _assemble(seq[i:i + 2], method, cuts[i:i + 2])
-        touched[i] = len(_touches(V, T, rings, tol)) > 0
+
+    def touched_lofts(seq_, cuts_) -> np.ndarray:
+        out = np.zeros(n - 1, dtype=bool)
+        for i in range(n - 1):
+            V, T = _assemble(seq_[i:i + 2], method, cuts_[i:i + 2])
+            out[i] = len(_touches(V, T, rings, tol)) > 0
+        return out
+
+    touched = touched_lofts(seq, cuts)
     if not touched.any():
         return [(seq, cuts)], None
-    runs, closed = [], []
-    # Maximal runs of polylines joined by lofts that stay clear.
-    starts = [0] + [i + 1 for i in np.flatnonzero(touched)]
-    stops = [i for i in np.flatnonzero(touched)] + [n - 1]
+
     def simple(run, rc) -> bool:
         # What the stitcher needs of a patch (clip_patch's clean-up tests):
         # no pinch vertex, an outline that does not cross itself, covered
@@ -726,17 +739,18 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
             return False
         return not len(_outline_crossings(V, T, area)) and not len(triangles_not_covered_once(V, T))
 
-    for lo, hi in zip(starts, stops):
-        # Closed with the band carried on first; if that run's outline is
-        # not simple, with pinch-out fans alone (whose outline is that of a
-        # tip's fan).
-        for carry in (True, False):
-            got_run = None
-            a, b = lo, hi
+    def runs_of(seq_, cuts_, touched_, carry):
+        """Every maximal run of polylines joined by lofts that stay clear,
+        closed at a left-out loft (a run end that cannot be closed loses its
+        end polyline); (runs, closed polylines, all runs simple)."""
+        runs, closed, ok = [], [], True
+        starts = [0] + [i + 1 for i in np.flatnonzero(touched_)]
+        stops = [int(i) for i in np.flatnonzero(touched_)] + [n - 1]
+        for a, b in zip(starts, stops):
             while b > a:
                 pre: List[Tuple[np.ndarray, Optional[Tuple[int, int]]]] = []
                 if a > 0:
-                    got = _closing(seq[a], cuts[a], _cut_centre(seq[a - 1], cuts[a - 1]), area,
+                    got = _closing(seq_[a], cuts_[a], _cut_centre(seq_[a - 1], cuts_[a - 1]), area,
                                    surface_z, rings, tol, True, method, carry)
                     if got is None:
                         a += 1
@@ -744,22 +758,48 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
                     pre = got
                 post: List[Tuple[np.ndarray, Optional[Tuple[int, int]]]] = []
                 if b < n - 1:
-                    got = _closing(seq[b], cuts[b], _cut_centre(seq[b + 1], cuts[b + 1]), area,
+                    got = _closing(seq_[b], cuts_[b], _cut_centre(seq_[b + 1], cuts_[b + 1]), area,
                                    surface_z, rings, tol, False, method, carry)
                     if got is None:
                         b -= 1
                         continue
                     post = got
-                run = [p for p, _ in pre] + list(seq[a:b + 1]) + [p for p, _ in post]
-                rc = [c for _, c in pre] + list(cuts[a:b + 1]) + [c for _, c in post]
-                got_run = (run, rc, [a] if pre else [], [b] if post else [])
+                run = [p for p, _ in pre] + list(seq_[a:b + 1]) + [p for p, _ in post]
+                rc = [c for _, c in pre] + list(cuts_[a:b + 1]) + [c for _, c in post]
+                runs.append((run, rc))
+                closed += ([a] if pre else []) + ([b] if post else [])
+                ok = ok and simple(run, rc)
                 break
-            if got_run is not None and (not carry or simple(got_run[0], got_run[1])):
-                break
-        if got_run is not None:
-            runs.append((got_run[0], got_run[1]))
-            closed.extend(got_run[2] + got_run[3])
-    note = {"partners": sorted(clear_of), "lofts_left_out": [int(i) for i in np.flatnonzero(touched)],
+        return runs, closed, ok
+
+    # Variants, best first: (1) the polylines at a left-out loft cut to
+    # their band cores (_band_core: the sheets' far parts are what usually
+    # reaches the partner; the loft between the cores may then stay clear,
+    # and the layer TIN's gap takes the sheets' far parts) and the run ends
+    # closed by the band carried on; (2) the polylines whole, the band
+    # carried on; (3) the polylines whole, closed by pinch-out fans (the
+    # outline of a tip's fan). The first whose runs are all simple is taken
+    # (the last in any case: group_patch's clean-up then has the last word).
+    variants = []
+    trimmed_seq, trimmed_cuts, trimmed = list(seq), list(cuts), []
+    for i in sorted({int(j) for j in np.flatnonzero(touched)} | {int(j) + 1 for j in np.flatnonzero(touched)}):
+        core = _band_core(seq[i], cuts[i])
+        if core is not None and (core[0] > 0 or core[1] < len(seq[i]) - 1):
+            lo, hi = core
+            trimmed_seq[i] = np.ascontiguousarray(seq[i][lo:hi + 1])
+            trimmed_cuts[i] = (cuts[i][0] - lo, cuts[i][1] - lo)
+            trimmed.append(i)
+    if trimmed:
+        variants.append(("trimmed", trimmed_seq, trimmed_cuts, touched_lofts(trimmed_seq, trimmed_cuts), True))
+    variants.append(("carried", seq, cuts, touched, True))
+    variants.append(("fans", seq, cuts, touched, False))
+    for k, (how, seq_, cuts_, touched_, carry) in enumerate(variants):
+        runs, closed, ok = runs_of(seq_, cuts_, touched_, carry)
+        if ok or k == len(variants) - 1:
+            break
+    note = {"partners": sorted(clear_of), "how": how,
+            "lofts_left_out": [int(i) for i in np.flatnonzero(touched_)],
+            "trimmed": [int(i) for i in trimmed] if how == "trimmed" else [],
             "closed_at": [int(i) for i in closed], "runs": len(runs), "polylines": n}
     return runs, note
 
