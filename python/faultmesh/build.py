@@ -400,14 +400,20 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                 # A folded patch after others in the group's order is made
                 # clear of their outlines (faults.layer_patch, clear_of):
                 # clipped by them, its fold would be lost (faults._clear_of).
+                # Before that, a patch yields its sheets (cut to their band
+                # cores) where a later folded member's band lies (faults._yield_to).
                 order = fm.group_order(plist)
                 before: Dict[str, List[np.ndarray]] = {}
                 for k, i in enumerate(order):
                     p = plist[i]
-                    if k > 0 and fm.is_folded(p):
+                    bands = [q for j in order[k + 1:] if fm.is_folded(plist[j])
+                             for q in fm.band_quads(dataset.fault(plist[j].fault), lay)]
+                    clear = dict(before) if k > 0 and fm.is_folded(p) else None
+                    if bands or clear:
                         f = dataset.fault(p.fault)
                         q = fm.layer_patch(f, lay, ends[f.name], area, zf, loft_method,
-                                           partners=partners_of.get(f.name), clear_of=dict(before))
+                                           partners=partners_of.get(f.name), clear_of=clear,
+                                           yield_to=bands or None)
                         if q is not None:
                             plist[i] = p = q
                     before[p.fault] = fm.patch_outline(p.vertices, p.triangles)

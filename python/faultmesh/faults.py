@@ -63,7 +63,8 @@ from ._core import (AabbTree, GeometryError, StudyArea, boundary_contours, loft,
                     triangles_not_covered_once, triangles_touching_region)
 
 __all__ = ["LayerPatch", "FaultEnds", "EndMove", "EndMoveKind", "fault_ends", "trace_polyline",
-           "layer_patch", "fault_surface", "group_patch", "group_order", "is_folded", "patch_outline"]
+           "layer_patch", "fault_surface", "group_patch", "group_order", "is_folded", "band_quads",
+           "patch_outline"]
 
 
 @dataclass
@@ -686,6 +687,62 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], toward: np.ndarra
     return None
 
 
+def band_quads(fault, layer: str) -> List[np.ndarray]:
+    """The band the data give for ``fault`` in ``layer``: per pair of
+    consecutive traces with the layer, the quadrilateral (4, 2) of their
+    cutoff segments (footwall cutoff, hanging-wall cutoff, then the next
+    trace's hanging-wall and footwall cutoffs). Quadrilaterals without area
+    (zero throw at both traces) are left out."""
+    cuts = []
+    for tr in fault.traces:
+        sides = tr.layers.get(layer)
+        if sides is None:
+            continue
+        cuts.append((np.asarray(sides["foot"], dtype=np.float64).reshape(-1, 3)[-1, :2],
+                     np.asarray(sides["hanging"], dtype=np.float64).reshape(-1, 3)[0, :2]))
+    out = []
+    for (a0, a1), (b0, b1) in zip(cuts[:-1], cuts[1:]):
+        q = np.ascontiguousarray(np.array([a0, a1, b1, b0]))
+        if _area(q) != 0.0:
+            out.append(q)
+    return out
+
+
+def _yield_to(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], regions: List[np.ndarray],
+              method: str) -> Tuple[List[np.ndarray], List[Optional[Tuple[int, int]]], List[int]]:
+    """``seq`` with the polylines of every loft that touches one of
+    ``regions`` (exactly, :func:`_touches` without tolerance, per region)
+    cut to their band cores (:func:`_band_core`); (seq, cuts, the indices
+    cut).
+
+    Why: the patch that comes first in its group is whole and the later
+    ones are kept clear of it (:func:`_clear_of`). Where a later fault
+    repeats the layer (its band, as its traces' cutoffs give it) inside the
+    earlier patch's outline -- the sheets of the earlier fault's sections
+    reach over the later fault's band, T or X -- the later fold could not
+    be there at all (seed 8, an X pair: a quarter of F2's band in L2 and L3
+    lay under F1's sheets). Cut to their cores, the earlier fault keeps its
+    own band and what lies just past it, and the layer TIN's gap takes the
+    sheets' far parts."""
+    n = len(seq)
+    cut_down = set()
+    for i in range(n - 1):
+        V, T = _assemble(seq[i:i + 2], method, cuts[i:i + 2])
+        if any(len(_touches(V, T, [r], 0.0)) for r in regions):
+            cut_down.update((i, i + 1))
+    seq, cuts = list(seq), list(cuts)
+    done = []
+    for i in sorted(cut_down):
+        core = _band_core(seq[i], cuts[i])
+        if core is None or (core[0] == 0 and core[1] == len(seq[i]) - 1):
+            continue
+        lo, hi = core
+        seq[i] = np.ascontiguousarray(seq[i][lo:hi + 1])
+        cuts[i] = (cuts[i][0] - lo, cuts[i][1] - lo)
+        done.append(int(i))
+    return seq, cuts, done
+
+
 def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
               clear_of: Dict[str, List[np.ndarray]], area: StudyArea, surface_z, method: str):
     """The polylines of a patch (``seq`` with their ``cuts``) as runs that
@@ -808,7 +865,8 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 loft_method: str = "min_area",
                 partners: Optional[Dict[str, List[np.ndarray]]] = None,
                 max_extension: Optional[float] = None,
-                clear_of: Optional[Dict[str, List[np.ndarray]]] = None) -> Optional[LayerPatch]:
+                clear_of: Optional[Dict[str, List[np.ndarray]]] = None,
+                yield_to: Optional[List[np.ndarray]] = None) -> Optional[LayerPatch]:
     """The fine model of ``fault`` in ``layer`` (None if no trace has it).
 
     ``ring``: the study area (a (k, 2) ring or a :class:`faultmesh.StudyArea`).
@@ -819,7 +877,10 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
     of -- the group members before it in :func:`group_order`, whose region
     :func:`group_patch` would otherwise clip it by (see :func:`_clear_of`:
     the lofts between consecutive polylines that would touch them are left
-    out and the fold is closed by a pinch-out short of them).
+    out and the fold is closed by a pinch-out short of them). ``yield_to``:
+    XY regions (rings) where a later member of the group repeats the layer
+    (:func:`band_quads`): the polylines of a loft that touches one are cut
+    to their band cores (:func:`_yield_to`).
 
     An end trace that lies on the study-area boundary (every point of its
     polyline, by :meth:`StudyArea.on_boundary`) closes the patch there: the
@@ -901,6 +962,10 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
             else:
                 seq.append(add)
                 cuts.append(c)
+    if yield_to:
+        seq, cuts, cut_down = _yield_to(seq, cuts, yield_to, loft_method)
+        if cut_down:
+            meta["yielded_to_partner_bands"] = cut_down
     if clear_of:
         runs, note = _clear_of(seq, cuts, clear_of, area, surface_z, loft_method)
         if note is not None:
