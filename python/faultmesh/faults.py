@@ -765,11 +765,12 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
     So the lofts between consecutive polylines (traces, extensions, tips)
     that would touch a partner's region -- decided as :func:`clip_patch`
     decides it, exactly, with the same tolerance -- are left out; every
-    remaining run of at least two polylines is kept, and a run end where a
-    loft was left out is closed by a fan to a pinch-out tip towards the
-    next polyline (:func:`_closing`: the band carried on most of the way
-    first), clear of the partners. A run end
-    that cannot be closed so loses its end polyline, until one can."""
+    remaining run of polylines is kept (a single one too: a trace between
+    the partner and the boundary), and each run end where a loft was left
+    out is closed towards the next polyline (:func:`_closing`: the band
+    carried on most of the way, then a pinch-out; or a pinch-out fan),
+    clear of the partners. A run end that cannot be closed so loses its end
+    polyline, until one can."""
     rings = [np.asarray(r, dtype=np.float64).reshape(-1, 2) for rs in clear_of.values() for r in rs]
     if not rings or len(seq) < 2:
         return [(seq, cuts)], None
@@ -804,7 +805,9 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
         starts = [0] + [i + 1 for i in np.flatnonzero(touched_)]
         stops = [int(i) for i in np.flatnonzero(touched_)] + [n - 1]
         for a, b in zip(starts, stops):
-            while b > a:
+            # A run may be one polyline closed on a side (a trace beyond the
+            # partner, between it and the boundary: seed 321).
+            while b >= a:
                 pre: List[Tuple[np.ndarray, Optional[Tuple[int, int]]]] = []
                 if a > 0:
                     got = _closing(seq_[a], cuts_[a], _cut_centre(seq_[a - 1], cuts_[a - 1]), area,
@@ -821,6 +824,8 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
                         b -= 1
                         continue
                     post = got
+                if a == b and not pre and not post:
+                    break
                 run = [p for p, _ in pre] + list(seq_[a:b + 1]) + [p for p, _ in post]
                 rc = [c for _, c in pre] + list(cuts_[a:b + 1]) + [c for _, c in post]
                 runs.append((run, rc))
