@@ -616,7 +616,8 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], toward: np.ndarra
     polyline) is first
     carried on along the line to ``toward`` -- a fraction 0.9, 0.8, ... 0.1
     of the way to ``toward`` or to the partners' outline, whichever is
-    nearer -- keeping the band's full width there, and closed by a pinch-out
+    nearer, the first that is clear, then bisected towards the next step
+    up -- keeping the band's full width there, and closed by a pinch-out
     tip halfway from it to that point; failing that, a pinch-out tip alone
     (a fan from ``poly``) halfway to ``toward``, then nearer and nearer
     (halved, 20 times); with ``carry`` False only the latter. z follows the continuous layer surface's change
@@ -665,17 +666,32 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], toward: np.ndarra
         if core is not None:
             cores.append(core)
         cores.append((0, len(poly) - 1))
+    def carried_by(frac: float, lo: int, hi: int):
+        carried = moved(poly[lo:hi + 1], frac * reach)
+        cc = (cut[0] - lo, cut[1] - lo)
+        tip = moved(_cut_centre(carried, cc)[None, :], 0.5 * (1.0 - frac) * reach)
+        if not (beyond(poly, carried) and beyond(carried, tip)):
+            return None
+        parts = ordered([(poly, cut), (carried, cc), (tip, None)])
+        return ordered([(carried, cc), (tip, None)]) if clear(parts) else None
+
     if carry and np.isfinite(reach) and reach > 0.0:
         for frac in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1):
             for lo, hi in cores:
-                carried = moved(poly[lo:hi + 1], frac * reach)
-                cc = (cut[0] - lo, cut[1] - lo)
-                tip = moved(_cut_centre(carried, cc)[None, :], 0.5 * (1.0 - frac) * reach)
-                if not (beyond(poly, carried) and beyond(carried, tip)):
+                got = carried_by(frac, lo, hi)
+                if got is None:
                     continue
-                parts = ordered([(poly, cut), (carried, cc), (tip, None)])
-                if clear(parts):
-                    return ordered([(carried, cc), (tip, None)])
+                # Nearer, by bisection towards the step that was not clear
+                # (at most 0.98 of the way: the tip stays short of it).
+                ok, bad = frac, min(frac + 0.1, 0.98)
+                for _ in range(5):
+                    mid = 0.5 * (ok + bad)
+                    better = carried_by(mid, lo, hi)
+                    if better is None:
+                        bad = mid
+                    else:
+                        ok, got = mid, better
+                return got
     by = 0.5 * dist
     for _ in range(20):
         tip = moved(c[None, :], by)
