@@ -40,7 +40,12 @@ later fault is clipped by the XY outlines of the earlier ones (every
 triangle whose closed XY projection touches them is removed, exactly, then
 pinch vertices are cleaned up), so the group's patch is a set of disjoint
 pieces that the stitcher treats as one region: one removed set, one gap
-polygon with every piece as a hole.
+polygon with every piece as a hole. A folded patch is not left to that clip
+(a fold cannot end along a line inside the area, and the clean-up removed
+it far from the partner): the builder makes a later folded patch clear of
+the earlier outlines where it is lofted (``clear_of``, :func:`_clear_of`),
+and an earlier patch yields its sheets where a later folded member's band
+lies (``yield_to``, :func:`_yield_to`, :func:`band_quads`).
 
 Each layer's patch is then clipped to the study area in XY
 (:meth:`StudyArea.clip_surface`, exact): a loft between two traces is a chord
