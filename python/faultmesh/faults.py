@@ -607,31 +607,50 @@ def _band_core(poly: np.ndarray, cut: Optional[Tuple[int, int]]) -> Optional[Tup
     return int(before[-1]), int(after[0])
 
 
-def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], toward: np.ndarray,
-             area: StudyArea, surface_z, rings: List[np.ndarray], tol: float,
-             first: bool, method: str, carry: bool = True
+def _fold_area(parts, method: str) -> float:
+    """XY area of the fold of the polylines ``parts`` ((polyline, cut)
+    pairs) lofted: the triangles turned against the patch's orientation."""
+    V, T = _assemble([p for p, _ in parts], method, [c for _, c in parts])
+    if len(T) == 0:
+        return 0.0
+    xy = np.ascontiguousarray(V[:, :2])
+    o = orient2d(xy[T[:, 0]], xy[T[:, 1]], xy[T[:, 2]])
+    return 0.5 * float(np.abs(o[np.sign(o) == -np.sign(o.sum())]).sum())
+
+
+def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
+             nxt_cut: Optional[Tuple[int, int]], area: StudyArea, surface_z, rings: List[np.ndarray],
+             tol: float, first: bool, method: str, carry: Optional[str] = "follow"
              ) -> Optional[List[Tuple[np.ndarray, Optional[Tuple[int, int]]]]]:
     """How to close the fold at ``poly`` (its cutoffs ``cut``) towards the
-    point ``toward`` (the next polyline's cutoff midpoint, whose loft would
-    touch ``rings``), clear of ``rings``: the polylines (with their cuts) to
-    add after ``poly`` (before it with ``first``), or None.
+    next polyline ``nxt`` (cutoffs ``nxt_cut``) whose loft would touch
+    ``rings``, clear of ``rings``: the polylines (with their cuts) to add
+    after ``poly`` (before it with ``first``), or None. ``toward``: the
+    next polyline's cutoff midpoint.
 
     The data say the band runs on towards ``toward``. So ``poly``'s band
     (its strip and the sheets' points just past it, else the whole
     polyline) is first
-    carried on along the line to ``toward`` -- a fraction 0.9, 0.8, ... 0.1
+    carried on towards ``toward`` -- its footwall side along the line from
+    its footwall cutoff to the next one's, its hanging-wall side along the
+    hanging-wall cutoffs' line, the strip between them in proportion (the
+    band the data give: the quadrilateral of the two cutoff segments), else
+    simply moved along the line to ``toward`` -- a fraction 0.9, 0.8, ... 0.1
     of the way to ``toward`` or to the partners' outline, whichever is
     nearer, the first that is clear, then bisected towards the next step
-    up -- keeping the band's full width there, and closed by a pinch-out
+    up; of these ways the one whose fold covers most (:func:`_fold_area`)
+    -- keeping the band's full width there, and closed by a pinch-out
     tip halfway from it to that point; failing that, a pinch-out tip alone
     (a fan from ``poly``) halfway to ``toward``, then nearer and nearer
-    (halved, 20 times); with ``carry`` False only the latter. z follows the continuous layer surface's change
+    (halved, 20 times). ``carry``: "follow" (all of these), "move" (the
+    band only moved, not along the cutoff lines) or None (the fan only). z follows the continuous layer surface's change
     (:func:`_shift_z`). Each candidate must lie in the study area, each new
     polyline strictly beyond the one before it on the side ``toward`` is
     (exact orient2d: otherwise the lofts fold back over each other, as a tip
     on the inner side did: :func:`_layer_tip`), and its lofts must stay
     clear of ``rings`` (:func:`_touches`)."""
     c = _cut_centre(poly, cut)
+    toward = _cut_centre(nxt, nxt_cut)
     way = np.asarray(toward[:2], dtype=np.float64) - c[:2]
     dist = float(np.hypot(way[0], way[1]))
     if not dist > 0.0:
@@ -671,8 +690,30 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], toward: np.ndarra
         if core is not None:
             cores.append(core)
         cores.append((0, len(poly) - 1))
-    def carried_by(frac: float, lo: int, hi: int):
-        carried = moved(poly[lo:hi + 1], frac * reach)
+    def along_cutoffs(pts_lo: int, pts_hi: int, t: float) -> Optional[np.ndarray]:
+        # poly[pts_lo..pts_hi] moved a fraction t of the way along the
+        # cutoff lines (None if the next polyline has no cutoffs).
+        if nxt_cut is None or cut is None:
+            return None
+        fw, hw = cut
+        d_fw = t * (nxt[nxt_cut[0], :2] - poly[fw, :2])
+        d_hw = t * (nxt[nxt_cut[1], :2] - poly[hw, :2])
+        idx = np.arange(pts_lo, pts_hi + 1)
+        step = np.r_[0.0, np.hypot(*np.diff(poly[:, :2], axis=0).T)]
+        run = np.cumsum(step)
+        strip = run[hw] - run[fw]
+        w = np.clip((run[idx] - run[fw]) / strip, 0.0, 1.0) if strip > 0.0 else (idx > fw).astype(float)
+        pts = poly[pts_lo:pts_hi + 1]
+        xy = pts[:, :2] + (1.0 - w)[:, None] * d_fw[None, :] + w[:, None] * d_hw[None, :]
+        return np.column_stack([xy, _shift_z(pts, xy, surface_z)])
+
+    def carried_by(frac: float, lo: int, hi: int, follow: bool):
+        if follow:
+            carried = along_cutoffs(lo, hi, frac * reach / dist)
+            if carried is None:
+                return None
+        else:
+            carried = moved(poly[lo:hi + 1], frac * reach)
         cc = (cut[0] - lo, cut[1] - lo)
         tip = moved(_cut_centre(carried, cc)[None, :], 0.5 * (1.0 - frac) * reach)
         if not (beyond(poly, carried) and beyond(carried, tip)):
@@ -681,9 +722,11 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], toward: np.ndarra
         return ordered([(carried, cc), (tip, None)]) if clear(parts) else None
 
     if carry and np.isfinite(reach) and reach > 0.0:
-        for frac in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1):
-            for lo, hi in cores:
-                got = carried_by(frac, lo, hi)
+        best, best_fold = None, -1.0
+        follows = (True, False) if carry == "follow" else (False,)
+        for lo, hi, follow in [(lo, hi, f) for lo, hi in cores for f in follows]:
+            for frac in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1):
+                got = carried_by(frac, lo, hi, follow)
                 if got is None:
                     continue
                 # Nearer, by bisection towards the step that was not clear
@@ -691,12 +734,19 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], toward: np.ndarra
                 ok, bad = frac, min(frac + 0.1, 0.98)
                 for _ in range(5):
                     mid = 0.5 * (ok + bad)
-                    better = carried_by(mid, lo, hi)
+                    better = carried_by(mid, lo, hi, follow)
                     if better is None:
                         bad = mid
                     else:
                         ok, got = mid, better
-                return got
+                # Of the ways that are clear, the one whose fold (the band
+                # repeated) covers the most.
+                f = _fold_area(ordered([(poly, cut)] + ordered(got)), method)
+                if f > best_fold:
+                    best, best_fold = got, f
+                break
+        if best is not None:
+            return best
     by = 0.5 * dist
     for _ in range(20):
         tip = moved(c[None, :], by)
@@ -831,7 +881,7 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
             while b >= a:
                 pre: List[Tuple[np.ndarray, Optional[Tuple[int, int]]]] = []
                 if a > 0:
-                    got = _closing(seq_[a], cuts_[a], _cut_centre(seq_[a - 1], cuts_[a - 1]), area,
+                    got = _closing(seq_[a], cuts_[a], seq_[a - 1], cuts_[a - 1], area,
                                    surface_z, rings, tol, True, method, carry)
                     if got is None:
                         a += 1
@@ -839,7 +889,7 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
                     pre = got
                 post: List[Tuple[np.ndarray, Optional[Tuple[int, int]]]] = []
                 if b < n - 1:
-                    got = _closing(seq_[b], cuts_[b], _cut_centre(seq_[b + 1], cuts_[b + 1]), area,
+                    got = _closing(seq_[b], cuts_[b], seq_[b + 1], cuts_[b + 1], area,
                                    surface_z, rings, tol, False, method, carry)
                     if got is None:
                         b -= 1
@@ -859,9 +909,11 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
     # their band cores (_band_core: the sheets' far parts are what usually
     # reaches the partner; the loft between the cores may then stay clear,
     # and the layer TIN's gap takes the sheets' far parts) and the run ends
-    # closed by the band carried on; (2) the polylines whole, the band
-    # carried on; (3) the polylines whole, closed by pinch-out fans (the
-    # outline of a tip's fan). The first whose runs are all simple is taken
+    # closed by the band carried on (along the cutoff lines or moved, then
+    # moved only: carried along diverging cutoff lines the outline may
+    # cross itself); (2) the polylines whole, the band carried on (the
+    # same two ways); (3) the polylines whole, closed by pinch-out fans
+    # (the outline of a tip's fan). The first whose runs are all simple is taken
     # (the last in any case: group_patch's clean-up then has the last word).
     variants = []
     trimmed_seq, trimmed_cuts, trimmed = list(seq), list(cuts), []
@@ -873,9 +925,12 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
             trimmed_cuts[i] = (cuts[i][0] - lo, cuts[i][1] - lo)
             trimmed.append(i)
     if trimmed:
-        variants.append(("trimmed", trimmed_seq, trimmed_cuts, touched_lofts(trimmed_seq, trimmed_cuts), True))
-    variants.append(("carried", seq, cuts, touched, True))
-    variants.append(("fans", seq, cuts, touched, False))
+        t_touched = touched_lofts(trimmed_seq, trimmed_cuts)
+        variants.append(("trimmed", trimmed_seq, trimmed_cuts, t_touched, "follow"))
+        variants.append(("trimmed, moved", trimmed_seq, trimmed_cuts, t_touched, "move"))
+    variants.append(("carried", seq, cuts, touched, "follow"))
+    variants.append(("carried, moved", seq, cuts, touched, "move"))
+    variants.append(("fans", seq, cuts, touched, None))
     for k, (how, seq_, cuts_, touched_, carry) in enumerate(variants):
         runs, closed, ok = runs_of(seq_, cuts_, touched_, carry)
         if ok or k == len(variants) - 1:
