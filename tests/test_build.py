@@ -773,9 +773,10 @@ def test_band_of_a_later_partner_cuts_the_earlier_patch_to_its_band_core():
     p = layer_patch(f, "L", fault_ends(f), area, yield_to=[quad])
     assert p.metadata["yielded_to_partner_bands"] == [2, 3]  # the traces at x = 200 and 300
     assert len(triangles_touching_region(p.vertices, p.triangles, [quad])) == 0
-    # The traces cut to their cores (y 490..510: the footwall point at
-    # u = -10, the strip, the hanging-wall point at u = +10); the others whole.
-    for x, lo, hi in ((100.0, 470.0, 530.0), (200.0, 490.0, 510.0), (300.0, 490.0, 510.0),
+    # The traces cut to their cores: the strip and a quarter of the band's
+    # width (10 m) past it on each side, on the footwall and hanging-wall
+    # polylines (y 492.5 .. 507.5); the others whole.
+    for x, lo, hi in ((100.0, 470.0, 530.0), (200.0, 492.5, 507.5), (300.0, 492.5, 507.5),
                       (400.0, 470.0, 530.0)):
         ys = p.vertices[p.vertices[:, 0] == x, 1]
         assert ys.min() == lo and ys.max() == hi, x

@@ -585,26 +585,56 @@ def _cut_centre(poly: np.ndarray, cut: Optional[Tuple[int, int]]) -> np.ndarray:
     return 0.5 * (poly[cut[0]] + poly[cut[1]])
 
 
-def _band_core(poly: np.ndarray, cut: Optional[Tuple[int, int]]) -> Optional[Tuple[int, int]]:
-    """The shortest part (first, last index) of a polyline that holds its
-    fault strip and reaches past the band on both sides, as the polylines
-    do (_reach_past_the_band): the last footwall point before the band's
-    near edge and the first hanging-wall point after its far edge, along
-    the polyline's direction. None without cutoffs, or if the polyline does
-    not reach past the band. Cut to the strip alone, the outline edges from
-    a neighbouring polyline's far ends to the band's ends would cross (the
-    band's ends swap sides across a fold)."""
+#: How far past the band a band core reaches (:func:`_band_core`), as a
+#: share of the band's width: enough to keep its ends strictly beyond the
+#: band (exact orient2d tests decide on the points; a quarter of the width
+#: is far above any rounding of the interpolated point), small enough that
+#: the core is hardly wider than the band itself.
+_CORE_MARGIN = 0.25
+
+
+def _band_core(poly: np.ndarray, cut: Optional[Tuple[int, int]], tight: bool = True
+               ) -> Optional[Tuple[np.ndarray, Tuple[int, int]]]:
+    """The part of a polyline that holds its fault strip and reaches just
+    past the band on both sides: (points, cutoffs in them), or None
+    (without cutoffs, a band of no width, or a polyline that does not reach
+    past the band). Positions are taken along the polyline's direction
+    (first to last point). ``tight``: the ends are put on the polyline a
+    ``_CORE_MARGIN`` of the band's width before the band's near edge
+    (footwall side) and after its far edge (hanging-wall side), z linear
+    along the segment; otherwise they are the last footwall point before
+    the band and the first hanging-wall point after it.
+
+    Why past the band: cut to the strip alone, the outline edges from a
+    neighbouring polyline's far ends to the band's ends would cross (the
+    band's ends swap sides across a fold), as the polylines themselves reach
+    past it (_reach_past_the_band)."""
     if cut is None or len(poly) < 2 or not (poly[0, :2] != poly[-1, :2]).any():
         return None
     fw, hw = cut
     d = poly[-1, :2] - poly[0, :2]
     pos = (poly[:, :2] - poly[fw, :2]) @ d
     lo_band, hi_band = float(pos[fw:hw + 1].min()), float(pos[fw:hw + 1].max())
-    before = np.flatnonzero(pos[:fw + 1] < lo_band)
-    after = hw + np.flatnonzero(pos[hw:] > hi_band)
+    if not hi_band > lo_band:
+        return None
+    m = _CORE_MARGIN * (hi_band - lo_band) if tight else 0.0
+    before = np.flatnonzero(pos[:fw + 1] < lo_band - m)
+    after = hw + np.flatnonzero(pos[hw:] > hi_band + m)
     if not len(before) or not len(after):
         return None
-    return int(before[-1]), int(after[0])
+    i, j = int(before[-1]), int(after[0])
+    if not tight:
+        return np.ascontiguousarray(poly[i:j + 1]), (fw - i, hw - i)
+
+    def at(k0: int, k1: int, target: float) -> np.ndarray:
+        # The point of segment k0 -> k1 at position target (between theirs).
+        t = (target - pos[k0]) / (pos[k1] - pos[k0])
+        return poly[k0] + t * (poly[k1] - poly[k0])
+
+    # i + 1 (<= fw) and j - 1 (>= hw) lie within the margin: the ends are
+    # on the segments i -> i + 1 and j - 1 -> j.
+    pts = np.vstack([at(i, i + 1, lo_band - m)[None, :], poly[i + 1:j], at(j - 1, j, hi_band + m)[None, :]])
+    return np.ascontiguousarray(pts), (fw - i, hw - i)
 
 
 def _fold_area(parts, method: str) -> float:
@@ -684,37 +714,36 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
     def ordered(parts):
         return parts[::-1] if first else parts
 
-    cores = []
+    cores: List[Tuple[np.ndarray, Tuple[int, int]]] = []
     if cut is not None and len(poly) > 1:
-        core = _band_core(poly, cut)
-        if core is not None:
-            cores.append(core)
-        cores.append((0, len(poly) - 1))
-    def along_cutoffs(pts_lo: int, pts_hi: int, t: float) -> Optional[np.ndarray]:
-        # poly[pts_lo..pts_hi] moved a fraction t of the way along the
-        # cutoff lines (None if the next polyline has no cutoffs).
-        if nxt_cut is None or cut is None:
+        for tight in (True, False):
+            core = _band_core(poly, cut, tight)
+            if core is not None:
+                cores.append(core)
+        cores.append((poly, cut))
+
+    def along_cutoffs(pts: np.ndarray, cc: Tuple[int, int], t: float) -> Optional[np.ndarray]:
+        # pts (a band core, cutoffs cc) moved a fraction t of the way along
+        # the cutoff lines (None if the next polyline has no cutoffs).
+        if nxt_cut is None:
             return None
-        fw, hw = cut
-        d_fw = t * (nxt[nxt_cut[0], :2] - poly[fw, :2])
-        d_hw = t * (nxt[nxt_cut[1], :2] - poly[hw, :2])
-        idx = np.arange(pts_lo, pts_hi + 1)
-        step = np.r_[0.0, np.hypot(*np.diff(poly[:, :2], axis=0).T)]
-        run = np.cumsum(step)
+        fw, hw = cc
+        d_fw = t * (nxt[nxt_cut[0], :2] - pts[fw, :2])
+        d_hw = t * (nxt[nxt_cut[1], :2] - pts[hw, :2])
+        idx = np.arange(len(pts))
+        run = np.cumsum(np.r_[0.0, np.hypot(*np.diff(pts[:, :2], axis=0).T)])
         strip = run[hw] - run[fw]
-        w = np.clip((run[idx] - run[fw]) / strip, 0.0, 1.0) if strip > 0.0 else (idx > fw).astype(float)
-        pts = poly[pts_lo:pts_hi + 1]
+        w = np.clip((run - run[fw]) / strip, 0.0, 1.0) if strip > 0.0 else (idx > fw).astype(float)
         xy = pts[:, :2] + (1.0 - w)[:, None] * d_fw[None, :] + w[:, None] * d_hw[None, :]
         return np.column_stack([xy, _shift_z(pts, xy, surface_z)])
 
-    def carried_by(frac: float, lo: int, hi: int, follow: bool):
+    def carried_by(frac: float, pts: np.ndarray, cc: Tuple[int, int], follow: bool):
         if follow:
-            carried = along_cutoffs(lo, hi, frac * reach / dist)
+            carried = along_cutoffs(pts, cc, frac * reach / dist)
             if carried is None:
                 return None
         else:
-            carried = moved(poly[lo:hi + 1], frac * reach)
-        cc = (cut[0] - lo, cut[1] - lo)
+            carried = moved(pts, frac * reach)
         tip = moved(_cut_centre(carried, cc)[None, :], 0.5 * (1.0 - frac) * reach)
         if not (beyond(poly, carried) and beyond(carried, tip)):
             return None
@@ -724,9 +753,9 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
     if carry and np.isfinite(reach) and reach > 0.0:
         best, best_fold = None, -1.0
         follows = (True, False) if carry == "follow" else (False,)
-        for lo, hi, follow in [(lo, hi, f) for lo, hi in cores for f in follows]:
+        for pts, cc, follow in [(pts, cc, f) for pts, cc in cores for f in follows]:
             for frac in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1):
-                got = carried_by(frac, lo, hi, follow)
+                got = carried_by(frac, pts, cc, follow)
                 if got is None:
                     continue
                 # Nearer, by bisection towards the step that was not clear
@@ -734,7 +763,7 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
                 ok, bad = frac, min(frac + 0.1, 0.98)
                 for _ in range(5):
                     mid = 0.5 * (ok + bad)
-                    better = carried_by(mid, lo, hi, follow)
+                    better = carried_by(mid, pts, cc, follow)
                     if better is None:
                         bad = mid
                     else:
@@ -805,11 +834,9 @@ def _yield_to(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], regi
     done = []
     for i in sorted(cut_down):
         core = _band_core(seq[i], cuts[i])
-        if core is None or (core[0] == 0 and core[1] == len(seq[i]) - 1):
+        if core is None:
             continue
-        lo, hi = core
-        seq[i] = np.ascontiguousarray(seq[i][lo:hi + 1])
-        cuts[i] = (cuts[i][0] - lo, cuts[i][1] - lo)
+        seq[i], cuts[i] = core
         done.append(int(i))
     return seq, cuts, done
 
@@ -919,10 +946,8 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
     trimmed_seq, trimmed_cuts, trimmed = list(seq), list(cuts), []
     for i in sorted({int(j) for j in np.flatnonzero(touched)} | {int(j) + 1 for j in np.flatnonzero(touched)}):
         core = _band_core(seq[i], cuts[i])
-        if core is not None and (core[0] > 0 or core[1] < len(seq[i]) - 1):
-            lo, hi = core
-            trimmed_seq[i] = np.ascontiguousarray(seq[i][lo:hi + 1])
-            trimmed_cuts[i] = (cuts[i][0] - lo, cuts[i][1] - lo)
+        if core is not None:
+            trimmed_seq[i], trimmed_cuts[i] = core
             trimmed.append(i)
     if trimmed:
         t_touched = touched_lofts(trimmed_seq, trimmed_cuts)
