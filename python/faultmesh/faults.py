@@ -650,8 +650,8 @@ def _fold_area(parts, method: str) -> float:
 
 def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
              nxt_cut: Optional[Tuple[int, int]], area: StudyArea, surface_z, rings: List[np.ndarray],
-             tol: float, first: bool, method: str, carry: Optional[str] = "follow"
-             ) -> Optional[List[Tuple[np.ndarray, Optional[Tuple[int, int]]]]]:
+             tol: float, first: bool, method: str, carry: Optional[str] = "follow",
+             share: float = 1.0) -> Optional[List[Tuple[np.ndarray, Optional[Tuple[int, int]]]]]:
     """How to close the fold at ``poly`` (its cutoffs ``cut``) towards the
     next polyline ``nxt`` (cutoffs ``nxt_cut``) whose loft would touch
     ``rings``, clear of ``rings``: the polylines (with their cuts) to add
@@ -673,7 +673,9 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
     tip halfway from it to that point; failing that, a pinch-out tip alone
     (a fan from ``poly``) halfway to ``toward``, then nearer and nearer
     (halved, 20 times). ``carry``: "follow" (all of these), "move" (the
-    band only moved, not along the cutoff lines) or None (the fan only). z follows the continuous layer surface's change
+    band only moved, not along the cutoff lines) or None (the fan only).
+    ``share``: the part of the way to ``toward`` that this closure may take
+    (a half where the next polyline's run is closed back towards this one). z follows the continuous layer surface's change
     (:func:`_shift_z`). Each candidate must lie in the study area, each new
     polyline strictly beyond the one before it on the side ``toward`` is
     (exact orient2d: otherwise the lofts fold back over each other, as a tip
@@ -687,7 +689,7 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
         return None
     u = way / dist
     hit = float(_ray_hits(c[None, :2], u, rings)[0])
-    reach = min(dist, hit)
+    reach = min(share * dist, hit)
 
     def beyond(chord: np.ndarray, pts: np.ndarray) -> bool:
         # Every point of pts strictly on the side of chord's line that u points to.
@@ -776,7 +778,7 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
                 break
         if best is not None:
             return best
-    by = 0.5 * dist
+    by = 0.5 * share * dist
     for _ in range(20):
         tip = moved(c[None, :], by)
         by *= 0.5
@@ -809,11 +811,13 @@ def band_quads(fault, layer: str) -> List[np.ndarray]:
 
 
 def _yield_to(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], regions: List[np.ndarray],
-              method: str) -> Tuple[List[np.ndarray], List[Optional[Tuple[int, int]]], List[int]]:
+              area: StudyArea, method: str
+              ) -> Tuple[List[np.ndarray], List[Optional[Tuple[int, int]]], List[int]]:
     """``seq`` with the polylines of every loft that touches one of
     ``regions`` (exactly, :func:`_touches` without tolerance, per region)
-    cut to their band cores (:func:`_band_core`); (seq, cuts, the indices
-    cut).
+    cut to their band cores (:func:`_band_core`), a pinch-out tip whose fan
+    still touches one moved back towards its end trace; (seq, cuts, the
+    indices changed).
 
     Why: the patch that comes first in its group is whole and the later
     ones are kept clear of it (:func:`_clear_of`). Where a later fault
@@ -838,7 +842,42 @@ def _yield_to(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], regi
             continue
         seq[i], cuts[i] = core
         done.append(int(i))
-    return seq, cuts, done
+    # A pinch-out tip whose fan still reaches over the later band (seed 350:
+    # the earlier fault's tip, far beyond its end trace, lay across the later
+    # fault's band) is moved back towards the end trace until its fan is
+    # clear of it: 0.9, 0.8, ... 0.1 of the way; strictly beyond the end
+    # trace's chord (exact orient2d, as _layer_tip) and in the study area.
+    for end in (0, 1):
+        if n < 2 or len(seq[0 if end == 0 else -1]) != 1:
+            continue
+        tip, poly = (seq[0][0], seq[1]) if end == 0 else (seq[-1][0], seq[-2])
+        pcut = cuts[1] if end == 0 else cuts[-2]
+
+        def fan(t: np.ndarray):
+            return _assemble([t[None, :], poly] if end == 0 else [poly, t[None, :]], method)
+
+        V, T = fan(tip)
+        if not any(len(_touches(V, T, [r], 0.0)) for r in regions):
+            continue
+        c = _cut_centre(poly, pcut)
+        a = np.ascontiguousarray(poly[[0], :2])
+        b = np.ascontiguousarray(poly[[-1], :2])
+        side = np.sign(orient2d(a, b, np.ascontiguousarray(tip[None, :2])))[0]
+        for s_ in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1):
+            t = c + s_ * (tip - c)
+            if side == 0.0 or np.sign(orient2d(a, b, np.ascontiguousarray(t[None, :2])))[0] != side:
+                continue
+            if not area.contains(t[None, :2])[0]:
+                continue
+            V, T = fan(t)
+            if len(T) and not any(len(_touches(V, T, [r], 0.0)) for r in regions):
+                if end == 0:
+                    seq[0] = t[None, :]
+                else:
+                    seq[-1] = t[None, :]
+                done.append(0 if end == 0 else n - 1)
+                break
+    return seq, cuts, sorted(set(done))
 
 
 def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
@@ -895,11 +934,17 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
             return False
         return not len(_outline_crossings(V, T, area)) and not len(triangles_not_covered_once(V, T))
 
-    def runs_of(seq_, cuts_, touched_, carry):
+    def runs_of(seq_, cuts_, touched_, carry, halved=frozenset()):
         """Every maximal run of polylines joined by lofts that stay clear,
         closed at a left-out loft (a run end that cannot be closed loses its
-        end polyline); (runs, closed polylines, all runs simple)."""
+        end polyline); (runs, closed polylines, all runs simple). At the
+        left-out lofts in ``halved`` each closure takes at most half the
+        way. Where the two runs on either side of a left-out loft are
+        closed towards each other and their closures meet (the loft touched
+        the partner only with its sheets' far parts: seed 350), the runs
+        are made again with those closures halved."""
         runs, closed, ok = [], [], True
+        facing: Dict[int, List] = {}  # left-out loft -> the closures at it (polylines with cuts)
         starts = [0] + [i + 1 for i in np.flatnonzero(touched_)]
         stops = [int(i) for i in np.flatnonzero(touched_)] + [n - 1]
         for a, b in zip(starts, stops):
@@ -909,7 +954,8 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
                 pre: List[Tuple[np.ndarray, Optional[Tuple[int, int]]]] = []
                 if a > 0:
                     got = _closing(seq_[a], cuts_[a], seq_[a - 1], cuts_[a - 1], area,
-                                   surface_z, rings, tol, True, method, carry)
+                                   surface_z, rings, tol, True, method, carry,
+                                   0.5 if a - 1 in halved else 1.0)
                     if got is None:
                         a += 1
                         continue
@@ -917,7 +963,8 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
                 post: List[Tuple[np.ndarray, Optional[Tuple[int, int]]]] = []
                 if b < n - 1:
                     got = _closing(seq_[b], cuts_[b], seq_[b + 1], cuts_[b + 1], area,
-                                   surface_z, rings, tol, False, method, carry)
+                                   surface_z, rings, tol, False, method, carry,
+                                   0.5 if b in halved else 1.0)
                     if got is None:
                         b -= 1
                         continue
@@ -929,7 +976,20 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
                 runs.append((run, rc))
                 closed += ([a] if pre else []) + ([b] if post else [])
                 ok = ok and simple(run, rc)
+                if pre:
+                    facing.setdefault(a - 1, []).append(pre + [(seq_[a], cuts_[a])])
+                if post:
+                    facing.setdefault(b, []).append([(seq_[b], cuts_[b])] + post)
                 break
+        meet = set()
+        for i, pieces in facing.items():
+            if len(pieces) == 2 and i not in halved:
+                Va, Ta = _assemble([p for p, _ in pieces[0]], method, [c for _, c in pieces[0]])
+                Vb, Tb = _assemble([p for p, _ in pieces[1]], method, [c for _, c in pieces[1]])
+                if len(Ta) and len(Tb) and len(_touches(Va, Ta, patch_outline(Vb, Tb), tol)):
+                    meet.add(i)
+        if meet:
+            return runs_of(seq_, cuts_, touched_, carry, frozenset(halved | meet))
         return runs, closed, ok
 
     # Variants, best first: (1) the polylines at a left-out loft cut to
@@ -962,7 +1022,7 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
             break
     note = {"partners": sorted(clear_of), "how": how,
             "lofts_left_out": [int(i) for i in np.flatnonzero(touched_)],
-            "trimmed": [int(i) for i in trimmed] if how == "trimmed" else [],
+            "trimmed": [int(i) for i in trimmed] if how.startswith("trimmed") else [],
             "closed_at": [int(i) for i in closed], "runs": len(runs), "polylines": n}
     return runs, note
 
@@ -1069,7 +1129,7 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 seq.append(add)
                 cuts.append(c)
     if yield_to:
-        seq, cuts, cut_down = _yield_to(seq, cuts, yield_to, loft_method)
+        seq, cuts, cut_down = _yield_to(seq, cuts, yield_to, area, loft_method)
         if cut_down:
             meta["yielded_to_partner_bands"] = cut_down
     if clear_of:
