@@ -992,37 +992,48 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
             return runs_of(seq_, cuts_, touched_, carry, frozenset(halved | meet))
         return runs, closed, ok
 
-    # Variants, best first: (1) the polylines at a left-out loft cut to
-    # their band cores (_band_core: the sheets' far parts are what usually
-    # reaches the partner; the loft between the cores may then stay clear,
-    # and the layer TIN's gap takes the sheets' far parts) and the run ends
-    # closed by the band carried on (along the cutoff lines or moved, then
-    # moved only: carried along diverging cutoff lines the outline may
-    # cross itself); (2) the polylines whole, the band carried on (the
-    # same two ways); (3) the polylines whole, closed by pinch-out fans
-    # (the outline of a tip's fan). The first whose runs are all simple is taken
-    # (the last in any case: group_patch's clean-up then has the last word).
+    # Variants: (1) the polylines at a left-out loft cut to their band
+    # cores (_band_core, tight or to the next polyline points: the sheets'
+    # far parts are what usually reaches the partner; the loft between the
+    # cores may then stay clear, and the layer TIN's gap takes the sheets'
+    # far parts) and the run ends closed by the band carried on (along the
+    # cutoff lines or moved, or moved only: carried along diverging cutoff
+    # lines the outline may cross itself); (2) the polylines whole, the band
+    # carried on (the same two ways); (3) the polylines whole, closed by
+    # pinch-out fans (the outline of a tip's fan). Of those whose runs are
+    # all simple, the one whose fold covers most (_fold_area) is taken; if
+    # none is, the fans (group_patch's clean-up then has the last word).
     variants = []
-    trimmed_seq, trimmed_cuts, trimmed = list(seq), list(cuts), []
-    for i in sorted({int(j) for j in np.flatnonzero(touched)} | {int(j) + 1 for j in np.flatnonzero(touched)}):
-        core = _band_core(seq[i], cuts[i])
-        if core is not None:
-            trimmed_seq[i], trimmed_cuts[i] = core
-            trimmed.append(i)
-    if trimmed:
-        t_touched = touched_lofts(trimmed_seq, trimmed_cuts)
-        variants.append(("trimmed", trimmed_seq, trimmed_cuts, t_touched, "follow"))
-        variants.append(("trimmed, moved", trimmed_seq, trimmed_cuts, t_touched, "move"))
-    variants.append(("carried", seq, cuts, touched, "follow"))
-    variants.append(("carried, moved", seq, cuts, touched, "move"))
-    variants.append(("fans", seq, cuts, touched, None))
-    for k, (how, seq_, cuts_, touched_, carry) in enumerate(variants):
+    ends_of_left_out = sorted({int(j) for j in np.flatnonzero(touched)} | {int(j) + 1 for j in np.flatnonzero(touched)})
+    for tight in (True, False):
+        trimmed_seq, trimmed_cuts, trimmed = list(seq), list(cuts), []
+        for i in ends_of_left_out:
+            core = _band_core(seq[i], cuts[i], tight)
+            if core is not None:
+                trimmed_seq[i], trimmed_cuts[i] = core
+                trimmed.append(i)
+        if trimmed:
+            t_touched = touched_lofts(trimmed_seq, trimmed_cuts)
+            word = "trimmed" if tight else "trimmed to points"
+            variants.append((word, trimmed_seq, trimmed_cuts, t_touched, "follow", trimmed))
+            variants.append((word + ", moved", trimmed_seq, trimmed_cuts, t_touched, "move", trimmed))
+    variants.append(("carried", seq, cuts, touched, "follow", []))
+    variants.append(("carried, moved", seq, cuts, touched, "move", []))
+    best = None
+    for how, seq_, cuts_, touched_, carry, trimmed in variants:
         runs, closed, ok = runs_of(seq_, cuts_, touched_, carry)
-        if ok or k == len(variants) - 1:
-            break
+        if not ok:
+            continue
+        fold = sum(_fold_area(list(zip(r, rc)), method) for r, rc in runs)
+        if best is None or fold > best[0]:
+            best = (fold, how, runs, closed, touched_, trimmed)
+    if best is None:
+        runs, closed, _ = runs_of(seq, cuts, touched, None)
+        best = (0.0, "fans", runs, closed, touched, [])
+    _, how, runs, closed, touched_, trimmed = best
     note = {"partners": sorted(clear_of), "how": how,
             "lofts_left_out": [int(i) for i in np.flatnonzero(touched_)],
-            "trimmed": [int(i) for i in trimmed] if how.startswith("trimmed") else [],
+            "trimmed": [int(i) for i in trimmed],
             "closed_at": [int(i) for i in closed], "runs": len(runs), "polylines": n}
     return runs, note
 
