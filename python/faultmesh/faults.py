@@ -1001,8 +1001,9 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
     # lines the outline may cross itself); (2) the polylines whole, the band
     # carried on (the same two ways); (3) the polylines whole, closed by
     # pinch-out fans (the outline of a tip's fan). Of those whose runs are
-    # all simple, the one whose fold covers most (_fold_area) is taken; if
-    # none is, the fans (group_patch's clean-up then has the last word).
+    # all simple, the one whose fold covers most (_fold_area) is taken (the
+    # moved-only ones are tried only if no other is simple); if none is,
+    # the fans (group_patch's clean-up then has the last word).
     variants = []
     ends_of_left_out = sorted({int(j) for j in np.flatnonzero(touched)} | {int(j) + 1 for j in np.flatnonzero(touched)})
     for tight in (True, False):
@@ -1020,13 +1021,20 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
     variants.append(("carried", seq, cuts, touched, "follow", []))
     variants.append(("carried, moved", seq, cuts, touched, "move", []))
     best = None
-    for how, seq_, cuts_, touched_, carry, trimmed in variants:
-        runs, closed, ok = runs_of(seq_, cuts_, touched_, carry)
-        if not ok:
-            continue
-        fold = sum(_fold_area(list(zip(r, rc)), method) for r, rc in runs)
-        if best is None or fold > best[0]:
-            best = (fold, how, runs, closed, touched_, trimmed)
+    # The "follow" variants first (their closings try the moved band too);
+    # the "move" ones only if none of those is simple (they cost as much).
+    for carries in (("follow",), ("move",)):
+        for how, seq_, cuts_, touched_, carry, trimmed in variants:
+            if carry not in carries:
+                continue
+            runs, closed, ok = runs_of(seq_, cuts_, touched_, carry)
+            if not ok:
+                continue
+            fold = sum(_fold_area(list(zip(r, rc)), method) for r, rc in runs)
+            if best is None or fold > best[0]:
+                best = (fold, how, runs, closed, touched_, trimmed)
+        if best is not None:
+            break
     if best is None:
         runs, closed, _ = runs_of(seq, cuts, touched, None)
         best = (0.0, "fans", runs, closed, touched, [])
