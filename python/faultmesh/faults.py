@@ -665,11 +665,11 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
     its footwall cutoff to the next one's, its hanging-wall side along the
     hanging-wall cutoffs' line, the strip between them in proportion (the
     band the data give: the quadrilateral of the two cutoff segments), else
-    simply moved along the line to ``toward`` -- a fraction 0.9, 0.8, ... 0.1
-    of the way to ``toward`` or to the partners' outline, whichever is
-    nearer, the first that is clear, then bisected towards the next step
-    up; of these ways the one whose fold covers most (:func:`_fold_area`)
-    -- keeping the band's full width there, and closed by a pinch-out
+    simply moved along the line to ``toward`` -- 0.9 of the way to
+    ``toward`` or to the partners' outline, whichever is nearer, then
+    bisected (nearer, up to 0.98, if that is clear, else back towards
+    ``poly``); of these ways the one whose fold covers most
+    (:func:`_fold_area`) -- keeping the band's full width there, and closed by a pinch-out
     tip halfway from it to that point; failing that, a pinch-out tip alone
     (a fan from ``poly``) halfway to ``toward``, then nearer and nearer
     (halved, 20 times). ``carry``: "follow" (all of these), "move" (the
@@ -722,7 +722,8 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
             core = _band_core(poly, cut, tight)
             if core is not None:
                 cores.append(core)
-        cores.append((poly, cut))
+        if not cores:
+            cores.append((poly, cut))
 
     def along_cutoffs(pts: np.ndarray, cc: Tuple[int, int], t: float) -> Optional[np.ndarray]:
         # pts (a band core, cutoffs cc) moved a fraction t of the way along
@@ -756,26 +757,25 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
         best, best_fold = None, -1.0
         follows = (True, False) if carry == "follow" else (False,)
         for pts, cc, follow in [(pts, cc, f) for pts, cc in cores for f in follows]:
-            for frac in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1):
-                got = carried_by(frac, pts, cc, follow)
-                if got is None:
-                    continue
-                # Nearer, by bisection towards the step that was not clear
-                # (at most 0.98 of the way: the tip stays short of it).
-                ok, bad = frac, min(frac + 0.1, 0.98)
-                for _ in range(5):
-                    mid = 0.5 * (ok + bad)
-                    better = carried_by(mid, pts, cc, follow)
-                    if better is None:
-                        bad = mid
-                    else:
-                        ok, got = mid, better
-                # Of the ways that are clear, the one whose fold (the band
-                # repeated) covers the most.
-                f = _fold_area(ordered([(poly, cut)] + ordered(got)), method)
-                if f > best_fold:
-                    best, best_fold = got, f
-                break
+            # 0.9 of the way, then by bisection: nearer (up to 0.98, the tip
+            # stays short of the partner) if that is clear, else between it
+            # and poly (7 halvings: to within 1 % of the way).
+            got = carried_by(0.9, pts, cc, follow)
+            ok, bad, steps = (0.9, 0.98, 3) if got is not None else (0.0, 0.9, 7)
+            for _ in range(steps):
+                mid = 0.5 * (ok + bad)
+                better = carried_by(mid, pts, cc, follow)
+                if better is None:
+                    bad = mid
+                else:
+                    ok, got = mid, better
+            if got is None:
+                continue
+            # Of the ways that are clear, the one whose fold (the band
+            # repeated) covers the most.
+            f = _fold_area(ordered([(poly, cut)] + ordered(got)), method)
+            if f > best_fold:
+                best, best_fold = got, f
         if best is not None:
             return best
     by = 0.5 * share * dist
