@@ -692,6 +692,99 @@ def test_reverse_fault_extended_across_a_corner_runs_through_it():
     assert area.on_boundary(0.5 * (a[both] + b[both])).all()  # no edge cuts the corner
 
 
+def _reverse_fault_along_x(xs, name="F"):
+    # A reverse fault striking along x, one trace per x: footwall cutoff at
+    # y = 505, hanging-wall cutoff 10 m behind it at y = 495 (a 10 m
+    # repetition band), the polylines reaching 30 m either side.
+    def trace(x):
+        def at(u, z):
+            return [x, 500.0 + u, z]
+        return Trace(None, np.array([at(15.0, -130.0), at(0.0, -90.0), at(-15.0, -50.0)]),
+                     {"L": {"foot": np.array([at(-30.0, -98.0), at(-10.0, -99.0), at(5.0, -100.0)]),
+                            "hanging": np.array([at(-5.0, -80.0), at(10.0, -81.0), at(30.0, -82.0)])}})
+
+    return Fault(name, kind="reverse", traces=[trace(x) for x in xs])
+
+
+def _folded_rows(V, T):
+    xy = np.ascontiguousarray(V[:, :2])
+    return np.flatnonzero(faultmesh.orient2d(xy[T[:, 0]], xy[T[:, 1]], xy[T[:, 2]]) < 0)
+
+
+def test_folded_patch_made_clear_of_a_partner_keeps_its_fold():
+    # A reverse fault of a crossing pair, modelled after its partner:
+    # group_patch clipped it by the partner's outline removing whole
+    # triangles, which ended its footwall, strip and hanging-wall sheets at
+    # different places, and the clean-up of the outline then removed the fold
+    # far from the partner (sweep class "repetition": seed 147 kept 0 % of
+    # F2's band in two layers, seed 8 kept 0 % in L1). Made clear of the
+    # partner (layer_patch clear_of), the loft that would touch the partner
+    # is left out, each side's fold is kept whole and closed short of the
+    # partner by its band carried on and a pinch-out, and the patch is one
+    # the stitcher takes: simple outline, covered once.
+    from faultmesh import StudyArea, triangles_not_covered_once, triangles_touching_region
+    from faultmesh.faults import _outline_crossings, fault_ends, layer_patch
+
+    area = StudyArea(np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [0.0, 1000.0]]))
+    f = _reverse_fault_along_x([100.0, 200.0, 300.0, 400.0])
+    partner = np.array([[240.0, 400.0], [260.0, 400.0], [260.0, 600.0], [240.0, 600.0]])
+    whole = layer_patch(f, "L", fault_ends(f), area)
+    assert len(triangles_touching_region(whole.vertices, whole.triangles, [partner])) > 0
+    p = layer_patch(f, "L", fault_ends(f), area, clear_of={"P": [partner]})
+    V, T = p.vertices, p.triangles
+    assert len(triangles_touching_region(V, T, [partner])) == 0
+    note = p.metadata["clear_of"]
+    assert note["partners"] == ["P"] and note["runs"] == 2
+    assert note["lofts_left_out"] == [2]  # between the traces at x = 200 and 300 (0: the extension)
+    assert len(_outline_crossings(V, T, area)) == 0
+    assert len(triangles_not_covered_once(V, T)) == 0
+    fold = V[T[_folded_rows(V, T)]][:, :, 0]
+    left, right = fold.max(axis=1) < 250.0, fold.min(axis=1) > 250.0
+    assert (left | right).all()
+    # Each side's fold reaches from its traces to within a few metres of the
+    # partner (40 m away): carried on, not a fan halfway.
+    assert 230.0 < fold[left].max() < 240.0
+    assert 260.0 < fold[right].min() < 270.0
+    assert fold[left].min() < 100.0 and fold[right].max() > 400.0
+
+
+def test_band_of_a_later_partner_cuts_the_earlier_patch_to_its_band_core():
+    # The group's first patch yields its sheets where a later member repeats
+    # the layer (layer_patch yield_to): the polylines of a loft touching that
+    # band keep only their band core (the strip and a point past the band on
+    # each side), so the later fold can be there (seed 8: a quarter of F2's
+    # band in L2 and L3 lay under F1's sheets).
+    from faultmesh import StudyArea, triangles_touching_region
+    from faultmesh.faults import band_quads, fault_ends, layer_patch
+
+    area = StudyArea(np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [0.0, 1000.0]]))
+    f = _reverse_fault_along_x([100.0, 200.0, 300.0, 400.0])
+    later = Fault("G", kind="reverse", traces=[
+        Trace(None, np.array([[230.0, 520.0, -90.0], [240.0, 520.0, -95.0]]),
+              {"L": {"foot": np.array([[220.0, 522.0, -99.0], [235.0, 522.0, -100.0]]),
+                     "hanging": np.array([[228.0, 522.0, -80.0], [250.0, 522.0, -81.0]])}}),
+        Trace(None, np.array([[230.0, 700.0, -90.0], [240.0, 700.0, -95.0]]),
+              {"L": {"foot": np.array([[220.0, 700.0, -99.0], [235.0, 700.0, -100.0]]),
+                     "hanging": np.array([[228.0, 700.0, -80.0], [250.0, 700.0, -81.0]])}})])
+    (quad,) = band_quads(later, "L")
+    np.testing.assert_array_equal(quad, [[235.0, 522.0], [228.0, 522.0], [228.0, 700.0], [235.0, 700.0]])
+    whole = layer_patch(f, "L", fault_ends(f), area)
+    assert len(triangles_touching_region(whole.vertices, whole.triangles, [quad])) > 0
+    p = layer_patch(f, "L", fault_ends(f), area, yield_to=[quad])
+    assert p.metadata["yielded_to_partner_bands"] == [2, 3]  # the traces at x = 200 and 300
+    assert len(triangles_touching_region(p.vertices, p.triangles, [quad])) == 0
+    # The traces cut to their cores: the strip and a quarter of the band's
+    # width (10 m) past it on each side, on the footwall and hanging-wall
+    # polylines (y 492.5 .. 507.5); the others whole.
+    for x, lo, hi in ((100.0, 470.0, 530.0), (200.0, 492.5, 507.5), (300.0, 492.5, 507.5),
+                      (400.0, 470.0, 530.0)):
+        ys = p.vertices[p.vertices[:, 0] == x, 1]
+        assert ys.min() == lo and ys.max() == hi, x
+    # Its own fold stays whole between the traces.
+    fold = p.vertices[p.triangles[_folded_rows(p.vertices, p.triangles)]][:, :, 0]
+    assert fold.min() <= 100.0 and fold.max() >= 400.0
+
+
 def test_extension_follows_the_boundary_around_corners():
     # An end polyline carried onto the boundary whose points land on two
     # sides: the corner between them is inserted, so the patch follows the

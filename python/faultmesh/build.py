@@ -404,16 +404,38 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
             core = {k: v for k, v in core.items() if v is not None}
             if not core:
                 continue
+            partners_of: Dict[str, Dict[str, List[np.ndarray]]] = {}
             if len(core) > 1:
                 outl = {k: fm.patch_outline(v.vertices, v.triangles) for k, v in core.items()}
                 for f in group:
                     p = core.get(f.name)
                     if p is None or not any(k in ("extended", "synthetic_tip") for k in p.ends):
                         continue
-                    partners = {k: r for k, r in outl.items() if k != f.name}
+                    partners_of[f.name] = {k: r for k, r in outl.items() if k != f.name}
                     core[f.name] = fm.layer_patch(f, lay, ends[f.name], area, zf, loft_method,
-                                                  partners=partners, along_step=step)
+                                                  partners=partners_of[f.name], along_step=step)
             plist = [core[f.name] for f in group if f.name in core]
+            if len(plist) > 1:
+                # A folded patch after others in the group's order is made
+                # clear of their outlines (faults.layer_patch, clear_of):
+                # clipped by them, its fold would be lost (faults._clear_of).
+                # Before that, a patch yields its sheets (cut to their band
+                # cores) where a later folded member's band lies (faults._yield_to).
+                order = fm.group_order(plist)
+                before: Dict[str, List[np.ndarray]] = {}
+                for k, i in enumerate(order):
+                    p = plist[i]
+                    bands = [q for j in order[k + 1:] if fm.is_folded(plist[j])
+                             for q in fm.band_quads(dataset.fault(plist[j].fault), lay)]
+                    clear = dict(before) if k > 0 and fm.is_folded(p) else None
+                    if bands or clear:
+                        f = dataset.fault(p.fault)
+                        q = fm.layer_patch(f, lay, ends[f.name], area, zf, loft_method,
+                                           partners=partners_of.get(f.name), clear_of=clear,
+                                           yield_to=bands or None, along_step=step)
+                        if q is not None:
+                            plist[i] = p = q
+                    before[p.fault] = fm.patch_outline(p.vertices, p.triangles)
             for p in plist:
                 fault_meta[p.fault]["layers"][lay] = {"ends": p.ends, "abuts": p.abuts,
                                                       "triangles": int(len(p.triangles)), **p.metadata}

@@ -58,7 +58,12 @@ later fault is clipped by the XY outlines of the earlier ones (every
 triangle whose closed XY projection touches them is removed, exactly, then
 pinch vertices are cleaned up), so the group's patch is a set of disjoint
 pieces that the stitcher treats as one region: one removed set, one gap
-polygon with every piece as a hole.
+polygon with every piece as a hole. A folded patch is not left to that clip
+(a fold cannot end along a line inside the area, and the clean-up removed
+it far from the partner): the builder makes a later folded patch clear of
+the earlier outlines where it is lofted (``clear_of``, :func:`_clear_of`),
+and an earlier patch yields its sheets where a later folded member's band
+lies (``yield_to``, :func:`_yield_to`, :func:`band_quads`).
 
 Each layer's patch is then clipped to the study area in XY
 (:meth:`StudyArea.clip_surface`, exact): a loft between two traces is a chord
@@ -81,7 +86,8 @@ from ._core import (AabbTree, GeometryError, StudyArea, boundary_contours, loft,
                     triangles_not_covered_once, triangles_touching_region)
 
 __all__ = ["LayerPatch", "FaultEnds", "EndMove", "EndMoveKind", "fault_ends", "trace_polyline",
-           "layer_patch", "fault_surface", "group_patch", "patch_outline"]
+           "layer_patch", "fault_surface", "group_patch", "group_order", "is_folded", "band_quads",
+           "patch_outline"]
 
 
 @dataclass
@@ -783,11 +789,509 @@ def _assemble(seq: List[np.ndarray], method: str,
     return np.ascontiguousarray(V), np.ascontiguousarray(T)
 
 
+def _assemble_runs(runs: List[Tuple[List[np.ndarray], List[Optional[Tuple[int, int]]]]],
+                   method: str) -> Tuple[np.ndarray, np.ndarray]:
+    """:func:`_assemble` of each run (polylines, cuts), the runs side by side
+    as separate pieces of one patch."""
+    Vs, Ts, off = [], [], 0
+    for seq, cuts in runs:
+        V, T = _assemble(seq, method, cuts)
+        Vs.append(V)
+        Ts.append(T + off)
+        off += len(V)
+    if not Vs:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
+    return np.ascontiguousarray(np.vstack(Vs)), np.ascontiguousarray(np.vstack(Ts))
+
+
+def _touches(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray], tol: float) -> np.ndarray:
+    """Rows of the triangles that :func:`clip_patch` removes first: those
+    whose closed XY projection touches the region ``rings`` (exactly) or
+    comes within ``tol`` of its outline."""
+    if len(T) == 0 or not rings:
+        return np.zeros(0, dtype=np.int64)
+    rows = np.asarray(triangles_touching_region(V, T, rings), dtype=np.int64)
+    if tol > 0.0:
+        rows = np.union1d(rows, _triangles_near_region(V, T, rings, tol))
+    return rows
+
+
+def _cut_centre(poly: np.ndarray, cut: Optional[Tuple[int, int]]) -> np.ndarray:
+    """The midpoint of a polyline's cutoffs (x, y, z); its middle point
+    without cutoffs (a tip: the point itself)."""
+    if cut is None:
+        return poly[len(poly) // 2]
+    return 0.5 * (poly[cut[0]] + poly[cut[1]])
+
+
+#: How far past the band a band core reaches (:func:`_band_core`), as a
+#: share of the band's width: enough to keep its ends strictly beyond the
+#: band (exact orient2d tests decide on the points; a quarter of the width
+#: is far above any rounding of the interpolated point), small enough that
+#: the core is hardly wider than the band itself.
+_CORE_MARGIN = 0.25
+
+
+def _band_core(poly: np.ndarray, cut: Optional[Tuple[int, int]], tight: bool = True
+               ) -> Optional[Tuple[np.ndarray, Tuple[int, int]]]:
+    """The part of a polyline that holds its fault strip and reaches just
+    past the band on both sides: (points, cutoffs in them), or None
+    (without cutoffs, a band of no width, or a polyline that does not reach
+    past the band). Positions are taken along the polyline's direction
+    (first to last point). ``tight``: the ends are put on the polyline a
+    ``_CORE_MARGIN`` of the band's width before the band's near edge
+    (footwall side) and after its far edge (hanging-wall side), z linear
+    along the segment; otherwise they are the last footwall point before
+    the band and the first hanging-wall point after it.
+
+    Why past the band: cut to the strip alone, the outline edges from a
+    neighbouring polyline's far ends to the band's ends would cross (the
+    band's ends swap sides across a fold), as the polylines themselves reach
+    past it (_reach_past_the_band)."""
+    if cut is None or len(poly) < 2 or not (poly[0, :2] != poly[-1, :2]).any():
+        return None
+    fw, hw = cut
+    d = poly[-1, :2] - poly[0, :2]
+    pos = (poly[:, :2] - poly[fw, :2]) @ d
+    lo_band, hi_band = float(pos[fw:hw + 1].min()), float(pos[fw:hw + 1].max())
+    if not hi_band > lo_band:
+        return None
+    m = _CORE_MARGIN * (hi_band - lo_band) if tight else 0.0
+    before = np.flatnonzero(pos[:fw + 1] < lo_band - m)
+    after = hw + np.flatnonzero(pos[hw:] > hi_band + m)
+    if not len(before) or not len(after):
+        return None
+    i, j = int(before[-1]), int(after[0])
+    if not tight:
+        return np.ascontiguousarray(poly[i:j + 1]), (fw - i, hw - i)
+
+    def at(k0: int, k1: int, target: float) -> np.ndarray:
+        # The point of segment k0 -> k1 at position target (between theirs).
+        t = (target - pos[k0]) / (pos[k1] - pos[k0])
+        return poly[k0] + t * (poly[k1] - poly[k0])
+
+    # i + 1 (<= fw) and j - 1 (>= hw) lie within the margin: the ends are
+    # on the segments i -> i + 1 and j - 1 -> j.
+    pts = np.vstack([at(i, i + 1, lo_band - m)[None, :], poly[i + 1:j], at(j - 1, j, hi_band + m)[None, :]])
+    return np.ascontiguousarray(pts), (fw - i, hw - i)
+
+
+def _fold_area(parts, method: str) -> float:
+    """XY area of the fold of the polylines ``parts`` ((polyline, cut)
+    pairs) lofted: the triangles turned against the patch's orientation."""
+    V, T = _assemble([p for p, _ in parts], method, [c for _, c in parts])
+    if len(T) == 0:
+        return 0.0
+    xy = np.ascontiguousarray(V[:, :2])
+    o = orient2d(xy[T[:, 0]], xy[T[:, 1]], xy[T[:, 2]])
+    return 0.5 * float(np.abs(o[np.sign(o) == -np.sign(o.sum())]).sum())
+
+
+def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
+             nxt_cut: Optional[Tuple[int, int]], area: StudyArea, surface_z, rings: List[np.ndarray],
+             tol: float, first: bool, method: str, carry: Optional[str] = "follow",
+             share: float = 1.0) -> Optional[List[Tuple[np.ndarray, Optional[Tuple[int, int]]]]]:
+    """How to close the fold at ``poly`` (its cutoffs ``cut``) towards the
+    next polyline ``nxt`` (cutoffs ``nxt_cut``) whose loft would touch
+    ``rings``, clear of ``rings``: the polylines (with their cuts) to add
+    after ``poly`` (before it with ``first``), or None. ``toward``: the
+    next polyline's cutoff midpoint.
+
+    The data say the band runs on towards ``toward``. So ``poly``'s band
+    (its strip and the sheets' points just past it, else the whole
+    polyline) is first
+    carried on towards ``toward`` -- its footwall side along the line from
+    its footwall cutoff to the next one's, its hanging-wall side along the
+    hanging-wall cutoffs' line, the strip between them in proportion (the
+    band the data give: the quadrilateral of the two cutoff segments), else
+    simply moved along the line to ``toward`` -- 0.9 of the way to
+    ``toward`` or to the partners' outline, whichever is nearer, then
+    bisected (nearer, up to 0.98, if that is clear, else back towards
+    ``poly``); of these ways the one whose fold covers most
+    (:func:`_fold_area`) -- keeping the band's full width there, and closed by a pinch-out
+    tip halfway from it to that point; failing that, a pinch-out tip alone
+    (a fan from ``poly``) halfway to ``toward``, then nearer and nearer
+    (halved, 20 times). ``carry``: "follow" (all of these), "move" (the
+    band only moved, not along the cutoff lines) or None (the fan only).
+    ``share``: the part of the way to ``toward`` that this closure may take
+    (a half where the next polyline's run is closed back towards this one). z follows the continuous layer surface's change
+    (:func:`_shift_z`). Each candidate must lie in the study area, each new
+    polyline strictly beyond the one before it on the side ``toward`` is
+    (exact orient2d: otherwise the lofts fold back over each other, as a tip
+    on the inner side did: :func:`_layer_tip`), and its lofts must stay
+    clear of ``rings`` (:func:`_touches`)."""
+    c = _cut_centre(poly, cut)
+    toward = _cut_centre(nxt, nxt_cut)
+    way = np.asarray(toward[:2], dtype=np.float64) - c[:2]
+    dist = float(np.hypot(way[0], way[1]))
+    if not dist > 0.0:
+        return None
+    u = way / dist
+    hit = float(_ray_hits(c[None, :2], u, rings)[0])
+    reach = min(share * dist, hit)
+
+    def beyond(chord: np.ndarray, pts: np.ndarray) -> bool:
+        # Every point of pts strictly on the side of chord's line that u points to.
+        a = np.ascontiguousarray(chord[[0], :2])
+        b = np.ascontiguousarray(chord[[-1], :2])
+        if not (a != b).any():
+            return True
+        side = np.sign(orient2d(a, b, a + u[None, :] * max(dist, 1.0)))[0]
+        got = np.sign(orient2d(np.repeat(a, len(pts), 0), np.repeat(b, len(pts), 0),
+                               np.ascontiguousarray(pts[:, :2])))
+        return side != 0.0 and bool((got == side).all())
+
+    def moved(pts: np.ndarray, by: float) -> np.ndarray:
+        xy = pts[:, :2] + by * u[None, :]
+        return np.column_stack([xy, _shift_z(pts, xy, surface_z)])
+
+    def clear(parts) -> bool:
+        seq = [p for p, _ in parts]
+        if not area.contains(np.vstack(seq)[:, :2]).all():
+            return False
+        V, T = _assemble(seq, method, [c_ for _, c_ in parts])
+        return len(T) > 0 and not len(_touches(V, T, rings, tol))
+
+    def ordered(parts):
+        return parts[::-1] if first else parts
+
+    cores: List[Tuple[np.ndarray, Tuple[int, int]]] = []
+    if cut is not None and len(poly) > 1:
+        for tight in (True, False):
+            core = _band_core(poly, cut, tight)
+            if core is not None:
+                cores.append(core)
+        if not cores:
+            cores.append((poly, cut))
+
+    def along_cutoffs(pts: np.ndarray, cc: Tuple[int, int], t: float) -> Optional[np.ndarray]:
+        # pts (a band core, cutoffs cc) moved a fraction t of the way along
+        # the cutoff lines (None if the next polyline has no cutoffs).
+        if nxt_cut is None:
+            return None
+        fw, hw = cc
+        d_fw = t * (nxt[nxt_cut[0], :2] - pts[fw, :2])
+        d_hw = t * (nxt[nxt_cut[1], :2] - pts[hw, :2])
+        idx = np.arange(len(pts))
+        run = np.cumsum(np.r_[0.0, np.hypot(*np.diff(pts[:, :2], axis=0).T)])
+        strip = run[hw] - run[fw]
+        w = np.clip((run - run[fw]) / strip, 0.0, 1.0) if strip > 0.0 else (idx > fw).astype(float)
+        xy = pts[:, :2] + (1.0 - w)[:, None] * d_fw[None, :] + w[:, None] * d_hw[None, :]
+        return np.column_stack([xy, _shift_z(pts, xy, surface_z)])
+
+    def carried_by(frac: float, pts: np.ndarray, cc: Tuple[int, int], follow: bool):
+        if follow:
+            carried = along_cutoffs(pts, cc, frac * reach / dist)
+            if carried is None:
+                return None
+        else:
+            carried = moved(pts, frac * reach)
+        tip = moved(_cut_centre(carried, cc)[None, :], 0.5 * (1.0 - frac) * reach)
+        if not (beyond(poly, carried) and beyond(carried, tip)):
+            return None
+        parts = ordered([(poly, cut), (carried, cc), (tip, None)])
+        return ordered([(carried, cc), (tip, None)]) if clear(parts) else None
+
+    if carry and np.isfinite(reach) and reach > 0.0:
+        best, best_fold = None, -1.0
+        follows = (True, False) if carry == "follow" else (False,)
+        for pts, cc, follow in [(pts, cc, f) for pts, cc in cores for f in follows]:
+            # 0.9 of the way, then by bisection: nearer (up to 0.98, the tip
+            # stays short of the partner) if that is clear, else between it
+            # and poly (7 halvings: to within 1 % of the way).
+            got = carried_by(0.9, pts, cc, follow)
+            ok, bad, steps = (0.9, 0.98, 3) if got is not None else (0.0, 0.9, 7)
+            for _ in range(steps):
+                mid = 0.5 * (ok + bad)
+                better = carried_by(mid, pts, cc, follow)
+                if better is None:
+                    bad = mid
+                else:
+                    ok, got = mid, better
+            if got is None:
+                continue
+            # Of the ways that are clear, the one whose fold (the band
+            # repeated) covers the most.
+            f = _fold_area(ordered([(poly, cut)] + ordered(got)), method)
+            if f > best_fold:
+                best, best_fold = got, f
+        if best is not None:
+            return best
+    by = 0.5 * share * dist
+    for _ in range(20):
+        tip = moved(c[None, :], by)
+        by *= 0.5
+        if not beyond(poly, tip):
+            continue
+        if clear(ordered([(poly, cut), (tip, None)])):
+            return [(tip, None)]
+    return None
+
+
+def band_quads(fault, layer: str) -> List[np.ndarray]:
+    """The band the data give for ``fault`` in ``layer``: per pair of
+    consecutive traces with the layer, the quadrilateral (4, 2) of their
+    cutoff segments (footwall cutoff, hanging-wall cutoff, then the next
+    trace's hanging-wall and footwall cutoffs). Quadrilaterals without area
+    (zero throw at both traces) are left out."""
+    cuts = []
+    for tr in fault.traces:
+        sides = tr.layers.get(layer)
+        if sides is None:
+            continue
+        cuts.append((np.asarray(sides["foot"], dtype=np.float64).reshape(-1, 3)[-1, :2],
+                     np.asarray(sides["hanging"], dtype=np.float64).reshape(-1, 3)[0, :2]))
+    out = []
+    for (a0, a1), (b0, b1) in zip(cuts[:-1], cuts[1:]):
+        q = np.ascontiguousarray(np.array([a0, a1, b1, b0]))
+        if _area(q) != 0.0:
+            out.append(q)
+    return out
+
+
+def _yield_to(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], regions: List[np.ndarray],
+              area: StudyArea, method: str
+              ) -> Tuple[List[np.ndarray], List[Optional[Tuple[int, int]]], List[int]]:
+    """``seq`` with the polylines of every loft that touches one of
+    ``regions`` (exactly, :func:`_touches` without tolerance, per region)
+    cut to their band cores (:func:`_band_core`), a pinch-out tip whose fan
+    still touches one moved back towards its end trace; (seq, cuts, the
+    indices changed).
+
+    Why: the patch that comes first in its group is whole and the later
+    ones are kept clear of it (:func:`_clear_of`). Where a later fault
+    repeats the layer (its band, as its traces' cutoffs give it) inside the
+    earlier patch's outline -- the sheets of the earlier fault's sections
+    reach over the later fault's band, T or X -- the later fold could not
+    be there at all (seed 8, an X pair: a quarter of F2's band in L2 and L3
+    lay under F1's sheets). Cut to their cores, the earlier fault keeps its
+    own band and what lies just past it, and the layer TIN's gap takes the
+    sheets' far parts."""
+    n = len(seq)
+    cut_down = set()
+    for i in range(n - 1):
+        V, T = _assemble(seq[i:i + 2], method, cuts[i:i + 2])
+        if any(len(_touches(V, T, [r], 0.0)) for r in regions):
+            cut_down.update((i, i + 1))
+    seq, cuts = list(seq), list(cuts)
+    done = []
+    for i in sorted(cut_down):
+        core = _band_core(seq[i], cuts[i])
+        if core is None:
+            continue
+        seq[i], cuts[i] = core
+        done.append(int(i))
+    # A pinch-out tip whose fan still reaches over the later band (seed 350:
+    # the earlier fault's tip, far beyond its end trace, lay across the later
+    # fault's band) is moved back towards the end trace until its fan is
+    # clear of it: 0.9, 0.8, ... 0.1 of the way; strictly beyond the end
+    # trace's chord (exact orient2d, as _layer_tip) and in the study area.
+    for end in (0, 1):
+        if n < 2 or len(seq[0 if end == 0 else -1]) != 1:
+            continue
+        tip, poly = (seq[0][0], seq[1]) if end == 0 else (seq[-1][0], seq[-2])
+        pcut = cuts[1] if end == 0 else cuts[-2]
+
+        def fan(t: np.ndarray):
+            return _assemble([t[None, :], poly] if end == 0 else [poly, t[None, :]], method)
+
+        V, T = fan(tip)
+        if not any(len(_touches(V, T, [r], 0.0)) for r in regions):
+            continue
+        c = _cut_centre(poly, pcut)
+        a = np.ascontiguousarray(poly[[0], :2])
+        b = np.ascontiguousarray(poly[[-1], :2])
+        side = np.sign(orient2d(a, b, np.ascontiguousarray(tip[None, :2])))[0]
+        for s_ in (0.9, 0.8, 0.7, 0.6, 0.5, 0.4, 0.3, 0.2, 0.1):
+            t = c + s_ * (tip - c)
+            if side == 0.0 or np.sign(orient2d(a, b, np.ascontiguousarray(t[None, :2])))[0] != side:
+                continue
+            if not area.contains(t[None, :2])[0]:
+                continue
+            V, T = fan(t)
+            if len(T) and not any(len(_touches(V, T, [r], 0.0)) for r in regions):
+                if end == 0:
+                    seq[0] = t[None, :]
+                else:
+                    seq[-1] = t[None, :]
+                done.append(0 if end == 0 else n - 1)
+                break
+    return seq, cuts, sorted(set(done))
+
+
+def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
+              clear_of: Dict[str, List[np.ndarray]], area: StudyArea, surface_z, method: str):
+    """The polylines of a patch (``seq`` with their ``cuts``) as runs that
+    stay clear of the partners' outlines ``clear_of``: (runs, note), each run
+    a (polylines, cuts) pair to loft on its own, note None if nothing had to
+    change.
+
+    Why: :func:`group_patch` clips a later member of a group by the regions
+    of the earlier ones, removing whole triangles. A folded (reverse-fault)
+    patch clipped so ends its footwall, strip and hanging-wall sheets at
+    different places; the clean-up that makes its outline simple again then
+    removes triangles round after round, far from the partner, and the
+    repetition goes (sweep class "repetition": 31 of 500 grounds, F2 of a T
+    or X pair, 0-87 % of the band the data give left, where the patch alone
+    covered all of it). A fold cannot be cut along a line inside the study
+    area at all: its three sheets would end on one line, and the layer
+    surface would not be a disk there (docs/design.md §5). It can only be
+    closed by a pinch-out, as at a fault's tip.
+
+    So the lofts between consecutive polylines (traces, extensions, tips)
+    that would touch a partner's region -- decided as :func:`clip_patch`
+    decides it, exactly, with the same tolerance -- are left out; every
+    remaining run of polylines is kept (a single one too: a trace between
+    the partner and the boundary), and each run end where a loft was left
+    out is closed towards the next polyline (:func:`_closing`: the band
+    carried on most of the way, then a pinch-out; or a pinch-out fan),
+    clear of the partners. A run end that cannot be closed so loses its end
+    polyline, until one can."""
+    rings = [np.asarray(r, dtype=np.float64).reshape(-1, 2) for rs in clear_of.values() for r in rs]
+    if not rings or len(seq) < 2:
+        return [(seq, cuts)], None
+    tol = _clip_tol(np.vstack(seq), rings)
+    n = len(seq)
+
+    def touched_lofts(seq_, cuts_) -> np.ndarray:
+        out = np.zeros(n - 1, dtype=bool)
+        for i in range(n - 1):
+            V, T = _assemble(seq_[i:i + 2], method, cuts_[i:i + 2])
+            out[i] = len(_touches(V, T, rings, tol)) > 0
+        return out
+
+    touched = touched_lofts(seq, cuts)
+    if not touched.any():
+        return [(seq, cuts)], None
+
+    def simple(run, rc) -> bool:
+        # What the stitcher needs of a patch (clip_patch's clean-up tests):
+        # no pinch vertex, an outline that does not cross itself, covered
+        # once counted with orientation.
+        V, T = _assemble(run, method, rc)
+        if len(T) == 0 or len(boundary_contours(T, n_vertices=len(V)).pinch_vertices):
+            return False
+        return not len(_outline_crossings(V, T, area)) and not len(triangles_not_covered_once(V, T))
+
+    def runs_of(seq_, cuts_, touched_, carry, halved=frozenset()):
+        """Every maximal run of polylines joined by lofts that stay clear,
+        closed at a left-out loft (a run end that cannot be closed loses its
+        end polyline); (runs, closed polylines, all runs simple). At the
+        left-out lofts in ``halved`` each closure takes at most half the
+        way. Where the two runs on either side of a left-out loft are
+        closed towards each other and their closures meet (the loft touched
+        the partner only with its sheets' far parts: seed 350), the runs
+        are made again with those closures halved."""
+        runs, closed, ok = [], [], True
+        facing: Dict[int, List] = {}  # left-out loft -> the closures at it (polylines with cuts)
+        starts = [0] + [i + 1 for i in np.flatnonzero(touched_)]
+        stops = [int(i) for i in np.flatnonzero(touched_)] + [n - 1]
+        for a, b in zip(starts, stops):
+            # A run may be one polyline closed on a side (a trace beyond the
+            # partner, between it and the boundary: seed 321).
+            while b >= a:
+                pre: List[Tuple[np.ndarray, Optional[Tuple[int, int]]]] = []
+                if a > 0:
+                    got = _closing(seq_[a], cuts_[a], seq_[a - 1], cuts_[a - 1], area,
+                                   surface_z, rings, tol, True, method, carry,
+                                   0.5 if a - 1 in halved else 1.0)
+                    if got is None:
+                        a += 1
+                        continue
+                    pre = got
+                post: List[Tuple[np.ndarray, Optional[Tuple[int, int]]]] = []
+                if b < n - 1:
+                    got = _closing(seq_[b], cuts_[b], seq_[b + 1], cuts_[b + 1], area,
+                                   surface_z, rings, tol, False, method, carry,
+                                   0.5 if b in halved else 1.0)
+                    if got is None:
+                        b -= 1
+                        continue
+                    post = got
+                if a == b and not pre and not post:
+                    break
+                run = [p for p, _ in pre] + list(seq_[a:b + 1]) + [p for p, _ in post]
+                rc = [c for _, c in pre] + list(cuts_[a:b + 1]) + [c for _, c in post]
+                runs.append((run, rc))
+                closed += ([a] if pre else []) + ([b] if post else [])
+                ok = ok and simple(run, rc)
+                if pre:
+                    facing.setdefault(a - 1, []).append(pre + [(seq_[a], cuts_[a])])
+                if post:
+                    facing.setdefault(b, []).append([(seq_[b], cuts_[b])] + post)
+                break
+        meet = set()
+        for i, pieces in facing.items():
+            if len(pieces) == 2 and i not in halved:
+                Va, Ta = _assemble([p for p, _ in pieces[0]], method, [c for _, c in pieces[0]])
+                Vb, Tb = _assemble([p for p, _ in pieces[1]], method, [c for _, c in pieces[1]])
+                if len(Ta) and len(Tb) and len(_touches(Va, Ta, patch_outline(Vb, Tb), tol)):
+                    meet.add(i)
+        if meet:
+            return runs_of(seq_, cuts_, touched_, carry, frozenset(halved | meet))
+        return runs, closed, ok
+
+    # Variants: (1) the polylines at a left-out loft cut to their band
+    # cores (_band_core, tight or to the next polyline points: the sheets'
+    # far parts are what usually reaches the partner; the loft between the
+    # cores may then stay clear, and the layer TIN's gap takes the sheets'
+    # far parts) and the run ends closed by the band carried on (along the
+    # cutoff lines or moved, or moved only: carried along diverging cutoff
+    # lines the outline may cross itself); (2) the polylines whole, the band
+    # carried on (the same two ways); (3) the polylines whole, closed by
+    # pinch-out fans (the outline of a tip's fan). Of those whose runs are
+    # all simple, the one whose fold covers most (_fold_area) is taken (the
+    # moved-only ones are tried only if no other is simple); if none is,
+    # the fans (group_patch's clean-up then has the last word).
+    variants = []
+    ends_of_left_out = sorted({int(j) for j in np.flatnonzero(touched)} | {int(j) + 1 for j in np.flatnonzero(touched)})
+    for tight in (True, False):
+        trimmed_seq, trimmed_cuts, trimmed = list(seq), list(cuts), []
+        for i in ends_of_left_out:
+            core = _band_core(seq[i], cuts[i], tight)
+            if core is not None:
+                trimmed_seq[i], trimmed_cuts[i] = core
+                trimmed.append(i)
+        if trimmed:
+            t_touched = touched_lofts(trimmed_seq, trimmed_cuts)
+            word = "trimmed" if tight else "trimmed to points"
+            variants.append((word, trimmed_seq, trimmed_cuts, t_touched, "follow", trimmed))
+            variants.append((word + ", moved", trimmed_seq, trimmed_cuts, t_touched, "move", trimmed))
+    variants.append(("carried", seq, cuts, touched, "follow", []))
+    variants.append(("carried, moved", seq, cuts, touched, "move", []))
+    best = None
+    # The "follow" variants first (their closings try the moved band too);
+    # the "move" ones only if none of those is simple (they cost as much).
+    for carries in (("follow",), ("move",)):
+        for how, seq_, cuts_, touched_, carry, trimmed in variants:
+            if carry not in carries:
+                continue
+            runs, closed, ok = runs_of(seq_, cuts_, touched_, carry)
+            if not ok:
+                continue
+            fold = sum(_fold_area(list(zip(r, rc)), method) for r, rc in runs)
+            if best is None or fold > best[0]:
+                best = (fold, how, runs, closed, touched_, trimmed)
+        if best is not None:
+            break
+    if best is None:
+        runs, closed, _ = runs_of(seq, cuts, touched, None)
+        best = (0.0, "fans", runs, closed, touched, [])
+    _, how, runs, closed, touched_, trimmed = best
+    note = {"partners": sorted(clear_of), "how": how,
+            "lofts_left_out": [int(i) for i in np.flatnonzero(touched_)],
+            "trimmed": [int(i) for i in trimmed],
+            "closed_at": [int(i) for i in closed], "runs": len(runs), "polylines": n}
+    return runs, note
+
+
 def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 loft_method: str = "min_area",
                 partners: Optional[Dict[str, List[np.ndarray]]] = None,
                 max_extension: Optional[float] = None,
-                along_step: Optional[float] = None) -> Optional[LayerPatch]:
+                along_step: Optional[float] = None,
+                clear_of: Optional[Dict[str, List[np.ndarray]]] = None,
+                yield_to: Optional[List[np.ndarray]] = None) -> Optional[LayerPatch]:
     """The fine model of ``fault`` in ``layer`` (None if no trace has it).
 
     ``ring``: the study area (a (k, 2) ring or a :class:`faultmesh.StudyArea`).
@@ -797,6 +1301,15 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
     ``along_step`` (m, with ``surface_z``): the patch follows the surface
     between consecutive polylines, by polylines at most this far apart
     (module doc); None: a plain loft.
+    ``clear_of``: XY outlines (per partner) that the patch must stay clear
+    of -- the group members before it in :func:`group_order`, whose region
+    :func:`group_patch` would otherwise clip it by (see :func:`_clear_of`:
+    the lofts between consecutive polylines that would touch them are left
+    out and the fold is closed by a pinch-out short of them). ``yield_to``:
+    XY regions (rings) where a later member of the group repeats the layer
+    (:func:`band_quads`): the polylines of a loft that touches one are cut
+    to their band cores (:func:`_yield_to`). Both act on the polylines
+    after ``along_step`` has put its own in.
 
     An end trace that lies on the study-area boundary (every point of its
     polyline, by :meth:`StudyArea.on_boundary`) closes the patch there: the
@@ -878,7 +1391,17 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
                 seq.append(add)
                 cuts.append(c)
     seq, cuts = _follow_surface(area, seq, cuts, surface_z, along_step)
-    V, T = _assemble(seq, loft_method, cuts)
+    if yield_to:
+        seq, cuts, cut_down = _yield_to(seq, cuts, yield_to, area, loft_method)
+        if cut_down:
+            meta["yielded_to_partner_bands"] = cut_down
+    if clear_of:
+        runs, note = _clear_of(seq, cuts, clear_of, area, surface_z, loft_method)
+        if note is not None:
+            meta["clear_of"] = note
+        V, T = _assemble_runs(runs, loft_method)
+    else:
+        V, T = _assemble(seq, loft_method, cuts)
     # The loft between two traces is a chord: where the study area is not
     # convex it can run out of the area and back in (across a notch; sweep
     # seeds 418, 454). The patch is cut to the area exactly there, its new
@@ -1106,11 +1629,8 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
         tol = _clip_tol(V, rings)
     if not tol >= 0.0:
         raise ValueError(f"clip_patch: tol must be >= 0, got {tol}")
-    rows = np.asarray(triangles_touching_region(V, T, rings), dtype=np.int64)
     keep = np.ones(len(T), dtype=bool)
-    keep[rows] = False
-    if tol > 0.0:
-        keep[_triangles_near_region(V, T, rings, tol)] = False
+    keep[_touches(V, T, rings, tol)] = False
     T = T[keep]
     # Clean-up: triangles at pinch vertices, then -- a folded (reverse-fault)
     # patch is clipped sheet by sheet at different places, and the outlines
@@ -1145,6 +1665,25 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
     return _compact(V, T)
 
 
+def is_folded(p: LayerPatch) -> bool:
+    """The patch has triangles both ways up in XY (exact orient2d): a fold,
+    a reverse fault repeating the layer."""
+    V, T = p.vertices, p.triangles
+    if len(T) == 0:
+        return False
+    xy = np.ascontiguousarray(V[:, :2])
+    o = orient2d(xy[T[:, 0]], xy[T[:, 1]], xy[T[:, 2]])
+    return bool((o < 0.0).any() and (o > 0.0).any())
+
+
+def group_order(patches: List[LayerPatch]) -> List[int]:
+    """The order in which :func:`group_patch` puts a group's patches
+    together (each clipped by the outlines of those before it): faults that
+    abut no partner first, then the abutting ones; among each, folded
+    patches before flat ones, else in the given order."""
+    return sorted(range(len(patches)), key=lambda i: (bool(patches[i].abuts), not is_folded(patches[i]), i))
+
+
 def group_patch(patches: List[LayerPatch], area: Optional[StudyArea] = None
                 ) -> Tuple[np.ndarray, np.ndarray, Dict[str, Any]]:
     """One patch per layer for a group of crossing faults (module doc).
@@ -1160,16 +1699,7 @@ def group_patch(patches: List[LayerPatch], area: Optional[StudyArea] = None
     left). A flat patch clipped by a folded outline has no such crossings.
     Returns (vertices, triangles, info) with info["pieces"] listing, per
     fault, the triangles kept and removed."""
-    def folded(p: LayerPatch) -> bool:
-        V, T = p.vertices, p.triangles
-        if len(T) == 0:
-            return False
-        xy = np.ascontiguousarray(V[:, :2])
-        o = orient2d(xy[T[:, 0]], xy[T[:, 1]], xy[T[:, 2]])
-        return bool((o < 0.0).any() and (o > 0.0).any())  # both ways up in XY: a fold
-
-    order = sorted(range(len(patches)),
-                   key=lambda i: (bool(patches[i].abuts), not folded(patches[i]), i))
+    order = group_order(patches)
     Vs, Ts, rings, info = [], [], [], {"order": [patches[i].fault for i in order], "pieces": {}}
     off = 0
     for i in order:
