@@ -279,13 +279,19 @@ def mark_rejects(outs: List[Dict]) -> None:
             o["stage"] = f"must reject: {o.get('stage')}"
 
 
-def render(outs: List[Dict], meta: Dict[str, Any]) -> str:
-    L = ["## Random grounds: how often faultmesh holds", "", f"Command: `{meta['command']}`  ",
-         f"Date: {meta['date']}  ", f"Machine: {meta['machine']}  "]
+def _header(title: str, outs: List[Dict], meta: Dict[str, Any]) -> List[str]:
+    """The first lines of a sweep's table: title, command, date, machine,
+    seeds and limits."""
     seeds = [o["seed"] for o in outs]
-    L += [f"Seeds: {min(seeds)}-{max(seeds)} ({len(seeds)}), {meta['jobs']} processes, "
-          f"time limit {meta['timeout']:.0f} s and {meta['memory_gb']:g} GiB per seed; "
-          f"wall time {meta['elapsed'] / 60.0:.1f} min.  ", ""]
+    return ["## " + title, "", f"Command: `{meta['command']}`  ", f"Date: {meta['date']}  ",
+            f"Machine: {meta['machine']}  ",
+            f"Seeds: {min(seeds)}-{max(seeds)} ({len(seeds)}), {meta['jobs']} processes, "
+            f"time limit {meta['timeout']:.0f} s and {meta['memory_gb']:g} GiB per seed; "
+            f"wall time {meta['elapsed'] / 60.0:.1f} min.  ", ""]
+
+
+def render(outs: List[Dict], meta: Dict[str, Any]) -> str:
+    L = _header("Random grounds: how often faultmesh holds", outs, meta)
     L += ["Each seed is a ground truth drawn by `faultmesh.grounds.random_ground(seed)` (study area, layers, "
           "faults, sections, boreholes, survey rounding), written with `Dataset.save` and read back with "
           "`load_dataset`, built with `build_model` (default options), checked with `Model.check()`, then "
@@ -350,12 +356,7 @@ def render_v2(outs: List[Dict], meta: Dict[str, Any]) -> str:
     """The table of a --v2 sweep: format-2 grounds without cutoffs against
     the same grounds' v1 models."""
     from faultmesh.grounds import V2_RATIO
-    L = ["## Random grounds as format 2 without cutoffs: derived against true cutoffs", "",
-         f"Command: `{meta['command']}`  ", f"Date: {meta['date']}  ", f"Machine: {meta['machine']}  "]
-    seeds = [o["seed"] for o in outs]
-    L += [f"Seeds: {min(seeds)}-{max(seeds)} ({len(seeds)}), {meta['jobs']} processes, "
-          f"time limit {meta['timeout']:.0f} s and {meta['memory_gb']:g} GiB per seed; "
-          f"wall time {meta['elapsed'] / 60.0:.1f} min.  ", ""]
+    L = _header("Random grounds as format 2 without cutoffs: derived against true cutoffs", outs, meta)
     L += ["Each seed's ground (`faultmesh.grounds.random_ground(seed)`) is written twice: as its v1 "
           "dataset (hand-drawn traces up to the true cutoffs) and by `faultmesh.grounds.write_v2` as "
           "format 2 without cutoffs (each fault as fault sticks on the truth's surface, no traces, kind "

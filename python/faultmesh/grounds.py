@@ -1551,6 +1551,32 @@ _NUM = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 _QUOTED = re.compile(r"'[^']*'|\"[^\"]*\"")
 
 
+def _failed(out: Dict[str, Any], stage: str, e: BaseException) -> Dict[str, Any]:
+    """``out`` (an evaluation's record) for a seed stopped at ``stage`` by
+    the exception ``e``: its type, message (cut) and pattern; the traceback
+    too where the generator itself failed."""
+    out["stage"] = stage
+    out["error_type"] = type(e).__name__
+    out["error"] = str(e)[:2000]
+    out["pattern"] = normalise_message(str(e))
+    if stage.startswith("generate"):
+        out["traceback"] = traceback.format_exc()[-3000:]
+    return out
+
+
+def _missed(out: Dict[str, Any], stage: str, pattern: str, error: Optional[str] = None) -> Dict[str, Any]:
+    """``out`` for a seed that built and checked but missed a measure."""
+    out["stage"], out["error_type"], out["pattern"] = stage, "", pattern
+    if error is not None:
+        out["error"] = error
+    return out
+
+
+def _held(out: Dict[str, Any]) -> Dict[str, Any]:
+    out["ok"], out["stage"] = True, "ok"
+    return out
+
+
 def normalise_message(msg: str) -> str:
     """An error message cut at its first "; " with names and numbers replaced
     (names in quotes -> 'S', numbers -> N, file paths -> PATH; invariant
@@ -1608,13 +1634,7 @@ def evaluate_ground(seed: int, folder=None, coverage_threshold: float = COVERAGE
                            "coverage": None, "coverage_min": None, "seconds": {}}
 
     def fail(stage, e):
-        out["stage"] = stage
-        out["error_type"] = type(e).__name__
-        out["error"] = str(e)[:2000]
-        out["pattern"] = normalise_message(str(e))
-        if stage == "generate":
-            out["traceback"] = traceback.format_exc()[-3000:]
-        return out
+        return _failed(out, stage, e)
 
     tmp = None
     if folder is None:
@@ -1695,22 +1715,16 @@ def evaluate_ground(seed: int, folder=None, coverage_threshold: float = COVERAGE
         if not out["checked"]:
             return out
         if acc["beats"] is False:
-            out["stage"] = "accuracy"
-            out["error_type"] = ""
-            out["pattern"] = "stitched model not better than the plain TIN near the faults"
-            return out
+            return _missed(out, "accuracy",
+                           "stitched model not better than the plain TIN near the faults")
         if out["coverage_min"] is not None and out["coverage_min"] < coverage_threshold:
             worst = min(((fn, ln, v["share_data"]) for fn, f in cov.items() for ln, v in f.items()
                          if v["points_data"] > 0), key=lambda t: t[2])
-            out["stage"] = "repetition"
-            out["error_type"] = ""
-            out["pattern"] = (f"reverse fault repeats a layer on less than "
-                              f"{100 * coverage_threshold:.0f} % of the band the data give")
-            out["error"] = f"fault {worst[0]!r}, layer {worst[1]!r}: {100 * worst[2]:.1f} %"
-            return out
-        out["ok"] = True
-        out["stage"] = "ok"
-        return out
+            return _missed(out, "repetition",
+                           f"reverse fault repeats a layer on less than "
+                           f"{100 * coverage_threshold:.0f} % of the band the data give",
+                           f"fault {worst[0]!r}, layer {worst[1]!r}: {100 * worst[2]:.1f} %")
+        return _held(out)
     finally:
         if tmp is not None:
             tmp.cleanup()
@@ -2143,13 +2157,7 @@ def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, **
                            "error_v2": None, "ratio": None, "warnings": [], "seconds": {}}
 
     def fail(stage, e):
-        out["stage"] = stage
-        out["error_type"] = type(e).__name__
-        out["error"] = str(e)[:2000]
-        out["pattern"] = normalise_message(str(e))
-        if stage.startswith("generate"):
-            out["traceback"] = traceback.format_exc()[-3000:]
-        return out
+        return _failed(out, stage, e)
 
     tmp = None
     if folder is None:
@@ -2240,15 +2248,11 @@ def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, **
             out["error_v1"], out["error_v2"] = e1, e2
             out["ratio"] = e2 / e1 if e1 > 0 else float("nan")
             if not out["ratio"] <= ratio_limit:
-                out["stage"] = "ratio"
-                out["error_type"] = ""
-                out["pattern"] = (f"error near the faults above {ratio_limit:g} x the model from the "
-                                  "true cutoffs; " + _derive_symptom(out))
-                out["error"] = f"v1 {e1:.3f} m, v2 {e2:.3f} m, ratio {out['ratio']:.2f}"
-                return out
-            out["ok"] = True
-            out["stage"] = "ok"
-            return out
+                return _missed(out, "ratio",
+                               f"error near the faults above {ratio_limit:g} x the model from the "
+                               "true cutoffs; " + _derive_symptom(out),
+                               f"v1 {e1:.3f} m, v2 {e2:.3f} m, ratio {out['ratio']:.2f}")
+            return _held(out)
     finally:
         if tmp is not None:
             tmp.cleanup()
