@@ -598,11 +598,15 @@ def _resample(p: np.ndarray, m: int) -> np.ndarray:
     ends kept exactly); ``p`` itself when it has ``m`` points already."""
     if len(p) == m:
         return p
-    L = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))]
+    d = np.diff(p, axis=0)
+    L = np.zeros(len(p))
+    np.cumsum(np.sqrt(np.einsum("ij,ij->i", d, d)), out=L[1:])
     if len(p) == 1 or L[-1] == 0.0:
         return np.repeat(p[:1], m, axis=0)
     t = np.linspace(0.0, L[-1], m)
-    out = np.column_stack([np.interp(t, L, p[:, c]) for c in range(3)])
+    out = np.empty((m, 3))
+    for c in range(3):
+        out[:, c] = np.interp(t, L, p[:, c])
     out[0], out[-1] = p[0], p[-1]
     return out
 
