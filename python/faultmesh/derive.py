@@ -1694,17 +1694,6 @@ def _contour_xy(fs: FaultSurface, z: float) -> np.ndarray:
     return pts[k == 2]
 
 
-def _distance_to_segments(P: np.ndarray, S: np.ndarray) -> np.ndarray:
-    """XY distance (m,) from each point P (m, 2) to the nearest segment S (k, 2, 2)."""
-    a, b = S[None, :, 0], S[None, :, 1]
-    ab = b - a
-    L2 = np.einsum("...i,...i->...", ab, ab)
-    t = np.clip(np.einsum("...i,...i->...", P[:, None, :] - a, ab) / np.where(L2 > 0, L2, 1.0),
-                0.0, 1.0)
-    q = a + t[..., None] * ab
-    return np.sqrt(np.einsum("...i,...i->...", P[:, None, :] - q, P[:, None, :] - q).min(axis=1))
-
-
 def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: FaultSurface,
                          others: Sequence[FaultSurface], far_f: float,
                          far_h: float) -> Tuple[float, float]:
@@ -1726,6 +1715,8 @@ def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: F
     lo, hi = sf - far_f, sh + far_h
     if not others:
         return lo, hi
+    from .invariants import _point_segment_distance
+
     ratio = ROOM_SHARE / (1.0 - ROOM_SHARE)
     for cut, sc, far, sgn in ((f, sf, far_f, -1.0), (h, sh, far_h, 1.0)):
         theirs = [c for c in (_contour_xy(o, float(cut[2])) for o in others) if len(c)]
@@ -1735,8 +1726,10 @@ def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: F
         ss = sc + sgn * far * np.linspace(0.0, 1.0, 65)[1:]
         P = tr.origin + ss[:, None] * tr.direction
         mine = _contour_xy(own, float(cut[2]))
-        d_own = _distance_to_segments(P, mine) if len(mine) else np.hypot(*(P - cut[:2]).T)
-        d_other = np.min([_distance_to_segments(P, c) for c in theirs], axis=0)
+        d_own = (_point_segment_distance(P, mine[:, 0], mine[:, 1]).min(axis=1) if len(mine)
+                 else np.hypot(*(P - cut[:2]).T))
+        d_other = np.min([_point_segment_distance(P, c[:, 0], c[:, 1]).min(axis=1) for c in theirs],
+                         axis=0)
         bad = np.flatnonzero(d_own > ratio * d_other)
         if len(bad):
             stop = sc + sgn * far * (bad[0] / 64.0)
