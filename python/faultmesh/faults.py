@@ -259,16 +259,27 @@ def _trace_polyline(trace, layer: str, area: Optional[StudyArea] = None):
     pts = np.vstack([foot, strip, hang])
     i_fw, i_hw = len(foot) - 1, len(foot) + len(strip)
     tol = _merge_tol(pts)
-    keep = [0]
-    pos = np.zeros(len(pts), dtype=np.int64)  # position of each point in the merged polyline
-    for i in range(1, len(pts)):
-        if np.linalg.norm(pts[i] - pts[keep[-1]]) > tol:
-            keep.append(i)
-        pos[i] = len(keep) - 1
-    pts = pts[keep]
+    pts, pos = _merge_coincident(pts, tol)
     if throw <= tol:
         throw = 0.0
     return np.ascontiguousarray(pts), throw, (int(pos[i_fw]), int(pos[i_hw]))
+
+
+def _merge_coincident(pts: np.ndarray, tol: float) -> Tuple[np.ndarray, np.ndarray]:
+    """``pts`` with every point within ``tol`` of the last point kept
+    dropped, and per input point its position in the result. A point is
+    compared with the last one kept, not with its neighbour: a run of points
+    each within ``tol`` of the next merges only as far as ``tol`` reaches."""
+    step = np.sqrt(np.einsum("ij,ij->i", np.diff(pts, axis=0), np.diff(pts, axis=0)))
+    if not (step <= tol).any():  # nothing to merge (the common case): one pass
+        return pts, np.arange(len(pts), dtype=np.int64)
+    keep = [0]
+    pos = np.zeros(len(pts), dtype=np.int64)
+    for i in range(1, len(pts)):  # polyline points only where some coincide
+        if np.linalg.norm(pts[i] - pts[keep[-1]]) > tol:
+            keep.append(i)
+        pos[i] = len(keep) - 1
+    return pts[keep], pos
 
 
 def _cut_mid(trace, layer: str) -> Optional[np.ndarray]:
@@ -642,21 +653,6 @@ def _between(area: StudyArea, a: np.ndarray, b: np.ndarray, ca: Optional[Tuple[i
     its straight line by no more than the larger vertical throw of the two
     polylines: the TIN's own error near the fault."""
     throw = max(_vertical_throw(a, ca), _vertical_throw(b, cb))
-    # A first look, at the points midway between the pair's ends and
-    # cutoffs (no resampling, one surface call): where the surface departs
-    # from the straight line by no more than the throw there, the loft
-    # stands (the test below, on every new polyline, is the one that
-    # decides; this one only spares it on the pairs it would reject: the
-    # fault models of 10 x 1M x 200 spent about a second on them).
-    ka = [0, len(a) - 1] + (list(ca) if ca is not None else [])
-    kb = [0, len(b) - 1] + (list(cb) if cb is not None else [])
-    if len(ka) == len(kb):
-        qa, qb = a[ka], b[kb]
-        z3 = surface_z(np.vstack([qa[:, :2], qb[:, :2], 0.5 * (qa[:, :2] + qb[:, :2])]))
-        k = len(ka)
-        d0 = z3[2 * k:] - 0.5 * (z3[:k] + z3[k:2 * k])
-        if not np.abs(np.where(np.isfinite(d0), d0, 0.0)).max() > throw:
-            return [], []
     pa, pb = _pieces(len(a), ca), _pieces(len(b), cb)
     if len(pa) != len(pb):
         pa, pb = [(0, len(a))], [(0, len(b))]
@@ -718,6 +714,41 @@ def _between(area: StudyArea, a: np.ndarray, b: np.ndarray, ca: Optional[Tuple[i
     return [np.ascontiguousarray(p) for p in P], [c] * n
 
 
+def _first_look(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], pairs: List[int],
+                surface_z) -> set:
+    """Of the consecutive pairs ``(seq[i], seq[i + 1])``, i in ``pairs``,
+    those worth :func:`_between`'s full test: where the surface, at the
+    points midway between the pair's ends and cutoffs, departs from the
+    straight line by more than the pair's larger throw (or where the two
+    have different cutoffs, and no such points pair up). One surface call
+    for all pairs, no resampling. The full test (on every new polyline)
+    decides; this one only spares it on the pairs it would reject (the fault
+    models of 10 x 1M x 200 spent about a second on them)."""
+    keys = [[0, len(p) - 1] + (list(c) if c is not None else []) for p, c in zip(seq, cuts)]
+    look, batch = set(), []
+    for i in pairs:
+        if len(keys[i]) != len(keys[i + 1]):
+            look.add(i)
+        else:
+            batch.append(i)
+    if not batch:
+        return look
+    qa = [seq[i][keys[i], :2] for i in batch]
+    qb = [seq[i + 1][keys[i + 1], :2] for i in batch]
+    A, B = np.vstack(qa), np.vstack(qb)
+    m = len(A)
+    z3 = surface_z(np.vstack([A, B, 0.5 * (A + B)]))
+    d0 = z3[2 * m:] - 0.5 * (z3[:m] + z3[m:2 * m])
+    d0 = np.abs(np.where(np.isfinite(d0), d0, 0.0))
+    at = np.cumsum([0] + [len(q) for q in qa])
+    dmax = np.maximum.reduceat(d0, at[:-1])
+    for k, i in enumerate(batch):
+        throw = max(_vertical_throw(seq[i], cuts[i]), _vertical_throw(seq[i + 1], cuts[i + 1]))
+        if dmax[k] > throw:
+            look.add(i)
+    return look
+
+
 def _follow_surface(area: StudyArea, seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
                     surface_z, step: Optional[float]
                     ) -> Tuple[List[np.ndarray], List[Optional[Tuple[int, int]]]]:
@@ -727,9 +758,11 @@ def _follow_surface(area: StudyArea, seq: List[np.ndarray], cuts: List[Optional[
         return seq, cuts
     if not step > 0.0:
         raise ValueError(f"layer_patch: along_step must be > 0, got {step}")
+    pairs = [i for i in range(len(seq) - 1) if len(seq[i]) > 1 and len(seq[i + 1]) > 1]
+    look = _first_look(seq, cuts, pairs, surface_z)
     out, out_c = [seq[0]], [cuts[0]]
     for i in range(len(seq) - 1):
-        if len(seq[i]) > 1 and len(seq[i + 1]) > 1:
+        if i in look:
             mid, mid_c = _between(area, seq[i], seq[i + 1], cuts[i], cuts[i + 1], surface_z, step)
             out += mid
             out_c += mid_c
@@ -1342,8 +1375,6 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
     seq = [p for p, _, _ in polys]
     throws = [t for _, t, _ in polys]
     cuts: List[Optional[Tuple[int, int]]] = [c for _, _, c in polys]
-    if max_extension is None:
-        max_extension = max(1.5 * ends.spacing, 0.25 * math.sqrt(abs(_area(area.ring))))
     kinds, abuts, meta = [], [], {}
     pinch: Dict[int, Tuple[np.ndarray, np.ndarray]] = {}
     for end in (0, 1):
@@ -1359,6 +1390,8 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
         elif area.on_boundary(poly[:, :2]).all():
             kinds.append("boundary")
         else:
+            if max_extension is None:
+                max_extension = max(1.5 * ends.spacing, 0.25 * math.sqrt(abs(_area(area.ring))))
             ext = _extend(poly, d, area, partners or {}, max_extension, surface_z)
             if (ext is not None and ext[1] != "boundary" and fault.kind == "reverse"
                     and len(ext[0]) > 1):
