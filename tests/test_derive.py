@@ -688,3 +688,23 @@ def test_kind_from_cutoff_throws_where_the_data_are_near():
 
     d = derive.derive_faults(grounds.random_ground(34, version=2))
     assert d.derivation.faults["F1"].kind == "normal"
+
+
+def test_plane_traces_above_a_cutoff_still_take_room():
+    """Regression (random_ground(2) with every fault given as its v1 traces'
+    planes only: no layers, no tips, no kind): F3's planes reach down to
+    -591 m, F1's deepest cutoffs lie at -685 m. The room rule measured from
+    F3's trace at -685 m, where F3 has none, so F3 took no room and F1's
+    footwall far ends (1.2 km long with 26 holes over 5.7 km) ran under
+    F3's tip: "faults too close". The other fault's nearest trace (its
+    extent's deepest) now stands in."""
+    from dataclasses import replace
+
+    from faultmesh import grounds
+
+    ds = grounds.random_ground(2)
+    planes = [replace(f, traces=[replace(t, layers={}) for t in f.traces], kind=None,
+                      tips=np.zeros((0, 2))) for f in ds.faults]
+    d = derive.derive_faults(replace(ds, faults=planes))
+    assert {n for n, r in d.derivation.faults.items() if r.kind} == {"F1", "F2", "F3"}
+    faultmesh.build_model(d, evaluate=False).check()

@@ -1694,6 +1694,23 @@ def _contour_xy(fs: FaultSurface, z: float) -> np.ndarray:
     return pts[k == 2]
 
 
+def _within_extent(fs: FaultSurface, z: float) -> float:
+    """``z`` moved into the elevations of the fault's own extent (a hair
+    inside its top and bottom vertices): the room rule measures from the
+    other fault's trace at the cutoff's elevation, and where its data (plane
+    traces drawn down to its own layers, shallower or deeper than this
+    fault's) do not reach that elevation, its nearest trace stands in for it
+    (random_ground(2)'s faults as plane traces only: F3's planes reach
+    -591 m, F1's cutoffs lie at -685 m; without a trace F3 took no room and
+    the two patches overlapped)."""
+    zs = fs.own[0][:, 2]
+    lo, hi = float(zs.min()), float(zs.max())
+    # A millionth of the extent's height inside: a contour through the top
+    # or bottom vertex itself cuts no triangle (the test is >= on one side).
+    pad = 1e-6 * (hi - lo)
+    return min(max(z, lo + pad), hi - pad)
+
+
 def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: FaultSurface,
                          others: Sequence[FaultSurface], far_f: float,
                          far_h: float) -> Tuple[float, float]:
@@ -1719,7 +1736,8 @@ def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: F
 
     ratio = ROOM_SHARE / (1.0 - ROOM_SHARE)
     for cut, sc, far, sgn in ((f, sf, far_f, -1.0), (h, sh, far_h, 1.0)):
-        theirs = [c for c in (_contour_xy(o, float(cut[2])) for o in others) if len(c)]
+        theirs = [c for c in (_contour_xy(o, _within_extent(o, float(cut[2]))) for o in others)
+                  if len(c)]
         if not theirs or not far > 0:
             continue
         # 64 steps: the far end is placed to within 1/64 of its reach.
