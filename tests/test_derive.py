@@ -708,3 +708,19 @@ def test_plane_traces_above_a_cutoff_still_take_room():
     d = derive.derive_faults(replace(ds, faults=planes))
     assert {n for n, r in d.derivation.faults.items() if r.kind} == {"F1", "F2", "F3"}
     faultmesh.build_model(d, evaluate=False).check()
+
+
+def test_end_not_carried_through_another_fault():
+    """Regression (random_ground(249) as v2: four faults, F2 reverse with
+    tips, its end 300 m from a corner of the study area where its down-dip
+    points pass the boundary): that end counted as reaching the boundary,
+    and the builder carried F2's patches 700 m along strike through F3
+    ("faults too close"). An end whose way along strike onto the boundary
+    crosses a fault of another group now ends where its points do."""
+    from faultmesh import grounds
+
+    d = derive.derive_faults(grounds.random_ground(249, version=2))
+    rep = d.derivation.faults["F2"]
+    assert "tip" in rep.as_dict()["ends"]
+    assert any("would cross fault 'F3'" in w for w in rep.warnings)
+    faultmesh.build_model(d, evaluate=False).check()

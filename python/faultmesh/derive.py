@@ -546,7 +546,8 @@ class FaultSurface:
     along strike (decreasing, increasing strike coordinate) "boundary" if
     the extent reaches the study-area boundary there, else "inside".
     ``u_range``: the extent's along-strike interval (strike coordinate from
-    ``centre``)."""
+    ``centre``). ``carried``: per end that reaches the boundary, the paths
+    along strike onto it (see :func:`_carried_across`)."""
 
     name: str
     vertices: np.ndarray
@@ -559,6 +560,10 @@ class FaultSurface:
     source: str
     ends: List[str] = field(default_factory=lambda: ["inside", "inside"])
     u_range: Tuple[float, float] = (0.0, 0.0)
+    #: per end that reaches the boundary: its points in the study area
+    #: (m, 3) and where they land carried along strike onto the boundary
+    #: (m, 3); only those of an end carried by `reach` are in the TIN
+    carried: Dict[int, Tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
     @property
     def dip(self) -> float:
@@ -653,7 +658,8 @@ def _ray_to_ring(p: np.ndarray, d: np.ndarray, ring: np.ndarray) -> np.ndarray:
 
 def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], *,
                   reach: Optional[float] = None, max_z_dip: float = 80.0,
-                  warnings: Optional[List[str]] = None) -> FaultSurface:
+                  warnings: Optional[List[str]] = None,
+                  carry: Tuple[bool, bool] = (True, True)) -> FaultSurface:
     """The :class:`FaultSurface` of ``fault`` (module doc, step 1): from its
     ``surface``, else its ``points`` (and ``sticks``), else the planes of its
     traces. ``ring``: the study area; ``z_range``: the elevations the layer
@@ -661,7 +667,9 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
     extended along strike to the boundary when its points come within this
     distance of it (default: a fifth of the fault's along-strike length;
     0 disables; a given surface is not extended, an end of it beyond the
-    boundary counts as reaching it). Raises :class:`faultmesh.GeometryError` naming the fault when
+    boundary counts as reaching it; ``carry`` (per end) False: that end is
+    "inside" wherever its points end, e.g. past the boundary down dip near a
+    corner of the study area). Raises :class:`faultmesh.GeometryError` naming the fault when
     there is no usable geometry."""
     warn = warnings if warnings is not None else []
     ring = np.asarray(ring, dtype=np.float64).reshape(-1, 2)
@@ -727,6 +735,7 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
     if reach is None:
         reach = 0.2 * length
     ends = ["inside", "inside"]
+    carried: Dict[int, Tuple[np.ndarray, np.ndarray]] = {}
     if given is None:
         # Extend an end to the study-area boundary along strike: the points
         # within a tenth of the length of that end, carried along strike onto
@@ -737,9 +746,19 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
         for e, sgn in ((0, -1.0), (1, 1.0)):
             sel = (u <= u.min() + band) if e == 0 else (u >= u.max() - band)
             Q = P[sel]
+            if not carry[e]:
+                continue
             inside = points_in_polygon(Q[:, :2], ring)
             if not inside.all():
                 ends[e] = "boundary"  # the points already pass the boundary
+                # The builder carries the end's patches along strike to the
+                # boundary from the inside: those paths (not added here).
+                Qi = Q[inside]
+                t = _ray_to_ring(Qi[:, :2], sgn * strike, ring)
+                ok = np.isfinite(t)
+                moved = Qi[ok].copy()
+                moved[:, :2] += t[ok][:, None] * (sgn * strike)[None, :]
+                carried[e] = (Qi[ok], moved)
                 continue
             t = _ray_to_ring(Q[:, :2], sgn * strike, ring)
             if np.isfinite(t).all() and float(np.median(t)) <= reach:
@@ -748,6 +767,7 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
                 moved = Q.copy()
                 moved[:, :2] += (t + 1e-6 * max(1.0, length))[:, None] * (sgn * strike)[None, :]
                 add.append(moved)
+                carried[e] = (Q, moved)
         if add:
             P = np.vstack([P] + add)
         T = tin(P)
@@ -811,7 +831,7 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
     TT = np.vstack([T, remap])
     extent = np.r_[np.ones(len(T), dtype=bool), np.zeros(len(remap), dtype=bool)]
     return FaultSurface(fault.name, np.ascontiguousarray(V), np.ascontiguousarray(TT), extent,
-                        axis, hanging_sign, normal, centre, source, ends, u_range)
+                        axis, hanging_sign, normal, centre, source, ends, u_range, carried)
 
 
 def _proj_area(P: np.ndarray, T: np.ndarray, iu: int, iv: int) -> np.ndarray:
@@ -1694,6 +1714,25 @@ def _contour_xy(fs: FaultSurface, z: float) -> np.ndarray:
     return pts[k == 2]
 
 
+def _carried_across(Q: np.ndarray, M: np.ndarray, other: FaultSurface) -> bool:
+    """Does any path from a point of ``Q`` (m, 3) to its carried place in
+    ``M`` (m, 3) cross (or touch) ``other``'s own extent at the point's
+    elevation (its trace there, exact segment tests)? A fault that is not
+    in the other's group cannot run through it: carried to the boundary
+    across it, its layers' patches overlap the other's (random_ground(249)
+    as v2: F2's end, 300 m from the boundary, carried 700 m along strike
+    through F3; "faults too close")."""
+    from .dataset import _segments_intersect
+
+    for q, m in zip(Q, M):
+        c = _contour_xy(other, float(q[2]))
+        if len(c) and _segments_intersect(np.repeat(q[None, :2], len(c), axis=0),
+                                          np.repeat(m[None, :2], len(c), axis=0),
+                                          c[:, 0], c[:, 1]).any():
+            return True
+    return False
+
+
 def _within_extent(fs: FaultSurface, z: float) -> float:
     """``z`` moved into the elevations of the fault's own extent (a hair
     inside its top and bottom vertices): the room rule measures from the
@@ -1883,6 +1922,24 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
             except (GeometryError, ValueError):
                 continue  # e.g. a fault of one trace: no room taken from it
     every = {**other_surfs, **surfs}
+    for f in dataset.faults:
+        if id(f) not in todo or not surfs[f.name].carried:
+            continue
+        apart = [every[g.name] for g in dataset.faults
+                 if g is not f and not (f.group and g.group == f.group) and g.name in every]
+        blocked = {e: o.name for e, (Q, M) in surfs[f.name].carried.items()
+                   for o in apart if _carried_across(Q, M, o)}
+        if blocked:
+            for e, other in sorted(blocked.items()):
+                warns[f.name].append(
+                    f"fault {f.name!r}: its {'first' if e == 0 else 'last'} end along strike "
+                    "reaches the study-area boundary, but carried along strike onto it the "
+                    f"fault would cross fault {other!r} (not in its group); that end is taken "
+                    "to end where its points do (a tip)")
+            carry = (0 not in blocked, 1 not in blocked)
+            surfs[f.name] = every[f.name] = fault_surface(
+                f, ring, z_range, reach=opt.reach, max_z_dip=opt.max_z_dip,
+                warnings=warns[f.name], carry=carry)
     for f in dataset.faults:
         if id(f) not in todo:
             faults.append(f)
