@@ -1154,11 +1154,14 @@ def _hanging_distance(fs: FaultSurface, frame: GridFrame, ring: np.ndarray):
         f = np.interp(u, tu, np.arange(len(tu), dtype=np.float64))
         i = np.minimum(np.floor(f).astype(np.int64), max(len(tu) - 2, 0))
         a = f - i
+        if len(tabs) == 1:
+            i, a = np.zeros(len(z), dtype=np.int64), np.zeros(len(z))
         out = np.zeros(len(z))
-        for j, (_, o, tz, ts) in enumerate(tabs):
+        # Each point between two sections: only the sections that some
+        # point touches (a root search asks for a few points at a time).
+        for j in np.unique(np.r_[i, np.minimum(i + 1, len(tabs) - 1)]):
+            _, o, tz, ts = tabs[int(j)]
             wgt = np.where(i == j, 1.0 - a, 0.0) + np.where(i + 1 == j, a, 0.0)
-            if len(tabs) == 1:
-                wgt = np.ones(len(z))
             sel = wgt > 0
             if sel.any():
                 s_pt = (xy[sel] - o) @ fs.dip_dir
@@ -1232,6 +1235,12 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     knots = np.linspace(u_lo, u_hi, nk)
     Di = D[inside]
     d = dist(Di[:, :2], Di[:, 2])
+    # The profile is chosen on a grid of twice the cell (a quarter of the
+    # nodes: 13 solves cost about as much as 4 on the frame), then fitted
+    # on the frame.
+    coarse = GridFrame(frame.origin, frame.e_u, frame.e_w, frame.u0, frame.w0, 2.0 * frame.h,
+                       (frame.nu + 2) // 2, (frame.nw + 2) // 2) if min(frame.nu, frame.nw) >= 9 \
+        else frame
     best = None
     for prof in DECAY_PROFILES:
         wgt = np.where(hw[inside], _decay_share(d, prof), 0.0)
@@ -1240,11 +1249,12 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
         # _joint_sides' length of a section spacing, T came out a straight
         # line that missed the throw (random_ground(30): 3-9 m along the
         # fault, where the truth rises to 34 m and falls again).
-        nodes, T = _min_curvature(frame, Di[:, :2], Di[:, 2], ell, None, None, wgt, knots, ell,
-                                  energy=en)
+        _min_curvature(coarse, Di[:, :2], Di[:, 2], ell, None, None, wgt, knots, ell, energy=en)
         if best is None or en[0] < best[0]:
-            best = (en[0], prof, nodes, T)
-    _, prof, nodes, T = best
+            best = (en[0], prof)
+    prof = best[1]
+    nodes, T = _min_curvature(frame, Di[:, :2], Di[:, 2], ell, None, None,
+                              np.where(hw[inside], _decay_share(d, prof), 0.0), knots, ell)
     # The hanging-wall data that show the throw (at least half of it, by the
     # chosen profile): T is known along strike only where they are; beyond
     # them it is held at its last known value (the fit would continue its
