@@ -294,7 +294,8 @@ def test_fading_throw_fit_recovers_the_throw_at_the_fault():
     instead of the coarse one 8.7 m; with T held level along strike, 13 m
     everywhere). derive uses the fit only where the hanging wall's data stop
     more than a data spacing from the cutoff, where its own surface is no
-    better (random grounds: 22 of 91 better, 6 worse)."""
+    better (random grounds as v2, seeds 0-99: 21 of 91 better by more than
+    0.05 in ratio, 8 worse)."""
     rng = np.random.default_rng(3)
     tan60 = np.tan(np.deg2rad(60.0))
     # A plane fault striking north, dipping 60 degrees east (the hanging

@@ -39,7 +39,12 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
    both sides there come from one surface through both sides' data, the
    hanging wall's raised by a throw that varies smoothly along strike
    (:func:`_joint_sides`): two extrapolations across a gap are unrelated,
-   their difference is no throw. With crossing faults (a ``group``), a
+   their difference is no throw. Where only the hanging wall's data stop
+   more than a data spacing from its cutoff (and a hanging-wall datum that
+   shows the throw is near along strike), the hanging wall comes from a
+   joint fit whose throw fades away from the fault into the hanging wall
+   (:func:`_decay_sides`, :func:`_decay_sections`): its own surface would
+   extrapolate the fading bend. With crossing faults (a ``group``), a
    section's data are further restricted to its fault block: the same side
    of every partner fault.
 4. **Cutoffs**: sections across strike every ``spacing`` where the fault's
@@ -85,11 +90,13 @@ carry these traces; its ``derivation`` is a :class:`DeriveReport` (per fault:
 kind derived and given, warnings, throw profile, tips, cutoff lines).
 
 Accuracy and limitations (docs/derive.md): on generated grounds the
-error near faults is 0.45-0.90x that of the model built from the exact
-cutoffs with boreholes about 160 m apart, 0.72-1.26x with boreholes 350 m
-apart, except a fault curved by 150 m in map view (2.4x: its hanging wall
-bends away from the fault where the nearest holes are, and is extrapolated
-with that bend). A side whose data stop far from the fault cannot show drag
+error near faults is 0.49-1.06x that of the model built from the exact
+cutoffs with boreholes about 160 m apart, 0.84-1.00x with boreholes 350 m
+apart (the grounds of tests/test_derive.py), except a fault curved by 150 m in map view (2.3x: its hanging wall
+bends away from the fault where the nearest holes are); on the random
+grounds of :mod:`faultmesh.grounds` 10 of 91 are within 1.25x (ratio
+median 2.56), none of those whose hanging walls have fewer data showing
+the throw than there are sections. A side whose data stop far from the fault cannot show drag
 or rollover there: Claudius with every pick within 300 m (3D) of a fault
 point withheld, median error 11.4 m at those picks (12.0 m before the
 layers' data holes were filled, :mod:`faultmesh.holes`; examples/claudius).
@@ -1217,7 +1224,7 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     hanging wall whose throw fades within a few data spacings of the fault
     shows it only at its data nearest the fault; each side on its own then
     extrapolates the fading bend (random_ground(30) as v2: the hanging wall
-    10-17 m too high on 4 of 8 sections). None when a side has fewer than 3
+    9-17 m too high on 4 of 8 sections). None when a side has fewer than 3
     data in the frame."""
     foot, hang = D[split["foot"]], D[split["hanging"]]
     if len(foot) < 3 or len(hang) < 3:
