@@ -292,7 +292,8 @@ def test_fading_throw_fit_recovers_the_throw_at_the_fault():
     closely, absorbs part of the offset (T 0-28 m along strike where it is
     25 m; 10.7 m off at the fault; with the profile chosen on the full grid
     instead of the coarse one 8.7 m; with T held level along strike, 13 m
-    everywhere). derive uses the fit only where the hanging wall's data stop
+    everywhere; with S ten times smoother 2.5 m, but random grounds get
+    worse: docs/derive.md). derive uses the fit only where the hanging wall's data stop
     more than a data spacing from the cutoff, where its own surface is no
     better (random grounds as v2, seeds 0-99: 21 of 91 better by more than
     0.05 in ratio, 8 worse)."""
