@@ -279,6 +279,69 @@ def test_tension_keeps_a_dipping_layer_level_across_a_gap():
     assert np.abs(flat["foot"](at) - flat["hanging"](at)).min() > 2.0
 
 
+@pytest.mark.xfail(strict=True, reason="open: the fading-throw fit's throw is underdetermined "
+                   "where S may bend (docs/derive.md, accuracy)")
+def test_fading_throw_fit_recovers_the_throw_at_the_fault():
+    """Reproducer of what derive._decay_sides does not do yet (strict: a fix
+    shows here). A hanging wall whose throw (25 m) fades within 250 m of the
+    fault, sampled every 150 m, shows it only at its few data nearest the
+    fault; its own surface extrapolates the fading bend towards the fault
+    (3.4 m off at the fault here). The joint fit with a throw that fades
+    into the hanging wall should find the throw at the fault, but its
+    throw T(u) is poorly determined: the surface S, which follows the data
+    closely, absorbs part of the offset (T 0-28 m along strike where it is
+    25 m; 10.7 m off at the fault; with the profile chosen on the full grid
+    instead of the coarse one 8.7 m; with T held level along strike, 13 m
+    everywhere; with S ten times smoother 2.5 m, but random grounds get
+    worse: docs/derive.md). derive uses the fit only where the hanging wall's data stop
+    more than a data spacing from the cutoff, where its own surface is no
+    better (random grounds as v2, seeds 0-99: 21 of 91 better by more than
+    0.05 in ratio, 8 worse)."""
+    rng = np.random.default_rng(3)
+    tan60 = np.tan(np.deg2rad(60.0))
+    # A plane fault striking north, dipping 60 degrees east (the hanging
+    # wall is east), through x = 1000 at z = -500: sticks every 100 m.
+    ys, zs = np.meshgrid(np.arange(-200.0, 2201.0, 100.0), np.arange(-300.0, -701.0, -25.0))
+    P = np.column_stack([1000.0 + (-500.0 - zs.ravel()) / tan60, ys.ravel(), zs.ravel()])
+    ring = np.array([[0.0, 0.0], [2000.0, 0.0], [2000.0, 2000.0], [0.0, 2000.0]])
+    fs = derive.fault_surface(Fault("F", points=P, sticks=np.searchsorted(np.unique(ys), ys.ravel())),
+                              ring, (-700.0, -300.0))
+    # A layer dipping gently west, sampled on a jittered 150 m grid; the
+    # hanging wall lowered by 25 m up to 50 m from the fault, fading over
+    # the next 200 m (a profile of derive.DECAY_PROFILES).
+    g = np.arange(75.0, 2000.0, 150.0)
+    xy = np.stack(np.meshgrid(g, g), -1).reshape(-1, 2) + rng.uniform(-40.0, 40.0, (len(g) ** 2, 2))
+    z0 = -500.0 + 0.02 * xy[:, 0]
+    z = z0.copy()
+    for _ in range(3):  # the distance from the fault at the datum's own elevation
+        d = xy[:, 0] - (1000.0 + (-500.0 - z) / tan60)
+        z = z0 - np.where(d > 0, 25.0 * derive._decay_share(d, (50.0, 200.0)), 0.0)
+    D = np.column_stack([xy, z])
+    ext = fs.side(D)[1]
+    split = {"hanging": ext >= 0, "foot": ext <= 0}
+    frame = derive._side_frame(fs, ring, 600.0, 75.0)
+    dec = derive._decay_sides(D, split, frame, 12, 250.0, fs, ring)
+    own = derive._side_surfaces(D, split, frame, 12)
+    # The hanging wall 5 m from the fault at its elevation, along strike.
+    yq = np.linspace(300.0, 1700.0, 8)
+    want = -500.0 + 0.02 * 1000.0 - 25.0
+    xq = 1000.0 + (-500.0 - want) / tan60 + 5.0
+    q = np.column_stack([np.full(8, xq), yq])
+    want = want + 0.02 * (xq - 1000.0)
+    err_dec = np.abs(dec["hanging"](q) - want)
+    err_own = np.abs(own["hanging"](q) - want)
+    print(f"hanging wall at the fault: fading-throw fit {err_dec.max():.2f} m, own surface "
+          f"{err_own.max():.2f} m; profile {dec['hanging'].profile}")
+    # Wanted: within 2.5 m (a tenth of the throw) at the fault, and better
+    # than the hanging wall's own surface.
+    assert err_dec.max() < 2.5 and err_dec.max() < err_own.max(), (err_dec, err_own)
+    assert dec["hanging"].profile is not None  # a fading profile, not a block offset
+    # The footwall is the layer as it would be without the fault: the
+    # hanging wall's data beyond the fading zone lie on it too.
+    far = xy[:, 0] > 1500.0
+    assert np.abs(dec["foot"](xy[far]) - z0[far]).max() < 0.5
+
+
 def test_side_frame_covers_both_sides_of_the_fault():
     """Regression: the grid's second axis is the strike vector turned by
     +90 degrees (up dip here); measuring the fault's footprint and the
@@ -351,22 +414,25 @@ def test_derived_cutoffs_kind_and_accuracy(ground):
     assert e2 <= 1.25 * e1, (name, e1, e2)
 
 
-# Ground, and the largest error ratio allowed: issue 11's 1.25, except
-# normal-60-s1, measured 1.26 (just over it).
+# Ground, and the largest error ratio allowed: issue 11's 1.25 for all
+# three since the fading-throw fit (derive._decay_sections; normal-60-s1
+# was at 1.26 before it).
 SPARSE = {
     "normal-35": (lambda: datasets.synthetic(0, kind="normal", dip=35.0, n_boreholes=60), 1.25),
     "reverse-60": (lambda: datasets.synthetic(1, kind="reverse", dip=60.0, n_boreholes=60), 1.25),
-    "normal-60-s1": (lambda: datasets.synthetic(1, kind="normal", dip=60.0, n_boreholes=60), 1.3),
+    "normal-60-s1": (lambda: datasets.synthetic(1, kind="normal", dip=60.0, n_boreholes=60), 1.25),
 }
 
 
 @pytest.mark.parametrize("name", sorted(SPARSE))
 def test_sparse_boreholes(name):
     """60 boreholes, about 350 m apart: each side is extrapolated over
-    a few hundred metres to its cutoff. Measured ratios 1.05, 1.07, 1.26
-    (before the minimum-curvature side surfaces: 1.70, 1.58, 1.85); the
-    curved fault of curved_ground, not tested here, is at 2.36
-    (docs/derive.md)."""
+    a few hundred metres to its cutoff. Measured ratios 0.99, 1.00, 0.84
+    (normal-35, reverse-60, normal-60-s1; before the fading-throw fit on
+    sections with a data gap at the hanging-wall cutoff 1.10, 1.10, 1.26;
+    before the minimum-curvature side surfaces: 1.70, 1.58, 1.85); the
+    curved fault of curved_ground with 60 holes, not tested here, is at
+    2.30 (3.05 before the fit; docs/derive.md)."""
     make, limit = SPARSE[name]
     ds = make()
     d = derive.derive_faults(v2_of(ds))

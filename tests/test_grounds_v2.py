@@ -193,6 +193,22 @@ def test_derived_model_holds(seed, tmp_path):
     assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
 
 
+def test_fading_throw_fit_holds_a_reverse_fault_with_sparse_hanging_wall_data(tmp_path):
+    """Regression (random_ground(63) as v2: a reverse fault at 36 degrees,
+    163 holes about 340 m apart, throw fading over 100-350 m into the
+    hanging wall): the hanging wall's own surface extrapolated the fading
+    bend towards the fault on the sections whose hanging-wall data stop
+    more than a data spacing from the cutoff, error near the fault 1.54x
+    the true cutoffs' model. There derive now uses the joint fit with a
+    throw that fades into the hanging wall (derive._decay_sections): 1.22x.
+    Its cutoffs are 2.7 m from the true ones on average (3.8 m before), over
+    the 2 m of HOLDING_V2's bound, so it is not listed there."""
+    out = gr.evaluate_ground_v2(63, tmp_path)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    assert out["kind_ok"], out["kinds"]
+    assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
+
+
 # One seed per class of derive's failures on these grounds that is still
 # open (sweep_v2.md; the classes of seeds 0, 29, 75 and 34's kind are
 # fixed, tests/test_derive.py): reproducers that must start to hold
@@ -203,8 +219,9 @@ DERIVE_FAILS = {
     # stop just over two data spacings from the cutoffs); now the cutoff
     # throws decide up to `near` and the kind is right, but the error near
     # the fault is 2.1x: the ground's throw decays over 100-350 m into the
-    # hanging wall, and the side surfaces extrapolate that bend.
-    34: "ratio 2.1 (throw decaying into the hanging wall)",
+    # hanging wall, and the side surfaces extrapolate that bend; 1.85x with
+    # the fading-throw fit on the sections with a data gap at the cutoff.
+    34: "ratio 1.85 (throw decaying into the hanging wall; 2.1 before the fading-throw fit)",
     # Reverse fault at 35 degrees, 82 holes, no warning, cutoffs within
     # 1.5 m (mean): error near the fault 0.50 m against 0.30 m (1.68x).
     22: "no warning, ratio 1.68",
