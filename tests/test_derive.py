@@ -790,3 +790,20 @@ def test_end_not_carried_through_another_fault():
     assert "tip" in rep.as_dict()["ends"]
     assert any("would cross fault 'F3'" in w for w in rep.warnings)
     faultmesh.build_model(d, evaluate=False).check()
+
+
+def test_thin_layers_of_deviated_holes_are_repaired():
+    """Regression (random_ground(364) as v2: a U-shaped area, 17 holes, half
+    of them deviated, layers L4-L6 3-4 m apart, each layer with its own
+    boundary spacing): the layer repair never ended ("'L6' still crosses 'L5'
+    after 50 rounds"). L6's boundary vertices lay on L5's hull only up to
+    rounding, L5's interpolation was NaN there, so rule 1 could not lower
+    them and rule 2 halved the edges around them without end. A point on the
+    study-area boundary now gets the elevation of the TIN's boundary piece
+    it lies on (LayerTin::interpolate)."""
+    from faultmesh import grounds
+
+    ds = grounds.random_ground(364, version=2)
+    m = faultmesh.build_model(ds, evaluate=False)
+    m.check()
+    assert m.metadata["repair"]["L6"]["rounds"] >= 1

@@ -776,7 +776,36 @@ void LayerTin::set_z(const std::int64_t* vertices, const double* z, std::size_t 
 }
 
 std::vector<double> LayerTin::interpolate(const double* xy, std::size_t n) const {
-    return s_->tin->interpolate(xy, n);
+    std::vector<double> z = s_->tin->interpolate(xy, n);
+    // A point that the study area counts as on its boundary (locate: within
+    // its tolerance of a side) can lie a hair outside the TIN's hull: the
+    // hull's edges there join this TIN's own boundary vertices, each rounded
+    // onto its side, and another layer's boundary vertex (or any point
+    // placed on the side) may lie an ulp beyond such an edge. It gets the
+    // elevation of the boundary piece it lies on, linear along the side.
+    // Left NaN, the repair could not lower such a vertex of the layer below
+    // (rule 1 skips it) and halved the edges around it without end
+    // (grounds seed 364 as format 2: deviated holes, layers 3 m apart, each
+    // layer with its own boundary spacing).
+    const LayerTinState& s = *s_;
+    const std::vector<double>& V = s.tin->vertex_array();
+    std::vector<StudyArea::Hit> hits;
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!std::isnan(z[i])) continue;
+        hits.clear();
+        s.area.locate(xy + 2 * i, hits);
+        if (hits.empty()) continue;
+        const StudyArea::Hit& h = hits.front();
+        const auto& m = s.by_side[h.side];
+        auto it = m.upper_bound(h.s);
+        if (it == m.begin()) continue;  // every side holds its start corner (s = 0)
+        const Piece p = piece_at(s, h.side, std::prev(it));
+        const double za = V[3 * static_cast<std::size_t>(p.a) + 2];
+        const double zb = V[3 * static_cast<std::size_t>(p.b) + 2];
+        const double w = p.sb > p.sa ? std::min(1.0, std::max(0.0, (h.s - p.sa) / (p.sb - p.sa))) : 0.0;
+        z[i] = za + w * (zb - za);
+    }
+    return z;
 }
 
 // ---------------------------------------------------------------- insert

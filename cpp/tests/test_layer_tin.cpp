@@ -286,3 +286,74 @@ TEST(RepairStack, SameAsPairAfterPair) {
     EXPECT_GT(ca[0].rule1, 0);
     EXPECT_EQ(ca[1].rule1 + ca[1].rule1b + ca[1].rule2 + ca[1].rule2_crossing, 0);
 }
+
+namespace {
+
+// A rotated quadrilateral at UTM-sized coordinates: no side is axis
+// parallel, so points placed on a side are rounded off its exact line.
+fm::StudyArea slanted_area() {
+    const std::vector<double> ring = {552013.37, 7016512.11, 553297.41, 7017020.93, 552871.06, 7018230.58,
+                                      551602.77, 7017698.02};
+    return fm::StudyArea(ring.data(), ring.size() / 2);
+}
+
+std::vector<double> plane_points(unsigned seed, std::size_t n, double z0, const fm::StudyArea& area) {
+    std::mt19937_64 g(seed);
+    std::uniform_real_distribution<double> ux(551602.0, 553298.0), uy(7016512.0, 7018231.0);
+    std::vector<double> out;
+    while (out.size() < 3 * n) {
+        const double p[2] = {ux(g), uy(g)};
+        if (!area.contains(p)) continue;
+        out.insert(out.end(), {p[0], p[1], z0 + 0.01 * (p[0] - 551602.0) - 0.02 * (p[1] - 7016512.0)});
+    }
+    return out;
+}
+
+}  // namespace
+
+TEST(LayerTinInterpolate, PointsPlacedOnTheBoundaryAlwaysGetAnElevation) {
+    // Sparse data: few boundary vertices, long boundary pieces; a point
+    // placed on a side lies an ulp on either side of the piece's edge.
+    const fm::StudyArea area = slanted_area();
+    const std::vector<double> pts = plane_points(11, 15, -600.0, area);
+    const fm::LayerTin t("L", pts.data(), pts.size() / 3, area);
+    const std::vector<double> V = t.tin().vertex_array();
+    std::mt19937_64 g(3);
+    std::size_t n = 0;
+    for (std::size_t side = 0; side < area.n_sides(); ++side) {
+        std::uniform_real_distribution<double> us(0.0, area.side_length(side));
+        for (int k = 0; k < 500; ++k, ++n) {
+            double q[2];
+            area.place(side, us(g), q);
+            const double z = t.interpolate(q, 1)[0];
+            ASSERT_TRUE(std::isfinite(z)) << "side " << side << " point " << k;
+        }
+    }
+    EXPECT_EQ(n, 2000u);
+    // Off the boundary by far more than the area's tolerance: still NaN.
+    const double far[2] = {551000.0, 7016000.0};
+    EXPECT_TRUE(std::isnan(t.interpolate(far, 1)[0]));
+}
+
+TEST(RepairCrossings, LayersWithTheirOwnBoundaryVerticesEnd) {
+    // Two sparse layers 3 m apart whose boundary vertices differ (each its
+    // own spacing, its own data): the lower layer's boundary vertices lie on
+    // the upper one's hull only up to rounding. The repair must lower them
+    // and end (grounds seed 364 as format 2 refined the edges there without
+    // end).
+    const fm::StudyArea area = slanted_area();
+    for (unsigned seed = 0; seed < 40; ++seed) {
+        const std::vector<double> up_pts = plane_points(2 * seed, 15, -600.0, area);
+        std::vector<double> lo_pts = plane_points(2 * seed + 1, 14, -603.0, area);
+        for (std::size_t i = 2; i < lo_pts.size(); i += 6) lo_pts[i] += 8.0;  // crossings inside too
+        const fm::LayerTin up("up", up_pts.data(), up_pts.size() / 3, area);
+        fm::LayerTin lo("lo", lo_pts.data(), lo_pts.size() / 3, area);
+        ASSERT_NO_THROW(fm::repair_crossings(up, lo)) << "seed " << seed;
+        const fm::LayerTinMesh m = lo.mesh();
+        for (std::size_t v = 0; v < m.vertices.size() / 3; ++v) {
+            const double zu = up.interpolate(&m.vertices[3 * v], 1)[0];
+            ASSERT_TRUE(std::isfinite(zu)) << "seed " << seed;
+            EXPECT_LE(m.vertices[3 * v + 2], zu + 1e-6) << "seed " << seed;
+        }
+    }
+}

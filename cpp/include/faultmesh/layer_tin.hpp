@@ -107,7 +107,9 @@ public:
     std::size_t insert(const double* xyz, std::size_t n);
     // Sets the elevation of vertices.
     void set_z(const std::int64_t* vertices, const double* z, std::size_t n);
-    // z at n points (x, y interleaved), NaN outside the TIN's hull.
+    // z at n points (x, y interleaved), NaN outside the TIN's hull; a point
+    // on the study-area boundary (StudyArea::locate) that rounding puts a
+    // hair outside it gets the elevation of the boundary piece it lies on.
     std::vector<double> interpolate(const double* xy, std::size_t n) const;
     // The triangles inside the study area, compacted; the arrays reserve room
     // for spare_vertices and spare_triangles more (a stitcher appends).
