@@ -632,28 +632,6 @@ def _vertical_throw(p: np.ndarray, c: Optional[Tuple[int, int]]) -> float:
     return 0.0 if c is None else abs(float(p[c[0], 2] - p[c[1], 2]))
 
 
-def _paired(a: np.ndarray, b: np.ndarray, ca: Optional[Tuple[int, int]], cb: Optional[Tuple[int, int]]
-            ) -> Tuple[np.ndarray, np.ndarray, Optional[Tuple[int, int]]]:
-    """Two consecutive polylines as paired points (A, B, cutoffs in both):
-    part by part (footwall, strip, hanging wall; the whole polyline where
-    only one has cutoffs), each part resampled to the larger count of the
-    two (:func:`_resample`). The polylines between them are (1 - s) A + s B."""
-    pa, pb = _pieces(len(a), ca), _pieces(len(b), cb)
-    if len(pa) != len(pb):
-        pa, pb = [(0, len(a))], [(0, len(b))]
-    ra, rb, cut = [], [], []
-    for (a0, a1), (b0, b1) in zip(pa, pb):
-        m = max(a1 - a0, b1 - b0)
-        x, y = _resample(a[a0:a1], m), _resample(b[b0:b1], m)
-        if ra:  # the part starts at the previous one's last point
-            x, y = x[1:], y[1:]
-        ra.append(x)
-        rb.append(y)
-        cut.append(sum(len(r) for r in ra) - 1)
-    A, B = np.vstack(ra), np.vstack(rb)
-    return A, B, ((cut[0], cut[1]) if len(cut) == 3 else None)
-
-
 def _between(area: StudyArea, a: np.ndarray, b: np.ndarray, ca: Optional[Tuple[int, int]],
              cb: Optional[Tuple[int, int]], surface_z, step: float
              ) -> Tuple[List[np.ndarray], List[Optional[Tuple[int, int]]]]:
@@ -685,7 +663,20 @@ def _between(area: StudyArea, a: np.ndarray, b: np.ndarray, ca: Optional[Tuple[i
         d0 = z3[2 * k:] - 0.5 * (z3[:k] + z3[k:2 * k])
         if not np.abs(np.where(np.isfinite(d0), d0, 0.0)).max() > throw:
             return [], []
-    A, B, c = _paired(a, b, ca, cb)
+    pa, pb = _pieces(len(a), ca), _pieces(len(b), cb)
+    if len(pa) != len(pb):
+        pa, pb = [(0, len(a))], [(0, len(b))]
+    ra, rb, cut = [], [], []
+    for (a0, a1), (b0, b1) in zip(pa, pb):
+        m = max(a1 - a0, b1 - b0)
+        x, y = _resample(a[a0:a1], m), _resample(b[b0:b1], m)
+        if ra:  # the part starts at the previous one's last point
+            x, y = x[1:], y[1:]
+        ra.append(x)
+        rb.append(y)
+        cut.append(sum(len(r) for r in ra) - 1)
+    A, B = np.vstack(ra), np.vstack(rb)
+    c = (cut[0], cut[1]) if len(cut) == 3 else None
     gap = float(np.hypot(*(B[:, :2] - A[:, :2]).T).max())
     n = int(math.ceil(gap / step)) - 1
     if n <= 0:
@@ -1098,99 +1089,6 @@ def band_quads(fault, layer: str) -> List[np.ndarray]:
     return out
 
 
-#: Samples along a loft (per unit of its parameter s) where
-#: :func:`_yield_locally` looks for the later band: 1/128 of the way
-#: between two polylines (traces 100 m - 2.5 km apart: 1-20 m, below the
-#: width of the bands it makes room for; the room is tested exactly after).
-_YIELD_SAMPLES = 128
-
-
-def _yield_locally(a: np.ndarray, ca: Optional[Tuple[int, int]], b: np.ndarray,
-                   cb: Optional[Tuple[int, int]], regions: List[np.ndarray], method: str):
-    """Polylines to put between ``a`` and ``b`` (a loft that touches
-    ``regions``) so that only the stretch of the loft across the regions is
-    cut to band cores: (a cut to its core, b cut to its core, [(polyline,
-    cuts, is a core), ...]) or None (then both are cut, as before).
-
-    Where the later band crosses the loft, the part of the loft it meets
-    is found on samples of the polylines (1 - s) A + s B (:func:`_paired`)
-    in [s0, s1]; a whole polyline is put g = s1 - s0 (at least two samples)
-    before s0 and after s1, and band cores (``_YIELD_MARGIN``) half that
-    far from them, so the earlier fault keeps its sheets up to the later
-    band (the whole loft's sheets, hundreds of metres along the earlier
-    fault, went for a band tens of metres wide: sweep seed 8's near-fault
-    error 3.39 -> 3.55 m when the cores reached less far past the band).
-    Where there is no room before s0 (or after s1), ``a`` (or ``b``) is cut
-    to its core itself. The lofts of whole polylines and the tapers from
-    them to the cores must stay clear of the regions (exact); else the
-    room is tried at 2, 1/2 and 1/4 of g; else None."""
-    if ca is None or cb is None or len(a) < 2 or len(b) < 2:
-        return None
-    from .dataset import points_in_polygon
-
-    A, B, c = _paired(a, b, ca, cb)
-    if c is None:
-        return None
-    # Lateral samples: each segment of the paired polylines in quarters.
-    f = (np.arange(4) / 4.0)[None, :, None]
-
-    def quarters(X: np.ndarray) -> np.ndarray:
-        q = (1.0 - f) * X[:-1, None, :2] + f * X[1:, None, :2]
-        return np.vstack([q.reshape(-1, 2), X[-1:, :2]])
-
-    lat_a, lat_b = quarters(A), quarters(B)
-    ss = np.linspace(0.0, 1.0, _YIELD_SAMPLES + 1)
-    P = ((1.0 - ss)[:, None, None] * lat_a[None] + ss[:, None, None] * lat_b[None]).reshape(-1, 2)
-    inside = np.zeros(len(P), dtype=bool)
-    for r in regions:
-        inside |= points_in_polygon(P, r)
-    rows = np.flatnonzero(inside.reshape(len(ss), -1).any(axis=1))
-    if not len(rows):
-        return None
-    step = 1.0 / _YIELD_SAMPLES
-    s0, s1 = float(ss[rows[0]]) - step, float(ss[rows[-1]]) + step
-    g = max(s1 - s0, 2.0 * step)
-
-    def at(s_: float) -> np.ndarray:
-        return np.ascontiguousarray((1.0 - s_) * A + s_ * B)
-
-    # The room between a whole polyline and the cores: the band's own
-    # stretch, twice it, then less (a band that takes most of the loft:
-    # sweep seed 9, s0 = 0.17, s1 = 0.82), at least two samples.
-    for gap in (g, 2.0 * g, 0.5 * g, 0.25 * g):
-        gap = max(gap, 2.0 * step)
-        before = s0 - gap > step
-        after = s1 + gap < 1.0 - step
-        if not before and not after:
-            continue
-        core_b = _band_core(at(s0 - 0.5 * gap), c, margin=_YIELD_MARGIN) if before else None
-        core_a = _band_core(at(s1 + 0.5 * gap), c, margin=_YIELD_MARGIN) if after else None
-        end_a = (a, ca) if before else _band_core(a, ca, margin=_YIELD_MARGIN)
-        end_b = (b, cb) if after else _band_core(b, cb, margin=_YIELD_MARGIN)
-        if (before and core_b is None) or (after and core_a is None) or end_a is None or end_b is None:
-            continue
-        parts: list = []   # (polyline, cuts, is a core)
-        if before:
-            parts += [(at(s0 - gap), c, False), (core_b[0], core_b[1], True)]
-        if after:
-            parts += [(core_a[0], core_a[1], True), (at(s1 + gap), c, False)]
-        # The lofts that keep whole sheets (between whole polylines, and the
-        # tapers from them to the cores) must not reach the regions; the
-        # lofts between cores cross them (the earlier band itself).
-        chain = [(end_a[0], end_a[1], not before)] + parts + [(end_b[0], end_b[1], not after)]
-        ok = True
-        for (p, pc, core_p), (q, qc, core_q) in zip(chain[:-1], chain[1:]):
-            if core_p and core_q:
-                continue
-            V, T = _assemble([p, q], method, [pc, qc])
-            if any(len(_touches(V, T, [r], 0.0)) for r in regions):
-                ok = False
-                break
-        if ok:
-            return (not before, not after, parts)
-    return None
-
-
 def _yield_to(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], regions: List[np.ndarray],
               area: StudyArea, method: str
               ) -> Tuple[List[np.ndarray], List[Optional[Tuple[int, int]]], List[int]]:
@@ -1209,42 +1107,21 @@ def _yield_to(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], regi
     be there at all (seed 8, an X pair: a quarter of F2's band in L2 and L3
     lay under F1's sheets). Cut to their cores, the earlier fault keeps its
     own band and what lies just past it, and the layer TIN's gap takes the
-    sheets' far parts. Where there is room along the loft, only its stretch
-    across the later band is cut so (:func:`_yield_locally`: whole
-    polylines put in before and after it), and the sheets stay elsewhere."""
+    sheets' far parts."""
     n = len(seq)
     cut_down = set()
-    local: Dict[int, Tuple[bool, bool, list]] = {}
     for i in range(n - 1):
         V, T = _assemble(seq[i:i + 2], method, cuts[i:i + 2])
-        hit = [r for r in regions if len(_touches(V, T, [r], 0.0))]
-        if not hit:
-            continue
-        got = _yield_locally(seq[i], cuts[i], seq[i + 1], cuts[i + 1], hit, method)
-        if got is None:
+        if any(len(_touches(V, T, [r], 0.0)) for r in regions):
             cut_down.update((i, i + 1))
-        else:
-            local[i] = got
-            if got[0]:
-                cut_down.add(i)
-            if got[1]:
-                cut_down.add(i + 1)
-    out, out_c, done = [], [], []
-    for i in range(n):
-        p, c = seq[i], cuts[i]
-        if i in cut_down:
-            core = _band_core(p, c, margin=_YIELD_MARGIN)
-            if core is not None:
-                p, c = core
-                done.append(len(out))
-        out.append(p)
-        out_c.append(c)
-        for q, qc, is_core in (local[i][2] if i in local else []):
-            if is_core:
-                done.append(len(out))
-            out.append(q)
-            out_c.append(qc)
-    seq, cuts, n = out, out_c, len(out)
+    seq, cuts = list(seq), list(cuts)
+    done = []
+    for i in sorted(cut_down):
+        core = _band_core(seq[i], cuts[i], margin=_YIELD_MARGIN)
+        if core is None:
+            continue
+        seq[i], cuts[i] = core
+        done.append(int(i))
     # A pinch-out tip whose fan still reaches over the later band (seed 350:
     # the earlier fault's tip, far beyond its end trace, lay across the later
     # fault's band) is moved back towards the end trace until its fan is
