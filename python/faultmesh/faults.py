@@ -929,6 +929,15 @@ def _fold_area(parts, method: str) -> float:
     return 0.5 * float(np.abs(o[np.sign(o) == -np.sign(o.sum())]).sum())
 
 
+def _simple_patch(V: np.ndarray, T: np.ndarray, area: StudyArea) -> bool:
+    """What the stitcher needs of a patch (clip_patch's clean-up tests): no
+    pinch vertex, an outline that does not cross itself, covered once
+    counted with orientation."""
+    if len(T) == 0 or len(boundary_contours(T, n_vertices=len(V)).pinch_vertices):
+        return False
+    return not len(_outline_crossings(V, T, area)) and not len(triangles_not_covered_once(V, T))
+
+
 def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
              nxt_cut: Optional[Tuple[int, int]], area: StudyArea, surface_z, rings: List[np.ndarray],
              tol: float, first: bool, method: str, carry: Optional[str] = "follow",
@@ -1036,6 +1045,7 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
 
     if carry and np.isfinite(reach) and reach > 0.0:
         best, best_fold = None, -1.0
+        found: List[Tuple[float, Any]] = []
         follows = (True, False) if carry == "follow" else (False,)
         for pts, cc, follow in [(pts, cc, f) for pts, cc in cores for f in follows]:
             # 0.9 of the way, then by bisection: nearer (up to 0.98, the tip
@@ -1055,8 +1065,21 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
             # Of the ways that are clear, the one whose fold (the band
             # repeated) covers the most.
             f = _fold_area(ordered([(poly, cut)] + ordered(got)), method)
+            found.append((f, got))
             if f > best_fold:
                 best, best_fold = got, f
+        # ... among those whose piece covers its image once (exact,
+        # triangles_not_covered_once; its outline runs back along the
+        # folded poly, so that is not tested here), if any does. A piece
+        # that does not makes its run not simple, and _clear_of then drops
+        # every variant whose closures follow the cutoff lines: sweep seeds
+        # 236 and 244, where the band widens towards the crossing and the
+        # band merely moved left a strip along one side unrepeated.
+        for f, got in sorted(found, key=lambda t: -t[0]):
+            piece = ordered([(poly, cut)] + ordered(got))
+            V, T = _assemble([p for p, _ in piece], method, [c_ for _, c_ in piece])
+            if len(T) and not len(triangles_not_covered_once(V, T)):
+                return got
         if best is not None:
             return best
     by = 0.5 * share * dist
@@ -1208,13 +1231,7 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
         return [(seq, cuts)], None
 
     def simple(run, rc) -> bool:
-        # What the stitcher needs of a patch (clip_patch's clean-up tests):
-        # no pinch vertex, an outline that does not cross itself, covered
-        # once counted with orientation.
-        V, T = _assemble(run, method, rc)
-        if len(T) == 0 or len(boundary_contours(T, n_vertices=len(V)).pinch_vertices):
-            return False
-        return not len(_outline_crossings(V, T, area)) and not len(triangles_not_covered_once(V, T))
+        return _simple_patch(*_assemble(run, method, rc), area)
 
     def runs_of(seq_, cuts_, touched_, carry, halved=frozenset()):
         """Every maximal run of polylines joined by lofts that stay clear,
