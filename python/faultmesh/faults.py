@@ -843,6 +843,25 @@ def _touches(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray], tol: float) 
     return rows
 
 
+def _touches_any(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray], tol: float) -> bool:
+    """Whether :func:`_touches` has any row, cheaper: False at once where the
+    patch's XY box, grown by ``tol``, misses every ring's box; True at once
+    where a triangle comes within ``tol`` of a ring edge; else the exact
+    test (:func:`triangles_touching_region`, which builds the region anew on
+    every call: most of the fault models' time went there, a thousand
+    calls per crossing group and layer from :func:`_closing`)."""
+    if len(T) == 0 or not rings:
+        return False
+    used = np.asarray(V, dtype=np.float64)[np.asarray(T).ravel(), :2]
+    lo, hi = used.min(axis=0) - tol, used.max(axis=0) + tol
+    R = [np.asarray(r, dtype=np.float64).reshape(-1, 2) for r in rings]
+    if not any(len(r) and (r.max(axis=0) >= lo).all() and (r.min(axis=0) <= hi).all() for r in R):
+        return False
+    if tol > 0.0 and len(_triangles_near_region(V, T, R, tol)):
+        return True
+    return len(triangles_touching_region(V, T, R)) > 0
+
+
 def _cut_centre(poly: np.ndarray, cut: Optional[Tuple[int, int]]) -> np.ndarray:
     """The midpoint of a polyline's cutoffs (x, y, z); its middle point
     without cutoffs (a tip: the point itself)."""
@@ -1001,7 +1020,7 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
         if not area.contains(np.vstack(seq)[:, :2]).all():
             return False
         V, T = _assemble(seq, method, [c_ for _, c_ in parts])
-        return len(T) > 0 and not len(_touches(V, T, rings, tol))
+        return len(T) > 0 and not _touches_any(V, T, rings, tol)
 
     def ordered(parts):
         return parts[::-1] if first else parts
@@ -1137,7 +1156,7 @@ def _yield_to(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], regi
     cut_down = set()
     for i in range(n - 1):
         V, T = _assemble(seq[i:i + 2], method, cuts[i:i + 2])
-        if any(len(_touches(V, T, [r], 0.0)) for r in regions):
+        if any(_touches_any(V, T, [r], 0.0) for r in regions):
             cut_down.update((i, i + 1))
     seq, cuts = list(seq), list(cuts)
     done = []
@@ -1162,7 +1181,7 @@ def _yield_to(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], regi
             return _assemble([t[None, :], poly] if end == 0 else [poly, t[None, :]], method)
 
         V, T = fan(tip)
-        if not any(len(_touches(V, T, [r], 0.0)) for r in regions):
+        if not any(_touches_any(V, T, [r], 0.0) for r in regions):
             continue
         c = _cut_centre(poly, pcut)
         a = np.ascontiguousarray(poly[[0], :2])
@@ -1175,7 +1194,7 @@ def _yield_to(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], regi
             if not area.contains(t[None, :2])[0]:
                 continue
             V, T = fan(t)
-            if len(T) and not any(len(_touches(V, T, [r], 0.0)) for r in regions):
+            if len(T) and not any(_touches_any(V, T, [r], 0.0) for r in regions):
                 if end == 0:
                     seq[0] = t[None, :]
                 else:
@@ -1223,7 +1242,7 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
         out = np.zeros(n - 1, dtype=bool)
         for i in range(n - 1):
             V, T = _assemble(seq_[i:i + 2], method, cuts_[i:i + 2])
-            out[i] = len(_touches(V, T, rings, tol)) > 0
+            out[i] = _touches_any(V, T, rings, tol)
         return out
 
     touched = touched_lofts(seq, cuts)
@@ -1285,7 +1304,7 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
             if len(pieces) == 2 and i not in halved:
                 Va, Ta = _assemble([p for p, _ in pieces[0]], method, [c for _, c in pieces[0]])
                 Vb, Tb = _assemble([p for p, _ in pieces[1]], method, [c for _, c in pieces[1]])
-                if len(Ta) and len(Tb) and len(_touches(Va, Ta, patch_outline(Vb, Tb), tol)):
+                if len(Ta) and len(Tb) and _touches_any(Va, Ta, patch_outline(Vb, Tb), tol):
                     meet.add(i)
         if meet:
             return runs_of(seq_, cuts_, touched_, carry, frozenset(halved | meet))
@@ -1599,6 +1618,15 @@ def _triangles_near_region(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray]
         segs.append(np.stack([r, np.roll(r, -1, axis=0)], axis=1))
     S = np.concatenate(segs)
     T = np.asarray(T, dtype=np.int64)
+    # Only the ring edges whose box meets the patch's box grown by tol can
+    # come within tol of it (a partner's outline of hundreds of edges, a
+    # closing piece of a few triangles near one end of it: _closing tests
+    # such pieces a thousand times per group and layer).
+    used = xy[T.ravel()]
+    lo_p, hi_p = used.min(axis=0) - tol, used.max(axis=0) + tol
+    S = S[np.all(S.max(axis=1) >= lo_p, axis=1) & np.all(S.min(axis=1) <= hi_p, axis=1)]
+    if not len(S):
+        return np.zeros(0, dtype=np.int64)
     E = np.stack([xy[T], xy[np.roll(T, -1, axis=1)]], axis=2).reshape(-1, 2, 2)  # 3 per triangle
     # Cheap box filter first (patch edges x ring edges can be many).
     lo_e, hi_e = E.min(axis=1) - tol, E.max(axis=1) + tol
