@@ -978,7 +978,8 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
     ``toward`` or to the partners' outline, whichever is nearer, then
     bisected (nearer, up to 0.98, if that is clear, else back towards
     ``poly``); of these ways the one whose fold covers most
-    (:func:`_fold_area`) -- keeping the band's full width there, and closed by a pinch-out
+    (:func:`_fold_area`) among those whose piece covers its image once
+    (else the one whose fold covers most) -- keeping the band's full width there, and closed by a pinch-out
     tip halfway from it to that point; failing that, a pinch-out tip alone
     (a fan from ``poly``) halfway to ``toward``, then nearer and nearer
     (halved, 20 times). ``carry``: "follow" (all of these), "move" (the
