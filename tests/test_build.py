@@ -787,6 +787,27 @@ def test_band_of_a_later_partner_cuts_the_earlier_patch_to_its_band_core():
     assert fold.min() <= 100.0 and fold.max() >= 400.0
 
 
+def test_touching_region_built_once_answers_like_the_function():
+    # faultmesh.TouchingRegion (the region of triangles_touching_region built
+    # once, for the fault models' many tests against one partner outline):
+    # the same rows, from a copy of the rings (changing them afterwards
+    # changes nothing), for a concave ring with a hole and random triangles.
+    ring = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [5.0, 4.0], [0.0, 10.0]])
+    hole = np.array([[4.0, 1.0], [6.0, 1.0], [5.0, 2.0]])
+    rng = np.random.default_rng(7)
+    V = rng.uniform(-2.0, 12.0, (400, 2))
+    T = rng.integers(0, 400, (300, 3))
+    want = faultmesh.triangles_touching_region(V, T, [ring, hole])
+    region = faultmesh.TouchingRegion([ring, hole])
+    ring[:] = 100.0
+    got = region.touching(V, T)
+    np.testing.assert_array_equal(got, want)
+    assert 0 < len(got) < len(T)
+    assert len(faultmesh.TouchingRegion([]).touching(V, T)) == 0
+    with pytest.raises(ValueError, match="triangles"):
+        region.touching(V, np.array([[0, 1, 400]]))
+
+
 def test_ray_hits_per_point_directions():
     # faults._ray_hits (points x ring edges in numpy): the first hit along
     # each point's own direction, or one direction for all; inf for a miss;

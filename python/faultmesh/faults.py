@@ -82,7 +82,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ._core import (AabbTree, GeometryError, StudyArea, boundary_contours, loft, orient2d,
+from ._core import (AabbTree, GeometryError, StudyArea, TouchingRegion, boundary_contours, loft, orient2d,
                     triangles_not_covered_once, triangles_touching_region)
 
 __all__ = ["LayerPatch", "FaultEnds", "EndMove", "EndMoveKind", "fault_ends", "trace_polyline",
@@ -843,13 +843,15 @@ def _touches(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray], tol: float) 
     return rows
 
 
-def _touches_any(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray], tol: float) -> bool:
+def _touches_any(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray], tol: float,
+                 region: Optional[TouchingRegion] = None) -> bool:
     """Whether :func:`_touches` has any row, cheaper: False at once where the
     patch's XY box, grown by ``tol``, misses every ring's box; True at once
     where a triangle comes within ``tol`` of a ring edge; else the exact
-    test (:func:`triangles_touching_region`, which builds the region anew on
-    every call: most of the fault models' time went there, a thousand
-    calls per crossing group and layer from :func:`_closing`)."""
+    test (:func:`triangles_touching_region`; ``region``: the same built once
+    from ``rings``, :class:`TouchingRegion` -- building the region was most
+    of each call, and :func:`_closing` makes a thousand per crossing group
+    and layer)."""
     if len(T) == 0 or not rings:
         return False
     used = np.asarray(V, dtype=np.float64)[np.asarray(T).ravel(), :2]
@@ -859,6 +861,8 @@ def _touches_any(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray], tol: flo
         return False
     if tol > 0.0 and len(_triangles_near_region(V, T, R, tol)):
         return True
+    if region is not None:
+        return len(region.touching(V, T)) > 0
     return len(triangles_touching_region(V, T, R)) > 0
 
 
@@ -1000,6 +1004,7 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
     u = way / dist
     hit = float(_ray_hits(c[None, :2], u, rings)[0])
     reach = min(share * dist, hit)
+    region = TouchingRegion(rings)
 
     def beyond(chord: np.ndarray, pts: np.ndarray) -> bool:
         # Every point of pts strictly on the side of chord's line that u points to.
@@ -1021,7 +1026,7 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
         if not area.contains(np.vstack(seq)[:, :2]).all():
             return False
         V, T = _assemble(seq, method, [c_ for _, c_ in parts])
-        return len(T) > 0 and not _touches_any(V, T, rings, tol)
+        return len(T) > 0 and not _touches_any(V, T, rings, tol, region)
 
     def ordered(parts):
         return parts[::-1] if first else parts
@@ -1239,11 +1244,13 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
     tol = _clip_tol(np.vstack(seq), rings)
     n = len(seq)
 
+    region = TouchingRegion(rings)
+
     def touched_lofts(seq_, cuts_) -> np.ndarray:
         out = np.zeros(n - 1, dtype=bool)
         for i in range(n - 1):
             V, T = _assemble(seq_[i:i + 2], method, cuts_[i:i + 2])
-            out[i] = _touches_any(V, T, rings, tol)
+            out[i] = _touches_any(V, T, rings, tol, region)
         return out
 
     touched = touched_lofts(seq, cuts)
