@@ -799,6 +799,7 @@ def test_touching_region_built_once_answers_like_the_function():
     T = rng.integers(0, 400, (300, 3))
     want = faultmesh.triangles_touching_region(V, T, [ring, hole])
     region = faultmesh.TouchingRegion([ring, hole])
+    assert region.n_rings == 2
     ring[:] = 100.0
     got = region.touching(V, T)
     np.testing.assert_array_equal(got, want)

@@ -301,6 +301,7 @@ local merge with shared vertices. mesh() returns the compacted surface.
                  return TouchingRegion(R.xy.data(), R.offsets.data(), R.n_rings());
              }),
              py::arg("rings"))
+        .def_property_readonly("n_rings", &TouchingRegion::n_rings, "Number of rings it was built from.")
         .def(
             "touching",
             [](const TouchingRegion& self, const py::handle& vertices, const py::handle& triangles) {

@@ -567,6 +567,11 @@ class TouchingRegion:
         """
         Rows (int64) of the triangles whose closed XY projection meets the region. Exact.
         """
+    @property
+    def n_rings(self) -> int:
+        """
+        Number of rings it was built from.
+        """
 def boundary_contours(triangles: typing.Any, *, n_vertices: typing.Any = None) -> BoundaryContours:
     """
     Full boundary report (BoundaryContours): loops, open_chains, pinch_vertices,

@@ -227,6 +227,7 @@ public:
     TouchingRegion& operator=(TouchingRegion&&) noexcept;
     std::vector<std::int64_t> touching(const double* vertices, std::size_t n_vertices, std::size_t stride,
                                        const std::int64_t* triangles, std::size_t n_triangles) const;
+    std::size_t n_rings() const { return offsets_.empty() ? 0 : offsets_.size() - 1; }
 
 private:
     std::vector<double> xy_;
