@@ -773,16 +773,54 @@ def test_band_of_a_later_partner_cuts_the_earlier_patch_to_its_band_core():
     p = layer_patch(f, "L", fault_ends(f), area, yield_to=[quad])
     assert p.metadata["yielded_to_partner_bands"] == [2, 3]  # the traces at x = 200 and 300
     assert len(triangles_touching_region(p.vertices, p.triangles, [quad])) == 0
-    # The traces cut to their cores: the strip and a quarter of the band's
-    # width (10 m) past it on each side, on the footwall and hanging-wall
-    # polylines (y 492.5 .. 507.5); the others whole.
-    for x, lo, hi in ((100.0, 470.0, 530.0), (200.0, 492.5, 507.5), (300.0, 492.5, 507.5),
+    # The traces cut to their cores: the strip and a tenth of the band's
+    # width (10 m) past it on each side (faults._YIELD_MARGIN; a quarter
+    # before, which at X crossings was most of the later band lost: seeds
+    # 8, 451), on the footwall and hanging-wall polylines (y 494 .. 506);
+    # the others whole.
+    for x, lo, hi in ((100.0, 470.0, 530.0), (200.0, 494.0, 506.0), (300.0, 494.0, 506.0),
                       (400.0, 470.0, 530.0)):
         ys = p.vertices[p.vertices[:, 0] == x, 1]
         assert ys.min() == lo and ys.max() == hi, x
     # Its own fold stays whole between the traces.
     fold = p.vertices[p.triangles[_folded_rows(p.vertices, p.triangles)]][:, :, 0]
     assert fold.min() <= 100.0 and fold.max() >= 400.0
+
+
+def test_touching_region_built_once_answers_like_the_function():
+    # faultmesh.TouchingRegion (the region of triangles_touching_region built
+    # once, for the fault models' many tests against one partner outline):
+    # the same rows, from a copy of the rings (changing them afterwards
+    # changes nothing), for a concave ring with a hole and random triangles.
+    ring = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [5.0, 4.0], [0.0, 10.0]])
+    hole = np.array([[4.0, 1.0], [6.0, 1.0], [5.0, 2.0]])
+    rng = np.random.default_rng(7)
+    V = rng.uniform(-2.0, 12.0, (400, 2))
+    T = rng.integers(0, 400, (300, 3))
+    want = faultmesh.triangles_touching_region(V, T, [ring, hole])
+    region = faultmesh.TouchingRegion([ring, hole])
+    assert region.n_rings == 2
+    ring[:] = 100.0
+    got = region.touching(V, T)
+    np.testing.assert_array_equal(got, want)
+    assert 0 < len(got) < len(T)
+    assert len(faultmesh.TouchingRegion([]).touching(V, T)) == 0
+    with pytest.raises(ValueError, match="triangles"):
+        region.touching(V, np.array([[0, 1, 400]]))
+
+
+def test_ray_hits_per_point_directions():
+    # faults._ray_hits (points x ring edges in numpy): the first hit along
+    # each point's own direction, or one direction for all; inf for a miss;
+    # a hit at the start point itself (t = 0) does not count.
+    from faultmesh.faults import _ray_hits
+
+    square = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]])
+    p = np.array([[5.0, 5.0], [-2.0, 5.0], [5.0, 5.0], [0.0, 5.0]])
+    d = np.array([[1.0, 0.0], [2.0, 0.0], [0.0, -0.5], [-1.0, 0.0]])
+    np.testing.assert_array_equal(_ray_hits(p, d, [square]), [5.0, 1.0, 10.0, np.inf])
+    np.testing.assert_array_equal(_ray_hits(p[:3], np.array([1.0, 0.0]), [square]), [5.0, 2.0, 5.0])
+    assert _ray_hits(np.zeros((0, 2)), np.array([1.0, 0.0]), [square]).shape == (0,)
 
 
 def test_extension_follows_the_boundary_around_corners():

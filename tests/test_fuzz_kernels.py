@@ -931,6 +931,7 @@ def test_every_property_of_every_bound_class():
         "Stitcher": st_,
         "StudyArea": fm.StudyArea(square),
         "Tin": fm.Tin(v),
+        "TouchingRegion": fm.TouchingRegion([square]),
     }
     # Enums (TriangleKind) are Python's own enum classes, with no bound properties.
     classes = {k for k, c in vars(core).items()

@@ -288,6 +288,38 @@ local merge with shared vertices. mesh() returns the compacted surface.
         "Rows (int64) of the triangles whose closed XY projection meets the closed region given\n"
         "by rings (list of (k, 2) arrays, even-odd rule). Exact (orient2d).");
 
+    // Immutable after construction (it owns a copy of the rings), so
+    // concurrent queries with the GIL released are safe.
+    py::class_<TouchingRegion>(m, "TouchingRegion",
+                               "The closed region of triangles_touching_region built once for many\n"
+                               "queries: touching(vertices, triangles) equals\n"
+                               "triangles_touching_region(vertices, triangles, rings). Keeps a copy of\n"
+                               "the rings.")
+        .def(py::init([](const py::handle& rings) {
+                 RingsData R = as_rings(rings, "TouchingRegion", 2, 0);
+                 py::gil_scoped_release release;
+                 return TouchingRegion(R.xy.data(), R.offsets.data(), R.n_rings());
+             }),
+             py::arg("rings"))
+        .def_property_readonly("n_rings", &TouchingRegion::n_rings, "Number of rings it was built from.")
+        .def(
+            "touching",
+            [](const TouchingRegion& self, const py::handle& vertices, const py::handle& triangles) {
+                const char* fn = "TouchingRegion.touching";
+                auto V = as_points(vertices, fn, "vertices", 2, 3);
+                auto T = as_indices(triangles, fn, "triangles", 3);
+                std::vector<std::int64_t> out;
+                {
+                    py::gil_scoped_release release;
+                    out = self.touching(V.data(), static_cast<std::size_t>(V.shape(0)),
+                                        static_cast<std::size_t>(V.shape(1)), T.data(),
+                                        static_cast<std::size_t>(T.shape(0)));
+                }
+                return to_numpy(std::move(out));
+            },
+            py::arg("vertices"), py::arg("triangles"),
+            "Rows (int64) of the triangles whose closed XY projection meets the region. Exact.");
+
     m.def(
         "triangles_not_covered_once",
         [](const py::handle& vertices, const py::handle& triangles) {

@@ -338,25 +338,33 @@ StitchResult stitch(const double* vertices, std::size_t n_vertices, const std::i
     return res;
 }
 
-std::vector<std::int64_t> triangles_touching_region(const double* vertices, std::size_t n_vertices,
-                                                    std::size_t stride, const std::int64_t* triangles,
-                                                    std::size_t n_triangles, const double* ring_xy,
-                                                    const std::int64_t* ring_offsets, std::size_t n_rings) {
+TouchingRegion::TouchingRegion(const double* ring_xy, const std::int64_t* ring_offsets, std::size_t n_rings) {
     const char* fn = "triangles_touching_region";
-    if (stride != 2 && stride != 3) throw std::invalid_argument(std::string(fn) + ": stride must be 2 or 3");
-    if (n_rings == 0) return {};
+    if (n_rings == 0) return;
     if (ring_offsets[0] != 0) throw std::invalid_argument(std::string(fn) + ": ring_offsets[0] must be 0");
     for (std::size_t r = 0; r < n_rings; ++r)
         if (ring_offsets[r + 1] < ring_offsets[r])
             throw std::invalid_argument(std::string(fn) + ": ring_offsets must be non-decreasing");
     const std::size_t np = static_cast<std::size_t>(ring_offsets[n_rings]);
-    std::vector<double> xy(ring_xy, ring_xy + 2 * np);
-    for (std::size_t i = 0; i < xy.size(); ++i)
-        if (!coordinate_in_range(xy[i]))
-            throw_coordinate_error(fn, "ring point " + std::to_string(i / 2), static_cast<int>(i % 2), xy[i]);
-    std::vector<std::int64_t> off(ring_offsets, ring_offsets + n_rings + 1);
-    const detail::Region region(xy.data(), off.data(), n_rings);
+    xy_.assign(ring_xy, ring_xy + 2 * np);
+    for (std::size_t i = 0; i < xy_.size(); ++i)
+        if (!coordinate_in_range(xy_[i]))
+            throw_coordinate_error(fn, "ring point " + std::to_string(i / 2), static_cast<int>(i % 2), xy_[i]);
+    offsets_.assign(ring_offsets, ring_offsets + n_rings + 1);
+    region_ = std::make_unique<detail::Region>(xy_.data(), offsets_.data(), n_rings);
+}
+
+TouchingRegion::~TouchingRegion() = default;
+TouchingRegion::TouchingRegion(TouchingRegion&&) noexcept = default;
+TouchingRegion& TouchingRegion::operator=(TouchingRegion&&) noexcept = default;
+
+std::vector<std::int64_t> TouchingRegion::touching(const double* vertices, std::size_t n_vertices,
+                                                   std::size_t stride, const std::int64_t* triangles,
+                                                   std::size_t n_triangles) const {
+    const char* fn = "triangles_touching_region";
+    if (stride != 2 && stride != 3) throw std::invalid_argument(std::string(fn) + ": stride must be 2 or 3");
     std::vector<std::int64_t> out;
+    if (!region_) return out;
     for (std::size_t t = 0; t < n_triangles; ++t) {
         const std::int64_t* r = triangles + 3 * t;
         for (int k = 0; k < 3; ++k)
@@ -372,9 +380,19 @@ std::vector<std::int64_t> triangles_touching_region(const double* vertices, std:
                 if (!coordinate_in_range(p[k]))
                     throw_coordinate_error(fn, "vertices row " + std::to_string((p - vertices) / static_cast<std::ptrdiff_t>(stride)) +
                                                " (used by triangles row " + std::to_string(t) + ")", k, p[k]);
-        if (region.meets_closed_triangle(a, b, c)) out.push_back(static_cast<std::int64_t>(t));
+        if (region_->meets_closed_triangle(a, b, c)) out.push_back(static_cast<std::int64_t>(t));
     }
     return out;
+}
+
+std::vector<std::int64_t> triangles_touching_region(const double* vertices, std::size_t n_vertices,
+                                                    std::size_t stride, const std::int64_t* triangles,
+                                                    std::size_t n_triangles, const double* ring_xy,
+                                                    const std::int64_t* ring_offsets, std::size_t n_rings) {
+    if (stride != 2 && stride != 3)
+        throw std::invalid_argument("triangles_touching_region: stride must be 2 or 3");
+    return TouchingRegion(ring_xy, ring_offsets, n_rings).touching(vertices, n_vertices, stride, triangles,
+                                                                   n_triangles);
 }
 
 std::vector<std::int64_t> triangles_not_covered_once(const double* vertices, std::size_t n_vertices,

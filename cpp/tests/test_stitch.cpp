@@ -251,6 +251,25 @@ TEST(Stitch, TrianglesTouchingRegion) {
     EXPECT_EQ(got, (std::vector<std::int64_t>{0, 2, 3}));
 }
 
+TEST(Stitch, TouchingRegionBuiltOnceAnswersLikeTheFunction) {
+    // The region is built once from a copy of the rings: changing the
+    // caller's ring afterwards changes nothing; each query equals
+    // triangles_touching_region; no rings touch nothing.
+    std::vector<double> ring = {0, 0, 4, 0, 4, 4, 0, 4};
+    const std::int64_t off[] = {0, 4};
+    const double v[] = {4, 4, 6, 4, 6, 6,  5, 0, 7, 0, 6, 2,  1, 1, 2, 1, 1, 2,  -1, -1, 9, -1, -1, 9};
+    const std::int64_t t[] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11};
+    const faultmesh::TouchingRegion region(ring.data(), off, 1);
+    const auto want = faultmesh::triangles_touching_region(v, 12, 2, t, 4, ring.data(), off, 1);
+    std::fill(ring.begin(), ring.end(), 100.0);
+    EXPECT_EQ(region.touching(v, 12, 2, t, 4), want);
+    EXPECT_EQ(region.touching(v, 12, 2, t + 6, 2), (std::vector<std::int64_t>{0, 1}));
+    const std::int64_t bad[] = {0, 1, 12};
+    EXPECT_THROW(region.touching(v, 12, 2, bad, 1), std::invalid_argument);
+    const faultmesh::TouchingRegion none(nullptr, off, 0);
+    EXPECT_TRUE(none.touching(v, 12, 2, t, 4).empty());
+}
+
 // ---------------------------------------------------------------------------
 // The steps of one stitch, each on its own (stitch_steps.hpp)
 // ---------------------------------------------------------------------------

@@ -8,7 +8,7 @@ import enum
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'incircle', 'join_holes', 'loft', 'loft_area', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
+__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TouchingRegion', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'incircle', 'join_holes', 'loft', 'loft_area', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
 class GeometryError(ValueError):
     pass
 class PatchOverlapError(GeometryError):
@@ -554,6 +554,24 @@ class Stitcher:
     @property
     def patch_names(self) -> list[str]:
         ...
+class TouchingRegion:
+    """
+    The closed region of triangles_touching_region built once for many
+    queries: touching(vertices, triangles) equals
+    triangles_touching_region(vertices, triangles, rings). Keeps a copy of
+    the rings.
+    """
+    def __init__(self, rings: typing.Any) -> None:
+        ...
+    def touching(self, vertices: typing.Any, triangles: typing.Any) -> numpy.typing.NDArray[numpy.int64]:
+        """
+        Rows (int64) of the triangles whose closed XY projection meets the region. Exact.
+        """
+    @property
+    def n_rings(self) -> int:
+        """
+        Number of rings it was built from.
+        """
 def boundary_contours(triangles: typing.Any, *, n_vertices: typing.Any = None) -> BoundaryContours:
     """
     Full boundary report (BoundaryContours): loops, open_chains, pinch_vertices,

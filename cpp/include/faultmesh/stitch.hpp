@@ -131,6 +131,7 @@ struct StitchedMesh {
 class LayerStitcher;
 class LayerTin;
 namespace detail {
+class Region;
 struct StitcherState;
 StitcherState& state_of(LayerStitcher& st);  // internal: the step tests reach the state
 }  // namespace detail
@@ -213,6 +214,26 @@ std::vector<std::int64_t> triangles_touching_region(const double* vertices, std:
                                                     std::size_t n_triangles, const double* ring_xy,
                                                     const std::int64_t* ring_offsets,
                                                     std::size_t n_rings);
+
+// The region of triangles_touching_region built once (from a copy of the
+// rings) for many queries: a fault model tests a thousand small pieces
+// against one partner's outline, and building the region was most of each
+// call. touching(...) is triangles_touching_region(..., the rings).
+class TouchingRegion {
+public:
+    TouchingRegion(const double* ring_xy, const std::int64_t* ring_offsets, std::size_t n_rings);
+    ~TouchingRegion();
+    TouchingRegion(TouchingRegion&&) noexcept;
+    TouchingRegion& operator=(TouchingRegion&&) noexcept;
+    std::vector<std::int64_t> touching(const double* vertices, std::size_t n_vertices, std::size_t stride,
+                                       const std::int64_t* triangles, std::size_t n_triangles) const;
+    std::size_t n_rings() const { return offsets_.empty() ? 0 : offsets_.size() - 1; }
+
+private:
+    std::vector<double> xy_;
+    std::vector<std::int64_t> offsets_;
+    std::unique_ptr<detail::Region> region_;  // null: no rings
+};
 
 // Rows of the triangles at whose centroid the surface does not cover the XY
 // plane exactly once, counted with orientation: a triangle containing the
