@@ -1121,6 +1121,27 @@ def _regional_slope(D: np.ndarray, frame: GridFrame) -> np.ndarray:
     return coef[1:]
 
 
+def _joint_setup(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, spacing: float):
+    """What a fit of both sides together (:func:`_joint_sides`,
+    :func:`_decay_sides`) starts from: (footwall data, hanging-wall data,
+    inside (n,) the data in the frame, hw (n,) the hanging-wall ones, the
+    smoothing length, the throw's knots along strike every half section
+    ``spacing``); None when a side has fewer than 3 data, or fewer than 3 in
+    the frame (random_ground(75): none at all, a division by zero in the
+    fit)."""
+    foot, hang = D[split["foot"]], D[split["hanging"]]
+    if len(foot) < 3 or len(hang) < 3:
+        return None
+    inside = frame.inside(D[:, :2])
+    hw = split["hanging"] & ~split["foot"]
+    if (inside & hw).sum() < 3 or (inside & ~hw).sum() < 3:
+        return None
+    ell = SMOOTHING * _median_spacing(D)
+    u_lo, u_hi = frame.u0, frame.u0 + frame.h * (frame.nu - 1)
+    nk = max(2, int(math.ceil((u_hi - u_lo) / (0.5 * spacing))) + 1)
+    return foot, hang, inside, hw, ell, np.linspace(u_lo, u_hi, nk)
+
+
 def _joint_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, k: int,
                  spacing: float) -> Optional[Dict[str, "SideSurface"]]:
     """Both sides of a layer from the data of both (used where neither
@@ -1134,19 +1155,10 @@ def _joint_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     it assumes the offset does not die out away from the fault within the
     frame, so it is not used where the sides have data near the fault.
     None when a side has fewer than 3 data."""
-    foot, hang = D[split["foot"]], D[split["hanging"]]
-    if len(foot) < 3 or len(hang) < 3:
+    setup = _joint_setup(D, split, frame, spacing)
+    if setup is None:
         return None
-    inside = frame.inside(D[:, :2])
-    hw = split["hanging"] & ~split["foot"]
-    if (inside & hw).sum() < 3 or (inside & ~hw).sum() < 3:
-        # Too few data of a side in the frame to fit a throw (random_ground(75):
-        # none at all, a division by zero in the fit).
-        return None
-    ell = SMOOTHING * _median_spacing(D)
-    u_lo, u_hi = frame.u0, frame.u0 + frame.h * (frame.nu - 1)
-    nk = max(2, int(math.ceil((u_hi - u_lo) / (0.5 * spacing))) + 1)
-    knots = np.linspace(u_lo, u_hi, nk)
+    foot, hang, inside, hw, ell, knots = setup
     nodes, T = _min_curvature(frame, D[inside, :2], D[inside, 2], ell, None, None, hw[inside],
                               knots, spacing)
     return {"foot": SideSurface(foot, k, frame, ell, nodes=nodes),
@@ -1246,20 +1258,13 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     extrapolates the fading bend (random_ground(30) as v2: the hanging wall
     9-17 m too high on 4 of 8 sections). None when a side has fewer than 3
     data in the frame."""
-    foot, hang = D[split["foot"]], D[split["hanging"]]
-    if len(foot) < 3 or len(hang) < 3:
+    setup = _joint_setup(D, split, frame, spacing)
+    if setup is None:
         return None
-    inside = frame.inside(D[:, :2])
-    hw = split["hanging"] & ~split["foot"]
-    if (inside & hw).sum() < 3 or (inside & ~hw).sum() < 3:
-        return None
+    foot, hang, inside, hw, ell, knots = setup
     dist = _hanging_distance(fs, frame, ring)
     if dist is None:
         return None
-    ell = SMOOTHING * _median_spacing(D)
-    u_lo, u_hi = frame.u0, frame.u0 + frame.h * (frame.nu - 1)
-    nk = max(2, int(math.ceil((u_hi - u_lo) / (0.5 * spacing))) + 1)
-    knots = np.linspace(u_lo, u_hi, nk)
     Di = D[inside]
     d = dist(Di[:, :2], Di[:, 2])
     # The profile is chosen on a grid of twice the cell (a quarter of the
