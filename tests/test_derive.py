@@ -807,3 +807,18 @@ def test_thin_layers_of_deviated_holes_are_repaired():
     m = faultmesh.build_model(ds, evaluate=False)
     m.check()
     assert m.metadata["repair"]["L6"]["rounds"] >= 1
+
+
+def test_carried_end_keeps_its_share_of_the_room():
+    """Regression (random_ground(411) as v2: four faults, F1+F2 a group;
+    F2's south end, 320 m from the boundary, is carried along strike onto
+    it and lands 80 m from F3's trace, which runs out there too): the end
+    sections' polylines kept to their share of the room at the section
+    only; carried onto the boundary, F2's footwall polyline ran onto F3's
+    hanging-wall one in L1 ("faults too close"). The end section of an end
+    carried to the boundary now keeps to its share all along the way."""
+    from faultmesh import grounds
+
+    d = derive.derive_faults(grounds.random_ground(411, version=2))
+    assert d.derivation.faults["F2"].as_dict()["ends"][1] == "boundary"
+    faultmesh.build_model(d, evaluate=False).check()
