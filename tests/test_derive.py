@@ -822,3 +822,20 @@ def test_carried_end_keeps_its_share_of_the_room():
     d = derive.derive_faults(grounds.random_ground(411, version=2))
     assert d.derivation.faults["F2"].as_dict()["ends"][1] == "boundary"
     faultmesh.build_model(d, evaluate=False).check()
+
+
+def test_tops_repeated_across_another_fault_stay_in_their_block():
+    """Regression (random_ground(489) as v2: three faults, F3 reverse; a
+    deviated hole through F3 meets L5 on both of its sides, 0.9 m apart in
+    map view and 9.7 m apart in z): F1's hanging-wall surface of L5 went
+    through both tops, bent by hundreds of metres away from them, and F1's
+    L5 cutoffs came out 260 m apart (the truth: F1 does not displace L5);
+    its patch ran into F3's ("faults too close"). A datum across another
+    fault with one on this fault's side of it within a grid cell is now
+    left out of this fault's side surfaces (_in_own_block)."""
+    from faultmesh import grounds
+
+    d = derive.derive_faults(grounds.random_ground(489, version=2))
+    throw = d.derivation.faults["F1"].as_dict()["throw"]["L5"]["throw"]
+    assert np.nanmax(np.abs(throw)) < 30.0
+    faultmesh.build_model(d, evaluate=False).check()

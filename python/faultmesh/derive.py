@@ -1371,6 +1371,39 @@ def _regional_throw(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, data: np.nd
     return float(coef[2])
 
 
+def _in_own_block(D: np.ndarray, fs: FaultSurface, others: Sequence[FaultSurface],
+                  cell: float) -> np.ndarray:
+    """Mask (n,) of the layer data ``D`` (n, 3) that this fault's side
+    surfaces may use: all but a datum that lies on the other side of another
+    fault (in that fault's extent; exact sides) than this fault does while a
+    datum on this fault's side of it lies within ``cell`` (XY). A hole
+    through a reverse fault meets the layer on both of its sides, nearly in
+    one place; the two tops belong to different blocks of that fault, and a
+    surface through both at once (a step of the other fault's throw within
+    a grid cell of the side surfaces) bends by hundreds of metres away from
+    them (random_ground(489) as v2: two tops of L5 0.9 m apart across F3,
+    9.7 m apart in z; F1's hanging wall came out 260 m above its data, F1's
+    patch ran into F3's: "faults too close"). Which side of the other
+    fault this one is on: that of its centre, relative to the other's
+    continued surface."""
+    keep = np.ones(len(D), dtype=bool)
+    if not others or len(D) < 2:
+        return keep
+    from scipy.spatial import cKDTree
+
+    for o in others:
+        mine = int(o.side(fs.centre[None, :])[1][0])
+        if mine not in (-1, 1):
+            continue
+        side = o.side(D)[0]
+        near, far = side == mine, side == -mine
+        if not near.any() or not far.any():
+            continue
+        d, _ = cKDTree(D[near, :2]).query(D[far, :2], k=1)
+        keep[np.flatnonzero(far)[d <= cell]] = False
+    return keep
+
+
 def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float, float],
                   used_names: set, fs: FaultSurface, warn: List[str],
                   partners: Sequence[FaultSurface] = (),
@@ -1436,9 +1469,12 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
         D = layer_data(ds, lay)
         if len(D) < 3:
             continue
+        spacing_data = _median_spacing(D)
+        D = D[_in_own_block(D, fs, others, 0.5 * spacing_data)]
+        if len(D) < 3:
+            continue
         ext = fs.side(D)[1]
         split = {"hanging": ext >= 0, "foot": ext <= 0}
-        spacing_data = _median_spacing(D)
         frame = _side_frame(fs, ring, 3.0 * spacing + 2.0 * spacing_data, spacing_data / 2.0)
         sides = _side_surfaces(D, split, frame, opt.k)
         if sides is None:
