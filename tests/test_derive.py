@@ -839,3 +839,16 @@ def test_tops_repeated_across_another_fault_stay_in_their_block():
     throw = d.derivation.faults["F1"].as_dict()["throw"]["L5"]["throw"]
     assert np.nanmax(np.abs(throw)) < 30.0
     faultmesh.build_model(d, evaluate=False).check()
+
+
+def test_carried_ends_of_a_pair_and_a_reverse_fault_keep_apart():
+    """Regression (random_ground(697) as v2: F1+F2 a group, F4 reverse):
+    the same class as random_ground(411). F4's end section, carried 290 m
+    along strike onto the boundary, took its 500 m hanging-wall polyline
+    of L1 along into F2's patch, whose end is carried onto the boundary
+    there too ("faults too close"); now builds and passes check()."""
+    from faultmesh import grounds
+
+    d = derive.derive_faults(grounds.random_ground(697, version=2))
+    assert d.derivation.faults["F4"].as_dict()["ends"][0] == "boundary"
+    faultmesh.build_model(d, evaluate=False).check()
