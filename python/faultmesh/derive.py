@@ -1809,6 +1809,7 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
         for lay, r in res.items():
             if lay in layers or not cut[lay][i]:
                 continue
+            f, h = cutpts[lay][i]
             poly = at_ends[lay][i] if i in at_ends[lay] else polylines(i, lay)
             if poly is None:
                 continue
