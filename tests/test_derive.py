@@ -807,3 +807,48 @@ def test_thin_layers_of_deviated_holes_are_repaired():
     m = faultmesh.build_model(ds, evaluate=False)
     m.check()
     assert m.metadata["repair"]["L6"]["rounds"] >= 1
+
+
+def test_carried_end_keeps_its_share_of_the_room():
+    """Regression (random_ground(411) as v2: four faults, F1+F2 a group;
+    F2's south end, 320 m from the boundary, is carried along strike onto
+    it and lands 80 m from F3's trace, which runs out there too): the end
+    sections' polylines kept to their share of the room at the section
+    only; carried onto the boundary, F2's footwall polyline ran onto F3's
+    hanging-wall one in L1 ("faults too close"). The end section of an end
+    carried to the boundary now keeps to its share all along the way."""
+    from faultmesh import grounds
+
+    d = derive.derive_faults(grounds.random_ground(411, version=2))
+    assert d.derivation.faults["F2"].as_dict()["ends"][1] == "boundary"
+    faultmesh.build_model(d, evaluate=False).check()
+
+
+def test_tops_repeated_across_another_fault_stay_in_their_block():
+    """Regression (random_ground(489) as v2: three faults, F3 reverse; a
+    deviated hole through F3 meets L5 on both of its sides, 0.9 m apart in
+    map view and 9.7 m apart in z): F1's hanging-wall surface of L5 went
+    through both tops, bent by hundreds of metres away from them, and F1's
+    L5 cutoffs came out 260 m apart (the truth: F1 does not displace L5);
+    its patch ran into F3's ("faults too close"). A datum across another
+    fault with one on this fault's side of it within a grid cell is now
+    left out of this fault's side surfaces (_in_own_block)."""
+    from faultmesh import grounds
+
+    d = derive.derive_faults(grounds.random_ground(489, version=2))
+    throw = d.derivation.faults["F1"].as_dict()["throw"]["L5"]["throw"]
+    assert np.nanmax(np.abs(throw)) < 30.0
+    faultmesh.build_model(d, evaluate=False).check()
+
+
+def test_carried_ends_of_a_pair_and_a_reverse_fault_keep_apart():
+    """Regression (random_ground(697) as v2: F1+F2 a group, F4 reverse):
+    the same class as random_ground(411). F4's end section, carried 290 m
+    along strike onto the boundary, took its 500 m hanging-wall polyline
+    of L1 along into F2's patch, whose end is carried onto the boundary
+    there too ("faults too close"); now builds and passes check()."""
+    from faultmesh import grounds
+
+    d = derive.derive_faults(grounds.random_ground(697, version=2))
+    assert d.derivation.faults["F4"].as_dict()["ends"][0] == "boundary"
+    faultmesh.build_model(d, evaluate=False).check()

@@ -1376,6 +1376,39 @@ def _regional_throw(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, data: np.nd
     return float(coef[2])
 
 
+def _in_own_block(D: np.ndarray, fs: FaultSurface, others: Sequence[FaultSurface],
+                  cell: float) -> np.ndarray:
+    """Mask (n,) of the layer data ``D`` (n, 3) that this fault's side
+    surfaces may use: all but a datum that lies on the other side of another
+    fault (in that fault's extent; exact sides) than this fault does while a
+    datum on this fault's side of it lies within ``cell`` (XY). A hole
+    through a reverse fault meets the layer on both of its sides, nearly in
+    one place; the two tops belong to different blocks of that fault, and a
+    surface through both at once (a step of the other fault's throw within
+    a grid cell of the side surfaces) bends by hundreds of metres away from
+    them (random_ground(489) as v2: two tops of L5 0.9 m apart across F3,
+    9.7 m apart in z; F1's hanging wall came out 260 m above its data, F1's
+    patch ran into F3's: "faults too close"). Which side of the other
+    fault this one is on: that of its centre, relative to the other's
+    continued surface."""
+    keep = np.ones(len(D), dtype=bool)
+    if not others or len(D) < 2:
+        return keep
+    from scipy.spatial import cKDTree
+
+    for o in others:
+        mine = int(o.side(fs.centre[None, :])[1][0])
+        if mine not in (-1, 1):
+            continue
+        side = o.side(D)[0]
+        near, far = side == mine, side == -mine
+        if not near.any() or not far.any():
+            continue
+        d, _ = cKDTree(D[near, :2]).query(D[far, :2], k=1)
+        keep[np.flatnonzero(far)[d <= cell]] = False
+    return keep
+
+
 def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float, float],
                   used_names: set, fs: FaultSurface, warn: List[str],
                   partners: Sequence[FaultSurface] = (),
@@ -1441,9 +1474,12 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
         D = layer_data(ds, lay)
         if len(D) < 3:
             continue
+        spacing_data = _median_spacing(D)
+        D = D[_in_own_block(D, fs, others, 0.5 * spacing_data)]
+        if len(D) < 3:
+            continue
         ext = fs.side(D)[1]
         split = {"hanging": ext >= 0, "foot": ext <= 0}
-        spacing_data = _median_spacing(D)
         frame = _side_frame(fs, ring, 3.0 * spacing + 2.0 * spacing_data, spacing_data / 2.0)
         sides = _side_surfaces(D, split, frame, opt.k)
         if sides is None:
@@ -1730,6 +1766,36 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
             fars[lay] = tuple(min(float(np.percentile([q[j] for q in need], 75)), cap)
                               for j in (0, 1))
 
+    def polylines(i: int, lay: str, carry: Optional[np.ndarray] = None):
+        tr, r = traces[i], res[lay]
+        f, h = cutpts[lay][i]
+        hinted = r.get("hinted", {}).get(i)
+        surf_f = hinted[1] if hinted and hinted[0] == "foot" else _sides_of(r, i)["foot"]
+        surf_h = hinted[1] if hinted and hinted[0] == "hanging" else _sides_of(r, i)["hanging"]
+        return _wall_polylines(tr, f, h, surf_f, surf_h, *fars[lay], r["spacing"],
+                               _room_between_faults(tr, f, h, fs, others, *fars[lay],
+                                                    carry=carry, ring=ring))
+
+    # The end section of a layer at an end the builder carries along strike
+    # onto the boundary: its polylines keep to the fault's share of the room
+    # all along the way there (_room_between_faults, carry), which decides
+    # which section is the end one (a section left without room is not).
+    at_ends: Dict[str, Dict[int, Optional[Dict[str, np.ndarray]]]] = {lay: {} for lay in res}
+    if others:
+        for e, seq in ((0, list(order)), (1, list(order)[::-1])):
+            if end_kind[e] != "boundary":
+                continue
+            carry = (-1.0 if e == 0 else 1.0) * fs.strike
+            for lay in res:
+                for i in seq:
+                    if i not in keep_lines or not cut[lay][i] or not np.isfinite(traces[i].interval[0]):
+                        continue
+                    if lines[i]["given"] is not None and lay in lines[i]["given"].layers:
+                        break
+                    at_ends[lay][i] = polylines(i, lay, carry)
+                    if at_ends[lay][i] is not None:
+                        break
+
     # Traces.
     new_secs: Dict[str, Section] = {}
     out_traces: List[Tuple[float, Trace]] = []
@@ -1749,11 +1815,7 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
             if lay in layers or not cut[lay][i]:
                 continue
             f, h = cutpts[lay][i]
-            hinted = r.get("hinted", {}).get(i)
-            surf_f = hinted[1] if hinted and hinted[0] == "foot" else _sides_of(r, i)["foot"]
-            surf_h = hinted[1] if hinted and hinted[0] == "hanging" else _sides_of(r, i)["hanging"]
-            poly = _wall_polylines(tr, f, h, surf_f, surf_h, *fars[lay], r["spacing"],
-                                   _room_between_faults(tr, f, h, fs, others, *fars[lay]))
+            poly = at_ends[lay][i] if i in at_ends[lay] else polylines(i, lay)
             if poly is None:
                 continue
             layers[lay] = poly
@@ -1961,7 +2023,8 @@ def _within_extent(fs: FaultSurface, z: float) -> float:
 
 def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: FaultSurface,
                          others: Sequence[FaultSurface], far_f: float,
-                         far_h: float) -> Tuple[float, float]:
+                         far_h: float, carry: Optional[np.ndarray] = None,
+                         ring: Optional[np.ndarray] = None) -> Tuple[float, float]:
     """(lo, hi) along the section: how far the footwall polyline may reach
     back (s >= lo, at most ``far_f`` from its cutoff) and the hanging-wall
     polyline forward (s <= hi, at most ``far_h``) while it stays in this
@@ -1974,7 +2037,16 @@ def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: F
     triangle that joins the two sides, often a kilometre or more; two
     separate faults a kilometre apart then got patches that overlapped,
     which the stitcher rejects (random_ground(6) and (75) as v2, 22 and 30
-    holes)."""
+    holes).
+
+    ``carry`` (2,), with ``ring``: the section is the end section of an end
+    that the builder carries along this direction onto the study-area
+    boundary (faults.py, end kind ``extended``); every point must then keep
+    to the share all along its way there, not only where it is: carried
+    280 m past its last data, random_ground(411) as v2's F2 ended 80 m from
+    F3's trace at the boundary, its end section's footwall polyline
+    (limited by the room at the section only) carried onto F3's ("faults
+    too close")."""
     sf = float((f[:2] - tr.origin) @ tr.direction)
     sh = float((h[:2] - tr.origin) @ tr.direction)
     lo, hi = sf - far_f, sh + far_h
@@ -1989,16 +2061,31 @@ def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: F
         if not theirs or not far > 0:
             continue
         # 64 steps: the far end is placed to within 1/64 of its reach.
-        ss = sc + sgn * far * np.linspace(0.0, 1.0, 65)[1:]
+        ss = sc + sgn * far * np.linspace(0.0, 1.0, 65)
         P = tr.origin + ss[:, None] * tr.direction
+        n_way = 1
+        if carry is not None:
+            # Each point on its way along `carry` onto the boundary, in 16
+            # steps (a 16th of the way, tens of metres, well under the room
+            # a share leaves between faults that far apart); a point with no
+            # boundary ahead stays where it is.
+            t = _ray_to_ring(P, carry, ring)
+            t = np.where(np.isfinite(t), t, 0.0)
+            n_way = 17
+            P = (P[:, None, :] + (t[:, None] * np.linspace(0.0, 1.0, n_way))[:, :, None]
+                 * carry[None, None, :]).reshape(-1, 2)
         mine = _contour_xy(own, float(cut[2]))
         d_own = (_point_segment_distance(P, mine[:, 0], mine[:, 1]).min(axis=1) if len(mine)
                  else np.hypot(*(P - cut[:2]).T))
         d_other = np.min([_point_segment_distance(P, c[:, 0], c[:, 1]).min(axis=1) for c in theirs],
                          axis=0)
-        bad = np.flatnonzero(d_own > ratio * d_other)
+        over = (d_own > ratio * d_other).reshape(65, n_way).any(axis=1)
+        # The cutoff itself (step 0) counts only on its way (at the section
+        # it lies on this fault's trace, the room rule's origin).
+        over[0] &= carry is not None
+        bad = np.flatnonzero(over)
         if len(bad):
-            stop = sc + sgn * far * (bad[0] / 64.0)
+            stop = sc + sgn * far * (max(bad[0] - 1, 0) / 64.0)
             if sgn < 0:
                 lo = stop
             else:
