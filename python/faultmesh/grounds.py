@@ -1551,6 +1551,22 @@ _NUM = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 _QUOTED = re.compile(r"'[^']*'|\"[^\"]*\"")
 
 
+def _record(seed: int, **measures: Any) -> Dict[str, Any]:
+    """An evaluation's record of ``seed`` before it runs: the fields every
+    evaluation has (spec, outcome, error, times), then its own ``measures``."""
+    return {"seed": int(seed), "spec": None, "describe": "", "tags": {}, "ok": False, "stage": None,
+            "error_type": None, "error": None, "pattern": None, **measures, "seconds": {}}
+
+
+def _work_folder(folder, prefix: str) -> Tuple[Optional[tempfile.TemporaryDirectory], Path]:
+    """(temporary directory or None, the folder to write the ground into):
+    ``folder`` itself, or a new temporary directory (the caller cleans it up)."""
+    if folder is not None:
+        return None, Path(folder)
+    tmp = tempfile.TemporaryDirectory(prefix=prefix)
+    return tmp, Path(tmp.name)
+
+
 def _failed(out: Dict[str, Any], stage: str, e: BaseException) -> Dict[str, Any]:
     """``out`` (an evaluation's record) for a seed stopped at ``stage`` by
     the exception ``e``: its type, message (cut) and pattern; the traceback
@@ -1628,18 +1644,13 @@ def evaluate_ground(seed: int, folder=None, coverage_threshold: float = COVERAGE
     from .build import build_model
     from .dataset import load_dataset
 
-    out: Dict[str, Any] = {"seed": int(seed), "spec": None, "describe": "", "tags": {}, "ok": False,
-                           "stage": None, "error_type": None, "error": None, "pattern": None,
-                           "built": False, "checked": False, "rejected_ok": None, "accuracy": None,
-                           "coverage": None, "coverage_min": None, "seconds": {}}
+    out = _record(seed, built=False, checked=False, rejected_ok=None, accuracy=None, coverage=None,
+                  coverage_min=None)
 
     def fail(stage, e):
         return _failed(out, stage, e)
 
-    tmp = None
-    if folder is None:
-        tmp = tempfile.TemporaryDirectory(prefix="faultmesh-ground-")
-        folder = tmp.name
+    tmp, folder = _work_folder(folder, "faultmesh-ground-")
     try:
         t0 = time.perf_counter()
         try:
@@ -2150,20 +2161,13 @@ def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, **
     from .dataset import load_dataset
     from .derive import derive_faults
 
-    out: Dict[str, Any] = {"seed": int(seed), "spec": None, "describe": "", "tags": {}, "ok": False,
-                           "stage": None, "error_type": None, "error": None, "pattern": None,
-                           "v2": None, "kinds": {}, "kind_ok": None, "cutoffs": {}, "cutoff_mean": None,
-                           "cutoff_max": None, "cutoff_nan": None, "uncut": [], "error_v1": None,
-                           "error_v2": None, "ratio": None, "warnings": [], "seconds": {}}
+    out = _record(seed, v2=None, kinds={}, kind_ok=None, cutoffs={}, cutoff_mean=None, cutoff_max=None,
+                  cutoff_nan=None, uncut=[], error_v1=None, error_v2=None, ratio=None, warnings=[])
 
     def fail(stage, e):
         return _failed(out, stage, e)
 
-    tmp = None
-    if folder is None:
-        tmp = tempfile.TemporaryDirectory(prefix="faultmesh-ground-v2-")
-        folder = tmp.name
-    folder = Path(folder)
+    tmp, folder = _work_folder(folder, "faultmesh-ground-v2-")
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
