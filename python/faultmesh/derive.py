@@ -103,6 +103,7 @@ layers' data holes were filled, :mod:`faultmesh.holes`; examples/claudius).
 """
 from __future__ import annotations
 
+from functools import cached_property
 import math
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Sequence, Tuple
@@ -602,9 +603,11 @@ class FaultSurface:
         d = self.dip_dir
         return np.array([-d[1], d[0]])
 
-    @property
+    @cached_property
     def own(self) -> Tuple[np.ndarray, np.ndarray]:
-        """(vertices, triangles) of the fault's own part (no skirt), compacted."""
+        """(vertices, triangles) of the fault's own part (no skirt), compacted
+        once (the room rule and the carried ends' test ask for it per section
+        and per point)."""
         T = self.triangles[self.extent]
         used = np.zeros(len(self.vertices), dtype=bool)
         used[T.ravel()] = True

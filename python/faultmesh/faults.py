@@ -270,7 +270,8 @@ def _merge_coincident(pts: np.ndarray, tol: float) -> Tuple[np.ndarray, np.ndarr
     dropped, and per input point its position in the result. A point is
     compared with the last one kept, not with its neighbour: a run of points
     each within ``tol`` of the next merges only as far as ``tol`` reaches."""
-    step = np.sqrt(np.einsum("ij,ij->i", np.diff(pts, axis=0), np.diff(pts, axis=0)))
+    d = np.diff(pts, axis=0)
+    step = np.sqrt(np.einsum("ij,ij->i", d, d))
     if not (step <= tol).any():  # nothing to merge (the common case): one pass
         return pts, np.arange(len(pts), dtype=np.int64)
     keep = [0]
