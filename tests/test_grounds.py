@@ -420,17 +420,21 @@ def test_x_crossing_closure_follows_a_widening_band(seed, tmp_path_factory):
     assert_holds(outcome(seed, tmp_path_factory))
 
 
-# Open (strict xfail, found beyond the 500-seed sweep by the v2 runs of
-# seeds 500-799, whose v1 reference it is): an X pair of reverse faults in a
-# U-shaped area; the group patch of L2 ('F1+F2') holds a slit, F1's sheets
-# yielded to F2's band and F2's run closed short of F1 leave a sliver
-# between them uncovered, and check() finds the layer with two boundary
-# loops ("topological disk" violated). Same on a8fa799, before this stop.
-@pytest.mark.xfail(strict=True, reason="X pair: a slit between the yielded and the closed sheets")
+# 677 (found beyond the 500-seed sweep by the v2 runs of seeds 500-799, whose
+# v1 reference it is): a U-shaped area whose notch's tip (a reflex corner)
+# lies inside F2's repetition band, the notch entering the band across one
+# cutoff line only (the band passes the corner on its other side 5-8 m
+# wide, in the truth as in the model). There the strip and the hanging wall
+# both run round the tip and meet again beyond it: the layer in the study
+# area is an annulus, its second boundary loop along the notch's sides, out
+# on one sheet and back on the other. check() asked for one loop and failed
+# L2 ("topological disk", 2 loops; the model was right). A second loop is
+# now allowed where it lies on the study-area polygon and encloses no area
+# (invariants._loops_off_the_area); the X pair's F1/F2 pieces were never
+# the cause (0.2 m apart, disjoint).
 @pytest.mark.parametrize("seed", [677])
-def test_x_crossing_leaves_no_slit_in_the_group_patch(seed, tmp_path_factory):
-    out = outcome(seed, tmp_path_factory)
-    assert out["built"] and out["checked"], (out["stage"], (out.get("error") or "")[:200])
+def test_band_round_a_reflex_corner_holds(seed, tmp_path_factory):
+    assert_holds(outcome(seed, tmp_path_factory))
 
 
 # A dataset tip moved by a deeper layer's cutoff offset landed beside a

@@ -163,6 +163,86 @@ def test_reverse_fold_cancels_in_the_area():
     assert (o < 0).sum() == 4 and (o > 0).sum() == len(T) - 4
 
 
+# A rectangle 5 x 4 with a notch from its west side whose tip (2.5, 2) is a
+# reflex corner; a reverse fault's band 2 <= x <= 3 holds the tip, the notch
+# enters it across x = 2 only.
+NOTCHED = np.array([[0.0, 0.0], [5.0, 0.0], [5.0, 4.0], [0.0, 4.0], [0.0, 2.5], [2.5, 2.0], [0.0, 1.5]])
+
+
+def fold_round_the_notch(band=(2.0, 3.0)):
+    """The layer folded by that fault, in the notched area: footwall (z 0)
+    where x <= a, strip (z 1 -> 0, clockwise in XY) where b <= x <= a,
+    hanging wall (z 1) where x >= b, glued along x = a and x = b. The notch
+    tip lies in the band and the notch crosses x = b only, so the strip and
+    the hanging wall both run round the tip: an annulus whose second
+    boundary loop runs along the notch's sides, out on one sheet and back on
+    the other (sweep seed 677)."""
+    b, a = band
+    ring = [tuple(p) for p in NOTCHED]
+
+    def part(lo, hi):
+        # The notched area cut to lo <= x <= hi (vertices where the sides
+        # cross those lines), by Sutherland-Hodgman against both lines.
+        pts = ring
+        for x0, keep_right in ((lo, True), (hi, False)):
+            out = []
+            for i in range(len(pts)):
+                p, q = pts[i], pts[(i + 1) % len(pts)]
+                ip, iq = (p[0] >= x0) == keep_right, (q[0] >= x0) == keep_right
+                if ip:
+                    out.append(p)
+                if ip != iq:
+                    t = (x0 - p[0]) / (q[0] - p[0])
+                    out.append((x0, p[1] + t * (q[1] - p[1])))
+            pts = out
+        r = np.array(pts, dtype=np.float64)
+        keep = np.ones(len(r), dtype=bool)
+        keep[1:] = (np.abs(np.diff(r, axis=0)) > 0).any(axis=1)
+        return r[keep]
+
+    Vs, Ts, off = [], [], 0
+    for lo, hi, z, flip in ((-1.0, a, lambda x: 0.0 * x, False), (b, a, lambda x: (a - x) / (a - b), True),
+                            (b, 6.0, lambda x: 1.0 + 0.0 * x, False)):
+        r = part(lo, hi)
+        t = np.asarray(faultmesh.triangulate_polygon([r]), dtype=np.int64)
+        Vs.append(np.column_stack([r, z(r[:, 0])]))
+        Ts.append((t[:, ::-1] if flip else t) + off)
+        off += len(r)
+    V, T = np.vstack(Vs), np.vstack(Ts)
+    # Glue the sheets: one vertex per (x, y, z).
+    V, inv = np.unique(V, axis=0, return_inverse=True)
+    return V, inv.reshape(-1)[T]
+
+
+def test_fold_round_a_reflex_corner_passes():
+    V, T = fold_round_the_notch()
+    from faultmesh import boundary_contours
+    assert len(boundary_contours(T, n_vertices=len(V)).loops) == 2
+    check_surface(S(V, T), NOTCHED)
+    # Not so without the study area, nor for a fault surface.
+    with pytest.raises(faultmesh.GeometryError, match="topological disk.*2 loops"):
+        check_surface(S(V, T), None)
+    with pytest.raises(faultmesh.GeometryError, match="topological disk.*2 loops"):
+        check_surface(S(V, T, kind="fault"), None)
+
+
+def test_second_loop_must_run_along_the_area_and_enclose_nothing():
+    V, T = fold_round_the_notch()
+    # The notch moved 0.1 east: the second loop is off the study area.
+    moved = NOTCHED.copy()
+    moved[5, 0] += 0.1
+    with pytest.raises(faultmesh.GeometryError, match="topological disk.*2 loops.*not on the study-area"):
+        check_surface(S(V, T), moved)
+    # The strip's side of the notch cut short (its tip vertex moved onto the
+    # side nearer x = b, still on the polygon): the loop encloses a sliver.
+    tip = np.flatnonzero((V[:, 0] == 2.5) & (V[:, 1] == 2.0) & (V[:, 2] == 0.5))
+    assert len(tip) == 1
+    W = V.copy()
+    W[tip[0], :2] = [2.25, 2.05]
+    with pytest.raises(faultmesh.GeometryError, match="topological disk.*encloses"):
+        check_surface(S(W, T), NOTCHED)
+
+
 def test_vertical_strip_has_zero_xy_area_but_is_not_degenerate():
     # A vertical fault strip: footwall cutoff and hanging-wall cutoff at the
     # same XY, different z. Zero XY area is fine; zero 3D area is not.

@@ -27,7 +27,14 @@ topological disk
     edge-connected; around every vertex the triangles form one fan (no pinch
     or "bow-tie" vertex); one boundary loop; Euler characteristic
     ``V - E + F == 1``. A connected orientable surface with one boundary
-    component and characteristic 1 has genus 0: a disk.
+    component and characteristic 1 has genus 0: a disk. One exception, for
+    a layer checked against its study area: a layer folded round a reflex
+    corner of the area (the corner inside a reverse fault's band, its notch
+    entering the band across one cutoff line only) is an annulus, with a
+    second loop along the notch's sides; loops beyond the outer one are
+    allowed where each lies wholly on the study-area polygon and encloses no
+    XY area (:func:`_loops_off_the_area`), with ``V - E + F == 2 - loops``
+    (genus 0).
 boundary on the study area
     every boundary vertex lies on the study-area polygon and every boundary
     edge along one of its sides (tolerance below).
@@ -103,25 +110,83 @@ def _signed_area(poly: np.ndarray) -> float:
 
 
 def _boundary_walk(bfrom: np.ndarray, bto: np.ndarray, n: int):
-    """Loops of directed boundary edges; returns (n_loops, bad vertex or -1)."""
+    """Loops of directed boundary edges; returns (n_loops, bad vertex or -1,
+    the loop of each boundary vertex: (n,) labels 0, 1, ..., -1 off the
+    boundary)."""
     out_deg = np.bincount(bfrom, minlength=n)
     in_deg = np.bincount(bto, minlength=n)
+    label = np.full(n, -1, dtype=np.int64)
     bad = np.flatnonzero((out_deg > 1) | (in_deg > 1) | (out_deg != in_deg))
     if bad.size:
-        return -1, int(bad[0])
+        return -1, int(bad[0]), label
     nxt = np.full(n, -1, dtype=np.int64)
     nxt[bfrom] = bto
-    seen = np.zeros(n, dtype=bool)
     loops = 0
     for s in bfrom:
-        if seen[s]:
+        if label[s] >= 0:
             continue
-        loops += 1
         v = s
-        while not seen[v]:
-            seen[v] = True
+        while label[v] < 0:
+            label[v] = loops
             v = nxt[v]
-    return loops, -1
+        loops += 1
+    return loops, -1, label
+
+
+def _loops_off_the_area(V: np.ndarray, bfrom: np.ndarray, bto: np.ndarray, label: np.ndarray,
+                        loops: int, boundary: np.ndarray) -> Optional[str]:
+    """Why a layer surface with ``loops`` > 1 boundary loops is not the
+    folded layer of a concave study area, or None if it is.
+
+    The layer is the image of the unfolded layer under the fold of each
+    reverse fault (footwall, strip, hanging wall). Where a reflex corner of
+    the study area lies inside a repetition band and its notch enters the
+    band across one cutoff line only (sweep seed 677: a U-shaped area, the
+    notch's tip 60 m into F2's band, the band passing the corner on its
+    other side 5-8 m wide, in the truth as in the model), the strip and the
+    sheet joined to it along that cutoff line both run round the notch's
+    tip and meet again on its other side: the layer in the study area is an
+    annulus, not a disk, with a second boundary loop that runs along the
+    notch's sides out on one sheet and back on the other. Such a loop lies
+    wholly on the study-area polygon and encloses no XY area. A hole inside
+    the area (missing triangles) has boundary vertices off the polygon; a
+    second cover of the area would enclose it. So: every loop but the one
+    enclosing the most must have all its vertices on the polygon (the
+    tolerance of :func:`on_boundary_tolerance`) and a signed XY area of zero
+    within what those offsets and rounding allow (the bound of the area
+    invariant, per loop)."""
+    B = np.asarray(boundary, dtype=np.float64).reshape(-1, 2)
+    if len(B) >= 2 and np.array_equal(B[0], B[-1]):
+        B = B[:-1]
+    tol = on_boundary_tolerance(B)
+    lab = label[bfrom]
+    twice = np.zeros(loops)
+    allow = np.zeros(loops)
+    for k in range(loops):
+        sel = lab == k
+        p, q = V[bfrom[sel], :2], V[bto[sel], :2]
+        ref = p[0]
+        p, q = p - ref, q - ref
+        terms = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
+        twice[k] = math.fsum(terms)
+        perimeter = float(np.hypot(*(q - p).T).sum())
+        allow[k] = 8.0 * _EPS * math.fsum(np.abs(p[:, 0] * q[:, 1]) + np.abs(q[:, 0] * p[:, 1])) \
+            + 4.0 * perimeter * tol
+    outer = int(np.argmax(np.abs(twice)))
+    for k in range(loops):
+        if k == outer:
+            continue
+        verts = bfrom[lab == k]
+        d = _point_segment_distance(V[verts, :2], B, np.roll(B, -1, axis=0)).min(axis=1)
+        if (d > tol).any():
+            v = int(verts[np.argmax(d)])
+            return (f"loop {k} (through vertex {v} {V[v, :2].tolist()}) is not on the study-area "
+                    f"boundary: a hole in the layer ({d.max():.6g} off the boundary)")
+        if abs(twice[k]) > allow[k]:
+            v = int(verts[0])
+            return (f"loop {k} (through vertex {v} {V[v, :2].tolist()}) lies on the study-area "
+                    f"boundary but encloses {twice[k] / 2:.6g} in XY (tolerance {allow[k] / 2:.3g})")
+    return None
 
 
 def check_surface(surface, boundary: Optional[np.ndarray] = None) -> None:
@@ -247,18 +312,28 @@ def check_surface(surface, boundary: Optional[np.ndarray] = None) -> None:
     bfrom, bto = hf[bsel], ht[bsel]
     if len(bfrom) == 0:
         _fail(name, "topological disk", "the surface is closed (no boundary edge)")
-    loops, badv = _boundary_walk(bfrom, bto, n)
+    loops, badv, label = _boundary_walk(bfrom, bto, n)
     if badv >= 0:
         _fail(name, "topological disk", f"vertex {badv} {V[badv].tolist()} is on the boundary "
               "more than once")
     if loops != 1:
-        _fail(name, "topological disk", f"the boundary has {loops} loops, expected 1 "
-              f"(e.g. a hole around boundary edge ({int(bfrom[-1])}, {int(bto[-1])}))")
+        # A layer folded round a reflex corner of the study area has a second
+        # loop along the corner's notch (_loops_off_the_area); nothing else may.
+        # Without the study area (or on a fault surface) no loop beyond the
+        # first is allowed.
+        why = (_loops_off_the_area(V, bfrom, bto, label, loops, boundary)
+               if is_layer and boundary is not None else "")
+        if why is not None:
+            _fail(name, "topological disk", f"the boundary has {loops} loops, expected 1 "
+                  f"(e.g. a hole around boundary edge ({int(bfrom[-1])}, {int(bto[-1])}))"
+                  + (f": {why}" if why else ""))
     n_edges = len(starts)
     chi = n - n_edges + m
-    if chi != 1:
+    # Connected, orientable, genus 0: V - E + F = 2 - (number of loops).
+    if chi != 2 - loops:
         _fail(name, "topological disk", f"Euler characteristic V - E + F = {n} - {n_edges} + "
-              f"{m} = {chi}, expected 1")
+              f"{m} = {chi}, expected {2 - loops} (genus 0 with {loops} boundary loop"
+              f"{'s' if loops > 1 else ''})")
 
     if not is_layer or boundary is None:
         return
