@@ -214,11 +214,15 @@ def fold_round_the_notch(band=(2.0, 3.0)):
     return V, inv.reshape(-1)[T]
 
 
-def test_fold_round_a_reflex_corner_passes():
+@pytest.mark.parametrize("offset", [(0.0, 0.0), (550000.3, 7820000.7)])
+def test_fold_round_a_reflex_corner_passes(offset):
     V, T = fold_round_the_notch()
     from faultmesh import boundary_contours
     assert len(boundary_contours(T, n_vertices=len(V)).loops) == 2
-    check_surface(S(V, T), NOTCHED)
+    # At UTM-sized coordinates too (the loop's vertices then sit off the
+    # notch's sides by the rounding of the offset).
+    V[:, :2] += offset
+    check_surface(S(V, T), NOTCHED + offset)
     # Not so without the study area, nor for a fault surface.
     with pytest.raises(faultmesh.GeometryError, match="topological disk.*2 loops"):
         check_surface(S(V, T), None)
