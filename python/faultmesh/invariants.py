@@ -170,6 +170,10 @@ def _loops_off_the_area(V: np.ndarray, bfrom: np.ndarray, bto: np.ndarray, label
         terms = p[:, 0] * q[:, 1] - q[:, 0] * p[:, 1]
         twice[k] = math.fsum(terms)
         perimeter = float(np.hypot(*(q - p).T).sum())
+        # Twice the area: each term rounded by a few eps of its permanent
+        # (fsum adds them exactly); each vertex up to tol off its side, which
+        # moves twice the enclosed area by at most 2 * perimeter * tol --
+        # allowed twice over, as the area invariant allows per layer.
         allow[k] = 8.0 * _EPS * math.fsum(np.abs(p[:, 0] * q[:, 1]) + np.abs(q[:, 0] * p[:, 1])) \
             + 4.0 * perimeter * tol
     outer = int(np.argmax(np.abs(twice)))
