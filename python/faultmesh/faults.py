@@ -1008,10 +1008,11 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
     The data say the band runs on towards ``toward``. So ``poly``'s band
     (its strip and the sheets' points just past it, else the whole
     polyline) is first
-    carried on towards ``toward`` -- its footwall side along the line from
-    its footwall cutoff to the next one's, its hanging-wall side along the
-    hanging-wall cutoffs' line, the strip between them in proportion (the
-    band the data give: the quadrilateral of the two cutoff segments), else
+    carried on towards ``toward`` -- its footwall cutoff along the line to
+    the next one's, its hanging-wall cutoff along the hanging-wall cutoffs'
+    line, the strip and the sheets in proportion (the similarity that takes
+    the one cutoff segment to the other: the band the data give, the
+    quadrilateral of the two cutoff segments, widening or narrowing), else
     simply moved along the line to ``toward`` -- 0.9 of the way to
     ``toward`` or to the partners' outline, whichever is nearer, then
     bisected (nearer, up to 0.98, if that is clear, else back towards
@@ -1075,18 +1076,30 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
             cores.append((poly, cut))
 
     def along_cutoffs(pts: np.ndarray, cc: Tuple[int, int], t: float) -> Optional[np.ndarray]:
-        # pts (a band core, cutoffs cc) moved a fraction t of the way along
-        # the cutoff lines (None if the next polyline has no cutoffs).
+        # pts (a band core, cutoffs cc) carried a fraction t of the way along
+        # the cutoff lines (None if the next polyline has no cutoffs): the
+        # similarity (rotation and scale in XY) that takes the cutoff
+        # segment to the one a fraction t of the way along the two lines,
+        # applied to every point. The sheets' parts across and past the band
+        # scale with it: moved with their own cutoff only, the footwall sheet
+        # of a band that widens towards the next polyline no longer reached
+        # past the hanging-wall cutoff, the piece did not cover its image
+        # once and the band was merely moved, its width kept (sweep seed 76,
+        # F2 L5: a band 15 m wide at the run's end, 35 m at the next trace,
+        # 90.6 % of it repeated).
         if nxt_cut is None:
             return None
         fw, hw = cc
-        d_fw = t * (nxt[nxt_cut[0], :2] - pts[fw, :2])
-        d_hw = t * (nxt[nxt_cut[1], :2] - pts[hw, :2])
-        idx = np.arange(len(pts))
-        run = np.cumsum(np.r_[0.0, np.hypot(*np.diff(pts[:, :2], axis=0).T)])
-        strip = run[hw] - run[fw]
-        w = np.clip((run - run[fw]) / strip, 0.0, 1.0) if strip > 0.0 else (idx > fw).astype(float)
-        xy = pts[:, :2] + (1.0 - w)[:, None] * d_fw[None, :] + w[:, None] * d_hw[None, :]
+        z = pts[:, 0] + 1j * pts[:, 1]
+        a0, b0 = z[hw], z[fw]
+        a1 = a0 + t * ((nxt[nxt_cut[1], 0] + 1j * nxt[nxt_cut[1], 1]) - a0)
+        b1 = b0 + t * ((nxt[nxt_cut[0], 0] + 1j * nxt[nxt_cut[0], 1]) - b0)
+        if not b0 != a0:
+            # A band of no width: each side along its own cutoff line.
+            zz = np.where(np.arange(len(z)) > fw, z + (a1 - a0), z + (b1 - b0))
+        else:
+            zz = a1 + (z - a0) * ((b1 - a1) / (b0 - a0))
+        xy = np.column_stack([zz.real, zz.imag])
         return np.column_stack([xy, _shift_z(pts, xy, surface_z)])
 
     def carried_by(frac: float, pts: np.ndarray, cc: Tuple[int, int], follow: bool):
