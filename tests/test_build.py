@@ -1117,3 +1117,88 @@ def test_patch_keeps_the_loft_where_the_layer_departs_less_than_the_throw():
     f, L = _bump_fault(12.0)  # above the throw: followed
     p = layer_patch(f, "L", fault_ends(f), area, surface_z, along_step=50.0)
     assert len(p.vertices) > len(plain.vertices)
+
+
+def test_fold_closed_towards_a_widening_band_widens_with_it():
+    # A run of a folded patch closed towards the next trace where the band
+    # widens (10 m at x = 200, 30 m at x = 300) short of a partner at
+    # x = 240..260 (faults._closing on the band core, as _clear_of calls it).
+    # Carried along the cutoff lines with each sheet moved with its own
+    # cutoff only, the footwall sheet's core end no longer reached past the
+    # hanging-wall cutoff (here 496.4 vs 491.1: a sliver where the layer was
+    # not there at all); in sweep seeds 76 and 244 the piece then did not
+    # cover its image once and the band was merely moved, its width kept
+    # (77-91 % of F2's band repeated). The core is carried by the similarity
+    # that takes its cutoff segment along the lines: sheets and strip widen
+    # with the data's band.
+    from faultmesh import StudyArea, triangles_not_covered_once
+    from faultmesh.faults import _assemble, _band_core, _closing
+
+    def polyline(x, h):
+        # footwall from y = 470 up to its cutoff at 500 + h, the strip back
+        # down to the hanging-wall cutoff at 500 - h, the hanging wall up to 530.
+        ys = [470.0, 490.0, 500.0 + h, 500.0 - h, 510.0, 530.0]
+        zs = [-98.0, -99.0, -100.0, -80.0, -81.0, -82.0]
+        return np.array([[x, y, z] for y, z in zip(ys, zs)]), (2, 3)
+
+    area = StudyArea(np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [0.0, 1000.0]]))
+    partner = np.array([[240.0, 400.0], [260.0, 400.0], [260.0, 600.0], [240.0, 600.0]])
+    poly, cut = _band_core(*polyline(200.0, 5.0))
+    nxt, nxt_cut = polyline(300.0, 15.0)
+    got = _closing(poly, cut, nxt, nxt_cut, area, lambda xy: np.zeros(len(xy)), [partner], 1e-9,
+                   False, "min_area")
+    (carried, cc), (tip, tip_cut) = got
+    assert tip_cut is None and 230.0 < carried[:, 0].min() and carried[:, 0].max() < 240.0
+    # The cutoffs on the lines from (200, 505) to (300, 515) and from
+    # (200, 495) to (300, 485): wider than 10 m by twice the rise of a line.
+    x = carried[cc[0], 0]
+    np.testing.assert_allclose(carried[cc[0], 1], 505.0 + 0.1 * (x - 200.0), atol=1e-9)
+    np.testing.assert_allclose(carried[cc[1], 1], 495.0 - 0.1 * (x - 200.0), atol=1e-9)
+    # Each sheet reaches past the other's cutoff, its core end a quarter of
+    # the (wider) band past it.
+    assert carried[0, 1] < carried[cc[1], 1] and carried[-1, 1] > carried[cc[0], 1]
+    width = carried[cc[0], 1] - carried[cc[1], 1]
+    assert width > 15.0
+    np.testing.assert_allclose([carried[0, 1], carried[-1, 1]],
+                               [carried[cc[1], 1] - 0.25 * width, carried[cc[0], 1] + 0.25 * width],
+                               atol=1e-9)
+    V, T = _assemble([poly, carried, tip], "min_area", [cut, cc, None])
+    assert len(T) and len(triangles_not_covered_once(V, T)) == 0
+
+
+def test_fold_closed_along_an_oblique_partner_carries_each_cutoff_on_its_line():
+    # A run closed towards the next trace where the partner crosses the band
+    # obliquely between the two (its outline at x 240..250 on the
+    # hanging-wall cutoff line y = 495, at x 260..270 on the footwall one,
+    # y = 505). Carried the same share of the way on both lines, the fold
+    # stopped where the first line met the partner and left a wedge of the
+    # band short of it (sweep seed 246: F2 L4 88 % repeated). Each cutoff is
+    # now also carried as far as its own line is clear (faults._closing):
+    # the fold's end runs along the partner's outline.
+    from faultmesh import StudyArea, triangles_not_covered_once, triangles_touching_region
+    from faultmesh.faults import _assemble, _band_core, _closing, _fold_area
+
+    def polyline(x):
+        ys = [470.0, 490.0, 505.0, 495.0, 510.0, 530.0]
+        zs = [-98.0, -99.0, -100.0, -80.0, -81.0, -82.0]
+        return np.array([[x, y, z] for y, z in zip(ys, zs)]), (2, 3)
+
+    area = StudyArea(np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [0.0, 1000.0]]))
+    partner = np.array([[220.0, 485.0], [230.0, 485.0], [310.0, 525.0], [300.0, 525.0]])
+    poly, cut = _band_core(*polyline(200.0))
+    nxt, nxt_cut = polyline(300.0)
+    got = _closing(poly, cut, nxt, nxt_cut, area, lambda xy: np.zeros(len(xy)), [partner], 1e-9,
+                   False, "min_area")
+    (carried, cc), (tip, _) = got
+    fw, hw = carried[cc[0]], carried[cc[1]]
+    # On their lines, the footwall cutoff well past where the hanging-wall
+    # one stops (short of x = 240 by the core's end, a quarter of the band
+    # past the cutoff, which meets the partner first).
+    np.testing.assert_allclose([fw[1], hw[1]], [505.0, 495.0], atol=1e-9)
+    assert fw[0] > 250.0 and hw[0] > 225.0 and fw[0] - hw[0] > 15.0
+    piece = [poly, carried, tip]
+    V, T = _assemble(piece, "min_area", [cut, cc, None])
+    assert len(triangles_touching_region(V, T, [partner])) == 0
+    assert len(triangles_not_covered_once(V, T)) == 0
+    # More of the band repeated than the same share on both lines gives.
+    assert _fold_area([(poly, cut), (carried, cc), (tip, None)], "min_area") > 1.2 * 10.0 * (hw[0] - 200.0)
