@@ -852,3 +852,28 @@ def test_carried_ends_of_a_pair_and_a_reverse_fault_keep_apart():
     d = derive.derive_faults(grounds.random_ground(697, version=2))
     assert d.derivation.faults["F4"].as_dict()["ends"][0] == "boundary"
     faultmesh.build_model(d, evaluate=False).check()
+
+
+def test_layer_data_on_the_fault_belong_to_neither_side():
+    """Regression (random_ground(16) as v2: a normal fault, five L1 points in
+    its gap, where the layer's top is the fault surface itself): they went
+    into the footwall's data and dragged it down onto the hanging wall's
+    cutoff; the footwall cutoffs came out 9-39 m from the true ones on four
+    of eight sections (error near the fault 1.96 x the true cutoffs'
+    model). Data on the fault surface are now left out of both sides
+    (_on_fault): cutoffs within 5 m (0.97 x)."""
+    from faultmesh import grounds
+
+    ds = grounds.random_ground(16, version=2)
+    geo = ds.geology
+    d = derive.derive_faults(ds)
+    fr = d.derivation.faults["F1"]
+    D = derive.layer_data(ds, "L1")
+    on = derive._on_fault(fr.surface, D)
+    # Exactly the data the truth puts on the fault (to the 1 cm rounding).
+    truth_on = np.abs(D[:, 2] - geo.plane_z("F1", D[:, 0], D[:, 1])) < 0.01
+    assert on.sum() == 5 and np.array_equal(on, truth_on)
+    for side in ("foot", "hanging"):
+        dist = true_cutoff_distance(geo, "F1", "L1", side, fr.cutoffs["L1"][side],
+                                    fr.surface.dip_dir)
+        assert np.all(np.isfinite(dist)) and dist.max() < 10.0, (side, dist)
