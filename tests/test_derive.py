@@ -854,14 +854,16 @@ def test_carried_ends_of_a_pair_and_a_reverse_fault_keep_apart():
     faultmesh.build_model(d, evaluate=False).check()
 
 
-def test_layer_data_on_the_fault_belong_to_neither_side():
+def test_layer_data_in_a_normal_faults_gap_belong_to_neither_side():
     """Regression (random_ground(16) as v2: a normal fault, five L1 points in
     its gap, where the layer's top is the fault surface itself): they went
     into the footwall's data and dragged it down onto the hanging wall's
     cutoff; the footwall cutoffs came out 9-39 m from the true ones on four
     of eight sections (error near the fault 1.96 x the true cutoffs'
-    model). Data on the fault surface are now left out of both sides
-    (_on_fault): cutoffs within 5 m (0.97 x)."""
+    model). Data on the fault with the footwall above them are now left
+    out of both sides (_in_the_gap): cutoffs within 5 m (0.97 x). A datum
+    on a reverse fault (random_ground(0): at F1's hanging-wall cutoff,
+    0.015 m above the fault) stays."""
     from faultmesh import grounds
 
     ds = grounds.random_ground(16, version=2)
@@ -877,3 +879,11 @@ def test_layer_data_on_the_fault_belong_to_neither_side():
         dist = true_cutoff_distance(geo, "F1", "L1", side, fr.cutoffs["L1"][side],
                                     fr.surface.dip_dir)
         assert np.all(np.isfinite(dist)) and dist.max() < 10.0, (side, dist)
+
+    ds = grounds.random_ground(0, version=2)
+    fs = derive.fault_surface(ds.faults[0], np.asarray(ds.boundary), (-1e4, 1e4))
+    D = derive.layer_data(ds, "L1")
+    sp = derive._median_spacing(D)
+    frame = derive._side_frame(fs, np.asarray(ds.boundary), 3.0 * sp, sp / 2.0)
+    assert derive._on_fault(fs, D).sum() == 1
+    assert not derive._in_the_gap(fs, D, frame, 12).any()
