@@ -887,3 +887,21 @@ def test_layer_data_in_a_normal_faults_gap_belong_to_neither_side():
     frame = derive._side_frame(fs, np.asarray(ds.boundary), 3.0 * sp, sp / 2.0)
     assert derive._on_fault(fs, D).sum() == 1
     assert not derive._in_the_gap(fs, D, frame, 12).any()
+
+
+def test_fading_throw_fit_also_where_the_hanging_walls_data_come_near():
+    """Regression (random_ground(46) as v2: a reverse fault at 47 degrees
+    across the area, 100 holes about 430 m apart, the throw whole 98 m into
+    the hanging wall and fading over the next 181 m): on the sections whose
+    hanging-wall data come within a data spacing of the cutoff the hanging
+    wall's own surface extrapolated the fading bend (hanging-wall polylines
+    7 m too deep 75-150 m from the cutoff), error near the fault 1.52x the
+    true cutoffs' model. The fading-throw fit now takes every section where
+    a datum that shows the throw is near along strike (derive.DECAY_GAP 0):
+    1.19x."""
+    from faultmesh import grounds
+
+    out = grounds.evaluate_ground_v2(46)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    assert out["kind_ok"], out["kinds"]
+    assert out["ratio"] <= grounds.V2_RATIO, (out["error_v1"], out["error_v2"])
