@@ -89,13 +89,13 @@ carry these traces; its ``derivation`` is a :class:`DeriveReport` (per fault:
 kind derived and given, warnings, throw profile, tips, cutoff lines).
 
 Accuracy and limitations (docs/derive.md): on generated grounds the
-error near faults is 0.49-1.06x that of the model built from the exact
-cutoffs with boreholes about 160 m apart, 0.84-1.00x with boreholes 350 m
+error near faults is 0.51-1.07x that of the model built from the exact
+cutoffs with boreholes about 160 m apart, 0.78-0.89x with boreholes 350 m
 apart (the grounds of tests/test_derive.py), except a fault curved by 150 m in map view (2.3x: its hanging wall
 bends away from the fault where the nearest holes are); on the random
-grounds of :mod:`faultmesh.grounds` 10 of 91 are within 1.25x (ratio
-median 2.56), none of those whose hanging walls have fewer data showing
-the throw than there are sections. A side whose data stop far from the fault cannot show drag
+grounds of :mod:`faultmesh.grounds` 14 of 91 are within 1.25x (ratio
+median 2.53), each with a hanging-wall datum that shows the throw for
+every displaced layer. A side whose data stop far from the fault cannot show drag
 or rollover there: Claudius with every pick within 300 m (3D) of a fault
 point withheld, median error 11.4 m at those picks (12.0 m before the
 layers' data holes were filled, :mod:`faultmesh.holes`; examples/claudius).
