@@ -230,6 +230,21 @@ def test_later_patch_merges_the_gap_around_a_carried_end_touching_the_boundary_a
     assert out["kinds"]["F1"] == ["reverse", "reverse"] and out["kinds"]["F2"] == ["normal", "normal"]
 
 
+def test_layer_repair_ends_where_an_upper_boundary_vertex_lies_an_ulp_outside_the_lower_hull(tmp_path):
+    """Regression (random_ground(968), found by the v2 sweep of seeds 800-999
+    as its reference, the v1 model, failing): L1's boundary vertex on a
+    slanted side lay 1 ulp outside L2's hull, in a sliver triangle of L2's
+    TIN beyond the study area, which put L2 there 3.4 mm above that very
+    vertex's own copy in L2; the repair's rule 1b inserted it again every
+    round ("'L2' still crosses 'L1' after 50 rounds"). LayerTin.interpolate
+    now gives every point on the study-area boundary its boundary piece's
+    elevation (ctest LayerTinInterpolate.PointsOnTheBoundaryGetTheirPiecesElevation):
+    both models build and pass check()."""
+    out = gr.evaluate_ground_v2(968, tmp_path)
+    assert out["stage"] in ("ok", "ratio"), (out["stage"], out["error"])
+    assert out["kind_ok"], out["kinds"]
+
+
 # One seed per class of derive's failures on these grounds that is still
 # open (sweep_v2.md; the classes of seeds 0, 29, 75 and 34's kind are
 # fixed, tests/test_derive.py): reproducers that must start to hold
