@@ -140,9 +140,9 @@ void bind_layer_tin(py::module_& m) {
                 const std::size_t n = static_cast<std::size_t>(P.shape(0));
                 return to_numpy(read_locked(t, [&](const LayerTin& l) { return l.interpolate(P.data(), n); }));
             },
-            py::arg("xy"), "z at points (k, 2) with the current elevations; NaN outside the TIN's hull, except a point on\n"
-            "the study-area boundary that rounding puts a hair outside it: it gets the elevation of the\n"
-            "boundary piece it lies on (linear along the side).")
+            py::arg("xy"), "z at points (k, 2) with the current elevations; NaN outside the TIN's hull. A point on the\n"
+            "study-area boundary (also one that rounding puts a hair outside the hull) gets the elevation\n"
+            "of the boundary piece it lies on (linear along the side).")
         .def(
             "mesh",
             [](const PyLayerTin& t, bool halfedges) {

@@ -786,12 +786,20 @@ std::vector<double> LayerTin::interpolate(const double* xy, std::size_t n) const
     // Left NaN, the repair could not lower such a vertex of the layer below
     // (rule 1 skips it) and halved the edges around it without end
     // (grounds seed 364 as format 2: deviated holes, layers 3 m apart, each
-    // layer with its own boundary spacing).
+    // layer with its own boundary spacing). Not only where the TIN gives
+    // NaN: beyond the hull's rounded edges the TIN can have sliver triangles
+    // (Delaunay fills its convex hull; mesh() leaves out what is outside the
+    // study area), whose weights at such a point are ill-conditioned: an
+    // upper layer's boundary vertex 1 ulp outside the lower layer's, whose
+    // copy in the lower layer is that very vertex, got 3.4 mm above it
+    // there, so rule 1b inserted it again every round without end
+    // (random_ground(968), v1: "'L2' still crosses 'L1' after 50 rounds").
+    // On a piece (a TIN edge) the piece's value is the TIN's; a hair inside
+    // it differs by the tolerance times the slope.
     const LayerTinState& s = *s_;
     const std::vector<double>& V = s.tin->vertex_array();
     std::vector<StudyArea::Hit> hits;
     for (std::size_t i = 0; i < n; ++i) {
-        if (!std::isnan(z[i])) continue;
         hits.clear();
         s.area.locate(xy + 2 * i, hits);
         if (hits.empty()) continue;

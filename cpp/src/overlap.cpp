@@ -611,19 +611,51 @@ void Grower::pull_star(std::int64_t h0) {
 
 // A vertex where S's boundary meets itself pulls in its star.
 bool Grower::pull_pinch_stars() {
+    kept_pinches_.clear();
     const Boundary& b = boundary();
     if (b.pinches.empty()) return false;
     const std::size_t before = S_.size();
     const std::vector<std::int64_t> pinches = b.pinches;
     for (std::int64_t h0 : pinches) pull_star(h0);
-    if (S_.size() == before) {
-        const std::int64_t v = m_.triangles[pinches[0]];
-        char buf[96];
-        std::snprintf(buf, sizeof buf, "(%.10g, %.10g)", pt(v)[0], pt(v)[1]);
-        throw GeometryError(fn_ + ": the removed region meets itself at vertex " + std::to_string(v) + " " +
-                            buf + " and cannot grow there (an earlier fault patch is in the way)");
+    if (S_.size() != before) return true;
+    // Nothing joined: around every pinch vertex each triangle is in S or
+    // frozen. At a mesh-boundary vertex (its fan is a path) that is a frozen
+    // piece touching the mesh boundary there and nowhere near (an earlier
+    // patch's end clipped to the study area down to one vertex on it,
+    // random_ground(704) as v2), S on both of its sides: S is still one
+    // region, its outline passes the vertex twice, like the gap that the
+    // earlier stitch left there. Around an interior vertex the frozen
+    // triangles would be two pieces touching (never stitched), so that stays
+    // an error.
+    constexpr std::size_t kMaxFan = 100000;  // as pull_star's guard
+    for (std::int64_t h0 : pinches) {
+        const std::int64_t v = m_.triangles[h0];
+        const bool on_mesh_boundary =
+            walk_fan(v, h0 / 3, static_cast<int>(h0 % 3), kMaxFan, [](std::int64_t) {}) == 0;
+        if (!rules_.keep_frozen_pinches_on_mesh_boundary || !on_mesh_boundary) {
+            kept_pinches_.clear();
+            char buf[96];
+            std::snprintf(buf, sizeof buf, "(%.10g, %.10g)", pt(v)[0], pt(v)[1]);
+            throw GeometryError(fn_ + ": the removed region meets itself at vertex " + std::to_string(v) +
+                                " " + buf + " and cannot grow there (an earlier fault patch is in the way)");
+        }
+        kept_pinches_.push_back(v);
     }
-    return true;
+    std::sort(kept_pinches_.begin(), kept_pinches_.end());
+    kept_pinches_.erase(std::unique(kept_pinches_.begin(), kept_pinches_.end()), kept_pinches_.end());
+    return false;
+}
+
+std::int64_t Grower::next_boundary_halfedge(std::int64_t h) const {
+    // Leave h's triangle by its other edge at the head; while that edge is
+    // inside S, cross it and do the same. The walk cannot come back across h
+    // (h's other side is not in S), so it ends at a boundary half-edge.
+    std::int64_t g = next_halfedge(h);
+    for (;;) {
+        const std::int64_t o = m_.twins[g];
+        if (o < 0 || !in(o / 3)) return g;
+        g = next_halfedge(o);
+    }
 }
 
 long Grower::euler() const {
@@ -702,8 +734,9 @@ bool Grower::absorb_kept_islands() {
 }
 
 // Inner (clockwise) boundary loops of S: the triangles they enclose join S,
-// frozen ones stay (holes of S). S's boundary has no pinch here (level 1 ran
-// first), so each vertex has one leaving boundary half-edge.
+// frozen ones stay (holes of S). The loops are chained by turning about each
+// vertex through S (next_boundary_halfedge): at a kept pinch (level 1 ran
+// first, every other pinch is gone) the two wedges stay apart.
 bool Grower::fill_inner_loops() {
     const Boundary& b = boundary();
     const std::size_t before = S_.size();
@@ -716,10 +749,7 @@ bool Grower::fill_inner_loops() {
         std::int64_t h = h0;
         while (used.insert(h).second) {
             loop.push_back(h);
-            auto it = b.leaving.find(m_.triangles[next_halfedge(h)]);
-            if (it == b.leaving.end())
-                throw GeometryError(fn_ + ": internal error: the removed region's boundary is open");
-            h = it->second;
+            h = next_boundary_halfedge(h);
         }
         if (h != h0) throw GeometryError(fn_ + ": internal error: the removed region's boundary is not a loop");
         std::vector<const double*> pts;

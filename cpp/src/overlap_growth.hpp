@@ -194,6 +194,11 @@ struct GrowthRules {
     double clearance = 0.0;   // 0: off
     int max_rounds = 0;       // 0: no bound
     bool verify_disk = false;  // at the end: S is a disk (Euler characteristic 1), not the whole mesh
+    // With PinchRule::pull_star: a pinch at a mesh-boundary vertex whose star
+    // only frozen triangles keep out of S (a frozen piece that touches the
+    // mesh boundary at that vertex alone, S on both sides of it) stays: S's
+    // outline passes that vertex twice (Grower::kept_pinches). Off: an error.
+    bool keep_frozen_pinches_on_mesh_boundary = false;
 };
 
 // The mesh the set grows in.
@@ -228,6 +233,9 @@ public:
         std::vector<std::int64_t> pinches;
     };
     const Boundary& boundary();
+    // The pinch vertices that stayed (GrowthRules::keep_frozen_pinches_on_mesh_boundary),
+    // sorted, as of the last round.
+    const std::vector<std::int64_t>& kept_pinches() const { return kept_pinches_; }
 
 private:
     const double* pt(std::int64_t v) const { return m_.xy + m_.stride * static_cast<std::size_t>(v); }
@@ -254,6 +262,10 @@ private:
     bool fill_inner_loops();
     bool pull_clearance();
     void pull_star(std::int64_t h0);
+    // The boundary half-edge of S that follows boundary half-edge h around
+    // S: turning about h's head through S's triangles (at a pinch, the one
+    // that bounds the same wedge of S as h).
+    std::int64_t next_boundary_halfedge(std::int64_t h) const;
     bool star(std::int64_t v, std::int64_t t0, std::vector<std::int64_t>& fan, bool& cyclic) const;
     long euler() const;
     void check_mesh_boundary() const;
@@ -270,6 +282,7 @@ private:
     std::vector<char> boundary_vertex_;
     std::vector<std::int64_t> merged_;
     std::unordered_set<std::int64_t> merged_set_;
+    std::vector<std::int64_t> kept_pinches_;
     Boundary bnd_;
     std::size_t bnd_size_ = static_cast<std::size_t>(-1);
 };

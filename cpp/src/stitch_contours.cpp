@@ -167,10 +167,12 @@ void build_gap_polygons(const StitcherState& s, StitchJob& job) {
     // boundary or D's boundary at a vertex): each edge into it continues
     // with the outgoing edge first clockwise from the way back (the gap is
     // on the left of its edges, so that edge bounds the same wedge), which
-    // keeps the two sides of the pinch in separate rings. Only a patch
-    // vertex may be a pinch: D's boundary never touches itself (the grower
-    // pulls in the star of a pinch vertex), so a layer vertex with two ways
-    // out is an error as before.
+    // keeps the two sides of the pinch in separate rings. Besides a patch
+    // vertex only a pinch the grower kept may be one (an earlier patch piece
+    // touching the study boundary at that vertex alone, D on both of its
+    // sides: the same pinch its own gap had); elsewhere D's boundary never
+    // touches itself (the grower pulls in the star of a pinch vertex), so a
+    // layer vertex with two ways out is an error as before.
     std::vector<std::vector<std::int64_t>>& rings = job.rings;
     std::vector<double>& ring_area = job.ring_area;
     {
@@ -183,7 +185,9 @@ void build_gap_polygons(const StitcherState& s, StitchJob& job) {
         for (const auto& vo : gout) {
             const auto it = gin.find(vo.first);
             const int nin = it == gin.end() ? 0 : it->second;
-            if (nin != static_cast<int>(vo.second.size()) || (nin > 1 && vo.first < nV))
+            if (nin != static_cast<int>(vo.second.size()) ||
+                (nin > 1 && vo.first < nV &&
+                 !std::binary_search(job.kept_pinches.begin(), job.kept_pinches.end(), vo.first)))
                 throw GeometryError(fn + ": the gap polygon touches itself at vertex " +
                                     fmt_point(X(vo.first)) +
                                     " (the fault patch is too close to another patch or to the boundary)");

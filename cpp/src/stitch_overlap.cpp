@@ -90,6 +90,10 @@ void grow_removed_set(StitcherState& s, StitchJob& job) {
     rules.pinch = PinchRule::pull_star;
     rules.holes = HoleRule::fill_inner_loops;
     rules.allow_mesh_boundary = true;
+    // An earlier patch piece that touches the study boundary at one vertex
+    // (its gap was pinched there, stitch_contours) may lie inside D with D on
+    // both sides of it: D's outline passes that vertex twice.
+    rules.keep_frozen_pinches_on_mesh_boundary = true;
     rules.clearance = s.opt.clearance;
     rules.max_rounds = s.opt.max_grow_rounds;
     Grower grower(mesh, D, job.region, rules, job.fn);
@@ -97,6 +101,7 @@ void grow_removed_set(StitcherState& s, StitchJob& job) {
     job.report.grow_rounds = grower.run();
     job.report.merged_gaps = grower.merged_groups();
     job.boundary = grower.boundary().halfedges;
+    job.kept_pinches = grower.kept_pinches();
     job.report.removed = D.members();
     std::sort(job.report.removed.begin(), job.report.removed.end());
 }

@@ -135,6 +135,7 @@ struct StitchJob {
     LayerHooks hooks;
     std::optional<RemovedSet> removed;
     std::vector<std::int64_t> boundary;
+    std::vector<std::int64_t> kept_pinches;  // layer vertices D's outline passes twice (sorted)
 
     // 4. contours. Gap vertices: stitcher vertices below n_layer_vertices,
     // patch vertex i as n_layer_vertices + i.

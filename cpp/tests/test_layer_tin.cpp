@@ -357,3 +357,52 @@ TEST(RepairCrossings, LayersWithTheirOwnBoundaryVerticesEnd) {
         }
     }
 }
+
+TEST(LayerTinInterpolate, PointsOnTheBoundaryGetTheirPiecesElevation) {
+    // A curved layer from sparse data: the TIN's hull along a slanted side
+    // joins boundary vertices rounded onto it, and Delaunay fills the
+    // hull's dents beyond the study area with slivers. A point on a piece,
+    // or a few nanometres outside it (within the area's tolerance), must get
+    // the piece's elevation, linear along it: in those slivers the TIN gave
+    // up to 35 m off (random_ground(968): an upper layer's boundary vertex
+    // 3.4 mm above its own copy in the lower layer, inserted again every
+    // round of the repair without end).
+    const fm::StudyArea area = slanted_area();
+    std::size_t n = 0;
+    for (unsigned seed = 0; seed < 10; ++seed) {
+        std::vector<double> pts = plane_points(100 + seed, 40, -600.0, area);
+        for (std::size_t i = 0; i < pts.size(); i += 3)
+            pts[i + 2] += 1e-4 * (pts[i] - 552400.0) * (pts[i] - 552400.0) + 3.0 * std::sin(pts[i] / 50.0);
+        const fm::LayerTin t("L", pts.data(), pts.size() / 3, area);
+        const std::vector<double>& V = t.tin().vertex_array();
+        const std::vector<double> Z = t.z();
+        const std::vector<std::int64_t> B = t.boundary_vertices();
+        std::vector<fm::StudyArea::Hit> hits;
+        for (std::size_t i = 0; i < B.size(); ++i) {
+            const double* a = &V[3 * static_cast<std::size_t>(B[i])];
+            const double* b = &V[3 * static_cast<std::size_t>(B[(i + 1) % B.size()])];
+            const double za = Z[static_cast<std::size_t>(B[i])], zb = Z[static_cast<std::size_t>(B[(i + 1) % B.size()])];
+            const double mid[2] = {0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])};
+            area.locate(mid, hits);
+            ASSERT_FALSE(hits.empty());
+            const double* c0 = area.corner(hits[0].side);
+            const double* c1 = area.corner(hits[0].side + 1);
+            const double L = area.side_length(hits[0].side);
+            const double out[2] = {(c1[1] - c0[1]) / L, -(c1[0] - c0[0]) / L};  // the area is CCW
+            for (int k = 1; k < 20; ++k) {
+                const double u = k / 20.0;
+                for (double off : {0.0, 1e-9, 4e-9, 1.6e-8}) {
+                    const double q[2] = {a[0] + u * (b[0] - a[0]) + off * out[0],
+                                         a[1] + u * (b[1] - a[1]) + off * out[1]};
+                    area.locate(q, hits);
+                    if (hits.empty()) continue;  // beyond the tolerance
+                    ++n;
+                    const double z = t.interpolate(q, 1)[0];
+                    ASSERT_NEAR(z, za + u * (zb - za), 1e-6) << "seed " << seed << " piece " << i << " u " << u
+                                                             << " off " << off;
+                }
+            }
+        }
+    }
+    EXPECT_GT(n, 5000u);
+}

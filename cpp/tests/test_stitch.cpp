@@ -205,6 +205,37 @@ TEST(Stitch, PatchOnTheStudyBoundaryGivesAPolygonWithoutHole) {
     EXPECT_NEAR(twice_signed_area(m), 2.0 * 100.0 * 100.0, 1e-6);
 }
 
+// A patch piece that touches the study boundary at one vertex only (an end
+// carried onto the boundary and then clipped: random_ground(704) as v2),
+// then a later patch whose removed region swallows that piece's gap: the
+// removed region meets itself at the touching vertex, the earlier piece in
+// between; it is one region whose outline passes that vertex twice, not a
+// failure ("the removed region meets itself ... an earlier fault patch is in
+// the way" before).
+TEST(Stitch, LaterPatchMergesTheGapAroundAPieceTouchingTheBoundaryAtAVertex) {
+    for (double y_touch : {52.0, 50.0}) {  // on a boundary edge of the TIN, and at its vertex
+        Mesh L = grid_tin();
+        Mesh A;
+        A.v = {0.0, y_touch, 1.0, 16.0, 44.0, 1.2, 17.0, 58.0, 1.1};
+        A.t = {0, 1, 2};
+        LayerStitcher st(L.v.data(), L.v.size() / 3, L.t.data(), L.t.size() / 3, kSquare.data(), 4);
+        auto ra = st.stitch(A.v.data(), A.v.size() / 3, A.t.data(), A.t.size() / 3, "A");
+        ASSERT_EQ(ra.gaps.size(), 1u);
+        // B just east of A's gap: its removed region merges it.
+        const Mesh B = loft_patch({{19.0, 40.0, 0.5, 34.0, 40.0, 0.6}, {19.0, 62.0, 0.5, 34.0, 62.0, 0.6}});
+        faultmesh::StitchReport rb;
+        ASSERT_NO_THROW(rb = st.stitch(B.v.data(), B.v.size() / 3, B.t.data(), B.t.size() / 3, "B"));
+        EXPECT_EQ(rb.merged_gaps, (std::vector<std::int64_t>{ra.gaps[0].id}));
+        StitchedMesh m = st.mesh();
+        expect_disk(m);
+        EXPECT_NEAR(twice_signed_area(m), 2.0 * 100.0 * 100.0, 1e-6);
+        // Both patches are there whole.
+        std::int64_t n_patch = 0;
+        for (auto k : m.kinds) n_patch += k == static_cast<std::int8_t>(TriangleKind::patch);
+        EXPECT_EQ(n_patch, static_cast<std::int64_t>(A.t.size() / 3 + B.t.size() / 3));
+    }
+}
+
 TEST(Stitch, OneShotMatchesTheStitcher) {
     Mesh L = grid_tin();
     Mesh P = reverse_patch();

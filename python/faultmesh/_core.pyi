@@ -306,9 +306,9 @@ class LayerTin:
         """
     def interpolate(self, xy: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
         """
-        z at points (k, 2) with the current elevations; NaN outside the TIN's hull, except a point on
-        the study-area boundary that rounding puts a hair outside it: it gets the elevation of the
-        boundary piece it lies on (linear along the side).
+        z at points (k, 2) with the current elevations; NaN outside the TIN's hull. A point on the
+        study-area boundary (also one that rounding puts a hair outside the hull) gets the elevation
+        of the boundary piece it lies on (linear along the side).
         """
     def mesh(self, halfedges: bool = False) -> tuple:
         """

@@ -108,8 +108,9 @@ public:
     // Sets the elevation of vertices.
     void set_z(const std::int64_t* vertices, const double* z, std::size_t n);
     // z at n points (x, y interleaved), NaN outside the TIN's hull; a point
-    // on the study-area boundary (StudyArea::locate) that rounding puts a
-    // hair outside it gets the elevation of the boundary piece it lies on.
+    // on the study-area boundary (StudyArea::locate), also one that rounding
+    // puts a hair outside the hull, gets the elevation of the boundary piece
+    // it lies on (linear along the side).
     std::vector<double> interpolate(const double* xy, std::size_t n) const;
     // The triangles inside the study area, compacted; the arrays reserve room
     // for spare_vertices and spare_triangles more (a stitcher appends).
