@@ -986,11 +986,12 @@ def test_end_direction_is_the_strike_where_a_trace_is_cut_short():
 _W = 123.456
 
 
-def _bump_fault(bump: float):
+def _bump_fault(bump: float, xs=(0.0, 1000.0), tips=()):
     """A normal fault along x (dipping 60 degrees to -y, throw 10 m) cutting
-    one layer L(x) = -100 + bump exp(-((x - 500)/150)^2), given by two
-    traces 1000 m apart (x = 0, 1000) where L = -100; the layer's far ends
-    lie on the sides y = +-_W of the study area."""
+    one layer L(x) = -100 + bump exp(-((x - 500)/150)^2), given by traces at
+    ``xs`` (by default two, 1000 m apart, where L = -100) and pinch-out
+    ``tips`` (XY); the layer's far ends lie on the sides y = +-_W of the
+    study area."""
     tan = np.tan(np.radians(60.0))
 
     def L(x):
@@ -1005,7 +1006,7 @@ def _bump_fault(bump: float):
         return Trace(None, np.column_stack([np.full(6, x), zs / tan, zs]),
                      {"L": {"foot": foot, "hanging": hang}})
 
-    return Fault("F", kind="normal", traces=[trace(0.0), trace(1000.0)]), L
+    return Fault("F", kind="normal", traces=[trace(x) for x in xs], tips=np.asarray(tips)), L
 
 
 def test_patch_follows_the_layer_between_distant_traces():
@@ -1046,6 +1047,44 @@ def test_patch_follows_the_layer_between_distant_traces():
     check_surface(Surface("p", V, p.triangles, kind="fault"))
     with pytest.raises(ValueError, match="along_step must be > 0"):
         layer_patch(f, "L", fault_ends(f), area, surface_z, along_step=0.0)
+
+
+def test_tip_fan_follows_the_layer():
+    # A tip's fan was a plain loft from the end trace to the tip: where the
+    # layer dips or bulges between them the fan cut straight through
+    # (sweep seed 986: F1's L3 fan from its last trace to the tip 600 m
+    # further, the layer 50 m below it halfway; near-fault mean |dz| 8.53 m
+    # vs the plain TIN's 7.69 m). The fan now follows the continuous surface
+    # like the loft between two traces: polylines in between that shrink
+    # onto the tip part by part, cutoffs kept.
+    from faultmesh import StudyArea, sample_surface
+    from faultmesh.faults import fault_ends, layer_patch
+
+    area = StudyArea(np.array([[-200.0, -_W], [1010.0, -_W], [1010.0, _W], [-200.0, _W]]))
+    f, L = _bump_fault(60.0, xs=(-200.0, 0.0), tips=[[1000.0, 0.0]])
+
+    def surface_z(xy):
+        return L(np.asarray(xy)[:, 0])
+
+    plain = layer_patch(f, "L", fault_ends(f), area, surface_z)
+    assert plain.ends[1] == "tip"
+    # Halfway along the fan, on the footwall side and on the hanging-wall side.
+    probe = np.array([[500.0, 30.0], [500.0, -30.0]])
+    want = np.array([L(500.0), L(500.0) - 10.0])
+    lo, hi, hits = sample_surface(plain.vertices, plain.triangles, probe)
+    assert (hits == 1).all() and np.abs(hi - want).min() > 40.0  # the fan cuts the bulge
+    p = layer_patch(f, "L", fault_ends(f), area, surface_z, along_step=50.0)
+    assert p.ends == plain.ends
+    lo, hi, hits = sample_surface(p.vertices, p.triangles, probe)
+    assert (hits >= 1).all()
+    # The polylines between are at most 50 m apart: the bump's chord over
+    # 50 m, and the throw shrinking linearly towards the tip.
+    assert np.abs(hi - want).max() < 6.0
+    # The tip stays the patch's one point at x = 1000, and the polylines
+    # between keep their cutoffs: the fault strip (normal: positive) is
+    # part of every polyline, so no fold and the cover stays one.
+    assert (p.vertices[:, 0] == p.vertices[:, 0].max()).sum() == 1
+    check_surface(Surface("p", p.vertices, p.triangles, kind="fault"))
 
 
 def test_fault_surface_ends_where_the_layers_pinch_out():

@@ -50,7 +50,10 @@ between the two (the TIN interpolates across the fault, so its error there
 is up to the throw; a smaller departure is no evidence, and the plain loft
 stands). A plain loft between traces kilometres apart cut through what the
 layer does in between (sweep seed 381: a layer rising 80 m between two traces
-2.5 km apart, throw about 20 m). A tip's fan is not filled in.
+2.5 km apart, throw about 20 m). So did a tip's fan: it is filled in the same
+way, the tip standing for a polyline of that point repeated with the end
+polyline's cutoffs (sweep seed 986: the layer 50 m below F1's fan, 600 m
+long, halfway to the tip).
 
 Faults of one group (T- or X-crossings) are modelled together as ONE patch
 per layer (:func:`group_patch`): faults that abut no partner come first; each
@@ -761,17 +764,32 @@ def _follow_surface(area: StudyArea, seq: List[np.ndarray], cuts: List[Optional[
                     surface_z, step: Optional[float]
                     ) -> Tuple[List[np.ndarray], List[Optional[Tuple[int, int]]]]:
     """``seq`` with polylines :func:`_between` every two consecutive ones
-    (not towards a single point: a tip's fan)."""
+    (towards a single point too: a tip's fan is filled in like a loft
+    between traces, the point taken as a polyline of that point repeated,
+    with the other polyline's cutoffs, so the polylines between shrink onto
+    it part by part)."""
     if surface_z is None or step is None or len(seq) < 2:
         return seq, cuts
     if not step > 0.0:
         raise ValueError(f"layer_patch: along_step must be > 0, got {step}")
-    pairs = [i for i in range(len(seq) - 1) if len(seq[i]) > 1 and len(seq[i + 1]) > 1]
-    look = _first_look(seq, cuts, pairs, surface_z)
+    # A fan between two single points is no surface; every other pair is.
+    pairs = [i for i in range(len(seq) - 1) if len(seq[i]) > 1 or len(seq[i + 1]) > 1]
+    wide, wide_c = list(seq), list(cuts)
+    for i in pairs:
+        for j, k in ((i, i + 1), (i + 1, i)):
+            if len(seq[j]) == 1:
+                wide[j] = np.repeat(seq[j], len(seq[k]), axis=0)
+                wide_c[j] = cuts[k]
+    look = _first_look(wide, wide_c, pairs, surface_z)
     out, out_c = [seq[0]], [cuts[0]]
     for i in range(len(seq) - 1):
         if i in look:
-            mid, mid_c = _between(area, seq[i], seq[i + 1], cuts[i], cuts[i + 1], surface_z, step)
+            a, b, ca, cb = seq[i], seq[i + 1], cuts[i], cuts[i + 1]
+            if len(a) == 1:
+                a, ca = np.repeat(a, len(b), axis=0), cb
+            elif len(b) == 1:
+                b, cb = np.repeat(b, len(a), axis=0), ca
+            mid, mid_c = _between(area, a, b, ca, cb, surface_z, step)
             out += mid
             out_c += mid_c
         out.append(seq[i + 1])
