@@ -681,6 +681,17 @@ def _ray_to_ring(p: np.ndarray, d: np.ndarray, ring: np.ndarray) -> np.ndarray:
     return np.where(ok, t, np.inf).min(axis=1)
 
 
+def _stick_spacing(fault: Fault, strike: np.ndarray) -> float:
+    """The along-strike spacing (m) of a fault's sticks: the median gap
+    between consecutive sticks' mean positions along ``strike``."""
+    P = np.asarray(fault.points, dtype=np.float64)
+    lab, inv = np.unique(np.asarray(fault.sticks), return_inverse=True)
+    if len(lab) < 2:
+        return 0.0
+    um = np.bincount(inv, weights=P[:, :2] @ strike) / np.bincount(inv)
+    return float(np.median(np.diff(np.sort(um))))
+
+
 def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], *,
                   reach: Optional[float] = None, max_z_dip: float = 80.0,
                   warnings: Optional[List[str]] = None,
@@ -758,7 +769,7 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
     u = (P[:, :2] - centre[:2]) @ strike
     length = float(np.ptp(u)) if len(u) else 0.0
     if reach is None:
-        reach = 0.2 * length
+        reach = _stick_spacing(fault, strike) if source == "sticks" else 0.2 * length
     ends = ["inside", "inside"]
     carried: Dict[int, Tuple[np.ndarray, np.ndarray]] = {}
     if given is None:
