@@ -818,10 +818,16 @@ def test_carried_end_keeps_its_share_of_the_room():
     sections' polylines kept to their share of the room at the section
     only; carried onto the boundary, F2's footwall polyline ran onto F3's
     hanging-wall one in L1 ("faults too close"). The end section of an end
-    carried to the boundary now keeps to its share all along the way."""
+    carried to the boundary now keeps to its share all along the way.
+    F2's south end is a true tip (its sticks stop 478 m short of the
+    boundary, 4 stick spacings): since `reach` defaults to one stick
+    spacing it stays one, so the carry is reproduced with the former
+    default's reach (a fifth of F2's length, 580 m; 500 m here)."""
     from faultmesh import grounds
 
-    d = derive.derive_faults(grounds.random_ground(411, version=2))
+    ds = grounds.random_ground(411, version=2)
+    assert derive.derive_faults(ds).derivation.faults["F2"].as_dict()["ends"][1] == "tip"
+    d = derive.derive_faults(ds, reach=500.0)
     assert d.derivation.faults["F2"].as_dict()["ends"][1] == "boundary"
     faultmesh.build_model(d, evaluate=False).check()
 
