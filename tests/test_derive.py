@@ -818,10 +818,16 @@ def test_carried_end_keeps_its_share_of_the_room():
     sections' polylines kept to their share of the room at the section
     only; carried onto the boundary, F2's footwall polyline ran onto F3's
     hanging-wall one in L1 ("faults too close"). The end section of an end
-    carried to the boundary now keeps to its share all along the way."""
+    carried to the boundary now keeps to its share all along the way.
+    F2's south end is a true tip (its sticks stop 478 m short of the
+    boundary, 4 stick spacings): since `reach` defaults to one stick
+    spacing it stays one, so the carry is reproduced with the former
+    default's reach (a fifth of F2's length, 580 m; 500 m here)."""
     from faultmesh import grounds
 
-    d = derive.derive_faults(grounds.random_ground(411, version=2))
+    ds = grounds.random_ground(411, version=2)
+    assert derive.derive_faults(ds).derivation.faults["F2"].as_dict()["ends"][1] == "tip"
+    d = derive.derive_faults(ds, reach=500.0)
     assert d.derivation.faults["F2"].as_dict()["ends"][1] == "boundary"
     faultmesh.build_model(d, evaluate=False).check()
 
@@ -907,3 +913,36 @@ def test_fading_throw_fit_also_where_the_hanging_walls_data_come_near():
     assert out["stage"] == "ok", (out["stage"], out["error"])
     assert out["kind_ok"], out["kinds"]
     assert out["ratio"] <= grounds.V2_RATIO, (out["error_v1"], out["error_v2"])
+
+
+def test_sticks_that_stop_short_of_the_boundary_end_in_a_tip():
+    """Regression (random_ground(82) as v2: a reverse fault whose throw dies
+    out 250 m short of the study-area boundary; its fault sticks, 0.2 of the
+    fault's length from the boundary there, stop at the tip): the old
+    default `reach` (a fifth of the fault's length) carried that end onto
+    the boundary with the end section's 17-49 m of throw, up to 17 m off
+    there, error near the fault 1.60x the true cutoffs' model. With sticks,
+    an end is carried only when the boundary lies within one stick spacing
+    of its last stick (derive._stick_spacing): a tip, 1.20x."""
+    from faultmesh import grounds
+
+    out = grounds.evaluate_ground_v2(82)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    assert out["kind_ok"], out["kinds"]
+    assert out["ratio"] <= grounds.V2_RATIO, (out["error_v1"], out["error_v2"])
+    # The same sticks with the tip end moved to half a stick spacing from
+    # the boundary reach it.
+    ds = grounds.random_ground(82, version=2)
+    f = ds.faults[0]
+    fs0 = derive.fault_surface(f, ds.boundary, (-1e4, 1e4))
+    assert fs0.ends[0] == "inside", fs0.ends  # the tip end
+    P = np.asarray(f.points, dtype=np.float64)
+    u = fs0.u(P[:, :2])
+    spc = derive._stick_spacing(f, fs0.strike)
+    assert 60.0 <= spc <= 140.0, spc  # the generator's stick spacing
+    lo = u <= u.min() + 1e-6 * max(1.0, float(np.ptp(u)))
+    t = derive._ray_to_ring(P[lo, :2], -fs0.strike, np.asarray(ds.boundary))
+    P2 = P.copy()
+    P2[:, :2] -= (float(np.median(t)) - 0.5 * spc) * fs0.strike  # the whole fault moved along strike
+    fs2 = derive.fault_surface(Fault(f.name, points=P2, sticks=f.sticks), ds.boundary, (-1e4, 1e4))
+    assert fs2.ends[0] == "boundary", fs2.ends
