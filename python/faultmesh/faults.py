@@ -1284,6 +1284,18 @@ def _widened_band(quad: np.ndarray, by: float) -> np.ndarray:
                                           q[2] + by * (q[2] - q[3]), q[3] + by * (q[3] - q[2])]))
 
 
+def _fan(t: np.ndarray, poly: np.ndarray, end: int, method: str) -> Tuple[np.ndarray, np.ndarray]:
+    """The straight loft between the point ``t`` (3,) and the end polyline
+    ``poly`` next to it at ``end`` (0 first, 1 last): a tip's fan."""
+    return _assemble([t[None, :], poly] if end == 0 else [poly, t[None, :]], method)
+
+
+def _touches_one_of(V: np.ndarray, T: np.ndarray, regions: List[np.ndarray]) -> bool:
+    """Whether (V, T) touches one of ``regions``, each tested on its own
+    exactly (:func:`_touches_any` without tolerance)."""
+    return any(_touches_any(V, T, [r], 0.0) for r in regions)
+
+
 def _straight_fans(seq: List[np.ndarray], regions: List[np.ndarray], method: str) -> List[int]:
     """The ends (0 first, 1 last) of ``seq`` that are a single point (a tip)
     whose straight fan touches one of ``regions`` (exactly, as
@@ -1304,8 +1316,7 @@ def _straight_fans(seq: List[np.ndarray], regions: List[np.ndarray], method: str
         tip, poly = (seq[0], seq[1]) if end == 0 else (seq[-1], seq[-2])
         if len(tip) != 1 or len(poly) < 2:
             continue
-        V, T = _assemble([tip, poly] if end == 0 else [poly, tip], method)
-        if any(_touches_any(V, T, [r], 0.0) for r in regions):
+        if _touches_one_of(*_fan(tip[0], poly, end, method), regions):
             out.append(end)
     return out
 
@@ -1333,7 +1344,7 @@ def _yield_to(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], regi
     cut_down = set()
     for i in range(n - 1):
         V, T = _assemble(seq[i:i + 2], method, cuts[i:i + 2])
-        if any(_touches_any(V, T, [r], 0.0) for r in regions):
+        if _touches_one_of(V, T, regions):
             cut_down.update((i, i + 1))
     seq, cuts = list(seq), list(cuts)
     done = []
@@ -1361,12 +1372,7 @@ def _yield_to(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], regi
             continue
         tip, poly = (seq[0][0], seq[1]) if end == 0 else (seq[-1][0], seq[-2])
         pcut = cuts[1] if end == 0 else cuts[-2]
-
-        def fan(t: np.ndarray):
-            return _assemble([t[None, :], poly] if end == 0 else [poly, t[None, :]], method)
-
-        V, T = fan(tip)
-        if not any(_touches_any(V, T, [r], 0.0) for r in regions):
+        if not _touches_one_of(*_fan(tip, poly, end, method), regions):
             continue
         c = _cut_centre(poly, pcut)
         a = np.ascontiguousarray(poly[[0], :2])
@@ -1380,8 +1386,8 @@ def _yield_to(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]], regi
                     continue
                 if not area.contains(t[None, :2])[0]:
                     continue
-                V, T = fan(t)
-                if len(T) and not any(_touches_any(V, T, [r], 0.0) for r in clear_of):
+                V, T = _fan(t, poly, end, method)
+                if len(T) and not _touches_one_of(V, T, clear_of):
                     moved = t
                     break
             if moved is not None:
