@@ -1241,3 +1241,37 @@ def test_fold_closed_along_an_oblique_partner_carries_each_cutoff_on_its_line():
     assert len(triangles_not_covered_once(V, T)) == 0
     # More of the band repeated than the same share on both lines gives.
     assert _fold_area([(poly, cut), (carried, cc), (tip, None)], "min_area") > 1.2 * 10.0 * (hw[0] - 200.0)
+
+
+def test_fold_closed_towards_a_far_trace_reaches_the_partner():
+    # A run closed towards a next trace 1000 m on, a band 10 m wide and a
+    # partner across it at x = 900..950 (faults._closing on the band core).
+    # The share of the way was bisected up to 0.98 and stopped after 3
+    # halvings at 0.97 of the 900 m to the partner: the carried band ended
+    # at x = 873, 27 m (2.7 band widths) of the band short of the partner
+    # unrepeated, a stretch that grew with the trace spacing (sweep seed 750,
+    # F2 L5: 22 m of a 15 m band left in front of F1, 93.2 % repeated). The
+    # bisection now goes on until what it leaves undecided is within a
+    # quarter of the band's width (faults._CLOSE_TO).
+    from faultmesh import StudyArea, triangles_touching_region
+    from faultmesh.faults import _CLOSE_TO, _assemble, _band_core, _closing
+
+    def polyline(x):
+        ys = [470.0, 490.0, 505.0, 495.0, 510.0, 530.0]
+        zs = [-98.0, -99.0, -100.0, -80.0, -81.0, -82.0]
+        return np.array([[x, y, z] for y, z in zip(ys, zs)]), (2, 3)
+
+    area = StudyArea(np.array([[-100.0, 0.0], [1100.0, 0.0], [1100.0, 1000.0], [-100.0, 1000.0]]))
+    partner = np.array([[900.0, 400.0], [950.0, 400.0], [950.0, 600.0], [900.0, 600.0]])
+    poly, cut = _band_core(*polyline(0.0))
+    nxt, nxt_cut = polyline(1000.0)
+    got = _closing(poly, cut, nxt, nxt_cut, area, lambda xy: np.zeros(len(xy)), [partner], 1e-9,
+                   False, "min_area")
+    (carried, cc), (tip, tip_cut) = got
+    assert tip_cut is None
+    # The band's full width carried to within a quarter of it of the
+    # partner, the tip beyond it and still clear of the partner.
+    assert 900.0 - _CLOSE_TO * 10.0 <= carried[:, 0].min() and carried[:, 0].max() < tip[0, 0] < 900.0
+    np.testing.assert_allclose(carried[list(cc), 1], [505.0, 495.0], atol=1e-9)
+    V, T = _assemble([poly, carried, tip], "min_area", [cut, cc, None])
+    assert len(triangles_touching_region(V, T, [partner])) == 0

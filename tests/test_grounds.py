@@ -448,13 +448,35 @@ def test_x_crossing_earlier_tip_clear_of_the_later_sheets(seed, tmp_path_factory
     assert_holds(outcome(seed, tmp_path_factory))
 
 
-# Open (strict xfail; found beyond the 500-seed sweep, seeds 500-999): two
-# more X pairs whose later reverse fault F2 repeats a layer on less than
-# 95 % of the band the data give, after the fixes of 76, 244, 246 and 350
-# above: 750 (F2 one end a tip, L5 93.2 %) and 803 (an L-shaped area, F2
-# one end a tip, L2 92.1 %). Not diagnosed.
+# 750 (found beyond the 500-seed sweep, seeds 500-999), an X pair whose F2
+# runs from the boundary 720 m to its next trace, past F1's band: F2's run
+# was closed towards that trace by its band carried a share of the way,
+# bisected up to 0.98 of it (0.97 after 3 halvings) -- a fixed share of
+# the way, so 22 m of a band 15 m wide were left unrepeated in front of F1
+# (F2 L5 93.2 %, L4 95.6 %, L3 95.9 %). The bisection now goes on until
+# the stretch left undecided is within a quarter of the band's width
+# (faults._CLOSE_TO): L5 96.3 %, L4 99.4 %, L3 100 %; near-fault error
+# 7.677 -> 7.691 m (TIN 9.173).
+@pytest.mark.parametrize("seed", [750])
+def test_x_crossing_closure_carried_up_to_the_partner(seed, tmp_path_factory):
+    assert_holds(outcome(seed, tmp_path_factory))
+
+
+# Open (strict xfail; found beyond the 500-seed sweep): 803, an X pair in an
+# L-shaped area, F2 one end a tip, F1 a narrow steep band crossing F2's
+# band at a small angle (F2 L2 92.1 %, L1 93.7 %). Diagnosed, not fixed:
+# in L2 the trace of F2 next to F1 has its sheets (band core) over F1, so
+# the run before it is closed towards it, and of the closures the band
+# merely moved (not along the cutoff lines, 0.86 of the way) is taken for
+# its larger fold, though the one along the cutoff lines reaches 0.97 of
+# the way and past the trace where F1 crosses the band obliquely: scored
+# by its fold inside the band the data give, that one is taken (L2 95.5 %,
+# but near-fault error +5 %, not shipped). In L1 F1 crosses F2's band
+# nearly along it, and the run beyond F1 cannot be carried towards it at
+# all: the carried core's sheet past the band on F1's side meets F1 at
+# once (the wedge of F2's band beside F1 left unrepeated).
 @pytest.mark.xfail(strict=True, reason="X pair: the later fold short of 95 % of its band")
-@pytest.mark.parametrize("seed", [750, 803])
+@pytest.mark.parametrize("seed", [803])
 def test_x_crossing_later_fold_beyond_the_sweep(seed, tmp_path_factory):
     assert_holds(outcome(seed, tmp_path_factory))
 
