@@ -984,7 +984,8 @@ _CLOSE_TO = _CORE_MARGIN
 
 #: At most this many halvings (each a loft and an exact touch test): from
 #: a tenth of the way, 2**-12 of it, a quarter of the width of a 1 m band
-#: 10 km away.
+#: 10 km away. Cost: the touch tests of building ten X-pair sweep seeds
+#: (8 9 76 236 244 246 321 350 451 750) went from 8817 to 9374 (+6 %).
 _CLOSE_STEPS = 12
 
 
