@@ -976,10 +976,11 @@ _LINE_REACH = 2.0
 #: with the trace spacing (sweep seed 750, F2 L5: a band 15 m wide, a way
 #: of 720 m, the fold closed 22 m short of F1 -- 93.2 % of the band
 #: repeated; 96.3 % with this). A quarter of the width is the band cores'
-#: own margin past the band (_CORE_MARGIN): the tip, halfway to the
-#: partner from the carried band, stays an eighth of the width or less
-#: short of it and still metres clear of it (bands are metres to hundreds
-#: of metres wide), far above the clip tolerance that decides "clear".
+#: own margin past the band (_CORE_MARGIN): where the partner stops the
+#: band's centre, the tip, halfway from the carried band to the partner,
+#: ends at most an eighth of the width short of it (decimetres to metres
+#: for bands metres to tens of metres wide); every candidate is still
+#: tested clear of the partner with the clip's tolerance (clear()).
 _CLOSE_TO = _CORE_MARGIN
 
 #: At most this many halvings (each a loft and an exact touch test): from
