@@ -482,8 +482,12 @@ def test_x_crossing_closure_carried_up_to_the_partner(seed, tmp_path_factory):
 # clear, so that trace's run is dropped and the wedge of F2's band beside
 # F1 down to the next trace is not repeated (L1 93.7 %). A core whose
 # margin on the partner's side shrinks to what is clear would be needed.
+# 1130 (found by the sweep of seeds 1000-1199, its one failure in 200): an
+# X pair of two reverse faults inside a rotated rectangle, 6 layers, F2 L2
+# 92.4 %, L3 93.5 % of the data's band; not diagnosed, unchanged by the
+# closure carried up to the partner (750 above).
 @pytest.mark.xfail(strict=True, reason="X pair: the later fold short of 95 % of its band")
-@pytest.mark.parametrize("seed", [803])
+@pytest.mark.parametrize("seed", [803, 1130])
 def test_x_crossing_later_fold_beyond_the_sweep(seed, tmp_path_factory):
     assert_holds(outcome(seed, tmp_path_factory))
 
