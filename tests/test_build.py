@@ -1087,6 +1087,29 @@ def test_tip_fan_follows_the_layer():
     check_surface(Surface("p", p.vertices, p.triangles, kind="fault"))
 
 
+def test_patch_follows_a_departure_between_the_cutoffs_and_the_ends():
+    # A first look at the points midway between a pair's ends and cutoffs
+    # was meant to spare the full test on the pairs it would reject, but
+    # rejected pairs the full test fills: the largest departure lay between
+    # the cutoffs and the ends (sweep seed 401: 8.08 m in the hanging wall
+    # against a throw of 7.38 m, at most 5.5 m at the keys; near-fault mean
+    # |dz| 1.048 m, 0.612 m with the fill). The first look now tests the
+    # full test's points.
+    from faultmesh import StudyArea, sample_surface
+    from faultmesh.faults import fault_ends, layer_patch
+
+    area = StudyArea(np.array([[-10.0, -_W], [1010.0, -_W], [1010.0, _W], [-10.0, _W]]))
+    f, L = _bump_fault(0.0)  # flat layer at -100, traces at x = 0 and 1000
+
+    def surface_z(xy):  # a 30 m rise at the footwall's middle point (y = 50) only
+        x, y = np.asarray(xy)[:, 0], np.asarray(xy)[:, 1]
+        return L(x) + 30.0 * np.exp(-((x - 500.0) / 150.0) ** 2 - ((y - 50.0) / 20.0) ** 2)
+
+    p = layer_patch(f, "L", fault_ends(f), area, surface_z, along_step=50.0)
+    lo, hi, hits = sample_surface(p.vertices, p.triangles, np.array([[500.0, 50.0]]))
+    assert hits[0] >= 1 and abs(hi[0] - (-70.0)) < 1.0, hi
+
+
 def test_tip_fan_near_a_partner_is_filled_only_beyond_the_partners_throw():
     # A tip's fan is filled where the continuous TIN departs from the fan's
     # straight line by more than the fault's throw. Near a group partner the

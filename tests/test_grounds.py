@@ -465,6 +465,23 @@ def test_x_crossing_fan_past_the_partner_keeps_its_accuracy(seed, bound, tmp_pat
     assert out["accuracy"]["mean_abs_stitched"] < bound, out["accuracy"]
 
 
+# 401, F1's end trace on the study-area boundary and the next trace 674 m
+# away: the layer sags 5.5-5.9 m between them. The first look at the points
+# midway between the pair's ends and cutoffs (departure at most 5.5 m there,
+# throw 7.38 m) rejected the pair that the full test fills (8.08 m inside
+# the hanging wall); it passed before the boundary change of LayerTin::
+# interpolate only because a sliver triangle beyond the hull gave the
+# boundary trace's points values 1-10 m off the boundary pieces. The first
+# look now tests the full test's points (faults._first_look). Near-fault
+# mean |dz|: 0.859 m (old extension), 1.048 (main), 0.612 now; the bound
+# lies halfway between the last two.
+@pytest.mark.parametrize("seed,bound", [(401, 0.83)])
+def test_boundary_end_trace_follows_the_layer_sag(seed, bound, tmp_path_factory):
+    out = outcome(seed, tmp_path_factory)
+    assert_holds(out)
+    assert out["accuracy"]["mean_abs_stitched"] < bound, out["accuracy"]
+
+
 # Open (strict xfail; found beyond the 500-seed sweep, seeds 500-999): two
 # more X pairs whose later reverse fault F2 repeats a layer on less than
 # 95 % of the band the data give, after the fixes of 76, 244, 246 and 350
