@@ -1087,6 +1087,68 @@ def test_tip_fan_follows_the_layer():
     check_surface(Surface("p", p.vertices, p.triangles, kind="fault"))
 
 
+def test_patch_follows_a_departure_between_the_cutoffs_and_the_ends():
+    # A first look at the points midway between a pair's ends and cutoffs
+    # was meant to spare the full test on the pairs it would reject, but
+    # rejected pairs the full test fills: the largest departure lay between
+    # the cutoffs and the ends (sweep seed 401: 8.08 m in the hanging wall
+    # against a throw of 7.38 m, at most 5.5 m at the keys; near-fault mean
+    # |dz| 1.048 m, 0.612 m with the fill). The first look now tests the
+    # full test's points.
+    from faultmesh import StudyArea, sample_surface
+    from faultmesh.faults import fault_ends, layer_patch
+
+    area = StudyArea(np.array([[-10.0, -_W], [1010.0, -_W], [1010.0, _W], [-10.0, _W]]))
+    f, L = _bump_fault(0.0)  # flat layer at -100, traces at x = 0 and 1000
+
+    def surface_z(xy):  # a 30 m rise at the footwall's middle point (y = 50) only
+        x, y = np.asarray(xy)[:, 0], np.asarray(xy)[:, 1]
+        return L(x) + 30.0 * np.exp(-((x - 500.0) / 150.0) ** 2 - ((y - 50.0) / 20.0) ** 2)
+
+    p = layer_patch(f, "L", fault_ends(f), area, surface_z, along_step=50.0)
+    lo, hi, hits = sample_surface(p.vertices, p.triangles, np.array([[500.0, 50.0]]))
+    assert hits[0] >= 1 and abs(hi[0] - (-70.0)) < 1.0, hi
+
+
+def test_tip_fan_near_a_partner_is_filled_only_beyond_the_partners_throw():
+    # A tip's fan is filled where the continuous TIN departs from the fan's
+    # straight line by more than the fault's throw. Near a group partner the
+    # TIN also interpolates across the partner, so its departure there is up
+    # to the partner's throw. In X pairs the later fault's fan ran past the
+    # crossing: the group clip left the filled fan's piece beyond the partner,
+    # starting at a polyline 10-13 m above the layer (sweep seed 189: F1's
+    # throw 37 m, F2's 10 m; near-fault mean |dz| 1.752 -> 1.951 m when fans
+    # were filled, also 311 and 272). Near a partner (within its reach) the
+    # fan is now filled only where the departure exceeds the partner's throw.
+    from faultmesh import StudyArea, sample_surface
+    from faultmesh.faults import PartnerZone, fault_ends, layer_patch
+
+    area = StudyArea(np.array([[-200.0, -_W], [1010.0, -_W], [1010.0, _W], [-200.0, _W]]))
+    f, L = _bump_fault(30.0, xs=(-200.0, 0.0), tips=[[1000.0, 0.0]])
+
+    def surface_z(xy):
+        return L(np.asarray(xy)[:, 0])
+
+    probe = np.array([[500.0, 30.0], [500.0, -30.0]])
+    want = np.array([L(500.0), L(500.0) - 10.0])
+
+    def error(**kw):
+        p = layer_patch(f, "L", fault_ends(f), area, surface_z, along_step=50.0, **kw)
+        assert p.ends[1] == "tip"
+        lo, hi, hits = sample_surface(p.vertices, p.triangles, probe)
+        assert (hits >= 1).all()
+        return np.abs(hi - want).max()
+
+    across = np.array([[480.0, -_W], [520.0, -_W], [520.0, _W], [480.0, _W]])  # across the fan
+    beside = across + np.array([0.0, 2 * _W + 100.0])                     # ~160 m clear of it
+    assert error() < 6.0                                             # the 30 m bulge is followed
+    assert error(near_partners=[PartnerZone([across], 20.0, 10.0)]) < 6.0   # 30 m > its throw
+    assert error(near_partners=[PartnerZone([beside], 40.0, 10.0)]) < 6.0   # beyond its reach
+    assert error(near_partners=[PartnerZone([beside], 40.0, 200.0)]) > 20.0  # within its reach
+    # 30 m < the partner's 40 m: no evidence, the fan stays straight (cuts the bulge).
+    assert error(near_partners=[PartnerZone([across], 40.0, 10.0)]) > 20.0
+
+
 def test_fault_surface_ends_where_the_layers_pinch_out():
     # A reverse fault abutting a partner is closed in each layer by a
     # pinch-out halfway to the partner (faults.layer_patch); the fault

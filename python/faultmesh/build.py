@@ -405,15 +405,25 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
             if not core:
                 continue
             partners_of: Dict[str, Dict[str, List[np.ndarray]]] = {}
+            # A tip's fan near a partner's patch is filled only where the
+            # layer departs by more than the partner's throw (faults.PartnerZone).
+            near_of: Dict[str, List[fm.PartnerZone]] = {}
             if len(core) > 1:
                 outl = {k: fm.patch_outline(v.vertices, v.triangles) for k, v in core.items()}
+                zone = {f.name: fm.PartnerZone(outl[f.name], fm.layer_throw(f, lay), tins[lay].spacing)
+                        for f in group if f.name in outl}
                 for f in group:
                     p = core.get(f.name)
-                    if p is None or not any(k in ("extended", "synthetic_tip") for k in p.ends):
+                    if p is None:
                         continue
-                    partners_of[f.name] = {k: r for k, r in outl.items() if k != f.name}
+                    near_of[f.name] = [z for k, z in zone.items() if k != f.name]
+                    if any(k in ("extended", "synthetic_tip") for k in p.ends):
+                        partners_of[f.name] = {k: r for k, r in outl.items() if k != f.name}
+                    elif "tip" not in p.ends:
+                        continue
                     core[f.name] = fm.layer_patch(f, lay, ends[f.name], area, zf, loft_method,
-                                                  partners=partners_of[f.name], along_step=step)
+                                                  partners=partners_of.get(f.name), along_step=step,
+                                                  near_partners=near_of[f.name])
             plist = [core[f.name] for f in group if f.name in core]
             if len(plist) > 1:
                 # A folded patch after others in the group's order is made
@@ -432,7 +442,8 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                         f = dataset.fault(p.fault)
                         q = fm.layer_patch(f, lay, ends[f.name], area, zf, loft_method,
                                            partners=partners_of.get(f.name), clear_of=clear,
-                                           yield_to=bands or None, along_step=step)
+                                           yield_to=bands or None, along_step=step,
+                                           near_partners=near_of.get(f.name, ()))
                         if q is not None:
                             plist[i] = p = q
                     before[p.fault] = fm.patch_outline(p.vertices, p.triangles)
