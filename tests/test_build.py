@@ -48,7 +48,7 @@ def test_paper_like_model_structure(paper, paper_model):
     assert {("2F4", "coal 8"), ("2F4", "coal 10"), ("F22", "coal 8"), ("F22", "coal 10"),
             ("F22", "third impervious bed"), ("2F1-4F2", "coal 8"), ("2F1-4F2", "coal 10")} <= got
     for g in m.gaps:
-        assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2
+        assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2 + 2 * g.n_interior
     # The T-crossing: 4F2 was carried along strike onto 2F1's patch, and the
     # group's coal-8 gap has both patches as holes.
     assert m.metadata["faults"]["4F2"]["layers"]["coal 8"]["abuts"] == ["2F1"]
