@@ -48,8 +48,9 @@ only (they are near-vertical: no XY requirement).
 
 Gaps (:class:`~faultmesh.model.Gap`, ``triangles`` = row indices into the
 layer surface's triangles): a gap polygon with ``n`` vertices and ``h`` holes
-has exactly ``n + 2h - 2`` triangles, each counter-clockwise with non-zero
-area in XY (the gap is ear-clipped in XY).
+and ``k`` layer vertices put back inside it (``Gap.n_interior``) has exactly
+``n + 2h - 2 + 2k`` triangles, each counter-clockwise with non-zero area in
+XY (the gap is ear-clipped in XY, then each point splits a triangle).
 """
 from __future__ import annotations
 
