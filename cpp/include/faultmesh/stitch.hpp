@@ -54,7 +54,7 @@
 //     constrained Delaunay refinement by default). A polygon with n vertices
 //     and h holes gives n + 2h - 2 triangles, checked. Then the layer's
 //     vertices that only D's triangles used and that lie inside the gap,
-//     farther than 1/4 of the clearance from its rings (stitch_clip.cpp),
+//     farther than 0.6 of the clearance from its rings (stitch_clip.cpp),
 //     are put back as vertices of the gap triangulation (gap_points.hpp:
 //     exact location, split, CDT flips that keep the ring edges): 2 more
 //     triangles each (StitchGap::n_interior).
