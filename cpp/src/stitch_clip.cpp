@@ -15,22 +15,6 @@
 
 namespace faultmesh::detail {
 
-// A removed layer vertex goes back into the gap when it lies farther than
-// this share of the clearance from every gap ring edge. It trades accuracy
-// against the angles of the gap triangles (a vertex close to the outline
-// makes thin triangles with it). Measured (issue 10; near-fault mean |dz|,
-// TIN 7.69 m on seed 986 and 2.77 m on 617; paper_like(0) gap triangles
-// under 20 / 10 degrees, 0.21 / 0.13 without the vertices put back):
-//     share  986     617     paper <20  <10
-//     1.0    7.87 m  2.59 m  0.21       0.13   (986: no vertex that far)
-//     0.75   7.70    -       0.22       0.11
-//     0.6    7.63    -       0.25       0.10
-//     0.5    7.53    2.39    0.26       0.10
-//     0.25   7.39    2.36    0.31       0.15
-// 0.6 is the largest share that makes 986 beat the TIN, and keeps the
-// paper-like model under the paper's smallest <20 degree share (0.25).
-constexpr double kRestoreClearanceShare = 0.6;
-
 void clip_gap_polygons(const StitcherState& s, StitchJob& job) {
     const std::string& fn = job.fn;
     const std::size_t npt = job.npt;
@@ -102,6 +86,14 @@ void clip_gap_polygons(const StitcherState& s, StitchJob& job) {
                                 (pc.valid ? std::string("") : "; the gap polygon is invalid: " + pc.message));
         }
         if (!lost.empty()) {
+            // Every removed layer vertex inside the gap comes back, however
+            // close to the patch outline: the gap surface passes through the
+            // layer's data as the TIN did. Thin triangles beside the outline
+            // are the price (paper_like(0): gap triangles under 20 degrees
+            // 0.21 -> 0.33); leaving out the vertices within a share of the
+            // clearance of the rings kept the angles but was a knife edge
+            // for accuracy (seed 986: 7.63 m against the plain TIN's 7.69 at
+            // share 0.6, 7.36 m with every vertex back; issue 10).
             std::vector<std::int64_t> cons, cand;
             for (std::size_t r = 0; r < rs.size(); ++r)
                 for (std::int64_t i = ring_off_v[r]; i < ring_off_v[r + 1]; ++i) {
@@ -116,7 +108,7 @@ void clip_gap_polygons(const StitcherState& s, StitchJob& job) {
             }
             gap.n_interior = static_cast<std::int64_t>(
                 insert_interior_points(lxy.data(), local_to_global.size(), lt, cons.data(), cons.size() / 2,
-                                       cand.data(), cand.size(), kRestoreClearanceShare * s.opt.clearance)
+                                       cand.data(), cand.size())
                     .size());
         }
         for (std::size_t t = 0; t < lt.size() / 3; ++t) {

@@ -72,8 +72,8 @@ std::set<std::int64_t> vertices_of(const std::vector<std::int64_t>& t) { return 
 }  // namespace
 
 // An annular gap (a patch hole in a square): points inside it become vertices,
-// points in the hole, outside the square or within the clearance of a ring
-// do not; 2 more triangles per point.
+// however close to a ring; points in the hole or outside the square do not;
+// 2 more triangles per point.
 TEST(GapPoints, AnnulusKeepsItsInteriorPointsOnly) {
     Gap g;
     g.ring({{0, 0}, {10, 0}, {10, 10}, {0, 10}});
@@ -82,19 +82,19 @@ TEST(GapPoints, AnnulusKeepsItsInteriorPointsOnly) {
     for (int i = 0; i < 10; ++i)
         for (int j = 0; j < 10; ++j) {
             const double x = 0.5 + i + 0.013 * j, y = 0.5 + j + 0.007 * i;
-            const bool in_hole = x > 3.6 && x < 6.4 && y > 3.6 && y < 6.4;  // within 0.4 of the hole too
+            const bool in_hole = x > 4.0 && x < 6.0 && y > 4.0 && y < 6.0;
             (in_hole ? outside : inside).push_back(g.point(x, y));
         }
     outside.push_back(g.point(-1.0, 5.0));   // outside the square
-    outside.push_back(g.point(10.2, 3.0));   // within the clearance of the outer ring, outside
-    outside.push_back(g.point(9.8, 3.0));    // within the clearance of the outer ring, inside
+    outside.push_back(g.point(10.2, 3.0));   // just outside the outer ring
+    inside.push_back(g.point(9.99, 3.0));    // just inside the outer ring: a thin triangle, kept
+    inside.push_back(g.point(5.0, 6.01));    // just outside the hole
     std::vector<std::int64_t> t = g.clip();
     ASSERT_EQ(t.size() / 3, g.n_ring + 2 * 1 - 2);
     std::vector<std::int64_t> cand = inside;
     cand.insert(cand.end(), outside.begin(), outside.end());
     const std::vector<std::int64_t> got = fm::insert_interior_points(
-        g.xy.data(), g.xy.size() / 2, t, g.cons.data(), g.cons.size() / 2, cand.data(), cand.size(), 0.3);
-    // 9.8 is 0.2 from the ring (< 0.3); the points 0.5 from the outer ring are kept.
+        g.xy.data(), g.xy.size() / 2, t, g.cons.data(), g.cons.size() / 2, cand.data(), cand.size());
     std::vector<std::int64_t> want = inside;
     std::sort(want.begin(), want.end());
     std::vector<std::int64_t> sorted = got;
@@ -109,7 +109,7 @@ TEST(GapPoints, AnnulusKeepsItsInteriorPointsOnly) {
 
 // A point exactly on the diagonal of a square (whichever the ear clipping
 // chose): the two triangles are split into four. A point on a ring edge
-// (clearance 0) and a point on a ring vertex are not inserted.
+// and a point on a ring vertex are not inserted.
 TEST(GapPoints, PointOnAnEdgeSplitsBothTriangles) {
     Gap g;
     g.ring({{0, 0}, {4, 0}, {4, 4}, {0, 4}});
@@ -118,7 +118,7 @@ TEST(GapPoints, PointOnAnEdgeSplitsBothTriangles) {
     ASSERT_EQ(t.size(), 6u);
     const std::vector<std::int64_t> cand{on_ring, on_vertex, centre, centre};
     const std::vector<std::int64_t> got = fm::insert_interior_points(
-        g.xy.data(), g.xy.size() / 2, t, g.cons.data(), g.cons.size() / 2, cand.data(), cand.size(), 0.0);
+        g.xy.data(), g.xy.size() / 2, t, g.cons.data(), g.cons.size() / 2, cand.data(), cand.size());
     EXPECT_EQ(got, std::vector<std::int64_t>{centre});
     EXPECT_EQ(t.size() / 3, 4u);
     expect_valid(g, t, 32.0);
@@ -136,7 +136,7 @@ TEST(GapPoints, CollinearPointsAllBecomeVertices) {
     for (int i = 1; i < 8; ++i) line.push_back(g.point(i, 3.0 * i / 8.0));
     std::vector<std::int64_t> t = g.clip();
     const std::vector<std::int64_t> got = fm::insert_interior_points(
-        g.xy.data(), g.xy.size() / 2, t, g.cons.data(), g.cons.size() / 2, line.data(), line.size(), 0.0);
+        g.xy.data(), g.xy.size() / 2, t, g.cons.data(), g.cons.size() / 2, line.data(), line.size());
     EXPECT_EQ(got.size(), line.size());
     EXPECT_EQ(t.size() / 3, 2 + 2 * line.size());
     const std::set<std::int64_t> vs = vertices_of(t);
@@ -149,7 +149,5 @@ TEST(GapPoints, MalformedArguments) {
     g.ring({{0, 0}, {4, 0}, {4, 4}});
     std::vector<std::int64_t> t = g.clip();
     const std::int64_t bad[] = {7};
-    EXPECT_THROW(fm::insert_interior_points(g.xy.data(), 3, t, g.cons.data(), 3, bad, 1, 0.0), std::invalid_argument);
-    const std::int64_t ok[] = {0};
-    EXPECT_THROW(fm::insert_interior_points(g.xy.data(), 3, t, g.cons.data(), 3, ok, 1, -1.0), std::invalid_argument);
+    EXPECT_THROW(fm::insert_interior_points(g.xy.data(), 3, t, g.cons.data(), 3, bad, 1), std::invalid_argument);
 }
