@@ -520,13 +520,17 @@ def test_fault_extended_along_its_strike_beats_the_tin(seed, tmp_path_factory):
 # 2.89 m). Then the gap lost: the layer data within a data spacing of the
 # patch were removed with the triangles touching it and the gap was filled
 # linearly from the patch outline to the ring left (986: 7.37 vs the TIN's
-# 6.59 m over 46 % of the near-fault samples). The stitcher now puts the
-# removed layer vertices back into the gap triangulation (gap_points.hpp):
-# 986 7.63 m vs the TIN's 7.69, 617 2.40 vs 2.77 (stitch_clip.cpp: the share
-# of the clearance that decides which vertices go back).
+# 6.59 m over 46 % of the near-fault samples). The stitcher now puts every
+# removed layer vertex inside the gap back into its triangulation
+# (gap_points.hpp, stitch_clip.cpp): 986 7.36 m vs the TIN's 7.69 (ratio
+# 0.957), 617 2.30 vs 2.77 (0.831), 381 7.19 vs 9.52 (0.756). Putting back
+# only the vertices farther than 0.6 of the clearance from the gap rings gave
+# 986 7.63 (0.992): a knife edge, which the 3 % margin asked here rejects.
 @pytest.mark.parametrize("seed", [381, 986, 617])
 def test_patch_between_distant_traces_beats_the_tin(seed, tmp_path_factory):
     out = outcome(seed, tmp_path_factory)
     what = f"{out['describe']}: {out['stage']} {(out.get('error') or '')[:300]}"
     assert out["built"] and out["checked"], what
     assert out["accuracy"]["beats"], what
+    acc = out["accuracy"]
+    assert acc["mean_abs_stitched"] < 0.97 * acc["mean_abs_continuous"], what

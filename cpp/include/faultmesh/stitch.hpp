@@ -52,10 +52,9 @@
 //     ear-clipped in XY (ear_clipping.hpp: bridges between mutually visible
 //     vertices join the holes to the outer ring, quality ear order and
 //     constrained Delaunay refinement by default). A polygon with n vertices
-//     and h holes gives n + 2h - 2 triangles, checked. Then the layer's
-//     vertices that only D's triangles used and that lie inside the gap,
-//     farther than 0.6 of the clearance from its rings (stitch_clip.cpp),
-//     are put back as vertices of the gap triangulation (gap_points.hpp:
+//     and h holes gives n + 2h - 2 triangles, checked. Then every layer
+//     vertex that only D's triangles used and that lies inside the gap (on
+//     no ring; stitch_clip.cpp) is put back as vertices of the gap triangulation (gap_points.hpp:
 //     exact location, split, CDT flips that keep the ring edges): 2 more
 //     triangles each (StitchGap::n_interior).
 //     Without this the layer's data inside D were lost (issue 10).
