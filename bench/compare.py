@@ -108,9 +108,18 @@ def gap_rings(surface, gap) -> List[np.ndarray]:
     return outer + holes
 
 
+def gap_interior(surface, gap, rings: List[np.ndarray]) -> np.ndarray:
+    """The gap's interior vertices (indices of ``surface``): the layer data put
+    back inside it by the stitcher (``Gap.n_interior``), on no ring."""
+    tri = surface.triangles[np.asarray(gap.triangles, dtype=np.int64)]
+    return np.setdiff1d(np.unique(tri), np.concatenate(rings))
+
+
 def run_cgal(exe: Path, polygons: Sequence[Tuple[np.ndarray, List[np.ndarray]]], repeat: int = 5
              ) -> Tuple[List[np.ndarray], List[Dict[str, Any]]]:
-    """CGAL CDT of each polygon (vertices (n, 3), rings of vertex indices).
+    """CGAL CDT of each polygon (vertices (n, 3), rings of vertex indices; a
+    ring of one index is a point inside the polygon, inserted without a
+    constraint: a gap's interior vertex).
     Returns the triangles as indices into each polygon's ``vertices`` and the
     per-polygon JSON records (points, vertices, triangles, seconds)."""
     with tempfile.TemporaryDirectory() as tmp:
@@ -194,14 +203,18 @@ def gap_table(model, with_cgal: Optional[Path] = None, cgal_repeat: int = 5,
         surf = model.surfaces[g.layer]
         T = surf.triangles[np.asarray(g.triangles, dtype=np.int64)]
         rec = {"fault": g.fault, "layer": g.layer, "seconds": float(g.seconds),
-               "n_vertices": int(g.n_vertices), "n_holes": int(g.n_holes), "tri": T,
+               "n_vertices": int(g.n_vertices), "n_holes": int(g.n_holes),
+               "n_interior": int(getattr(g, "n_interior", 0)), "tri": T,
                "stats": _stats(surf.vertices, T)}
         if with_cgal is not None or ear_clip is not None:
             rec["rings"] = gap_rings(surf, g)
+            rec["interior"] = gap_interior(surf, g, rec["rings"])
         if ear_clip is not None:
             rec["clip_seconds"] = _ear_clip_seconds(surf.vertices, rec["rings"], cgal_repeat, **ear_clip)
         if with_cgal is not None:
-            polys.append((surf.vertices, rec["rings"]))
+            # CGAL gets the same points: the rings as constraints and the
+            # interior vertices as one-point rings (no constraint).
+            polys.append((surf.vertices, rec["rings"] + [np.array([v]) for v in rec["interior"]]))
         recs.append(rec)
     if with_cgal is not None and polys:
         tris, info = run_cgal(with_cgal, polys, repeat=cgal_repeat)

@@ -48,7 +48,7 @@ def test_paper_like_model_structure(paper, paper_model):
     assert {("2F4", "coal 8"), ("2F4", "coal 10"), ("F22", "coal 8"), ("F22", "coal 10"),
             ("F22", "third impervious bed"), ("2F1-4F2", "coal 8"), ("2F1-4F2", "coal 10")} <= got
     for g in m.gaps:
-        assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2
+        assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2 + 2 * g.n_interior
     # The T-crossing: 4F2 was carried along strike onto 2F1's patch, and the
     # group's coal-8 gap has both patches as holes.
     assert m.metadata["faults"]["4F2"]["layers"]["coal 8"]["abuts"] == ["2F1"]
@@ -213,11 +213,14 @@ def test_reverse_faults_fold_and_cancel(paper_model):
 
 def test_quality_and_accuracy(paper_model):
     q = paper_model.metadata["quality"]
-    # Table 2 of the paper (its method): shares under 20 degrees 0.25..0.75,
-    # under 10 degrees 0..0.54 (mean 0.27). With the quality ear order,
-    # constrained-Delaunay refinement and the clearance we stay below the
-    # smallest <20 share and the mean <10 share.
-    assert q["lt20"] < 0.25 and q["lt10"] < 0.2
+    # Table 2 of the paper (its method): shares under 20 degrees 0.25..0.75
+    # (mean 0.59), under 10 degrees 0..0.54 (mean 0.27). With the quality ear
+    # order, constrained-Delaunay refinement and the clearance the gap
+    # polygons alone give 0.21 / 0.13. The layer data put back inside the
+    # gaps (issue 10: the gap surface passes through every datum) make thin
+    # triangles where a datum lies close to the patch outline: measured
+    # 0.33 / 0.18. We stay below the paper method's mean shares.
+    assert q["lt20"] < 0.59 and q["lt10"] < 0.27
     assert q == gap_quality(paper_model)
     a = paper_model.metadata["accuracy"]
     assert a["samples"] > 1000

@@ -40,6 +40,7 @@ def stitched_model(order: str, refine: bool, n_points=6000, n_faults=4, seed=3) 
     surf = Surface("layer", mesh.vertices, mesh.triangles, kinds=mesh.kinds, owner=mesh.owners)
     model_gaps = [Gap(fault=f, layer="layer", triangles=mesh.triangle_map[g.triangles],
                       n_vertices=int(g.n_vertices), n_holes=int(g.n_holes), id=int(g.id),
+                      n_interior=int(g.n_interior),
                       patches=[int(p) for p in g.patches])
                   for f, g in gaps]
     assert all((g.triangles >= 0).all() for g in model_gaps)
@@ -56,13 +57,18 @@ def test_stitched_gaps_have_cgal_counts(cgal_gap, order, refine):
     model = stitched_model(order, refine)
     recs = compare.gap_table(model, with_cgal=cgal_gap, cgal_repeat=1)
     assert len(recs) == 4
+    assert sum(r["n_interior"] for r in recs) > 0  # the case the CGAL input must carry
     for r in recs:
         n = r["stats"]["triangles"]
-        assert n == r["n_vertices"] + 2 * r["n_holes"] - 2
+        # The layer vertices put back inside a gap (k = len(interior)) are
+        # given to CGAL too, as unconstrained points: 2 triangles each.
+        k = len(r["interior"])
+        assert k == r["n_interior"]
+        assert n == r["n_vertices"] + 2 * r["n_holes"] - 2 + 2 * k
         assert n == r["cgal_stats"]["triangles"], (r["fault"], n, r["cgal_stats"]["triangles"])
         # The polygon given to CGAL is the gap's: its ring sizes add up to n_vertices.
         assert sum(len(x) for x in r["rings"]) == r["n_vertices"]
-        assert r["cgal_vertices"] == len(np.unique(np.concatenate(r["rings"])))
+        assert r["cgal_vertices"] == len(np.unique(np.concatenate(r["rings"]))) + k
         if refine:
             # Quality order + CDT flips is CGAL's CDT, triangle for triangle.
             assert r["cgal_identical"], r["fault"]

@@ -684,7 +684,27 @@ def test_reverse_fault_folding_along_the_boundary_keeps_its_sections():
     m2 = faultmesh.build_model(d, evaluate=False)
     m2.check()
     e1, e2 = near_fault_error([m1, m2], ds.geology, np.asarray(ds.boundary))
-    assert e2 <= 1.25 * e1, (e1, e2)
+    # The sections dropped gave 6.0x. Since the stitcher puts the layer data
+    # back into the gaps (issue 10) the model from the true cutoffs gained
+    # (0.634 -> 0.445 m) and the derived one did not (0.668 m both): ratio
+    # 1.05 -> 1.50, so the 1.25 target is the strict xfail below.
+    assert e2 <= 2.0 * e1, (e1, e2)
+
+
+@pytest.mark.xfail(strict=True, reason="open: on random_ground(0) the layer data put back into the gaps "
+                   "improve the model from the true cutoffs (0.634 -> 0.445 m) but not the derived one "
+                   "(0.668 m): ratio 1.50 > 1.25")
+def test_reverse_fault_folding_along_the_boundary_within_the_v2_ratio():
+    """random_ground(0) as v2 (see the test above): the derived model's
+    near-fault error within V2_RATIO (1.25) of the true cutoffs' model."""
+    from faultmesh import grounds
+
+    ds = grounds.random_ground(0)
+    d = derive.derive_faults(v2_of(ds))
+    m1 = faultmesh.build_model(ds, evaluate=False)
+    m2 = faultmesh.build_model(d, evaluate=False)
+    e1, e2 = near_fault_error([m1, m2], ds.geology, np.asarray(ds.boundary))
+    assert e2 <= grounds.V2_RATIO * e1, (e1, e2)
 
 
 def test_derived_polylines_stay_out_of_another_faults_room():

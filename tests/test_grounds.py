@@ -581,22 +581,23 @@ def test_fault_extended_along_its_strike_beats_the_tin(seed, tmp_path_factory):
     assert_holds(outcome(seed, tmp_path_factory))
 
 
-# 986 and 617 (found beyond the 500-seed sweep): open. A tip's fan cut
-# straight through the layer (986: F1's L3 fan 600 m long, the layer 50 m
-# below it halfway); the fan now follows the layer TIN (8.53 -> 7.87 m,
-# 617 3.11 -> 2.89 m). What is left is the gap: near the faults the patches
-# beat the TIN (986: 3.59 vs 4.65 m over 17 % of the samples, 617: 3.74 vs
-# 5.00 over 11 %), the gap triangles lose (986: 7.37 vs 6.59 over 46 %, 617:
-# 3.43 vs 2.89 over 50 %): the layer data within a data spacing of the
-# patch are removed with the triangles touching it, and the gap is filled
-# linearly from the patch outline to the ring left, across a layer that
-# curves by more than the throw at that scale (986: throw 7 m).
-@pytest.mark.parametrize("seed", [381, pytest.param(986, marks=pytest.mark.xfail(
-    strict=True, reason="open: the gap fill loses the removed layer data (see above)")),
-    pytest.param(617, marks=pytest.mark.xfail(
-        strict=True, reason="open: the gap fill loses the removed layer data (see above)"))])
+# 986 and 617 (found beyond the 500-seed sweep). A tip's fan cut straight
+# through the layer (986: F1's L3 fan 600 m long, the layer 50 m below it
+# halfway); the fan now follows the layer TIN (8.53 -> 7.87 m, 617 3.11 ->
+# 2.89 m). Then the gap lost: the layer data within a data spacing of the
+# patch were removed with the triangles touching it and the gap was filled
+# linearly from the patch outline to the ring left (986: 7.37 vs the TIN's
+# 6.59 m over 46 % of the near-fault samples). The stitcher now puts every
+# removed layer vertex inside the gap back into its triangulation
+# (gap_points.hpp, stitch_clip.cpp): 986 7.36 m vs the TIN's 7.69 (ratio
+# 0.957), 617 2.30 vs 2.77 (0.831), 381 7.19 vs 9.52 (0.756). Putting back
+# only the vertices farther than 0.6 of the clearance from the gap rings gave
+# 986 7.63 (0.992): a knife edge, which the 3 % margin asked here rejects.
+@pytest.mark.parametrize("seed", [381, 986, 617])
 def test_patch_between_distant_traces_beats_the_tin(seed, tmp_path_factory):
     out = outcome(seed, tmp_path_factory)
     what = f"{out['describe']}: {out['stage']} {(out.get('error') or '')[:300]}"
     assert out["built"] and out["checked"], what
     assert out["accuracy"]["beats"], what
+    acc = out["accuracy"]
+    assert acc["mean_abs_stitched"] < 0.97 * acc["mean_abs_continuous"], what

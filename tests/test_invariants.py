@@ -271,7 +271,7 @@ def test_gap_checks():
     V, T = grid()
     surf = S(V, T)
     check_gaps(surf, [Gap("F", "bed", np.arange(4), n_vertices=6, n_holes=0)])
-    with pytest.raises(faultmesh.GeometryError, match="gap triangle count.*n \\+ 2h - 2 = 6"):
+    with pytest.raises(faultmesh.GeometryError, match="gap triangle count.*n \\+ 2h - 2 \\+ 2k = 6"):
         check_gaps(surf, [Gap("F", "bed", np.arange(5), n_vertices=6, n_holes=1)])
     with pytest.raises(faultmesh.GeometryError, match="outside"):
         check_gaps(surf, [Gap("F", "bed", np.array([0, 1, 99]), n_vertices=5, n_holes=0)])

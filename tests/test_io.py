@@ -80,6 +80,25 @@ def test_3dt_round_trip_is_exact(tmp_path):
     assert p.read_bytes() == p2.read_bytes()
 
 
+def test_3dt_gap_interior_round_trip(tmp_path):
+    """Regression (issue 10): a gap with layer vertices put back inside it
+    (n_interior = k, n + 2h - 2 + 2k triangles) is written as GAP interior=k
+    and read back; a GAP record without it (files written before) reads as
+    k = 0. Without the attribute a saved model failed check() on the count."""
+    m = make_model()
+    m.gaps = [Gap("F22", "coal 8", np.arange(7), 5, 0, 0.0125, n_interior=2)]
+    p = tmp_path / "m.3dt"
+    m.save(p)
+    assert "interior=2 " in p.read_text(encoding="utf-8")
+    (g,) = load_model(p).gaps
+    assert (g.n_vertices, g.n_holes, g.n_interior, len(g.triangles)) == (5, 0, 2, 7)
+    old = tmp_path / "old.3dt"
+    make_model().save(old)  # k = 0: the record as before, no interior attribute
+    assert "interior=" not in old.read_text(encoding="utf-8")
+    (g0,) = load_model(old).gaps
+    assert g0.n_interior == 0
+
+
 def test_3dt_awkward_floats_survive(tmp_path):
     vals = np.array([[0.1, -0.0, 5e-324], [1.7976931348623157e308, -2.2250738585072014e-308, 1 / 3],
                      [513398.61512345678, 3930237.1000000001, -349.62396600000001]])

@@ -140,7 +140,7 @@ def test_model_check_and_stitched_gaps(full):
     assert list(model.surfaces) == ds.layers
     assert sorted({g.layer for g in model.gaps}) == ["val_330"]
     for g in model.gaps:
-        assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2 > 0
+        assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2 + 2 * g.n_interior > 0
     for lay in ("val_0", "val_60", "val_250"):
         assert model.surfaces[lay].metadata["n_gap_triangles"] == 0
     ends = model.metadata["faults"]["claudius_fault"]["layers"]["val_330"]["ends"]

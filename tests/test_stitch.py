@@ -80,7 +80,7 @@ def test_reverse_patch_stitched_folds_and_keeps_invariants():
     check_surface(S, SQUARE)
     (gap,) = rep.gaps
     assert gap.n_holes == 1
-    assert len(gap.triangles) == gap.n_vertices + 2 * gap.n_holes - 2
+    assert len(gap.triangles) == gap.n_vertices + 2 * gap.n_holes - 2 + 2 * gap.n_interior
     # The fault strip of the reverse fault is clockwise in XY; the areas still
     # add up to the study area (footwall + strip - hanging wall cancel).
     o = orient_xy(S.vertices, S.triangles)
@@ -186,7 +186,7 @@ def test_close_patches_merge_into_one_gap_with_two_holes():
     assert g.n_holes == 2 and sorted(g.patches) == [0, 1]
     assert list(g.merged_gaps) == [r1.gaps[0].id]
     rows = np.flatnonzero(m.kinds == faultmesh.TriangleKind.gap)
-    assert len(rows) == g.n_vertices + 2 * 2 - 2
+    assert len(rows) == g.n_vertices + 2 * 2 - 2 + 2 * g.n_interior
     assert set(m.owners[rows]) == {g.id}
     # Both patches keep their own triangles, owned by their ids.
     for r in (r1, r2):
@@ -253,7 +253,7 @@ def test_patch_touching_the_boundary_at_a_vertex_pinches_the_gap():
     check_surface(S, SQUARE)
     assert len(rep.gaps) == 2
     for g in rep.gaps:
-        assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2
+        assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2 + 2 * g.n_interior
     # One gap is the corner: (90, 0) -- chord -- (100, 3) and the boundary.
     is_gap = m.kinds == faultmesh.TriangleKind.gap
     xy = [S.vertices[np.unique(S.triangles[is_gap & (m.owners == g.id)]), :2] for g in rep.gaps]
@@ -480,7 +480,7 @@ def test_random_patches_keep_invariants(seed, x0, y0, length, width, reverse, n_
     S, m = surface_of(st_)
     check_surface(S, SQUARE)
     for g in rep.gaps:
-        assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2
+        assert len(g.triangles) == g.n_vertices + 2 * g.n_holes - 2 + 2 * g.n_interior
     o = orient_xy(S.vertices, S.triangles)
     assert ((o < 0).sum() > 0) == reverse
 

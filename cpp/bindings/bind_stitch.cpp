@@ -37,7 +37,7 @@ StitchOptions make_options(bool refine, const std::string& order, const std::str
 // The typed results as Python sees them: the C++ vectors handed to numpy
 // once (no copy), as attributes of small record classes.
 struct PyStitchGap {
-    std::int64_t id, n_vertices, n_holes;
+    std::int64_t id, n_vertices, n_holes, n_interior;
     py::array_t<std::int64_t> triangles, patches, merged_gaps;
 };
 
@@ -61,7 +61,7 @@ PyStitchReport to_python(StitchReport&& r, const std::string& name) {
                      name, r.patch_flipped, py::list(), to_numpy(std::move(r.removed)),
                      to_numpy(std::move(r.merged_gaps))};
     for (auto& g : r.gaps)
-        p.gaps.append(PyStitchGap{g.id, g.n_vertices, g.n_holes, to_numpy(std::move(g.triangles)),
+        p.gaps.append(PyStitchGap{g.id, g.n_vertices, g.n_holes, g.n_interior, to_numpy(std::move(g.triangles)),
                                   to_numpy(std::move(g.patches)), to_numpy(std::move(g.merged_gaps))});
     return p;
 }
@@ -89,6 +89,8 @@ void bind_results(py::module_& m) {
         .def_readonly("n_vertices", &PyStitchGap::n_vertices, "vertices of the gap polygon, counted per ring")
         .def_readonly("n_holes", &PyStitchGap::n_holes,
                       "holes of the gap polygon (ear clipping gives n_vertices + 2 n_holes - 2 triangles)")
+        .def_readonly("n_interior", &PyStitchGap::n_interior,
+                      "removed layer vertices put back inside the gap (2 more triangles each)")
         .def_readonly("patches", &PyStitchGap::patches, "int64 ids of the patches whose outline is part of it")
         .def_readonly("merged_gaps", &PyStitchGap::merged_gaps, "int64 ids of earlier gaps it swallowed")
         .def("__repr__", [](const PyStitchGap& g) {

@@ -397,6 +397,11 @@ class StitchGap:
         holes of the gap polygon (ear clipping gives n_vertices + 2 n_holes - 2 triangles)
         """
     @property
+    def n_interior(self) -> int:
+        """
+        removed layer vertices put back inside the gap (2 more triangles each)
+        """
+    @property
     def n_vertices(self) -> int:
         """
         vertices of the gap polygon, counted per ring
@@ -537,7 +542,7 @@ class Stitcher:
         Stitch one patch (vertices (n, 3), triangles (m, 3), consistently oriented; several
         disjoint components allowed). Returns a StitchReport: patch_id, patch_name,
         patch_vertex_offset, patch_triangle_offset, patch_flipped, gaps (list of StitchGap: id,
-        triangles (stitcher rows), n_vertices, n_holes, patches, merged_gaps), removed,
+        triangles (stitcher rows), n_vertices, n_holes, n_interior, patches, merged_gaps), removed,
         merged_gaps, n_candidates, grow_rounds. Raises GeometryError (naming both) if the patch
         overlaps or touches an earlier patch; nothing changes on error.
         """

@@ -299,7 +299,7 @@ def _stitch_layer(lay: str, tin: LayerTin, patches: List[Tuple[str, List[str], n
             names = list(dict.fromkeys(f for p in owners for f in p.faults))
             gaps.append(Gap(fault="+".join(p.name for p in owners) or "?", layer=lay,
                             triangles=rows[lo:hi].astype(np.int64), n_vertices=int(g.n_vertices),
-                            n_holes=int(g.n_holes), seconds=secs,
+                            n_holes=int(g.n_holes), n_interior=int(g.n_interior), seconds=secs,
                             metadata={"faults": names, "merged_gaps": len(g.merged_gaps)},
                             id=gid, patches=[p.id for p in owners]))
     return surf, gaps, list(layer_patches.values()), records

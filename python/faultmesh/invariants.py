@@ -48,8 +48,9 @@ only (they are near-vertical: no XY requirement).
 
 Gaps (:class:`~faultmesh.model.Gap`, ``triangles`` = row indices into the
 layer surface's triangles): a gap polygon with ``n`` vertices and ``h`` holes
-has exactly ``n + 2h - 2`` triangles, each counter-clockwise with non-zero
-area in XY (the gap is ear-clipped in XY).
+and ``k`` layer vertices put back inside it (``Gap.n_interior``) has exactly
+``n + 2h - 2 + 2k`` triangles, each counter-clockwise with non-zero area in
+XY (the gap is ear-clipped in XY, then each point splits a triangle).
 """
 from __future__ import annotations
 
@@ -392,20 +393,23 @@ def check_surface(surface, boundary: Optional[np.ndarray] = None) -> None:
 def check_gaps(surface, gaps: Iterable) -> None:
     """Check the stitched gaps of one layer surface: ``Gap.triangles`` are row
     indices into ``surface.triangles``; a polygon with n vertices and h holes
-    has n + 2h - 2 of them, each counter-clockwise with non-zero area in XY."""
+    has n + 2h - 2 of them, plus 2 per removed layer vertex put back inside
+    (``n_interior``), each counter-clockwise with non-zero area in XY."""
     name = surface.name
     T = np.asarray(surface.triangles, dtype=np.int64)
     V = np.asarray(surface.vertices, dtype=np.float64)
     m = len(T)
     for g in gaps:
         rows = np.asarray(g.triangles, dtype=np.int64).reshape(-1)
-        want = int(g.n_vertices) + 2 * int(g.n_holes) - 2
+        k = int(getattr(g, "n_interior", 0))
+        want = int(g.n_vertices) + 2 * int(g.n_holes) - 2 + 2 * k
         label = f"gap of {g.fault!r} in {g.layer!r}"
         if len(rows) != want:
             raise GeometryError(
                 f"check_surface: surface {name!r}: invariant 'gap triangle count' violated: "
                 f"{label} has {len(rows)} triangles, a polygon with n = {g.n_vertices} vertices "
-                f"and h = {g.n_holes} holes must have n + 2h - 2 = {want}")
+                f"and h = {g.n_holes} holes and k = {k} interior vertices must have "
+                f"n + 2h - 2 + 2k = {want}")
         if len(rows) == 0:
             continue
         if rows.min() < 0 or rows.max() >= m:

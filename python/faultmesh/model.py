@@ -99,8 +99,9 @@ class Gap:
     """One stitched gap: the polygon between a hole in a layer and a fault patch.
 
     ``triangles`` are rows of the layer surface's ``triangles`` created by ear
-    clipping the gap; ``n_vertices`` and ``n_holes`` describe the gap polygon,
-    so ``len(triangles) == n_vertices + 2 * n_holes - 2``. ``id``: the
+    clipping the gap; ``n_vertices`` and ``n_holes`` describe the gap polygon
+    and ``n_interior`` counts the removed layer vertices put back inside it,
+    so ``len(triangles) == n_vertices + 2 * n_holes - 2 + 2 * n_interior``. ``id``: the
     ``owner`` of its triangles in the layer surface (-1 if not known);
     ``patches``: the ids of the :class:`StitchedPatch` es of that layer whose
     outline is part of the gap (its holes, or its side along the study-area
@@ -117,6 +118,7 @@ class Gap:
     metadata: Dict[str, Any] = field(default_factory=dict)
     id: int = -1
     patches: List[int] = field(default_factory=list)
+    n_interior: int = 0
 
 
 @dataclass

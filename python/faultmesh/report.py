@@ -500,7 +500,7 @@ def quality(model, *, near: float = 150.0, samples: int = 200, truth=None) -> Qu
                              f"0..{surf.n_triangles - 1}")
         row = {"fault": g.fault, "layer": g.layer, "triangles": int(rows.size),
                "polygon_vertices": int(g.n_vertices), "holes": int(g.n_holes),
-               "expected_triangles": int(g.n_vertices + 2 * g.n_holes - 2),
+               "expected_triangles": int(g.n_vertices + 2 * g.n_holes - 2 + 2 * getattr(g, "n_interior", 0)),
                "seconds": float(g.seconds)}
         row.update(_angle_row(surf.vertices, surf.triangles[rows]))
         rep.gaps.append(row)

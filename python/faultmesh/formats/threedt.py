@@ -143,6 +143,7 @@ def model_lines(model) -> List[str]:
                if version >= 2 and getattr(gap, "id", -1) >= 0 else "")
         out.append(f"GAP fault={_q(gap.fault)} layer={_q(gap.layer)} "
                    f"polygon_vertices={int(gap.n_vertices)} holes={int(gap.n_holes)} "
+                   + (f"interior={int(gap.n_interior)} " if getattr(gap, "n_interior", 0) else "") +
                    f"seconds={float(gap.seconds)!r} triangles={len(rows)}{ids}")
         m = _meta_line(gap.metadata, f"gap {gap.fault!r}/{gap.layer!r}")
         if m:
@@ -395,6 +396,7 @@ def read_3dt(path):
         npoly = r.need(gattrs, "polygon_vertices", "GAP", at, int)
         holes = r.need(gattrs, "holes", "GAP", at, int)
         secs = r.need(gattrs, "seconds", "GAP", at, float) if "seconds" in gattrs else 0.0
+        interior = r.need(gattrs, "interior", "GAP", at, int) if "interior" in gattrs else 0
         k = r.need(gattrs, "triangles", "GAP", at, int)
         gid = r.need(gattrs, "id", "GAP", at, int) if "id" in gattrs else -1
         gpatches = r.need(gattrs, "patches", "GAP", at, "ints") if "patches" in gattrs else []
@@ -418,7 +420,8 @@ def read_3dt(path):
                           f"{layer!r}", at)
         r.keyword_line("END GAP")
         gaps.append(Gap(fault=fault, layer=layer, triangles=arr, n_vertices=npoly,
-                        n_holes=holes, seconds=secs, metadata=meta, id=gid, patches=gpatches))
+                        n_holes=holes, n_interior=interior, seconds=secs, metadata=meta, id=gid,
+                        patches=gpatches))
     at = r.i
     s = r.next("END MODEL")
     if s != "END MODEL":
