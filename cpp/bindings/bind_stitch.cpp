@@ -209,7 +209,7 @@ local merge with shared vertices. mesh() returns the compacted surface.
             "Stitch one patch (vertices (n, 3), triangles (m, 3), consistently oriented; several\n"
             "disjoint components allowed). Returns a StitchReport: patch_id, patch_name,\n"
             "patch_vertex_offset, patch_triangle_offset, patch_flipped, gaps (list of StitchGap: id,\n"
-            "triangles (stitcher rows), n_vertices, n_holes, patches, merged_gaps), removed,\n"
+            "triangles (stitcher rows), n_vertices, n_holes, n_interior, patches, merged_gaps), removed,\n"
             "merged_gaps, n_candidates, grow_rounds. Raises GeometryError (naming both) if the patch\n"
             "overlaps or touches an earlier patch; nothing changes on error.")
         .def(
