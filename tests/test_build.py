@@ -1113,6 +1113,29 @@ def test_patch_follows_a_departure_between_the_cutoffs_and_the_ends():
     assert hits[0] >= 1 and abs(hi[0] - (-70.0)) < 1.0, hi
 
 
+@pytest.mark.parametrize("loft_method", ["min_area", "shortest_diagonal"])
+def test_flat_layer_patch_has_no_zero_area_triangle(loft_method):
+    # A flat layer: each trace's polylines are straight, and the hanging
+    # wall's far point at x = 1000 lies on the study area's side y = -_W, so
+    # the extension to x = 1010 keeps it (one vertex shared by the two
+    # polylines). The min-area loft, for which a triangle of three collinear
+    # points costs nothing, walked the extension to that shared point first
+    # and fanned the straight polyline's edges to it: triangle [15, 16, 17],
+    # three points of one polyline, zero area (check_surface: "conforming").
+    # The loft now never takes a zero-area triangle where another path
+    # exists (ctest Loft.NoZeroAreaTriangleWhereAnotherPathExists).
+    from faultmesh import StudyArea
+    from faultmesh.faults import fault_ends, layer_patch
+
+    area = StudyArea(np.array([[-10.0, -_W], [1010.0, -_W], [1010.0, _W], [-10.0, _W]]))
+    f, L = _bump_fault(0.0)
+    for along_step in (None, 50.0):
+        p = layer_patch(f, "L", fault_ends(f), area, lambda xy: L(np.asarray(xy)[:, 0]),
+                        loft_method=loft_method, along_step=along_step)
+        assert p.ends == ["extended", "extended"]
+        check_surface(Surface("p", p.vertices, p.triangles, kind="fault"))
+
+
 def test_tip_fan_near_a_partner_is_filled_only_beyond_the_partners_throw():
     # A tip's fan is filled where the continuous TIN departs from the fan's
     # straight line by more than the fault's throw. Near a group partner the

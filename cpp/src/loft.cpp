@@ -4,6 +4,7 @@
 #include <faultmesh/predicates.hpp>
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -23,6 +24,39 @@ inline double tri_area(const P3& p, const P3& q, const P3& r) {
     const double cx = u.y * v.z - u.z * v.y, cy = u.z * v.x - u.x * v.z, cz = u.x * v.y - u.y * v.x;
     return 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
 }
+// A triangle of three distinct points that are collinear in 3D: zero area,
+// which no loft may emit (the min-area DP would even prefer it, at cost 0).
+// Exact: collinear in 3D iff its projections on the XY, YZ and ZX planes
+// are all collinear. A repeated point is not counted: lofts between
+// polylines that share a point (a pinch) make such triangles on purpose and
+// their callers drop them.
+inline bool zero_area(const P3& p, const P3& q, const P3& r) {
+    auto same = [](const P3& u, const P3& v) { return u.x == v.x && u.y == v.y && u.z == v.z; };
+    if (same(p, q) || same(q, r) || same(r, p)) return false;
+    const double xy[3][2] = {{p.x, p.y}, {q.x, q.y}, {r.x, r.y}};
+    if (orient2d(xy[0], xy[1], xy[2]) != 0.0) return false;
+    const double yz[3][2] = {{p.y, p.z}, {q.y, q.z}, {r.y, r.z}};
+    if (orient2d(yz[0], yz[1], yz[2]) != 0.0) return false;
+    const double zx[3][2] = {{p.z, p.x}, {q.z, q.x}, {r.z, r.x}};
+    return orient2d(zx[0], zx[1], zx[2]) == 0.0;
+}
+
+// The cost of a loft path: its zero-area triangles first (fewest wins; a
+// path without one exists unless the polylines leave no other choice, e.g.
+// all on one line), then its area.
+struct Cost {
+    std::int64_t zero = 0;
+    double area = 0.0;
+    bool operator<=(const Cost& o) const { return zero < o.zero || (zero == o.zero && area <= o.area); }
+    bool operator<(const Cost& o) const { return zero < o.zero || (zero == o.zero && area < o.area); }
+};
+struct P3s {
+    P3 p, q, r;
+};
+inline Cost operator+(const Cost& c, const P3s& t) {
+    return {c.zero + (zero_area(t.p, t.q, t.r) ? 1 : 0), c.area + tri_area(t.p, t.q, t.r)};
+}
+
 inline double dist2(const P3& p, const P3& q) {
     const P3 d = sub(p, q);
     return d.x * d.x + d.y * d.y + d.z * d.z;
@@ -48,6 +82,8 @@ std::vector<P3> read_points(const char* side, const double* p, std::size_t n, st
 struct Path {
     std::vector<char> steps;  // 1 = advance a, 0 = advance b
     double area = 0.0;
+    std::int64_t zero = 0;  // zero-area triangles on the path
+    Cost cost() const { return {zero, area}; }
 };
 
 Path min_area_path(const std::vector<P3>& A, const std::vector<P3>& B) {
@@ -58,16 +94,16 @@ Path min_area_path(const std::vector<P3>& A, const std::vector<P3>& B) {
                                     "use method='shortest_diagonal'");
     // choice[i * l + j] = 1 if the best path into (i, j) advanced a.
     std::vector<unsigned char> choice(k * l, 0);
-    std::vector<double> row(l);
-    row[0] = 0.0;
-    for (std::size_t j = 1; j < l; ++j) row[j] = row[j - 1] + tri_area(A[0], B[j], B[j - 1]);
+    std::vector<Cost> row(l);
+    row[0] = Cost{};
+    for (std::size_t j = 1; j < l; ++j) row[j] = row[j - 1] + P3s{A[0], B[j], B[j - 1]};
     for (std::size_t i = 1; i < k; ++i) {
         // row holds costs of row i - 1; update in place left to right.
-        row[0] = row[0] + tri_area(A[i - 1], A[i], B[0]);
+        row[0] = row[0] + P3s{A[i - 1], A[i], B[0]};
         choice[i * l] = 1;
         for (std::size_t j = 1; j < l; ++j) {
-            const double via_a = row[j] + tri_area(A[i - 1], A[i], B[j]);
-            const double via_b = row[j - 1] + tri_area(A[i], B[j], B[j - 1]);
+            const Cost via_a = row[j] + P3s{A[i - 1], A[i], B[j]};
+            const Cost via_b = row[j - 1] + P3s{A[i], B[j], B[j - 1]};
             if (via_a <= via_b) {
                 row[j] = via_a;
                 choice[i * l + j] = 1;
@@ -76,7 +112,8 @@ Path min_area_path(const std::vector<P3>& A, const std::vector<P3>& B) {
             }
         }
     }
-    path.area = row[l - 1];
+    path.area = row[l - 1].area;
+    path.zero = row[l - 1].zero;
     path.steps.resize(k + l - 2);
     std::size_t i = k - 1, j = l - 1, s = k + l - 2;
     while (s > 0) {
@@ -101,15 +138,19 @@ Path shortest_diagonal_path(const std::vector<P3>& A, const std::vector<P3>& B) 
             adv_a = false;
         else if (j + 1 == l)
             adv_a = true;
-        else
-            adv_a = dist2(A[i + 1], B[j]) <= dist2(A[i], B[j + 1]);
-        if (adv_a) {
-            path.area += tri_area(A[i], A[i + 1], B[j]);
-            ++i;
-        } else {
-            path.area += tri_area(A[i], B[j + 1], B[j]);
-            ++j;
+        else {
+            // The shorter diagonal, unless its triangle has zero area and
+            // the other's has not.
+            const bool za = zero_area(A[i], A[i + 1], B[j]), zb = zero_area(A[i], B[j + 1], B[j]);
+            adv_a = za != zb ? zb : dist2(A[i + 1], B[j]) <= dist2(A[i], B[j + 1]);
         }
+        const P3s t = adv_a ? P3s{A[i], A[i + 1], B[j]} : P3s{A[i], B[j + 1], B[j]};
+        path.area += tri_area(t.p, t.q, t.r);
+        path.zero += zero_area(t.p, t.q, t.r) ? 1 : 0;
+        if (adv_a)
+            ++i;
+        else
+            ++j;
         path.steps.push_back(adv_a ? 1 : 0);
     }
     return path;
@@ -148,7 +189,14 @@ std::vector<std::int64_t> loft(const double* a, std::size_t k, const double* b, 
         std::vector<std::int64_t> ia(k), ib(l);
         for (std::size_t i = 0; i < k; ++i) ia[i] = static_cast<std::int64_t>(i);
         for (std::size_t j = 0; j < l; ++j) ib[j] = static_cast<std::int64_t>(k + j);
-        const detail::Path p = min_area ? detail::min_area_path(A, B) : detail::shortest_diagonal_path(A, B);
+        detail::Path p = min_area ? detail::min_area_path(A, B) : detail::shortest_diagonal_path(A, B);
+        if (p.zero > 0 && !min_area && k * l <= (std::size_t{1} << 31)) {
+            // The greedy rule is forced onto zero-area triangles once it has
+            // walked one polyline to its end (b ending on a's straight tail);
+            // the min-area path avoids them wherever a path can.
+            detail::Path q = detail::min_area_path(A, B);
+            if (q.zero < p.zero) p = std::move(q);
+        }
         out.reserve(3 * (k + l - 2));
         detail::emit(p, ia, ib, out);
         return out;
@@ -192,10 +240,11 @@ std::vector<std::int64_t> loft(const double* a, std::size_t k, const double* b, 
     } else {
         // FKU multiple start: a0 is matched to every b_s in turn.
         best.area = std::numeric_limits<double>::infinity();
+        best.zero = std::numeric_limits<std::int64_t>::max();
         for (std::size_t s = 0; s < l; ++s) {
             unroll(B, k, s, UB, ib);
             detail::Path p = detail::min_area_path(UA, UB);
-            if (p.area < best.area) {
+            if (p.cost() < best.cost()) {
                 best = std::move(p);
                 best_s = s;
             }

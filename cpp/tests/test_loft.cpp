@@ -122,6 +122,49 @@ TEST(Loft, MinAreaIsOptimalByExhaustiveSearch) {
     }
 }
 
+// Three distinct points collinear in 3D (exact arithmetic is not needed for
+// the inputs below: their coordinates are small integers).
+bool collinear3(const double* p, const double* q, const double* r) {
+    const double u[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]};
+    const double v[3] = {r[0] - p[0], r[1] - p[1], r[2] - p[2]};
+    return u[1] * v[2] - u[2] * v[1] == 0.0 && u[2] * v[0] - u[0] * v[2] == 0.0 &&
+           u[0] * v[1] - u[1] * v[0] == 0.0;
+}
+int zero_area_triangles(const std::vector<double>& a, const std::vector<double>& b,
+                        const std::vector<std::int64_t>& t) {
+    const std::size_t k = a.size() / 3;
+    auto pt = [&](std::int64_t i) { return i < std::int64_t(k) ? &a[3 * i] : &b[3 * (i - k)]; };
+    int n = 0;
+    for (std::size_t i = 0; i < t.size(); i += 3) {
+        const double *p = pt(t[i]), *q = pt(t[i + 1]), *r = pt(t[i + 2]);
+        const bool repeated = std::equal(p, p + 3, q) || std::equal(q, q + 3, r) || std::equal(r, r + 3, p);
+        if (!repeated && collinear3(p, q, r)) ++n;
+    }
+    return n;
+}
+
+TEST(Loft, NoZeroAreaTriangleWhereAnotherPathExists) {
+    // A straight polyline a (along y at x = 0, z = -110) and b, which runs at
+    // x = 10 and ends on a's last point (an extension that keeps a point
+    // already on the study-area boundary). Every triangle (a[i], a[i+1],
+    // a[3]) costs no area, so the plain min-area DP walked b to the shared
+    // point first and fanned a's straight edges to it: a zero-area triangle
+    // (found in faults._assemble on a flat layer, check_surface: "zero
+    // area").
+    const std::vector<double> a = {0, 0, -110, 0, -3, -110, 0, -6, -110, 0, -9, -110};
+    const std::vector<double> b = {10, 0, -110, 10, -4, -110, 0, -9, -110};
+    for (LoftMethod m : {LoftMethod::min_area, LoftMethod::shortest_diagonal}) {
+        LoftOptions o;
+        o.method = m;
+        const auto t = faultmesh::loft(a.data(), 4, b.data(), 3, 3, o);
+        EXPECT_EQ(t.size(), 3u * (4 + 3 - 2));
+        EXPECT_EQ(zero_area_triangles(a, b, t), 0) << "method " << int(m);
+    }
+    // All points on one line: no other path; the loft still returns one.
+    const std::vector<double> c = {0, 0, 0, 1, 0, 0, 2, 0, 0}, d = {0.5, 0, 0, 1.5, 0, 0};
+    EXPECT_EQ(faultmesh::loft(c.data(), 3, d.data(), 2, 3).size(), 3u * 3);
+}
+
 TEST(Loft, FanToATip) {
     const double a[] = {0, 0, 0, 1, 0, 0, 2, 0.5, 0, 3, 0, 0};
     const double tip[] = {1.5, 2, 1};

@@ -19,6 +19,15 @@
 //     Sederberg; Liu et al. 2003): from rung (i, j) advance along the side
 //     whose new rung, (i+1, j) or (i, j+1), is shorter in 3D.
 //   Ties go to advancing along a (deterministic).
+//   Neither method emits a triangle of three distinct points collinear in
+//   3D (zero area, decided exactly) where a path without it exists: min_area
+//   minimises (number of such triangles, area) lexicographically (a zero
+//   triangle costs no area, so the plain DP would prefer it: polylines that
+//   share a point, a straight polyline whose partner reaches the shared
+//   point early); shortest_diagonal takes the other diagonal, and an open
+//   loft whose greedy path still has one takes the min_area path instead.
+//   A triangle with a repeated point (polylines sharing a point: a pinch)
+//   is not counted; callers drop it.
 //
 // Closed contours (closed = true): both polylines are closed loops (last
 // point not repeated), travelling in the same rotational direction; each has
