@@ -446,8 +446,9 @@ class SideSurface:
     slope dying out over the tension length (a layer bent near the fault,
     by drag or rollover, is not extrapolated steeper and steeper).
     ``nodes`` (and ``throw``, (knots, values) subtracted along strike)
-    give the grid instead (:func:`_joint_sides`; ``decay(xy, z)``, the share
-    of the throw at each point, :func:`_decay_sides`). Outside the frame: the
+    give the grid instead (:func:`_joint_sides`; ``decay`` = (distance
+    (xy, z) from the fault, profile): the throw's share at each point,
+    :func:`_decay_sides`, :meth:`_own_share`). Outside the frame: the
     weighted least-squares plane through the ``k`` nearest data (weights 1 /
     distance^2) at the query point, inverse-distance weighting where the
     neighbours are nearly collinear (:meth:`plane`; all queries at once,
@@ -501,14 +502,41 @@ class SideSurface:
             # clamped outside them, as np.interp.
             t = np.interp(self.frame.uw(q)[0], self.throw[0], self.throw[1])
             if self.decay is not None:
-                # The share of the throw at each point (_decay_sides), at the
-                # elevation of the hanging wall with the whole throw.
-                t = t * self.decay(q, z - t)
+                t = t * self._own_share(q, z, t)
             z = z - t
         out = ~self.frame.inside(q)
         if out.any():
             z[out] = self.plane(q[out])
         return z
+
+    def _own_share(self, q: np.ndarray, s: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """The share g of the throw ``t`` at the points ``q`` (S = ``s``
+        there; ``decay`` = (distance, profile), :func:`_decay_sides`), taken
+        at the hanging wall's own elevation z = s - t g(d(q, z)), as the
+        fit took it at each datum's own elevation: the distance d from a
+        dipping fault depends on the elevation. z lies between s - t (whole
+        throw) and s (none); d is linear in z between the fault's vertices,
+        taken as a line over that height (two distance queries), and z
+        found by bisection where z - (s - t g) changes sign (40 halvings:
+        a throw of up to a kilometre to a nanometre, numpy only). Until
+        2026-12-02 g was taken at s - t, the elevation of the whole throw:
+        below a normal fault's hanging wall, where the fault lies nearer in
+        map view (g too large), and above a reverse fault's, where it lies
+        farther (g too small), so the hanging wall came out too low on both
+        kinds wherever the throw fades."""
+        dist, prof = self.decay
+        lo = np.minimum(s, s - t)
+        hi = np.maximum(s, s - t)
+        d_lo, d_hi = dist(q, lo), dist(q, hi)
+        span = hi - lo
+        slope = np.where(span > 0, (d_hi - d_lo) / np.where(span > 0, span, 1.0), 0.0)
+        a, b = lo, hi
+        for _ in range(40):
+            mid = 0.5 * (a + b)
+            up = mid - (s - t * _decay_share(d_lo + slope * (mid - lo), prof)) > 0.0
+            b = np.where(up, mid, b)
+            a = np.where(up, a, mid)
+        return _decay_share(d_lo + slope * (0.5 * (a + b) - lo), prof)
 
     def plane(self, xy: np.ndarray) -> np.ndarray:
         """z at xy (m, 2) from the local weighted plane fits alone."""
@@ -1326,10 +1354,7 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     if len(seen_u):
         T = np.interp(np.clip(knots, seen_u.min(), seen_u.max()), knots, T)
 
-    def share(xy, z):
-        return _decay_share(dist(xy, z), prof)
-
-    hs = SideSurface(hang, k, frame, ell, nodes=nodes, throw=(knots, T), decay=share)
+    hs = SideSurface(hang, k, frame, ell, nodes=nodes, throw=(knots, T), decay=(dist, prof))
     hs.profile = prof
     hs.seen_u = seen_u
     return {"foot": SideSurface(foot, k, frame, ell, nodes=nodes), "hanging": hs}
