@@ -966,3 +966,75 @@ def test_sticks_that_stop_short_of_the_boundary_end_in_a_tip():
     P2[:, :2] -= (float(np.median(t)) - 0.5 * spc) * fs0.strike  # the whole fault moved along strike
     fs2 = derive.fault_surface(Fault(f.name, points=P2, sticks=f.sticks), ds.boundary, (-1e4, 1e4))
     assert fs2.ends[0] == "boundary", fs2.ends
+
+
+def test_tip_where_the_throw_dies_out():
+    """A tip goes where the throw profile, continued straight from the
+    last section that shows the throw through the first that does not,
+    reaches zero, within the fault's extent (derive._tip_along_strike).
+    Until this rule it went where the profile falls to min_throw (3 m):
+    random_ground(64) as v2, a normal fault of 5.6 m tapering to zero at
+    both ends of its sticks, got tips 367 and 271 m short of the true ones
+    (on seeds 0-99, 11 tips 55-1121 m short); now 17 and 24 m (the tip
+    lies at the extent's edge here, whose first sampled position along
+    strike is 1/128 of the fault's length, 17 m, inside it)."""
+    tip = derive._tip_along_strike
+    # 1 m at u = 0, 4 m at u = 100: zero at u = -33.3 (the old rule: 66.7).
+    assert tip(0.0, 1.0, 100.0, 4.0, -500.0) == pytest.approx(-100.0 / 3.0)
+    # Not past the extent's edge; a section without throw is the tip.
+    assert tip(0.0, 2.5, 100.0, 3.0, -200.0) == -200.0
+    assert tip(0.0, 0.0, 100.0, 4.0, -500.0) == 0.0
+    # Mirrored (the other end of the fault).
+    assert tip(0.0, 1.0, -100.0, 4.0, 500.0) == pytest.approx(100.0 / 3.0)
+
+    from faultmesh import grounds
+
+    truth = np.asarray(grounds.random_ground(64).faults[0].tips, dtype=np.float64)
+    d = derive.derive_faults(grounds.random_ground(64, version=2))
+    tips = np.asarray(d.faults[0].tips, dtype=np.float64)
+    assert d.derivation.faults["F1"].ends == ["tip", "tip"]
+    assert len(truth) == len(tips) == 2
+    gap = np.hypot(*(tips[:, None, :] - truth[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+    # 50 m: the 17 m of the sampling along strike plus the tip's place on
+    # the cutoff line (a third of what the old rule's error was at least).
+    assert gap.max() < 50.0, gap
+
+
+@pytest.mark.parametrize("throw", [25.0, -25.0])
+def test_fading_throw_taken_at_the_hanging_walls_own_elevation(throw):
+    """Regression: the fading-throw fit (derive._decay_sides) takes each
+    hanging-wall datum's share g of the throw T at the datum's own
+    elevation (its distance d from a dipping fault depends on it), so its
+    hanging wall is z = S - T g(d(xy, z)). SideSurface took g at S - T, the
+    elevation of the whole throw: below a normal fault's hanging wall, where
+    the fault is nearer (g too large), above a reverse fault's, where it is
+    farther (g too small); both came out too low where the throw fades
+    (here, a flat S, T = +-25 m whole up to 50 m and fading over 200 m, a
+    fault dipping 40 degrees: up to 4.2 m (normal) and 3.4 m (reverse) too
+    low). On the v2 random grounds, seeds 0-99, the hanging-wall polylines
+    moved towards the truth, e.g. random_ground(25) mean |dz| 0.5 -> 0.3 m,
+    ratio 1.49 -> 1.29; (52) 2.3 -> 1.4 m, 1.57 -> 1.43."""
+    tan_dip = np.tan(np.radians(40.0))
+    prof = (50.0, 200.0)
+
+    def dist(q, z):
+        # Horizontal distance from the fault x = -z / tan(dip) (dipping
+        # towards +x, the hanging wall) at elevation z.
+        return q[:, 0] + z / tan_dip
+
+    def share(q, z):
+        return derive._decay_share(dist(q, z), prof)
+
+    frame = derive.GridFrame.around((0.0, 0.0), (0.0, 1.0), (-500.0, 500.0), (-900.0, 100.0), 20.0)
+    data = np.array([[600.0, 0.0, 0.0], [700.0, 50.0, 0.0], [650.0, -50.0, 0.0]])
+    hs = derive.SideSurface(data, 3, frame, nodes=np.zeros(frame.n),
+                            throw=(np.array([-1e4, 1e4]), np.array([throw, throw])), decay=(dist, prof))
+    x = np.linspace(-100.0 if throw < 0 else 0.0, 450.0, 111)
+    q = np.column_stack([x, np.zeros_like(x)])
+    assert frame.inside(q).all()
+    z = hs(q)
+    # The hanging wall's own elevation: z = S - T g(d(xy, z)), S = 0.
+    assert np.abs(z + throw * share(q, z)).max() < 1e-6
+    # Where the throw fades, the share at the whole throw's elevation is off.
+    old = -throw * share(q, np.full_like(x, -throw))
+    assert (z - old).max() > 2.5
