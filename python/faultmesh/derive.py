@@ -1361,9 +1361,36 @@ def _decay_sections(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFram
         rr = {nm: _roots([trs[j]], sd[nm], sd[nm].nearest)[0] for nm in sd}
         if rr["foot"] is None or rr["hanging"] is None:
             continue
+        if _contradicts_own_sense(roots["foot"][j], roots["hanging"][j], rr["foot"], rr["hanging"]):
+            continue
         sec_sides[idx[j]] = sd
         for nm in sd:
             roots[nm][j] = rr[nm]
+
+
+def _contradicts_own_sense(own_f, own_h, fit_f, fit_h) -> bool:
+    """Whether the fading-throw fit's cutoff throw on a section (roots
+    ``fit_f``, ``fit_h``) has the other sign than that of the sides' own
+    surfaces (``own_f``, ``own_h``; roots as :func:`_roots` gives them, None
+    where a side has none). The fit is there to correct the size of a throw
+    that fades within a few data spacings of the fault, which the hanging
+    wall's own surface extrapolates as a bend (:func:`_decay_sides`); it
+    sees the throw only through the hanging wall's data nearest the fault,
+    and where those bend against the displacement (drag, or seismic picks
+    smeared across the fault) it fits that bend as a throw of the other
+    sense. Where the own surfaces say one sense of displacement and the fit
+    the other, the fit has explained the bend, not the displacement (a
+    cutoff throw of the wrong sense is set to zero afterwards, so the fit
+    could only lose the throw there): the section keeps its own surfaces.
+    Claudius, all picks (examples/claudius): the fit's T (a block offset,
+    profile None) is negative, down to -53 m, along most of the northern
+    half of the fault, where the own surfaces' cutoff throws are +42, +90,
+    +56 m; the fit's cutoff throws there, -21, -12, -4 m, were set to zero
+    and the three sections dropped as beyond the tip (5 sections of 8
+    left)."""
+    if own_f is None or own_h is None:
+        return False
+    return float(own_f[0][2] - own_h[0][2]) * float(fit_f[0][2] - fit_h[0][2]) < 0.0
 
 
 def _sides_of(r: Dict[str, Any], i: int) -> Dict[str, "SideSurface"]:
