@@ -134,15 +134,16 @@ def test_derived_fault(full):
     assert (t >= 0).all() and t.max() > 80.0
 
 
-def test_fading_throw_fit_does_not_reverse_the_own_sense(full):
+def test_fading_throw_fit_of_the_other_sense_gives_way_to_the_own_surfaces(full):
     """Regression: with all picks, the fading-throw fit (derive._decay_sides,
     used on every section since DECAY_GAP 0) fitted the hanging wall's rise
     towards the fault (drag, or picks smeared across it) as a block offset
     of the other sense (T down to -53 m along the northern half); its
     cutoff throws on the three northern sections, -21, -12, -4 m, were set
     to zero and those sections dropped as beyond the tip (5 sections of 8).
-    The own surfaces say +42, +90, +56 m there; a section now keeps them
-    where the fit says the other sense (derive._contradicts_own_sense)."""
+    The own surfaces say +42, +90, +56 m there; a section whose fit says
+    the other sense than the fault's (normal) goes back to its own surfaces
+    where those say the fault's (derive._own_sense_back)."""
     _, _, _, derived, _ = full
     fr = derived.derivation.faults["claudius_fault"]
     p = fr.throw["val_330"]
