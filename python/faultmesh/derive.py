@@ -1363,15 +1363,17 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
 def _decay_sections(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, k: int,
                     spacing: float, spacing_data: float, fs: FaultSurface, ring: np.ndarray,
                     trs: List["_SectionTrace"], idx: List[int], roots: Dict[str, list],
-                    sides: Dict[str, "SideSurface"], sec_sides: Dict[int, Dict[str, "SideSurface"]]) -> None:
+                    sides: Dict[str, "SideSurface"], sec_sides: Dict[int, Dict[str, "SideSurface"]],
+                    own: Optional[Dict[int, tuple]] = None) -> None:
     """The sections (``trs``, line indices ``idx``; not those of a fault
     block, already in ``sec_sides``) whose hanging-wall cutoff lies more
     than :data:`DECAY_GAP` data spacings (0: any) from the hanging wall's
     data get the hanging wall of the fading-throw fit (:func:`_decay_sides`) where
     a datum that shows the throw lies within :data:`DECAY_NEAR` section
     spacings along strike: ``sec_sides`` and ``roots`` (per side, one per
-    section) updated in place. The fit (13 solves) only runs where some
-    section has such a gap."""
+    section) updated in place; ``own`` (line index -> the replaced roots of
+    the own surfaces, foot and hanging) filled for :func:`_own_sense_back`.
+    The fit (13 solves) only runs where some section has such a gap."""
     cand = [j for j, i in enumerate(idx) if i not in sec_sides and roots["hanging"][j] is not None
             and sides["hanging"].nearest(roots["hanging"][j][0][None, :2])[0] > DECAY_GAP * spacing_data]
     if not cand:
@@ -1387,9 +1389,46 @@ def _decay_sections(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFram
         rr = {nm: _roots([trs[j]], sd[nm], sd[nm].nearest)[0] for nm in sd}
         if rr["foot"] is None or rr["hanging"] is None:
             continue
+        if own is not None:
+            own[idx[j]] = (roots["foot"][j], roots["hanging"][j])
         sec_sides[idx[j]] = sd
         for nm in sd:
             roots[nm][j] = rr[nm]
+
+
+def _own_sense_back(throw: float, own: tuple, sgn: float) -> bool:
+    """Whether a section whose hanging wall came from the fading-throw fit
+    (:func:`_decay_sections`) goes back to the sides' own surfaces: the
+    fit's cutoff ``throw`` has the other sense than the fault's (``sgn``,
+    +1 normal, -1 reverse: the kind, decided over all sections and layers)
+    and the own surfaces' cutoffs (``own``: roots, foot and hanging) have
+    the fault's sense. The fit sees the throw only through the bend of the
+    hanging wall's data nearest the fault (:func:`_decay_sides`); where
+    those bend against the displacement (drag, or seismic picks smeared
+    across the fault) it fits the bend as a throw of the other sense, which
+    would be set to zero. Claudius, all picks (examples/claudius): the fit
+    (a block offset, profile None; T negative, down to -53 m, along most
+    of the northern half of the fault) gave -21, -12, -4 m on the three
+    northern sections, where the own surfaces give +42, +90, +56 m; set to
+    zero, the three sections were dropped as beyond the tip (5 of 8 left).
+    Where the own surfaces have the other sense instead, the fit stays (it
+    is what the random grounds' fading throws need)."""
+    f, h = own
+    if f is None or h is None:
+        return False
+    return throw * sgn < 0.0 and float(f[0][2] - h[0][2]) * sgn > 0.0
+
+
+def _section_cutoffs(tr: "_SectionTrace", f: tuple,
+                     h: tuple) -> Tuple[float, bool, Tuple[np.ndarray, np.ndarray]]:
+    """(throw, cut, (footwall cutoff, hanging-wall cutoff)) of a section
+    from its roots ``f``, ``h`` (:func:`_roots`): cut where both sides meet
+    the fault's trace within the section's interval in the study area."""
+    sf = float((f[0][:2] - tr.origin) @ tr.direction)
+    sh = float((h[0][:2] - tr.origin) @ tr.direction)
+    a, b = tr.interval
+    inside = np.isfinite(a) and a <= min(sf, sh) and max(sf, sh) <= b
+    return float(f[0][2] - h[0][2]), bool(f[1] and h[1] and inside), (f[0], h[0])
 
 
 def _sides_of(r: Dict[str, Any], i: int) -> Dict[str, "SideSurface"]:
@@ -1633,8 +1672,9 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
                 sec_block[i] = key
                 for nm in ("foot", "hanging"):
                     roots[nm][j] = _roots([traces[i]], blk[nm], blk[nm].nearest)[0]
+        decay_own: Dict[int, tuple] = {}
         _decay_sections(D, split, frame, opt.k, spacing, spacing_data, fs, ring,
-                        [traces[i] for i in good], good, roots, sides, sec_sides)
+                        [traces[i] for i in good], good, roots, sides, sec_sides, decay_own)
         # Sections where neither side has data within two data spacings of
         # its cutoff (a data gap at the fault): there the two extrapolations
         # are unrelated and their difference is no throw. Both sides come
@@ -1661,10 +1701,12 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
             joint = joints[key]
             if joint is not None:
                 sec_sides[i] = joint
+                decay_own.pop(i, None)
                 for nm in ("foot", "hanging"):
                     roots[nm][j] = _roots([traces[i]], joint[nm], joint[nm].nearest)[0]
         res[lay] = {"sides": sides, "roots": roots, "near": near, "spacing": spacing_data,
                     "sec_sides": sec_sides, "joint_secs": {i for _, i in gap_secs},
+                    "decay_own": decay_own,
                     "data": D, "split": split, "side": ext,
                     "spoiled": _spoiled_vertices(fs, lay, ds.layer_points(lay), ring)}
 
@@ -1686,13 +1728,7 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
                     nodata[lay][i] = name
             if f is None or h is None:
                 continue
-            sf = float((f[0][:2] - tr.origin) @ tr.direction)
-            sh = float((h[0][:2] - tr.origin) @ tr.direction)
-            a, b = tr.interval
-            inside = np.isfinite(a) and a <= min(sf, sh) and max(sf, sh) <= b
-            throw[lay][i] = f[0][2] - h[0][2]
-            cut[lay][i] = f[1] and h[1] and inside
-            cutpts[lay][i] = (f[0], h[0])
+            throw[lay][i], cut[lay][i], cutpts[lay][i] = _section_cutoffs(tr, f, h)
 
     # A layer counts as displaced by the fault if its cutoffs are at least
     # min_throw apart on some section; the others (a fault that dies out
@@ -1784,6 +1820,22 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
                 continue
             use_shifted(lay, i, side, -sgn * hint if side == "hanging" else sgn * hint,
                         f"no {side}-wall data near the cutoff; used the throw hint {hint:g} m")
+
+    # Sections whose fading-throw fit says the other sense than the fault's
+    # and whose own surfaces say the fault's: the own surfaces back.
+    if kind is not None:
+        for lay, r in res.items():
+            for i, own in r["decay_own"].items():
+                if cutpts[lay][i] is None or i in r.get("hinted", {}) or \
+                        not _own_sense_back(throw[lay][i], own, sgn):
+                    continue
+                del r["sec_sides"][i]
+                j = good.index(i)
+                for nm, rt in zip(("foot", "hanging"), own):
+                    r["roots"][nm][j] = rt
+                t, c, pts = _section_cutoffs(traces[i], *own)
+                throw[lay][i], cutpts[lay][i] = t, pts
+                cut[lay][i] = cut[lay][i] and c
 
     # Cutoff throws of the other sign than the kind (each side's local slope
     # extrapolated across a data gap can bend the wrong way, e.g. where the
