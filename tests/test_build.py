@@ -1293,6 +1293,15 @@ def test_fold_closed_towards_a_widening_band_widens_with_it():
     assert len(T) and len(triangles_not_covered_once(V, T)) == 0
 
 
+def _reverse_trace_polyline(x):
+    """A reverse fault's layer polyline across y at ``x``: footwall at
+    y 470-505, hanging wall at y 495-530 (a 10 m band, folded), and the
+    positions of its footwall and hanging-wall cutoffs."""
+    ys = [470.0, 490.0, 505.0, 495.0, 510.0, 530.0]
+    zs = [-98.0, -99.0, -100.0, -80.0, -81.0, -82.0]
+    return np.array([[x, y, z] for y, z in zip(ys, zs)]), (2, 3)
+
+
 def test_fold_closed_along_an_oblique_partner_carries_each_cutoff_on_its_line():
     # A run closed towards the next trace where the partner crosses the band
     # obliquely between the two (its outline at x 240..250 on the
@@ -1305,15 +1314,10 @@ def test_fold_closed_along_an_oblique_partner_carries_each_cutoff_on_its_line():
     from faultmesh import StudyArea, triangles_not_covered_once, triangles_touching_region
     from faultmesh.faults import _assemble, _band_core, _closing, _fold_area
 
-    def polyline(x):
-        ys = [470.0, 490.0, 505.0, 495.0, 510.0, 530.0]
-        zs = [-98.0, -99.0, -100.0, -80.0, -81.0, -82.0]
-        return np.array([[x, y, z] for y, z in zip(ys, zs)]), (2, 3)
-
     area = StudyArea(np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [0.0, 1000.0]]))
     partner = np.array([[220.0, 485.0], [230.0, 485.0], [310.0, 525.0], [300.0, 525.0]])
-    poly, cut = _band_core(*polyline(200.0))
-    nxt, nxt_cut = polyline(300.0)
+    poly, cut = _band_core(*_reverse_trace_polyline(200.0))
+    nxt, nxt_cut = _reverse_trace_polyline(300.0)
     got = _closing(poly, cut, nxt, nxt_cut, area, lambda xy: np.zeros(len(xy)), [partner], 1e-9,
                    False, "min_area")
     (carried, cc), (tip, _) = got
@@ -1344,15 +1348,10 @@ def test_fold_closed_towards_a_far_trace_reaches_the_partner():
     from faultmesh import StudyArea, triangles_touching_region
     from faultmesh.faults import _CLOSE_TO, _assemble, _band_core, _closing
 
-    def polyline(x):
-        ys = [470.0, 490.0, 505.0, 495.0, 510.0, 530.0]
-        zs = [-98.0, -99.0, -100.0, -80.0, -81.0, -82.0]
-        return np.array([[x, y, z] for y, z in zip(ys, zs)]), (2, 3)
-
     area = StudyArea(np.array([[-100.0, 0.0], [1100.0, 0.0], [1100.0, 1000.0], [-100.0, 1000.0]]))
     partner = np.array([[900.0, 400.0], [950.0, 400.0], [950.0, 600.0], [900.0, 600.0]])
-    poly, cut = _band_core(*polyline(0.0))
-    nxt, nxt_cut = polyline(1000.0)
+    poly, cut = _band_core(*_reverse_trace_polyline(0.0))
+    nxt, nxt_cut = _reverse_trace_polyline(1000.0)
     got = _closing(poly, cut, nxt, nxt_cut, area, lambda xy: np.zeros(len(xy)), [partner], 1e-9,
                    False, "min_area")
     (carried, cc), (tip, tip_cut) = got

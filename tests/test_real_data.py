@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 
 import faultmesh
 from faultmesh import derive
-from faultmesh.dataset import Fault, points_in_polygon
+from faultmesh.dataset import points_in_polygon
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "claudius"
