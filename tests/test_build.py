@@ -1302,6 +1302,23 @@ def _reverse_trace_polyline(x):
     return np.array([[x, y, z] for y, z in zip(ys, zs)]), (2, 3)
 
 
+def _closing_between(x0, x1, area_x, partner):
+    """faults._closing of the band core of _reverse_trace_polyline(x0)
+    towards the trace at x1, past ``partner``, in the study area spanning
+    ``area_x`` in x and 0..1000 in y (flat continuous surface). Returns the
+    core, its cutoffs and _closing's result."""
+    from faultmesh import StudyArea
+    from faultmesh.faults import _band_core, _closing
+
+    lo, hi = area_x
+    area = StudyArea(np.array([[lo, 0.0], [hi, 0.0], [hi, 1000.0], [lo, 1000.0]]))
+    poly, cut = _band_core(*_reverse_trace_polyline(x0))
+    nxt, nxt_cut = _reverse_trace_polyline(x1)
+    got = _closing(poly, cut, nxt, nxt_cut, area, lambda xy: np.zeros(len(xy)), [partner], 1e-9,
+                   False, "min_area")
+    return poly, cut, got
+
+
 def test_fold_closed_along_an_oblique_partner_carries_each_cutoff_on_its_line():
     # A run closed towards the next trace where the partner crosses the band
     # obliquely between the two (its outline at x 240..250 on the
@@ -1311,15 +1328,11 @@ def test_fold_closed_along_an_oblique_partner_carries_each_cutoff_on_its_line():
     # band short of it (sweep seed 246: F2 L4 88 % repeated). Each cutoff is
     # now also carried as far as its own line is clear (faults._closing):
     # the fold's end runs along the partner's outline.
-    from faultmesh import StudyArea, triangles_not_covered_once, triangles_touching_region
-    from faultmesh.faults import _assemble, _band_core, _closing, _fold_area
+    from faultmesh import triangles_not_covered_once, triangles_touching_region
+    from faultmesh.faults import _assemble, _fold_area
 
-    area = StudyArea(np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [0.0, 1000.0]]))
     partner = np.array([[220.0, 485.0], [230.0, 485.0], [310.0, 525.0], [300.0, 525.0]])
-    poly, cut = _band_core(*_reverse_trace_polyline(200.0))
-    nxt, nxt_cut = _reverse_trace_polyline(300.0)
-    got = _closing(poly, cut, nxt, nxt_cut, area, lambda xy: np.zeros(len(xy)), [partner], 1e-9,
-                   False, "min_area")
+    poly, cut, got = _closing_between(200.0, 300.0, [0.0, 1000.0], partner)
     (carried, cc), (tip, _) = got
     fw, hw = carried[cc[0]], carried[cc[1]]
     # On their lines, the footwall cutoff well past where the hanging-wall
@@ -1345,15 +1358,11 @@ def test_fold_closed_towards_a_far_trace_reaches_the_partner():
     # F2 L5: 22 m of a 15 m band left in front of F1, 93.2 % repeated). The
     # bisection now goes on until what it leaves undecided is within a
     # quarter of the band's width (faults._CLOSE_TO).
-    from faultmesh import StudyArea, triangles_touching_region
-    from faultmesh.faults import _CLOSE_TO, _assemble, _band_core, _closing
+    from faultmesh import triangles_touching_region
+    from faultmesh.faults import _CLOSE_TO, _assemble
 
-    area = StudyArea(np.array([[-100.0, 0.0], [1100.0, 0.0], [1100.0, 1000.0], [-100.0, 1000.0]]))
     partner = np.array([[900.0, 400.0], [950.0, 400.0], [950.0, 600.0], [900.0, 600.0]])
-    poly, cut = _band_core(*_reverse_trace_polyline(0.0))
-    nxt, nxt_cut = _reverse_trace_polyline(1000.0)
-    got = _closing(poly, cut, nxt, nxt_cut, area, lambda xy: np.zeros(len(xy)), [partner], 1e-9,
-                   False, "min_area")
+    poly, cut, got = _closing_between(0.0, 1000.0, [-100.0, 1100.0], partner)
     (carried, cc), (tip, tip_cut) = got
     assert tip_cut is None
     # The band's full width carried to within a quarter of it of the
