@@ -516,10 +516,37 @@ def test_boundary_end_trace_follows_the_layer_sag(seed, bound, tmp_path_factory)
 # clear, so that trace's run is dropped and the wedge of F2's band beside
 # F1 down to the next trace is not repeated (L1 93.7 %). A core whose
 # margin on the partner's side shrinks to what is clear would be needed.
-# 1130 (found by the sweep of seeds 1000-1199, its one failure in 200): an
-# X pair of two reverse faults inside a rotated rectangle, 6 layers, F2 L2
-# 92.4 %, L3 93.5 % of the data's band; not diagnosed, unchanged by the
-# closure carried up to the partner (750 above).
+# 1130 (found by the sweep of seeds 1000-1199, its one failure in 200): an X
+# pair of two reverse faults inside a rotated rectangle, 6 layers, F2 L2
+# 92.4 %, L3 93.5 % of the data's band. Diagnosed, not fixed: F1 crosses F2's band
+# between F2's traces 3 and 4 (0-based; 145 m apart, F2's band 44 m wide), and
+# F1's own trace 3 reaches into F2's band 8-14 m before F2's trace 4 (its
+# hanging-wall cutoff 3 m inside). F1's outline there (its band cores after
+# yielding, _YIELD_MARGIN) has a convex corner -- its trace 3's hanging-wall
+# core end, where its hanging-wall edge bends by 30 deg -- 7 m inside F2's
+# band and 7 m in front of F2's trace 4 (L2). F2's footwall cutoff line meets
+# F1's outline 5 m from trace 4 (0.035 of the way), its hanging-wall cutoff
+# line 84 m from it (0.56): between them a wedge of F2's band (about 1400 m2
+# in L2) clear of F1. The run from trace 4 is closed towards trace 3
+# (_closing) and every closure into the wedge touches F1 at that corner:
+# carried straight ("follow", "move"), its band core's sheet end past the
+# footwall cutoff (11 m, _CORE_MARGIN) runs into F1, and the pinch-out tip, on
+# the band's centre line about 18 m ahead (half the 37 m from the band's
+# centre to F1), fans over the corner even at 0.007 of the way; carried along
+# each line ("lines"), the similarity turns the core about its footwall end
+# (45 deg, scale 2.35) and swings that sheet end back behind trace 4 (beyond()
+# fails at every share). Only a bare fan 10 m deep is left (L2); in L3 the
+# corner is 13 m in front of trace 4, "lines" passes but stops at 0.28 of the
+# hanging-wall line, its tip's fan again over the corner. The wedge is 176 of
+# F2 L2's 222 unrepeated points (6.0 % of the band; L3 148 of 191, 5.1 %); the
+# rest (1.6 %, 1.5 %) is the strip on F1's other side between the closure from
+# trace 2 and F1's outline (F1's yield margin, the last bisection step, the
+# fan). Tried, not enough: the tip nearer (1/2-1/8 of its way) where its fan
+# touches, L2 92.5 %, L3 93.7 %; with "lines" also allowed to turn the sheets
+# behind the trace, its piece does not cover its image once. A closure that
+# bends round the partner's corner (the sheet margin on the partner's side
+# shrunk to what is clear, the tip towards the open end of the wedge) would be
+# needed -- the same need as 803 L1.
 @pytest.mark.xfail(strict=True, reason="X pair: the later fold short of 95 % of its band")
 @pytest.mark.parametrize("seed", [803, 1130])
 def test_x_crossing_later_fold_beyond_the_sweep(seed, tmp_path_factory):
