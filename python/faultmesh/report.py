@@ -399,12 +399,13 @@ class QualityReport:
                 L.append(f"| {r['gap']} | {r['triangles']} | {pct(r['lt10'])} | {pct(r['lt20'])} "
                          f"| {pct(r['lt10_xy'])} | {pct(r['lt20_xy'])} |")
             L += ["", "## Gaps", "",
-                  "| fault | layer | triangles | polygon vertices | holes | n + 2h − 2 "
-                  "| min angle 3D | min angle XY | seconds |",
-                  "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+                  "| fault | layer | triangles | polygon vertices | holes | data points put back "
+                  "| n + 2h − 2 + 2k | min angle 3D | min angle XY | seconds |",
+                  "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
             for g in self.gaps:
                 L.append(f"| {g['fault']} | {g['layer']} | {g['triangles']} | "
-                         f"{g['polygon_vertices']} | {g['holes']} | {g['expected_triangles']} | "
+                         f"{g['polygon_vertices']} | {g['holes']} | {g.get('interior', 0)} | "
+                         f"{g['expected_triangles']} | "
                          f"{num(g['min_angle'], 1)}° | {num(g['min_angle_xy'], 1)}° | "
                          f"{num(g['seconds'], 4)} |")
         else:
@@ -498,9 +499,10 @@ def quality(model, *, near: float = 150.0, samples: int = 200, truth=None) -> Qu
         if rows.size and (rows.min() < 0 or rows.max() >= surf.n_triangles):
             raise ValueError(f"quality: gap {g.fault!r}/{g.layer!r} has triangle rows outside "
                              f"0..{surf.n_triangles - 1}")
+        k = int(getattr(g, "n_interior", 0))  # layer data points put back into the gap
         row = {"fault": g.fault, "layer": g.layer, "triangles": int(rows.size),
-               "polygon_vertices": int(g.n_vertices), "holes": int(g.n_holes),
-               "expected_triangles": int(g.n_vertices + 2 * g.n_holes - 2 + 2 * getattr(g, "n_interior", 0)),
+               "polygon_vertices": int(g.n_vertices), "holes": int(g.n_holes), "interior": k,
+               "expected_triangles": int(g.n_vertices + 2 * g.n_holes - 2 + 2 * k),
                "seconds": float(g.seconds)}
         row.update(_angle_row(surf.vertices, surf.triangles[rows]))
         rep.gaps.append(row)
