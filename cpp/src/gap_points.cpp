@@ -3,6 +3,8 @@
 #include <faultmesh/polygon_cdt.hpp>
 #include <faultmesh/predicates.hpp>
 
+#include "edge_key.hpp"
+
 #include <algorithm>
 #include <stdexcept>
 #include <string>
@@ -12,11 +14,7 @@ namespace faultmesh {
 
 namespace {
 
-inline std::uint64_t undirected_key(std::int64_t a, std::int64_t b) {
-    if (a > b) std::swap(a, b);
-    return (static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint64_t>(b);
-}
-
+using detail::undirected_edge_key;
 
 // The triangle of `triangles` whose closed XY projection holds point p
 // (exact orient2d): its row, and the orientation signs of p against its
@@ -57,7 +55,7 @@ bool insert_point(const double* xy, std::vector<std::int64_t>& triangles,
     // strictly inside edge k = (u, v) of t: split t and its neighbour across it
     const int k = o[0] == 0 ? 0 : (o[1] == 0 ? 1 : 2);
     const std::int64_t u = r[k], v = r[(k + 1) % 3], w = r[(k + 2) % 3];
-    if (cons.count(undirected_key(u, v))) return false;
+    if (cons.count(undirected_edge_key(u, v))) return false;
     std::size_t nb = nt;
     int kb = 0;
     for (std::size_t s = 0; s < nt && nb == nt; ++s)
@@ -99,7 +97,7 @@ std::vector<std::int64_t> insert_interior_points(const double* xy, std::size_t n
 
     std::unordered_set<std::uint64_t> cons;
     for (std::size_t i = 0; i < n_constrained; ++i)
-        cons.insert(undirected_key(constrained_edges[2 * i], constrained_edges[2 * i + 1]));
+        cons.insert(undirected_edge_key(constrained_edges[2 * i], constrained_edges[2 * i + 1]));
     std::unordered_set<std::int64_t> used(triangles.begin(), triangles.end());
     std::vector<std::int64_t> inserted;
     for (std::size_t ci = 0; ci < n_candidates; ++ci) {

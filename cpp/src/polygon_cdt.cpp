@@ -1,7 +1,8 @@
 // Lawson flips to the constrained Delaunay triangulation (see polygon_cdt.hpp).
 #include <faultmesh/polygon_cdt.hpp>
-
 #include <faultmesh/predicates.hpp>
+
+#include "edge_key.hpp"
 
 #include <algorithm>
 #include <stdexcept>
@@ -11,11 +12,8 @@ namespace faultmesh {
 
 namespace {
 
-// Undirected edge key; vertex indices are checked to fit in 32 bits.
-inline std::uint64_t edge_key(std::int64_t a, std::int64_t b) {
-    if (a > b) std::swap(a, b);
-    return (static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint64_t>(b);
-}
+// Vertex indices are checked to fit in 32 bits (the edge keys).
+using detail::undirected_edge_key;
 
 struct Mesh {
     std::vector<std::int64_t>& tri;
@@ -55,11 +53,11 @@ void build_adjacency(Mesh& m, const std::int64_t* constrained_edges, std::size_t
     m.opp.assign(nh, -1);
     m.cons.assign(nh, 0);
     std::vector<std::pair<std::uint64_t, std::int64_t>> keys(nh);
-    for (std::int64_t h = 0; h < nh; ++h) keys[h] = {edge_key(m.tri[h], m.tri[he_next(h)]), h};
+    for (std::int64_t h = 0; h < nh; ++h) keys[h] = {undirected_edge_key(m.tri[h], m.tri[he_next(h)]), h};
     std::sort(keys.begin(), keys.end());
     std::vector<std::uint64_t> ckeys(n_constrained);
     for (std::size_t i = 0; i < n_constrained; ++i)
-        ckeys[i] = edge_key(constrained_edges[2 * i], constrained_edges[2 * i + 1]);
+        ckeys[i] = undirected_edge_key(constrained_edges[2 * i], constrained_edges[2 * i + 1]);
     std::sort(ckeys.begin(), ckeys.end());
     for (std::size_t i = 0; i < keys.size();) {
         std::size_t j = i;
