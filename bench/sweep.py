@@ -1,7 +1,7 @@
 """How often faultmesh holds on grounds it was not written for.
 
     python bench/sweep.py [--seeds N] [--start S] [--jobs J] [--timeout SEC] [--quick]
-                          [--out DIR] [--no-write] [--v2]
+                          [--out DIR] [--no-write] [--v2 [--holes-only]]
 
 Runs ``faultmesh.grounds.evaluate_ground`` for seeds S .. S+N-1 (default 0 ..
 499): each seed draws a random ground (study area, layers, faults, sections,
@@ -26,7 +26,11 @@ written as format 2 without cutoffs (fault sticks, drillhole tables with
 deviated holes), its faults derived, built and checked, the derived cutoffs
 and the error near the faults compared with the v1 model of the true
 cutoffs; writes sweep_v2.md / sweep_v2.json (the v1 sweep's files are not
-touched).
+touched). The v2 dataset carries the v1 dataset's layer data without its
+cutoffs: the same holes, and the v1 traces' layer polylines beyond a fault
+shadow as layer points (``grounds.trace_picks``). --holes-only leaves those
+points out (the layer data only from the holes, none within 20-180 m of the
+faults where the v1 traces give them): sweep_v2_holes.md / .json.
 """
 from __future__ import annotations
 
@@ -49,7 +53,7 @@ use_dev_build()
 QUICK_OUT = ROOT / "bench" / "results" / "quick"
 
 
-def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2: bool = False) -> None:
+def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=False) -> None:
     try:
         import resource
         lim = int(mem_gb * 2 ** 30)
@@ -64,7 +68,7 @@ def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2: bo
     warnings.simplefilter("ignore")
     from faultmesh.grounds import evaluate_ground, evaluate_ground_v2
     try:
-        out = evaluate_ground_v2(seed) if v2 else evaluate_ground(seed)
+        out = (evaluate_ground_v2(seed, section_picks=(v2 != "holes")) if v2 else evaluate_ground(seed))
     except BaseException as e:  # evaluate_ground records failures; this is its own defect
         out = {"seed": seed, "ok": False, "stage": "crash", "error_type": type(e).__name__,
                "error": str(e)[:2000], "pattern": str(e)[:160]}
@@ -73,8 +77,9 @@ def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2: bo
 
 
 def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl: Path = None,
-              v2: bool = False) -> List[Dict]:
-    """Outcomes of the seeds, each in its own forked process."""
+              v2=False) -> List[Dict]:
+    """Outcomes of the seeds, each in its own forked process (``v2``: False,
+    True, or "holes" for v2 grounds without the trace picks)."""
     import tempfile
     ctx = mp.get_context("fork")
     tb_dir = tempfile.mkdtemp(prefix="sweep-tb-")
@@ -356,12 +361,20 @@ def render_v2(outs: List[Dict], meta: Dict[str, Any]) -> str:
     """The table of a --v2 sweep: format-2 grounds without cutoffs against
     the same grounds' v1 models."""
     from faultmesh.grounds import V2_RATIO
-    L = _header("Random grounds as format 2 without cutoffs: derived against true cutoffs", outs, meta)
+    holes = meta.get("v2") == "holes"
+    title = "Random grounds as format 2 without cutoffs: derived against true cutoffs"
+    L = _header(title + (", layer data from the holes only" if holes else ""), outs, meta)
     L += ["Each seed's ground (`faultmesh.grounds.random_ground(seed)`) is written twice: as its v1 "
           "dataset (hand-drawn traces up to the true cutoffs) and by `faultmesh.grounds.write_v2` as "
           "format 2 without cutoffs (each fault as fault sticks on the truth's surface, no traces, kind "
           "or tips; the layer tops as collar/survey/interval tables of the same holes, about half of "
-          "them deviated). Both are loaded, built and checked; the v2 one through "
+          "them deviated; "
+          + ("no other layer data: nothing of what the v1 traces give within 20-180 m of the faults, "
+             "`--holes-only`"
+             if holes else
+             "the v1 traces' layer polylines as layer points, without the cutoffs and without the "
+             "points within a fault shadow of 10-50 m from them, `grounds.trace_picks`")
+          + "). Both are loaded, built and checked; the v2 one through "
           "`derive.derive_faults`. Measured: the distance of each derived cutoff point from the true "
           "cutoff on its section (`grounds.cutoff_distance`), the derived kind, and the mean \\|dz\\| "
           "within 150 m of the truth's fault bands of each model (`grounds.near_fault_errors`) and "
@@ -426,6 +439,11 @@ def render_v2(outs: List[Dict], meta: Dict[str, Any]) -> str:
     return "\n".join(L).rstrip() + "\n"
 
 
+def _stem(v2) -> str:
+    """The file stem of a sweep's outputs."""
+    return {False: "sweep", None: "sweep", True: "sweep_v2", "holes": "sweep_v2_holes"}[v2]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, default=500, help="number of seeds (default 500)")
@@ -439,13 +457,16 @@ def main(argv=None) -> int:
     ap.add_argument("--v2", action="store_true",
                     help="each ground also as format 2 without cutoffs (grounds.evaluate_ground_v2): "
                          "derived against true cutoffs; writes sweep_v2.md / sweep_v2.json")
+    ap.add_argument("--holes-only", action="store_true",
+                    help="with --v2: the v2 grounds' layer data from the holes only (no trace picks); "
+                         "writes sweep_v2_holes.md / sweep_v2_holes.json")
     ap.add_argument("--render", type=Path, default=None, metavar="JSON",
                     help="no sweep: render the table again from a sweep.json (into --out or its folder)")
     args = ap.parse_args(argv)
     if args.render is not None:
         doc = json.loads(args.render.read_text())
         outs = doc["seeds"]
-        v2 = bool(doc["meta"].get("v2"))
+        v2 = doc["meta"].get("v2")
         if not v2:
             renormalise(outs)
             fill_specs(outs)
@@ -453,10 +474,13 @@ def main(argv=None) -> int:
         text = render_v2(outs, doc["meta"]) if v2 else render(outs, doc["meta"])
         print(text)
         if not args.no_write:
-            out = (args.out or args.render.parent) / ("sweep_v2.md" if v2 else "sweep.md")
+            out = (args.out or args.render.parent) / (_stem(v2) + ".md")
             out.write_text(text)
             print(f"wrote {out}", file=sys.stderr)
         return 0
+    if args.holes_only and not args.v2:
+        ap.error("--holes-only goes with --v2")
+    v2 = "holes" if args.holes_only else args.v2
     if args.quick:
         args.seeds = min(args.seeds, 8)
     if args.seeds < 1 or args.jobs < 1 or args.timeout <= 0:
@@ -465,16 +489,16 @@ def main(argv=None) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     seeds = list(range(args.start, args.start + args.seeds))
     t0 = time.perf_counter()
-    stem = "sweep_v2" if args.v2 else "sweep"
+    stem = _stem(v2)
     outs = run_seeds(seeds, args.jobs, args.timeout, args.memory_gb,
-                     jsonl=None if args.no_write else out_dir / f"{stem}.jsonl", v2=args.v2)
+                     jsonl=None if args.no_write else out_dir / f"{stem}.jsonl", v2=v2)
     elapsed = time.perf_counter() - t0
     if not args.v2:
         fill_specs(outs)
         mark_rejects(outs)
     meta = {"command": command_line("sweep.py"), "date": today(),
             "machine": machine(numpy=True, faultmesh=True), "jobs": args.jobs, "timeout": args.timeout,
-            "memory_gb": args.memory_gb, "elapsed": elapsed, "v2": args.v2}
+            "memory_gb": args.memory_gb, "elapsed": elapsed, "v2": v2}
     text = render_v2(outs, meta) if args.v2 else render(outs, meta)
     print(text)
     if not args.no_write:

@@ -2017,16 +2017,52 @@ def _v2_drillholes(geo: Geology, ds1: Dataset, spec: GroundSpec, rng: np.random.
     return tables, kind
 
 
-def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder) -> Path:
+#: The fault shadow of :func:`trace_picks`: horizontal distances from the
+#: cutoff within which an interpreter picks no horizon on a section. Seismic
+#: reflections are smeared next to a fault over about a Fresnel zone (tens
+#: of metres at the depths of these grounds), and picks there are the ones
+#: a careful interpreter deletes; 10-50 m brackets that, drawn per ground.
+SHADOW = (10.0, 50.0)
+
+
+def trace_picks(ds1: Dataset, seed: int) -> Tuple[Dict[str, np.ndarray], float]:
+    """The layer observations of ground ``seed``'s v1 traces without the
+    cutoffs: every point of each footwall and hanging-wall polyline whose
+    horizontal distance from its cutoff (the polyline's fault end) is at
+    least the ground's fault shadow (drawn from :data:`SHADOW` by
+    ``default_rng([seed, 3])``), as layer points -- what an interpreter
+    picks on seismic sections, where the v1 dataset gives the same lines
+    drawn up to the fault. Both sheets of a layer a reverse fault repeats
+    are kept, as picked. Returns (layer -> (n, 3) points, shadow in m)."""
+    shadow = float(np.random.default_rng([int(seed), 3]).uniform(*SHADOW))
+    out: Dict[str, List[np.ndarray]] = {}
+    for f in ds1.faults:
+        for t in f.traces:
+            for lay, sides in t.layers.items():
+                for side, P in sides.items():
+                    P = np.asarray(P, dtype=np.float64).reshape(-1, 3)
+                    cut = P[-1] if side == "foot" else P[0]
+                    far = np.hypot(P[:, 0] - cut[0], P[:, 1] - cut[1]) >= shadow
+                    out.setdefault(lay, []).append(P[far])
+    return {lay: np.vstack(v) for lay, v in out.items() if sum(len(a) for a in v)}, shadow
+
+
+def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks: bool = True) -> Path:
     """Write ground ``spec.seed`` (its v1 dataset ``ds1`` as loaded, its truth
     ``geo``) as a format-2 dataset into ``folder`` without cutoffs: each fault
     as fault sticks on the truth's surface (:func:`_fault_sticks`; no traces,
     no kind, no tips: :func:`faultmesh.derive.derive_faults` derives them;
     the group kept), the layer tops as collar, survey and interval tables of
     the same holes with a share of them deviated (:func:`_v2_drillholes`),
-    the v1 topography as points. Drawn from ``np.random.default_rng([seed,
-    2])``, so the v1 dataset (and the sweep) does not change. Returns the
-    JSON path; the hole kinds are written to ``v2.json`` beside it."""
+    the v1 topography as points and, with ``section_picks``, the v1 traces'
+    layer polylines beyond a fault shadow as points
+    (:func:`trace_picks`): the v1 dataset's data without its cutoffs.
+    Without them the v2 dataset lacks every layer datum the v1 traces give
+    within 20-180 m of the faults, where the models are compared. Drawn
+    from ``np.random.default_rng([seed, 2])`` (the shadow from ``[seed,
+    3]``), so the v1 dataset (and the sweep) does not change. Returns the
+    JSON path; the hole kinds, point counts and shadow are written to
+    ``v2.json`` beside it."""
     from dataclasses import replace
     from .dataset import apply_boundary_policy
     rng = np.random.default_rng([int(spec.seed), 2])
@@ -2041,15 +2077,20 @@ def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder) -> Path:
                               int(spec.rounding["z"]))
         faults.append(Fault(f.name, None, f.group, points=P, sticks=st))
     tables, kinds = _v2_drillholes(geo, ds1, spec, rng)
+    points = {lay: np.asarray(v, dtype=np.float64).reshape(-1, 3) for lay, v in ds1.points.items()}
+    picks, shadow = trace_picks(ds1, spec.seed) if section_picks else ({}, None)
+    for lay, P in picks.items():
+        points[lay] = np.vstack([points[lay], P]) if lay in points else P
     ds2 = Dataset(name=f"{ds1.name}-v2", layers=list(ds1.layers), boundary=ring,
-                  boreholes=tables.tops(ds1.layers), points=dict(ds1.points), faults=faults,
+                  boreholes=tables.tops(ds1.layers), points=points, faults=faults,
                   crs=ds1.crs, drillholes=tables)
     # The tops as the loader will give them (beyond the boundary dropped):
     # what save checks the tables against.
     ds2.boreholes = apply_boundary_policy(replace(ds2, points={}, faults=[], adjustments=[])).boreholes
     path = ds2.save(folder, version=2)
     info = {"holes": {k: int(np.sum(kinds == k)) for k in _HOLE_KINDS},
-            "fault_points": {f.name: int(len(f.points)) for f in faults}}
+            "fault_points": {f.name: int(len(f.points)) for f in faults},
+            "section_picks": {lay: int(len(P)) for lay, P in picks.items()}, "shadow": shadow}
     (folder / "v2.json").write_text(json.dumps(info, indent=1) + "\n", encoding="utf-8")
     return path
 
@@ -2140,10 +2181,12 @@ def _derive_symptom(out: Dict[str, Any]) -> str:
     return f"warns: {best}"
 
 
-def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, **overrides) -> Dict[str, Any]:
+def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, section_picks: bool = True,
+                       **overrides) -> Dict[str, Any]:
     """Ground ``seed`` as v1 (true cutoffs) and as v2 without cutoffs
-    (:func:`write_v2`), each loaded, built and checked; never raises for a
-    failure of faultmesh (it is recorded). Returns a JSON-serialisable dict:
+    (:func:`write_v2`, with or without ``section_picks``), each loaded,
+    built and checked; never raises for a failure of faultmesh (it is
+    recorded). Returns a JSON-serialisable dict:
     seed, spec, describe, tags, v2 (hole kinds, fault points), ok (v2 derived,
     built, checked, error ratio <= ``ratio_limit``), stage (where it stopped:
     generate, load:v1, build:v1, check:v1 -- the v1 model is the reference,
@@ -2185,7 +2228,7 @@ def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, **
             except Exception as e:
                 return fail("load:v1", e)
             try:
-                path2 = write_v2(ds1, geo, spec, folder / "v2")
+                path2 = write_v2(ds1, geo, spec, folder / "v2", section_picks=section_picks)
                 out["v2"] = json.loads((folder / "v2" / "v2.json").read_text())
             except Exception as e:
                 return fail("generate:v2", e)
