@@ -90,7 +90,7 @@ void bind_results(py::module_& m) {
         .def_readonly("n_holes", &PyStitchGap::n_holes,
                       "holes of the gap polygon (ear clipping gives n_vertices + 2 n_holes - 2 triangles)")
         .def_readonly("n_interior", &PyStitchGap::n_interior,
-                      "removed layer vertices put back inside the gap (2 more triangles each)")
+                      "removed layer data put back inside the gap (2 more triangles each)")
         .def_readonly("patches", &PyStitchGap::patches, "int64 ids of the patches whose outline is part of it")
         .def_readonly("merged_gaps", &PyStitchGap::merged_gaps, "int64 ids of earlier gaps it swallowed")
         .def("__repr__", [](const PyStitchGap& g) {

@@ -156,6 +156,10 @@ struct LayerTinState {
     std::optional<Tin> tin;  // set at the end of the constructor
     std::vector<std::map<double, std::int64_t>> by_side;
     std::vector<char> on_boundary;  // per TIN vertex
+    // Per TIN vertex: 1 while it is a data point at its measured elevation
+    // (LayerTin::measured). Boundary densification and protection points,
+    // inserted points and vertices whose z was set since are 0.
+    std::vector<char> measured;
     // mesh() without the elevations, cached until the next insert (the
     // repair and the build ask for it many times; set_z does not change it).
     struct Topology {
@@ -436,6 +440,7 @@ struct Prepared {
     std::vector<double> pts;  // 3 per point: nb boundary, ni interior, then splits
     std::size_t nb = 0, ni = 0;
     std::vector<std::int32_t> shared_vertex;  // per interior point (in pts order), or empty
+    std::vector<char> measured;               // per point: a data point (boundary or interior)
 };
 
 Prepared prepare(LayerTinState& s, LayerData&& d) {
@@ -571,6 +576,8 @@ Prepared prepare(LayerTinState& s, LayerData&& d) {
         work.emplace_back(pc.side, sm);
     }
     Prepared out;
+    known.resize(pts.size() / 3, 0);  // the protection's splits are not data
+    out.measured = std::move(known);
     out.pts = std::move(pts);
     out.nb = nb;
     out.ni = ni;
@@ -634,6 +641,11 @@ void finish(LayerTinState& s, Prepared&& prep, const Tin* shared) {
             s.mark_boundary(e.second);
         }
     s.on_boundary.resize(s.tin->n_vertices(), 0);
+    // A vertex that several equal-XY points share keeps the first one's z
+    // (Tin), a data point's.
+    s.measured.assign(s.tin->n_vertices(), 0);
+    for (std::size_t i = 0; i < np; ++i)
+        if (prep.measured[i]) s.measured[static_cast<std::size_t>(vmap[i])] = 1;
     (void)s.topology();  // checks that every piece is a TIN edge and the inside is closed
 }
 
@@ -771,7 +783,25 @@ std::vector<std::int64_t> LayerTin::boundary_vertices() const {
     return out;
 }
 
+std::vector<char> LayerTin::measured() const {
+    std::vector<char> out = s_->measured;
+    out.resize(s_->tin->n_vertices(), 0);
+    return out;
+}
+
+namespace detail {
+// Vertices whose z changes are no longer at a measured elevation.
+void unmeasure_changed(LayerTinState& s, const std::int64_t* vertices, const double* z, std::size_t n) {
+    const std::vector<double>& V = s.tin->vertex_array();
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::size_t v = static_cast<std::size_t>(vertices[i]);
+        if (v < s.measured.size() && s.measured[v] && V[3 * v + 2] != z[i]) s.measured[v] = 0;
+    }
+}
+}  // namespace detail
+
 void LayerTin::set_z(const std::int64_t* vertices, const double* z, std::size_t n) {
+    detail::unmeasure_changed(*s_, vertices, z, n);
     s_->tin->set_z(vertices, z, n);
 }
 
@@ -899,6 +929,10 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
     {
         std::vector<double> z(k);
         for (std::size_t i = 0; i < k; ++i) z[i] = keep[3 * i + 2];
+        // An inserted point is not a datum; one at an existing vertex's XY
+        // that gives it another z unmeasures it (new vertices are beyond
+        // `measured`, which mesh() and measured() pad with 0).
+        detail::unmeasure_changed(s, ids.data(), z.data(), k);
         s.tin->set_z(ids.data(), z.data(), k);
     }
     s.on_boundary.resize(s.tin->n_vertices(), 0);
@@ -973,6 +1007,7 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
         std::vector<std::int64_t> got = s.tin->insert(add.data(), na);
         std::vector<double> z(na);
         for (std::size_t i = 0; i < na; ++i) z[i] = add[3 * i + 2];
+        detail::unmeasure_changed(s, got.data(), z.data(), na);
         s.tin->set_z(got.data(), z.data(), na);
         s.on_boundary.resize(s.tin->n_vertices(), 0);
         for (std::size_t i = 0; i < na; ++i) {
@@ -1136,8 +1171,12 @@ LayerTinMesh LayerTin::mesh(std::size_t spare_vertices, std::size_t spare_triang
     out.tin_vertex = topo->tin_vertex;
     out.vertices.reserve(3 * (nv + spare_vertices));
     out.vertices.resize(3 * topo->tin_vertex.size());
-    for (std::size_t i = 0; i < topo->tin_vertex.size(); ++i)
-        std::copy_n(&V[3 * static_cast<std::size_t>(topo->tin_vertex[i])], 3, &out.vertices[3 * i]);
+    out.measured.assign(nv, 0);
+    for (std::size_t i = 0; i < nv; ++i) {
+        const std::size_t v = static_cast<std::size_t>(topo->tin_vertex[i]);
+        std::copy_n(&V[3 * v], 3, &out.vertices[3 * i]);
+        out.measured[i] = v < s_->measured.size() ? s_->measured[v] : 0;
+    }
     return out;
 }
 

@@ -197,6 +197,7 @@ LayerStitcher::LayerStitcher(const double* vertices, std::size_t n_vertices, con
     if ((vertices == nullptr && n_vertices) || triangles == nullptr) throw std::invalid_argument(fn + ": null array");
     s.xyz.reserve(3 * (n_vertices + spare_of(n_vertices)));
     s.xyz.assign(vertices, vertices + 3 * n_vertices);
+    s.measured.assign(n_vertices, 1);  // the caller's vertices are its data
     s.tri.reserve(3 * (n_triangles + spare_of(n_triangles)));
     s.tri.assign(triangles, triangles + 3 * n_triangles);
     if (halfedges) {
@@ -220,6 +221,7 @@ LayerStitcher::LayerStitcher(const LayerTin& layer, const StitchOptions& options
     s.xyz = std::move(m.vertices);
     s.tri = std::move(m.triangles);
     s.adj = std::move(m.halfedges);
+    s.measured = std::move(m.measured);
     const std::vector<double>& ring = layer.area().ring();
     detail::set_up_stitcher(s, n_vertices, n_triangles, true, ring.data(), ring.size() / 2, options);
 }

@@ -55,6 +55,13 @@ struct StitcherState {
     std::vector<std::int64_t> owner;
     std::vector<char> alive;
     std::vector<char> checked;  // base triangles verified (orientation, half-edges)
+    // Per layer vertex of the start: 1 where it is a datum that a gap may
+    // take back (step 5), from LayerTin::measured() for a stratum TIN, every
+    // vertex for a mesh given as arrays. Patch vertices (appended) are not.
+    std::vector<char> measured;
+    bool is_measured(std::int64_t v) const {
+        return v >= 0 && static_cast<std::size_t>(v) < measured.size() && measured[static_cast<std::size_t>(v)];
+    }
     std::size_t n_live = 0;
     // Stage-1 index: a tree over blocks of kBlock base rows, plus one box per
     // later stitch for the rows it appended.

@@ -399,7 +399,7 @@ class StitchGap:
     @property
     def n_interior(self) -> int:
         """
-        removed layer vertices put back inside the gap (2 more triangles each)
+        removed layer data put back inside the gap (2 more triangles each)
         """
     @property
     def n_vertices(self) -> int:

@@ -48,7 +48,7 @@ only (they are near-vertical: no XY requirement).
 
 Gaps (:class:`~faultmesh.model.Gap`, ``triangles`` = row indices into the
 layer surface's triangles): a gap polygon with ``n`` vertices and ``h`` holes
-and ``k`` layer vertices put back inside it (``Gap.n_interior``) has exactly
+and ``k`` layer data put back inside it (``Gap.n_interior``) has exactly
 ``n + 2h - 2 + 2k`` triangles, each counter-clockwise with non-zero area in
 XY (the gap is ear-clipped in XY, then each point splits a triangle).
 """
@@ -393,7 +393,7 @@ def check_surface(surface, boundary: Optional[np.ndarray] = None) -> None:
 def check_gaps(surface, gaps: Iterable) -> None:
     """Check the stitched gaps of one layer surface: ``Gap.triangles`` are row
     indices into ``surface.triangles``; a polygon with n vertices and h holes
-    has n + 2h - 2 of them, plus 2 per removed layer vertex put back inside
+    has n + 2h - 2 of them, plus 2 per removed layer datum put back inside
     (``n_interior``), each counter-clockwise with non-zero area in XY."""
     name = surface.name
     T = np.asarray(surface.triangles, dtype=np.int64)

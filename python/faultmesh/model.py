@@ -100,7 +100,7 @@ class Gap:
 
     ``triangles`` are rows of the layer surface's ``triangles`` created by ear
     clipping the gap; ``n_vertices`` and ``n_holes`` describe the gap polygon
-    and ``n_interior`` counts the removed layer vertices put back inside it,
+    and ``n_interior`` counts the removed layer data put back inside it,
     so ``len(triangles) == n_vertices + 2 * n_holes - 2 + 2 * n_interior``. ``id``: the
     ``owner`` of its triangles in the layer surface (-1 if not known);
     ``patches``: the ids of the :class:`StitchedPatch` es of that layer whose

@@ -64,6 +64,7 @@ struct LayerTinMesh {
     std::vector<std::int64_t> triangles;  // 3 per triangle, CCW, inside the study area
     std::vector<std::int64_t> halfedges;  // opposite half-edge within the mesh or -1
     std::vector<std::int64_t> tin_vertex; // mesh vertex -> LayerTin vertex
+    std::vector<char> measured;           // per mesh vertex: LayerTin::measured()
 };
 
 namespace detail {
@@ -98,6 +99,14 @@ public:
     std::vector<double> z() const;
     // Boundary vertices in order (counter-clockwise along the study area).
     std::vector<std::int64_t> boundary_vertices() const;
+    // Per vertex: 1 where the vertex is a data point at its measured z (in
+    // the study area or on its boundary), 0 where the TIN made it or set its
+    // z -- the boundary densification (z extrapolated), the protection's
+    // splits, points added by insert() (the repair's rule 1b and rule 2
+    // points, hole fill points) and vertices whose z set_z() or insert()
+    // changed (the repair's rule 1). The stitcher puts back only these
+    // into a gap (stitch.hpp, step 5).
+    std::vector<char> measured() const;
 
     // Inserts points (x, y, z), keeping the boundary protected. A point at the
     // XY of an existing vertex gives that vertex its z; so does a point on

@@ -53,8 +53,9 @@
 //     vertices join the holes to the outer ring, quality ear order and
 //     constrained Delaunay refinement by default). A polygon with n vertices
 //     and h holes gives n + 2h - 2 triangles, checked. Then every layer
-//     vertex that only D's triangles used and that lies inside the gap (on
-//     no ring; stitch_clip.cpp) is put back as vertices of the gap triangulation (gap_points.hpp:
+//     datum (a vertex at its measured z: LayerTin::measured; every vertex
+//     of a mesh given as arrays) that only D's triangles used and that lies
+//     inside the gap (on no ring; stitch_clip.cpp) is put back as vertices of the gap triangulation (gap_points.hpp:
 //     exact location, split, CDT flips that keep the ring edges): 2 more
 //     triangles each (StitchGap::n_interior).
 //     Without this the layer's data inside D were lost (issue 10).
@@ -107,7 +108,7 @@ struct StitchGap {
     std::vector<std::int64_t> triangles;    // rows in the stitcher's (uncompacted) triangle list
     std::int64_t n_vertices = 0;            // vertices of the polygon, counted per ring
     std::int64_t n_holes = 0;               // holes of the polygon
-    // Removed layer vertices put back inside the gap (gap_points.hpp): the
+    // Removed layer data put back inside the gap (gap_points.hpp): the
     // gap has n_vertices + 2 n_holes - 2 + 2 n_interior triangles.
     std::int64_t n_interior = 0;
     std::vector<std::int64_t> patches;      // patch ids whose outline is part of this gap
