@@ -51,6 +51,17 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
     layers = list(dataset.layers)
     prog("stratum TINs", 0, len(layers))
     data = dataset.all_layer_points()
+    in_patches: Dict[str, int] = {}
+    for lay in layers:
+        n_extra = len(dataset.points.get(lay, ()))
+        if n_extra:
+            # A layer's extra points follow its borehole hits (all_layer_points).
+            P = data[lay]
+            drop = np.zeros(len(P), dtype=bool)
+            drop[len(P) - n_extra:] = _in_fault_zones(dataset, lay, area, P[len(P) - n_extra:])
+            in_patches[lay] = int(drop.sum())
+            if in_patches[lay]:
+                data[lay] = np.ascontiguousarray(P[~drop])
     # One call for the stack: the XY points the layers share are triangulated once.
     built = build_layer_tins([(lay, data[lay]) for lay in layers], area, spacing,
                              threads=_threads(threads, len(layers)))
@@ -71,7 +82,8 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
                                            "boundary_data": int(t.n_boundary_data),
                                            "shared_vertices": int(t.n_shared),
                                            "boundary_spacing": float(t.spacing),
-                                           "hole_fill_points": filled.get(lay, 0)}
+                                           "hole_fill_points": filled.get(lay, 0),
+                                           "points_in_fault_patches": in_patches.get(lay, 0)}
                                      for lay, t in tins.items()},
                             "repair": {}}
     if repair:
@@ -90,6 +102,22 @@ def _in_fault_zones(dataset, layer: str, area: StudyArea, points: np.ndarray) ->
     ``layer``: the patches' XY footprints, as the build lofts them from the
     faults' traces (:func:`faultmesh.faults.layer_patch`; z and the group
     partners' extensions do not matter for the footprint used here).
+
+    A layer's extra points (``Dataset.points``: seismic picks) in a patch
+    are left out of its continuous TIN (:func:`stratum_tins`): the patch
+    replaces the TIN there, and derive fits the fault's sides to them
+    (the patch is lofted from those; hand-drawn traces win over them).
+    Picked up to the fault, they are picked on both sheets of a layer a
+    reverse fault repeats, and a TIN through both zigzags between them:
+    random ground 96 as v2 with its section picks (two reverse faults of
+    35 and 48 m throw, 6 layers down to 4.2 m thick) had its L2 TIN 43 m
+    below L3's hanging-wall picks in L2's repetition band, where L2's own
+    hanging-wall picks lay in the fault shadow; the crossing repair gave up
+    after 16k points in a layer of 229 vertices. Left out, it builds; on
+    random grounds 0, 9, 20 as v2 the error near the faults against the
+    true cutoffs' model went 1.48, build failure, 1.49 -> 1.29, 0.95,
+    1.42. Borehole tops stay (of a hole through a repetition its first
+    hit, :attr:`Boreholes.shallowest`, the upper sheet).
 
     The hole fill's anchors are the TIN's study-area boundary vertices,
     whose z the TIN extrapolates from the data around them; in a fault's
