@@ -929,7 +929,7 @@ def test_fading_throw_fit_also_where_the_hanging_walls_data_come_near():
     1.19x."""
     from faultmesh import grounds
 
-    out = grounds.evaluate_ground_v2(46)
+    out = grounds.evaluate_ground_v2(46, section_picks=False)
     assert out["stage"] == "ok", (out["stage"], out["error"])
     assert out["kind_ok"], out["kinds"]
     assert out["ratio"] <= grounds.V2_RATIO, (out["error_v1"], out["error_v2"])
@@ -946,7 +946,7 @@ def test_sticks_that_stop_short_of_the_boundary_end_in_a_tip():
     of its last stick (derive._stick_spacing): a tip, 1.20x."""
     from faultmesh import grounds
 
-    out = grounds.evaluate_ground_v2(82)
+    out = grounds.evaluate_ground_v2(82, section_picks=False)
     assert out["stage"] == "ok", (out["stage"], out["error"])
     assert out["kind_ok"], out["kinds"]
     assert out["ratio"] <= grounds.V2_RATIO, (out["error_v1"], out["error_v2"])

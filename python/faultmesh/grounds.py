@@ -2047,7 +2047,7 @@ def trace_picks(ds1: Dataset, seed: int) -> Tuple[Dict[str, np.ndarray], float]:
     return {lay: np.vstack(v) for lay, v in out.items() if sum(len(a) for a in v)}, shadow
 
 
-def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks: bool = True) -> Path:
+def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks: bool = False) -> Path:
     """Write ground ``spec.seed`` (its v1 dataset ``ds1`` as loaded, its truth
     ``geo``) as a format-2 dataset into ``folder`` without cutoffs: each fault
     as fault sticks on the truth's surface (:func:`_fault_sticks`; no traces,
@@ -2056,9 +2056,12 @@ def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks
     the same holes with a share of them deviated (:func:`_v2_drillholes`),
     the v1 topography as points and, with ``section_picks``, the v1 traces'
     layer polylines beyond a fault shadow as points
-    (:func:`trace_picks`): the v1 dataset's data without its cutoffs.
-    Without them the v2 dataset lacks every layer datum the v1 traces give
-    within 20-180 m of the faults, where the models are compared. Drawn
+    (:func:`trace_picks`): the v1 dataset's data without its cutoffs
+    (what :func:`evaluate_ground_v2` compares by default). Without them
+    (the default here: the layer data of the holes only, the grounds the
+    derivation's sparse-data tests are written for) the v2 dataset lacks
+    every layer datum the v1 traces give within 20-180 m of the faults,
+    where the models are compared. Drawn
     from ``np.random.default_rng([seed, 2])`` (the shadow from ``[seed,
     3]``), so the v1 dataset (and the sweep) does not change. Returns the
     JSON path; the hole kinds, point counts and shadow are written to
