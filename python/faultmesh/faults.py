@@ -1080,6 +1080,16 @@ _CLOSE_TO = _CORE_MARGIN
 _CLOSE_STEPS = 12
 
 
+#: How many polylines carry a band bent round a partner's outline
+#: (:func:`_closing`, "bend"), at shares growing as (k / steps)^2.
+_BEND_STEPS = 6
+
+#: Where a bent band's blocked cutoff stops short of the partner's outline
+#: (:func:`_closing`, "bend"): the way from the free cutoff to the outline
+#: divided by 1 + this.
+_BEND_CLEAR = 0.25
+
+
 def _close_enough(stretch: float, pts: np.ndarray, cc: Tuple[int, int]) -> bool:
     """Whether ``stretch`` (m) is within ``_CLOSE_TO`` of the width of the
     band of ``pts`` (cutoffs ``cc``) in XY."""
@@ -1283,7 +1293,78 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
         past = share >= 1.0 and min(h) < 1.0
         return tuple(x if past and x <= _LINE_REACH else min(share, x) for x in h)
 
+    def bent(frac: float, pts: np.ndarray, cc: Tuple[int, int]):
+        # The band carried along the cutoff line that runs on clear of the
+        # partners (the free one) and narrowed on the other (blocked) side
+        # to what is clear there, in _BEND_STEPS polylines: the fold bends
+        # round the partner's outline instead of closing straight. Polyline
+        # k is the core taken by the similarity that puts its free cutoff at
+        # share s_k of that line's clear reach (frac of it at the last) and
+        # its blocked cutoff on the way towards where the blocked line is at
+        # that share, stopped where that way meets the partners' outlines
+        # (with the sheet past it: _BEND_CLEAR); the sheet past the band on
+        # the blocked side is cut to _YIELD_MARGIN of the band's width.
+        # Then a pinch-out tip halfway from its centre to the partners along
+        # the free line. The shares grow as (k / steps)^2: the first
+        # polylines stay near ``poly``, where a convex corner of the
+        # partner's outline a few metres in front of it must be passed
+        # (seed 1130, F2 L2: a corner of F1's outline 7 m in front of F2's
+        # trace 4; every straight closure touched it).
+        h = line_reach(pts, cc)
+        if not h[0] != h[1]:
+            return None
+        free = 0 if h[0] > h[1] else 1
+        hf = h[free]
+        if not (np.isfinite(hf) and hf > 0.0):
+            return None
+        z = pts[:, 0] + 1j * pts[:, 1]
+        f0, b0 = z[cc[free]], z[cc[1 - free]]
+        f1 = complex(nxt[nxt_cut[free], 0], nxt[nxt_cut[free], 1])
+        b1 = complex(nxt[nxt_cut[1 - free], 0], nxt[nxt_cut[1 - free], 1])
+        w0 = abs(b0 - f0)
+        if not w0 > 0.0 or not abs(f1 - f0) > 0.0:
+            return None
+        # How far each point lies past the blocked cutoff, along the band.
+        past = ((z - b0) * np.conj((b0 - f0) / w0)).real
+        out = []
+        for k in range(1, _BEND_STEPS + 1):
+            s = frac * hf * (k / _BEND_STEPS) ** 2
+            f = f0 + s * (f1 - f0)
+            full = (b0 + s * (b1 - b0)) - f
+            if not abs(full) > 0.0:
+                return None
+            e = full / abs(full)
+            hit = float(_ray_hits(np.array([[f.real, f.imag]]), np.array([e.real, e.imag]), rings)[0])
+            w = min(abs(full), hit / (1.0 + _BEND_CLEAR))
+            if not w > 0.0:
+                return None
+            b = f + w * e
+            zz = f + (z - f0) * ((b - f) / (b0 - f0))
+            beyond_b = np.maximum(past, 0.0) * (w / w0)
+            m = float(beyond_b.max())
+            if m > _YIELD_MARGIN * w:
+                zz = zz - (1.0 - _YIELD_MARGIN * w / m) * beyond_b * e
+            xy = np.column_stack([zz.real, zz.imag])
+            out.append(np.column_stack([xy, _shift_z(pts, xy, surface_z)]))
+        last = out[-1]
+        mid = _cut_centre(last, cc)
+        uf = (f1 - f0) / abs(f1 - f0)
+        left = float(_ray_hits(mid[None, :2], np.array([uf.real, uf.imag]), rings)[0])
+        if not np.isfinite(left):
+            left = (1.0 - frac) * hf * abs(f1 - f0) + 0.25 * w
+        if not left > 0.0:
+            return None
+        xy = mid[None, :2] + 0.5 * left * np.array([[uf.real, uf.imag]])
+        tip = np.column_stack([xy, _shift_z(mid[None, :], xy, surface_z)])
+        chain = [poly] + out + [tip]
+        if not all(beyond(p_, q_) for p_, q_ in zip(chain[:-1], chain[1:])):
+            return None
+        parts = [(o, cc) for o in out] + [(tip, None)]
+        return ordered(parts) if clear(ordered([(poly, cut)] + parts)) else None
+
     def carried_by(frac: float, pts: np.ndarray, cc: Tuple[int, int], how: str):
+        if how == "bend":
+            return bent(frac, pts, cc)
         if how == "lines":
             # Each cutoff as far along its own line as that line is clear:
             # the carried band's end runs along the partner's outline where
@@ -1324,6 +1405,7 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
                 # from the common share of the way.
                 if any(abs(h - reach / dist) > 1e-9 for h in line_reach(pts, cc)):
                     ways.append((pts, cc, "lines"))
+                    ways.append((pts, cc, "bend"))
             ways.append((pts, cc, "move"))
         for pts, cc, how in ways:
             # 0.9 of the way, then by bisection: nearer (towards the whole
