@@ -1434,3 +1434,31 @@ def test_fold_bends_on_past_the_next_trace_where_the_band_goes_on():
         reach.append(max(p[c[1], 0] for p, c in got if c is not None))
     assert reach[0] < 300.0 and reach[1] > 340.0
     assert folds[1] > 1.25 * folds[0]
+
+
+def test_bent_closures_from_both_sides_of_a_dropped_trace_do_not_overlap():
+    # Seven traces 100 m apart with tips beyond, a partner across the
+    # hanging-wall cutoff line at the middle trace (x 280-320, y 490-500):
+    # the lofts on either side of it are left out and it is dropped. The
+    # runs on either side are each closed towards it bent round the partner
+    # and on past it (faults._closing, ``further``), each halfway across the
+    # interval beyond: the two closures overlapped (150 triangles covered
+    # twice). Where they meet, both are made again straight, each stopping
+    # at the dropped trace (faults._clear_of, runs_of ``straight``).
+    from faultmesh import StudyArea, triangles_not_covered_once, triangles_touching_region
+    from faultmesh.faults import _assemble_runs, _clear_of
+
+    area = StudyArea(np.array([[-100.0, 0.0], [800.0, 0.0], [800.0, 1000.0], [-100.0, 1000.0]]))
+    partner = np.array([[280.0, 490.0], [320.0, 490.0], [320.0, 500.0], [280.0, 500.0]])
+    seq, cuts = map(list, zip(*[_reverse_trace_polyline(x) for x in range(0, 700, 100)]))
+    seq = [np.array([[-50.0, 500.0, -90.0]])] + seq + [np.array([[650.0, 500.0, -90.0]])]
+    cuts = [None] + cuts + [None]
+    runs, note = _clear_of(seq, cuts, {"P": [partner]}, area, lambda xy: np.zeros(len(xy)), "min_area")
+    assert note["lofts_left_out"] == [3, 4] and note["runs"] == 2
+    V, T = _assemble_runs(runs, "min_area")
+    assert len(triangles_touching_region(V, T, [partner])) == 0
+    assert len(triangles_not_covered_once(V, T)) == 0
+    (a, _), (b, _) = runs
+    assert max(p[:, 0].max() for p in a) < 300.0 < min(p[:, 0].min() for p in b)
+    # Bent over the partner, up to it, on the footwall cutoff's side.
+    assert max(p[:, 0].max() for p in a) > 290.0 and min(p[:, 0].min() for p in b) < 310.0

@@ -397,11 +397,20 @@ def _ray_hits(p: np.ndarray, d: np.ndarray, rings: Sequence[np.ndarray]) -> np.n
     """Smallest t > 0 with p + t d on one of the rings' edges (inf if none),
     per point of ``p`` (k, 2+); ``d`` one direction (2,) or one per point
     (k, 2). Points x edges at once (numpy), in chunks of about 200k pairs."""
+    return _ray_hits_edges(p, d, _ring_edges(rings))
+
+
+def _ring_edges(rings: Sequence[np.ndarray]) -> np.ndarray:
+    """The edges (k, 2, 2) of the closed rings, each from a vertex to the next."""
     segs = []
     for r in rings:
         r = np.asarray(r, dtype=np.float64).reshape(-1, 2)
         segs.append(np.stack([r, np.roll(r, -1, axis=0)], axis=1))
-    S = np.concatenate(segs) if segs else np.zeros((0, 2, 2))
+    return np.concatenate(segs) if segs else np.zeros((0, 2, 2))
+
+
+def _ray_hits_edges(p: np.ndarray, d: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """:func:`_ray_hits` against edges ``S`` (k, 2, 2) (:func:`_ring_edges`)."""
     q = np.asarray(p, dtype=np.float64)
     q = q.reshape(len(q), q.shape[-1] if q.ndim > 1 else 2)[:, :2]
     d = np.broadcast_to(np.asarray(d, dtype=np.float64).reshape(-1, 2), q.shape)
@@ -1362,10 +1371,13 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
         return F, B, hf
 
     # The partners' outline edges, for the clearance of a bent band.
-    edges = np.concatenate([np.stack([np.asarray(r, dtype=np.float64).reshape(-1, 2),
-                                      np.roll(np.asarray(r, dtype=np.float64).reshape(-1, 2), -1, axis=0)],
-                                     axis=1) for r in rings]) if rings else np.zeros((0, 2, 2))
+    edges = _ring_edges(rings)
     edge_lo, edge_hi = edges.min(axis=1), edges.max(axis=1)
+
+    def edges_near(xy: np.ndarray, by: float) -> np.ndarray:
+        # The edges whose box meets the box of xy grown by ``by``.
+        lo_, hi_ = xy.min(axis=0) - by, xy.max(axis=0) + by
+        return edges[(edge_hi >= lo_).all(axis=1) & (edge_lo <= hi_).all(axis=1)]
 
     def bent(frac: float, pts: np.ndarray, cc: Tuple[int, int]):
         # The band carried along the cutoff line that runs on clear of the
@@ -1412,11 +1424,11 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
             # far as it is clear of the outlines by gap (samples of it,
             # numpy; the lofts are tested exactly afterwards).
             reach_ = (1.0 + _YIELD_MARGIN) * abs(full)
-            hit = float(_ray_hits(np.array([[f.real, f.imag]]), np.array([e.real, e.imag]), rings)[0])
+            end_ = f + reach_ * e
+            near = edges_near(np.array([[f.real, f.imag], [end_.real, end_.imag]]), gap)
+            hit = float(_ray_hits_edges(np.array([[f.real, f.imag]]), np.array([e.real, e.imag]), near)[0])
             ts = samples * min(reach_, hit)
             q = np.column_stack([(f + ts * e).real, (f + ts * e).imag])
-            lo_, hi_ = np.minimum(q.min(axis=0), [f.real, f.imag]) - gap, np.maximum(q.max(axis=0), [f.real, f.imag]) + gap
-            near = edges[(edge_hi >= lo_).all(axis=1) & (edge_lo <= hi_).all(axis=1)]
             d = _point_segment_dist(q[:, None, :], near[None, :, 0], near[None, :, 1]).min(axis=1) \
                 if len(near) else np.full(len(ts), np.inf)
             bad = np.flatnonzero(d < gap)
@@ -1435,7 +1447,7 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
             xy = np.column_stack([zz.real, zz.imag])
             # A polyline that itself crosses an outline (at the far end,
             # where the band is narrow) cannot be mended by more polylines.
-            if (_ray_hits(xy[:-1], xy[1:] - xy[:-1], rings) <= 1.0).any():
+            if (_ray_hits_edges(xy[:-1], xy[1:] - xy[:-1], edges_near(xy, 0.0)) <= 1.0).any():
                 return None
             return np.column_stack([xy, _shift_z(pts, xy, surface_z)])
 
@@ -1536,7 +1548,11 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
                 # from the common share of the way.
                 if any(abs(h - reach / dist) > 1e-9 for h in line_reach(pts, cc)):
                     ways.append((pts, cc, "lines"))
-                ways.append((pts, cc, "bend"))
+                if pts is cores[0][0]:
+                    # Bent from the first core only: it cuts the sheet on
+                    # the partner's side to a tenth of the width anyway, and
+                    # each bend costs a loft of many polylines per halving.
+                    ways.append((pts, cc, "bend"))
             ways.append((pts, cc, "move"))
         for pts, cc, how in ways:
             # 0.9 of the way, then by bisection: nearer (towards the whole
