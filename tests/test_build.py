@@ -1371,3 +1371,94 @@ def test_fold_closed_towards_a_far_trace_reaches_the_partner():
     np.testing.assert_allclose(carried[list(cc), 1], [505.0, 495.0], atol=1e-9)
     V, T = _assemble([poly, carried, tip], "min_area", [cut, cc, None])
     assert len(triangles_touching_region(V, T, [partner])) == 0
+
+
+def test_fold_bends_round_a_partner_corner_in_front_of_the_run_end():
+    # A run closed towards the next trace where the partner's outline has a
+    # convex corner inside the band 4 m in front of the run's end, on the
+    # footwall cutoff's side (x = 204, y = 503), its edge running down
+    # across the hanging-wall cutoff line at x = 230: a wedge of the band
+    # (about 145 m2) clear of the partner between them. Every straight
+    # closure touched the corner -- the band carried on keeps its sheet a
+    # quarter of its width past the footwall cutoff, the tip's fan reaches
+    # over the corner -- so only a bare fan 6 m deep was left (31 m2 of
+    # fold; sweep seed 1130, F2 L2, F1's corner 7 m in front of F2's trace
+    # 4, 92.4 % of the band repeated). The band is now also carried along
+    # the hanging-wall line, the line that runs on clear, narrowed on the
+    # footwall side to what stays clear of the partner, with polylines put
+    # in round the corner (faults._closing, "bend").
+    from faultmesh import triangles_not_covered_once, triangles_touching_region
+    from faultmesh.faults import _assemble, _fold_area
+
+    partner = np.array([[204.0, 503.0], [250.0, 489.0], [320.0, 489.0], [320.0, 540.0], [206.0, 540.0]])
+    poly, cut, got = _closing_between(200.0, 300.0, [0.0, 1000.0], partner)
+    assert got[-1][1] is None and len(got[-1][0]) == 1
+    piece = [(poly, cut)] + got
+    V, T = _assemble([p for p, _ in piece], "min_area", [c for _, c in piece])
+    assert len(triangles_touching_region(V, T, [partner])) == 0
+    assert len(triangles_not_covered_once(V, T)) == 0
+    # Down the wedge along the hanging-wall line, on it, and most of the
+    # wedge repeated.
+    hw = np.array([p[c[1]] for p, c in got if c is not None])
+    np.testing.assert_allclose(hw[:, 1], 495.0, atol=1e-9)
+    assert hw[:, 0].max() > 220.0
+    assert _fold_area(piece, "min_area") > 100.0
+
+
+def test_fold_bends_on_past_the_next_trace_where_the_band_goes_on():
+    # A run closed towards the next trace (x = 300), the partner crossing
+    # the band obliquely beyond it: its edge meets the footwall cutoff line
+    # at x = 310 and the hanging-wall one at x = 360, and touches the next
+    # trace's sheets. Closed towards the next trace only, the fold stopped
+    # short of it (x = 296) and the band between it and the partner was not
+    # repeated (sweep seed 803, F2 L1: 94.1 %; L2 92.1 %). The band is now
+    # followed on through the traces beyond (``further``, up to the next
+    # run) along the line that runs on clear, narrowed to what is clear of
+    # the partner (faults._closing, "bend").
+    from faultmesh import StudyArea, triangles_not_covered_once, triangles_touching_region
+    from faultmesh.faults import _assemble, _band_core, _closing, _fold_area
+
+    area = StudyArea(np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [0.0, 1000.0]]))
+    partner = np.array([[160.0, 535.0], [370.0, 493.0], [420.0, 493.0], [210.0, 535.0]])
+    poly, cut = _band_core(*_reverse_trace_polyline(200.0))
+    nxt, nxt_cut = _reverse_trace_polyline(300.0)
+    folds, reach = [], []
+    for further in ([], [_reverse_trace_polyline(400.0)]):
+        got = _closing(poly, cut, nxt, nxt_cut, area, lambda xy: np.zeros(len(xy)), [partner], 1e-9,
+                       False, "min_area", further=further)
+        piece = [(poly, cut)] + got
+        V, T = _assemble([p for p, _ in piece], "min_area", [c for _, c in piece])
+        assert len(triangles_touching_region(V, T, [partner])) == 0
+        assert len(triangles_not_covered_once(V, T)) == 0
+        folds.append(_fold_area(piece, "min_area"))
+        reach.append(max(p[c[1], 0] for p, c in got if c is not None))
+    assert reach[0] < 300.0 and reach[1] > 340.0
+    assert folds[1] > 1.25 * folds[0]
+
+
+def test_bent_closures_from_both_sides_of_a_dropped_trace_do_not_overlap():
+    # Seven traces 100 m apart with tips beyond, a partner across the
+    # hanging-wall cutoff line at the middle trace (x 280-320, y 490-500):
+    # the lofts on either side of it are left out and it is dropped. The
+    # runs on either side are each closed towards it bent round the partner
+    # and on past it (faults._closing, ``further``), each halfway across the
+    # interval beyond: the two closures overlapped (150 triangles covered
+    # twice). Where they meet, both are made again straight, each stopping
+    # at the dropped trace (faults._clear_of, runs_of ``straight``).
+    from faultmesh import StudyArea, triangles_not_covered_once, triangles_touching_region
+    from faultmesh.faults import _assemble_runs, _clear_of
+
+    area = StudyArea(np.array([[-100.0, 0.0], [800.0, 0.0], [800.0, 1000.0], [-100.0, 1000.0]]))
+    partner = np.array([[280.0, 490.0], [320.0, 490.0], [320.0, 500.0], [280.0, 500.0]])
+    seq, cuts = map(list, zip(*[_reverse_trace_polyline(x) for x in range(0, 700, 100)]))
+    seq = [np.array([[-50.0, 500.0, -90.0]])] + seq + [np.array([[650.0, 500.0, -90.0]])]
+    cuts = [None] + cuts + [None]
+    runs, note = _clear_of(seq, cuts, {"P": [partner]}, area, lambda xy: np.zeros(len(xy)), "min_area")
+    assert note["lofts_left_out"] == [3, 4] and note["runs"] == 2
+    V, T = _assemble_runs(runs, "min_area")
+    assert len(triangles_touching_region(V, T, [partner])) == 0
+    assert len(triangles_not_covered_once(V, T)) == 0
+    (a, _), (b, _) = runs
+    assert max(p[:, 0].max() for p in a) < 300.0 < min(p[:, 0].min() for p in b)
+    # Bent over the partner, up to it, on the footwall cutoff's side.
+    assert max(p[:, 0].max() for p in a) > 290.0 and min(p[:, 0].min() for p in b) < 310.0
