@@ -565,6 +565,15 @@ class SideSurface:
         lo = np.minimum(s, s - t)
         hi = np.maximum(s, s - t)
         d_lo, d_hi = dist(q, lo), dist(q, hi)
+        g = _decay_share(d_lo, prof)
+        # g is monotone in d and d linear in z: where g is the same at both
+        # ends of the bracket (the whole throw, or none: most points, and
+        # every one for a throw that does not fade) it is that share all
+        # through, and only the others are bisected.
+        var = np.flatnonzero(g != _decay_share(d_hi, prof))
+        if not len(var):
+            return g
+        s, t, lo, hi, d_lo, d_hi = (v[var] for v in (s, t, lo, hi, d_lo, d_hi))
         span = hi - lo
         slope = np.where(span > 0, (d_hi - d_lo) / np.where(span > 0, span, 1.0), 0.0)
         a, b = lo, hi
@@ -573,7 +582,8 @@ class SideSurface:
             up = mid - (s - t * _decay_share(d_lo + slope * (mid - lo), prof)) > 0.0
             b = np.where(up, mid, b)
             a = np.where(up, a, mid)
-        return _decay_share(d_lo + slope * (0.5 * (a + b) - lo), prof)
+        g[var] = _decay_share(d_lo + slope * (0.5 * (a + b) - lo), prof)
+        return g
 
     def plane(self, xy: np.ndarray) -> np.ndarray:
         """z at xy (m, 2) from the local weighted plane fits alone."""
