@@ -120,9 +120,9 @@ def _in_fault_zones(dataset, layer: str, area: StudyArea, points: np.ndarray,
     below L3's hanging-wall picks in L2's repetition band, where L2's own
     hanging-wall picks lay in the fault shadow; the crossing repair gave up
     after 16k points in a layer of 229 vertices. Left out, it builds; on
-    random grounds 0, 9, 20 as v2 the error near the faults against the
-    true cutoffs' model went 1.48, build failure, 1.49 -> 1.29, 0.95,
-    1.42. Borehole tops stay (of a hole through a repetition its first
+    random grounds as v2 the error near the faults against the true
+    cutoffs' model went 0: 1.48 -> 1.29, 9: a build failure -> 0.95,
+    20: 1.49 -> 1.42. Borehole tops stay (of a hole through a repetition its first
     hit, :attr:`Boreholes.shallowest`, the upper sheet). Points of the
     upper sheet only (a topographic survey of the top layer) stay: they
     shape the TIN round the patch, where the gap between them is filled
