@@ -48,8 +48,8 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
    of every partner fault.
 4. **Cutoffs**: sections across strike every ``spacing`` where the fault's
    extent crosses the study area, plus one a tenth of a spacing inside each
-   end on the study-area boundary (:data:`END_SECTION_INSET`; dropped for a
-   layer whose polylines the boundary cuts short); on each, the fault
+   end on the study-area boundary (:data:`END_SECTION_INSET`; not for a
+   layer whose polylines the boundary cuts short there); on each, the fault
    surface (skirt included) cut by the vertical plane is a polyline; the footwall and
    hanging-wall cutoffs are where each side's surface meets it (sign changes
    along the polyline, then bisection, all sections at once). Throw =
@@ -1615,6 +1615,14 @@ def _in_own_block(D: np.ndarray, fs: FaultSurface, others: Sequence[FaultSurface
 #: other grounds worse (78 1.67 -> 2.08x, 90 2.07 -> 2.90x, 25 1.67 -> 2.55x).
 #: 0: no extra sections.
 END_SECTION_INSET = 0.1
+#: An extra end section goes without a layer whose footwall or hanging-wall
+#: polyline the boundary cuts to under this share of the patch's width:
+#: holes-only random_ground(46) as v2, a 6 m footwall polyline where the
+#: patch is 549 m wide, 1.22 -> 1.27x with it; with section picks the end
+#: sections of random_ground(57) and (71) with polylines at 11-49 % of the
+#: width help (cut at a half: 57 1.20 -> 1.36x, 71 1.20 -> 1.25x; at a
+#: tenth: 1.20x, 1.23x).
+END_SECTION_MIN_REACH = 0.1
 
 
 def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float, float],
@@ -2004,14 +2012,14 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
                                _room_between_faults(tr, f, h, fs, others, *fars[lay],
                                                     carry=carry, ring=ring))
         if poly is not None and lines[i].get("end"):
-            # An end section whose polylines the boundary cuts to under half
-            # the patch's width: its patch, carried onto the boundary, would
-            # not cover the band the continuous TIN spoils there (holes-only
-            # random_ground(46) as v2: a 6 m footwall polyline, 1.22 ->
-            # 1.27x); the regular section next to it is the end one then.
+            # An end section whose polylines the boundary cuts to almost
+            # nothing (END_SECTION_MIN_REACH): its patch, carried onto the
+            # boundary, would not cover the band the continuous TIN spoils
+            # there; the regular section next to it is the end one then.
             reach = [float(np.hypot(*(poly[nm][-1, :2] - poly[nm][0, :2])))
                      for nm in ("foot", "hanging")]
-            if reach[0] < 0.5 * fars[lay][0] or reach[1] < 0.5 * fars[lay][1]:
+            if reach[0] < END_SECTION_MIN_REACH * fars[lay][0] or \
+                    reach[1] < END_SECTION_MIN_REACH * fars[lay][1]:
                 return None
         return poly
 
