@@ -679,7 +679,12 @@ def test_reverse_fault_folding_along_the_boundary_keeps_its_sections():
     assert fr.kind == "reverse" and fr.ends == ["boundary", "boundary"]
     assert not any("cross itself" in w for w in fr.warnings), fr.warnings
     f = d.fault(ftrue.name)
-    assert all(set(tr.layers) == set(ds.layers) for tr in f.traces)
+    # Every layer on every regular section; the extra sections at the two
+    # ends on the boundary (derive.END_SECTION_INSET, the first and last
+    # along strike) go without a layer whose polylines the boundary cuts
+    # short (here L1 at one end).
+    assert all(set(tr.layers) == set(ds.layers) for tr in f.traces[1:-1])
+    assert all(tr.layers for tr in f.traces)
     m1 = faultmesh.build_model(ds, evaluate=False)
     m2 = faultmesh.build_model(d, evaluate=False)
     m2.check()
@@ -687,16 +692,19 @@ def test_reverse_fault_folding_along_the_boundary_keeps_its_sections():
     # The sections dropped gave 6.0x. Since the stitcher puts the layer data
     # back into the gaps (issue 10) the model from the true cutoffs gained
     # (0.634 -> 0.445 m) and the derived one did not (0.668 m both): ratio
-    # 1.05 -> 1.50, so the 1.25 target is the strict xfail below.
+    # 1.05 -> 1.50; the end sections (derive.END_SECTION_INSET) brought it
+    # to 0.97, the 1.25 target is the test below.
     assert e2 <= 2.0 * e1, (e1, e2)
 
 
-@pytest.mark.xfail(strict=True, reason="open: on random_ground(0) the layer data put back into the gaps "
-                   "improve the model from the true cutoffs (0.634 -> 0.445 m) but not the derived one "
-                   "(0.668 m): ratio 1.50 > 1.25")
 def test_reverse_fault_folding_along_the_boundary_within_the_v2_ratio():
-    """random_ground(0) as v2 (see the test above): the derived model's
-    near-fault error within V2_RATIO (1.25) of the true cutoffs' model."""
+    """Regression (random_ground(0) as v2, see the test above): the derived
+    model's near-fault error within V2_RATIO (1.25) of the true cutoffs'
+    model. It was 1.50x (0.668 m against 0.445 m): the outermost derived
+    sections lay half a spacing short of the boundary and the builder
+    carried their patches unchanged onto it; with a section a tenth of a
+    spacing inside each end on the boundary (derive.END_SECTION_INSET)
+    0.97x (0.430 m)."""
     from faultmesh import grounds
 
     ds = grounds.random_ground(0)

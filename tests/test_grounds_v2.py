@@ -290,6 +290,33 @@ def test_derived_model_from_section_picks_holds(seed, tmp_path):
     assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
 
 
+def test_an_end_on_the_boundary_gets_its_own_section(tmp_path):
+    """Regression (random_ground(0) as v2 with section picks: a reverse
+    fault across the area, both ends on the boundary; its outermost derived
+    sections lay half a spacing short of the boundary and the builder
+    carried their patches unchanged onto it: 1.29x the true cutoffs' error
+    near the fault, all the excess in the two end sixteenths of the fault;
+    0.89x with a section a tenth of a spacing inside each end)."""
+    from faultmesh.derive import END_SECTION_INSET, derive_faults
+    out = gr.evaluate_ground_v2(0, tmp_path)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
+    # The sections: 8 a spacing apart plus one near each end.
+    folder = tmp_path / "again"
+    spec, geo, path1 = gr.make_ground(0, folder)
+    ds2 = fm.load_dataset(gr.write_v2(fm.load_dataset(path1), geo, spec, folder / "v2",
+                                      section_picks=True))
+    fr = derive_faults(ds2).derivation.faults["F1"]
+    assert fr.ends == ["boundary", "boundary"]
+    u = np.sort(next(iter(fr.throw.values()))["u"])
+    assert len(u) == 10, u
+    step = float(np.median(np.diff(u[1:-1])))
+    # end section -> first regular one: (0.5 - inset) of a spacing, up to the
+    # 128-cut grid that finds the extent's edge
+    assert abs((u[1] - u[0]) / step - (0.5 - END_SECTION_INSET)) < 0.05, (u, step)
+    assert abs((u[-1] - u[-2]) / step - (0.5 - END_SECTION_INSET)) < 0.05, (u, step)
+
+
 @pytest.mark.xfail(strict=True, reason="open: since the layer data are put back into the gaps (issue 10) "
                    "the true cutoffs' model gained (1.038 -> 0.971 m), the derived one did not (1.237 -> "
                    "1.235 m): ratio 1.19 -> 1.27 > 1.25")
