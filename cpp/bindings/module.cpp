@@ -18,6 +18,7 @@ void bind_study_area(py::module_& m);
 void bind_layer_tin(py::module_& m);
 void bind_surface_sampling(py::module_& m);
 void bind_fault_side(py::module_& m);
+void bind_patch_data(py::module_& m);
 }  // namespace faultmesh::bindings
 
 PYBIND11_MODULE(_core, m) {
@@ -58,4 +59,5 @@ PYBIND11_MODULE(_core, m) {
     fb::bind_cutting(m);
     fb::bind_surface_sampling(m);
     fb::bind_fault_side(m);
+    fb::bind_patch_data(m);
 }

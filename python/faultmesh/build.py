@@ -17,7 +17,7 @@ from typing import Any, Callable, Dict, List, Optional, Tuple
 import numpy as np
 
 from ._core import (LayerTin, PatchOverlapError, Stitcher, StudyArea, TriangleKind, build_layer_tins,
-                    repair_crossings, repair_stack)
+                    insert_patch_data, repair_crossings, repair_stack)
 from . import report as _report
 from .dataset import DatasetError, prepare_for_build
 from .model import Gap, Model, StitchedPatch, Surface
@@ -305,6 +305,31 @@ class _Inline:
         return (fn(x) for x in items)
 
 
+def _honour_layer_data(V: np.ndarray, T: np.ndarray, data: np.ndarray) -> Tuple[np.ndarray, np.ndarray, int]:
+    """The patch (V, T) with the layer's data under it as vertices at their
+    own elevation (:func:`faultmesh._core.insert_patch_data`, each in the
+    sheet nearest to it), and how many were placed. ``data`` (n, 3) sorted
+    by x.
+
+    Why: the patch replaces the continuous TIN around the fault, and with it
+    every datum there; between two sections the loft is straight and the
+    data no longer shape the layer. Random grounds as v2 with section picks
+    (issue 11; picks on the true sections, derived sections elsewhere): the
+    derived model's error near the faults went down on 42 of 91 grounds by
+    3-17 % and up on none; the models from the true cutoffs (holes under
+    their patches) gained too. Every datum is placed in its nearest sheet,
+    however far: the TIN honoured each datum, so does the patch."""
+    if not len(data):
+        return V, T, 0
+    lo, hi = V[:, :2].min(axis=0), V[:, :2].max(axis=0)
+    D = data[np.searchsorted(data[:, 0], lo[0], side="left"):np.searchsorted(data[:, 0], hi[0], side="right")]
+    D = D[(D[:, 1] >= lo[1]) & (D[:, 1] <= hi[1])]
+    if not len(D):
+        return V, T, 0
+    V2, T2, placed, _ = insert_patch_data(V, T, D)
+    return V2, T2, int(len(placed))
+
+
 def _stitch_layer(lay: str, tin: LayerTin, patches: List[Tuple[str, List[str], np.ndarray, np.ndarray]],
                   refine: bool, stitch_order: str, bridge: str, clearance: float):
     """Steps 5-7 in one layer: every group's patch stitched in turn into the
@@ -397,7 +422,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     timings, gap quality and (with a truth) accuracy.
     """
     from . import faults as fm
-    from .derive import derive_faults, needs_derivation
+    from .derive import derive_faults, layer_data, needs_derivation
 
     if loft_method not in ("min_area", "shortest_diagonal"):
         raise ValueError(f"build_model: loft_method must be 'min_area' or 'shortest_diagonal', "
@@ -448,6 +473,15 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     # patch was extended there (the surface then follows the extension).
     pinches: Dict[str, List[List[Tuple[np.ndarray, np.ndarray]]]] = {f.name: [[], []]
                                                                      for f in dataset.faults}
+    # Each layer's data, sorted by x (a patch takes those in its box).
+    by_x: Dict[str, np.ndarray] = {}
+
+    def data_of(lay: str) -> np.ndarray:
+        if lay not in by_x:
+            D = layer_data(dataset, lay)
+            by_x[lay] = D[np.argsort(D[:, 0], kind="stable")]
+        return by_x[lay]
+
     for gi, (group, gname) in enumerate(zip(groups, group_names)):
         prog("fault models", gi, len(groups))
         for lay in layers:
@@ -520,6 +554,9 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                 V, T, info = fm.group_patch(plist, area)
                 meta.setdefault("groups", {}).setdefault(gname, {})[lay] = info
             if len(T):
+                V, T, n_placed = _honour_layer_data(V, T, data_of(lay))
+                if n_placed:
+                    meta.setdefault("patch_data", {}).setdefault(lay, {})[gname] = n_placed
                 patches[lay].append((gname, [p.fault for p in plist], V, T))
     prog("fault models", len(groups), len(groups))
     for name, per_end in pinches.items():

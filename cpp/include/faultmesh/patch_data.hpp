@@ -1,0 +1,53 @@
+// faultmesh/patch_data.hpp -- a layer's data honoured inside a fault patch.
+//
+// A fault's layer patch (faults.py: the loft of the section polylines) takes
+// the place of the continuous layer TIN around the fault, and with it every
+// datum of the layer that lies under the patch. Between two sections the
+// loft is straight, so a datum there -- a borehole top, a horizon pick on a
+// section the fault's own sections do not share -- no longer shapes the
+// layer. Here each such datum becomes a vertex of the patch at its measured
+// elevation, the way the TIN would have honoured it.
+//
+// Which sheet. A patch may fold over itself in XY (a reverse fault repeats
+// the layer: footwall sheet, the strip on the fault, hanging-wall sheet), so
+// a datum is placed in the triangle, among those whose XY projection holds
+// it strictly inside (exact orient2d against each edge), whose elevation at
+// the datum's XY is nearest to the datum's (ties: the lowest triangle row).
+// It is placed only if that distance is at most `max_dz`: farther, it is no
+// point of this patch (e.g. a datum of another fault block) and the patch is
+// left as it is there.
+//
+// How. Each triangle that receives data is triangulated again on its own:
+// its three edges are constrained, the data inserted and flipped to the
+// constrained Delaunay triangulation (gap_points.hpp), so the triangles
+// around it are untouched and the patch stays conforming. New triangles keep
+// the orientation (in XY) of the triangle they replace. A datum on or within
+// a hundredth of the triangle's height of a patch edge, or as near another
+// datum placed in the same triangle (the earlier row wins), is not placed:
+// it would make a sliver (patch_data.cpp, kMinShare).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace faultmesh {
+
+struct PatchDataResult {
+    std::vector<double> vertices;          // 3 per vertex: the patch's, then the placed data
+    std::vector<std::int64_t> triangles;   // 3 per triangle: the patch's (rows kept), then new ones
+    std::vector<std::int64_t> placed;      // per new vertex: the row of its datum
+    // Per datum: the patch triangle (input row) it was placed in, or -1 (not
+    // under the patch, on an edge or vertex, beyond max_dz, a duplicate).
+    std::vector<std::int64_t> triangle;
+};
+
+// vertices: n_vertices x (x, y, z); triangles: 3 indices each; points:
+// n_points x (x, y, z). max_dz >= 0 (may be +inf). Throws
+// std::invalid_argument naming the argument and row for an index out of
+// range, a coordinate outside the range of predicates.hpp, or a bad max_dz.
+PatchDataResult insert_patch_data(const double* vertices, std::size_t n_vertices,
+                                  const std::int64_t* triangles, std::size_t n_triangles,
+                                  const double* points, std::size_t n_points, double max_dz);
+
+}  // namespace faultmesh

@@ -1,0 +1,132 @@
+// GoogleTest: a layer's data honoured inside a fault patch (patch_data.hpp).
+#include <faultmesh/patch_data.hpp>
+#include <faultmesh/predicates.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+namespace fm = faultmesh;
+
+namespace {
+
+double orient_xy(const std::vector<double>& V, const std::int64_t* t) {
+    return fm::orient2d(&V[3 * t[0]], &V[3 * t[1]], &V[3 * t[2]]);
+}
+
+// Every input triangle's XY area is covered exactly by the output, each
+// output triangle keeps the sign of the one it came from, every undirected
+// edge is used at most twice (a conforming surface).
+void expect_conforming(const std::vector<double>& V0, const std::vector<std::int64_t>& T0,
+                       const fm::PatchDataResult& r) {
+    double in_pos = 0, in_neg = 0, out_pos = 0, out_neg = 0;
+    for (std::size_t t = 0; t < T0.size(); t += 3) {
+        const double o = orient_xy(V0, &T0[t]);
+        (o > 0 ? in_pos : in_neg) += o;
+    }
+    std::map<std::pair<std::int64_t, std::int64_t>, int> used;
+    for (std::size_t t = 0; t < r.triangles.size(); t += 3) {
+        const double o = orient_xy(r.vertices, &r.triangles[t]);
+        EXPECT_NE(o, 0.0) << "triangle " << t / 3;
+        (o > 0 ? out_pos : out_neg) += o;
+        for (int k = 0; k < 3; ++k) {
+            std::int64_t a = r.triangles[t + k], b = r.triangles[t + (k + 1) % 3];
+            if (a > b) std::swap(a, b);
+            const int n_used = ++used[std::make_pair(a, b)];
+            EXPECT_LE(n_used, 2) << "edge " << a << "-" << b;
+        }
+    }
+    EXPECT_NEAR(in_pos, out_pos, 1e-9 * (1 + std::fabs(in_pos)));
+    EXPECT_NEAR(in_neg, out_neg, 1e-9 * (1 + std::fabs(in_neg)));
+}
+
+}  // namespace
+
+TEST(PatchData, DataInsideBecomeVerticesAtTheirElevation) {
+    // A flat square patch at z = 0, two triangles.
+    const std::vector<double> V{0, 0, 0, 10, 0, 0, 10, 10, 0, 0, 10, 0};
+    const std::vector<std::int64_t> T{0, 1, 2, 0, 2, 3};
+    // Inside triangle 0, inside triangle 1, on the shared edge, on a vertex,
+    // outside, a rounding inside an edge (a sliver), near the first datum.
+    const std::vector<double> P{7, 2, 1.5, 2, 7, -0.5, 5, 5, 3, 10, 10, 4, 12, 5, 0, 5, 1e-10, 1,
+                                7.01, 2, 0};
+    const auto r = fm::insert_patch_data(V.data(), 4, T.data(), 2, P.data(), 7,
+                                         std::numeric_limits<double>::infinity());
+    ASSERT_EQ(r.placed, (std::vector<std::int64_t>{0, 1}));
+    EXPECT_EQ(r.triangle, (std::vector<std::int64_t>{0, 1, -1, -1, -1, -1, -1}));
+    ASSERT_EQ(r.vertices.size(), 3u * 6);
+    EXPECT_EQ(r.vertices[3 * 4 + 2], 1.5);
+    EXPECT_EQ(r.vertices[3 * 5 + 2], -0.5);
+    EXPECT_EQ(r.triangles.size(), 3u * 6);  // each datum adds two triangles
+    expect_conforming(V, T, r);
+}
+
+TEST(PatchData, FoldedPatchTakesTheNearestSheet) {
+    // Two sheets over the same square, 20 m apart, the lower one clockwise in
+    // XY (a fold seen from above), as a reverse fault repeats a layer.
+    const std::vector<double> V{0, 0, 0, 10, 0, 0, 0, 10, 0, 0, 0, -20, 10, 0, -20, 0, 10, -20};
+    const std::vector<std::int64_t> T{0, 1, 2, 3, 5, 4};
+    const std::vector<double> P{2, 2, -1, 3, 3, -18, 2.5, 2.5, -9};
+    const auto r = fm::insert_patch_data(V.data(), 6, T.data(), 2, P.data(), 3, 5.0);
+    EXPECT_EQ(r.triangle, (std::vector<std::int64_t>{0, 1, -1}));  // the third is 9-11 m from both
+    expect_conforming(V, T, r);
+    for (std::size_t t = 0; t < r.triangles.size(); t += 3) {
+        // Every triangle stays within its own sheet.
+        const double z0 = r.vertices[3 * r.triangles[t] + 2];
+        for (int k = 1; k < 3; ++k) EXPECT_LT(std::fabs(r.vertices[3 * r.triangles[t + k] + 2] - z0), 5.0);
+    }
+}
+
+TEST(PatchData, ManyDataInOneTriangleAreADelaunayFill) {
+    const std::vector<double> V{0, 0, 0, 100, 0, 0, 0, 100, 0};
+    const std::vector<std::int64_t> T{0, 1, 2};
+    std::vector<double> P;
+    for (int i = 1; i < 10; ++i)
+        for (int j = 1; i + j < 10; ++j) P.insert(P.end(), {10.0 * i + 0.5, 10.0 * j + 0.25, 0.1 * i * j});
+    const std::size_t n = P.size() / 3;
+    // A repeated datum (same XY, other z) is left out: one surface, one z.
+    P.insert(P.end(), {10.5, 10.25, 7.0});
+    const auto r = fm::insert_patch_data(V.data(), 3, T.data(), 1, P.data(), n + 1,
+                                         std::numeric_limits<double>::infinity());
+    EXPECT_EQ(r.placed.size(), n);
+    EXPECT_EQ(r.triangle[n], -1);
+    EXPECT_EQ(r.triangles.size(), 3 * (1 + 2 * n));
+    expect_conforming(V, T, r);
+}
+
+TEST(PatchData, VerticalTrianglesHoldNoDataAndUtmCoordinatesAreExact) {
+    // A strip triangle standing vertically (zero XY area) next to a flat one,
+    // at UTM-sized coordinates.
+    const double x0 = 512345.678, y0 = 7654321.123;
+    const std::vector<double> V{x0, y0, 0, x0 + 10, y0, 0, x0 + 10, y0, -5, x0, y0 + 10, 0};
+    const std::vector<std::int64_t> T{0, 1, 2, 0, 1, 3};
+    const std::vector<double> P{x0 + 3, y0, -2, x0 + 3, y0 + 3, 0.25};
+    const auto r = fm::insert_patch_data(V.data(), 4, T.data(), 2, P.data(), 2, 1.0);
+    EXPECT_EQ(r.triangle, (std::vector<std::int64_t>{-1, 1}));
+    ASSERT_EQ(r.placed.size(), 1u);
+    EXPECT_EQ(r.vertices[3 * 4], x0 + 3);
+    EXPECT_EQ(r.vertices[3 * 4 + 2], 0.25);
+}
+
+TEST(PatchData, BadInputIsNamed) {
+    const std::vector<double> V{0, 0, 0, 1, 0, 0, 0, 1, 0};
+    const std::vector<std::int64_t> T{0, 1, 3};
+    const std::vector<double> P{0.2, 0.2, 0};
+    try {
+        fm::insert_patch_data(V.data(), 3, T.data(), 1, P.data(), 1, 1.0);
+        FAIL() << "no throw";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("triangles row 0"), std::string::npos) << e.what();
+    }
+    const std::vector<std::int64_t> T2{0, 1, 2};
+    EXPECT_THROW(fm::insert_patch_data(V.data(), 3, T2.data(), 1, P.data(), 1, std::nan("")),
+                 std::invalid_argument);
+    EXPECT_THROW(fm::insert_patch_data(V.data(), 3, T2.data(), 1, P.data(), 1, -1.0), std::invalid_argument);
+    const std::vector<double> Pbad{std::nan(""), 0.2, 0};
+    EXPECT_THROW(fm::insert_patch_data(V.data(), 3, T2.data(), 1, Pbad.data(), 1, 1.0), std::invalid_argument);
+}
