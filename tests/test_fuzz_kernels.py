@@ -1097,3 +1097,60 @@ def test_layer_tin_inserts_from_several_threads():
     assert np.array_equal(tin.interpolate(np.concatenate(batches)[:, :2]), np.zeros(1200))
     V, T = tin.mesh()
     assert np.all(orient_rows(V, T) > 0)
+
+
+# ------------------------------------------------------------ patch data
+@pytest.mark.fuzz
+@fuzz_settings(150)
+@given(data=st.data(), scale=st.sampled_from([1.0, 1.0, 1e-3, 1e3]), offset=st.sampled_from([0.0, 5.5e5, 7.8e6]),
+       fold=st.booleans(), hostile=st.booleans())
+def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
+    """A patch (a TIN, folded: a second sheet 10 m below, clockwise in XY)
+    and data anywhere, on its vertices and edges too: every datum placed
+    is a vertex at its own elevation inside a triangle it was in, the XY
+    area of each sheet is kept with its orientation, every edge is used
+    twice at most, no triangle is flat in XY; hostile data (NaN, beyond the
+    coordinate limit) are a ValueError naming the function."""
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    n = data.draw(st.integers(3, 12))
+    xy = rng.uniform(0.0, 100.0, (n, 2))
+    xy[:3] = [[0.0, 0.0], [100.0, 0.0], [0.0, 100.0]]
+    t = fm.Tin(np.c_[xy * scale + offset, 0.1 * xy[:, 0]])
+    V, T = t.vertices, t.triangles
+    if fold:
+        V = np.vstack([V, V - [0.0, 0.0, 10.0]])
+        T = np.vstack([T, T[:, ::-1] + len(t.vertices)])
+    m = data.draw(st.integers(0, 30))
+    P = np.c_[rng.uniform(-10.0, 110.0, (m, 2)) * scale + offset, rng.uniform(-15.0, 15.0, m)]
+    if m and data.draw(st.booleans()):
+        P[: min(m, 3), :2] = V[: min(m, 3), :2]                   # on vertices
+        P[-1, :2] = 0.5 * (V[T[0, 0], :2] + V[T[0, 1], :2])      # on an edge
+    if hostile and m:
+        P[rng.integers(m), rng.integers(3)] = data.draw(st.sampled_from([np.nan, np.inf, 1e61]))
+    max_dz = data.draw(st.sampled_from([np.inf, 3.0, 0.0]))
+    r, err = call(["insert_patch_data"], ["points"], fm.insert_patch_data, V, T, P, max_dz=max_dz)
+    if err is not None:
+        assert hostile, err
+        return
+    V2, T2, placed, tri = r
+    assert not (hostile and m), "a coordinate beyond the limit was accepted"
+    assert len(V2) == len(V) + len(placed) and len(T2) == len(T) + 2 * len(placed)
+    np.testing.assert_array_equal(V2[len(V):], P[placed])
+    assert ((tri >= 0).sum() == len(placed)) and (tri[placed] >= 0).all()
+
+    def o2(W, S):
+        return fm.orient2d(W[S[:, 0], :2], W[S[:, 1], :2], W[S[:, 2], :2])
+
+    o_old, o_new = o2(V, T), o2(V2, T2)
+    assert (o_new != 0).all()
+    for sign in (1, -1):
+        a, b = o_old[np.sign(o_old) == sign].sum(), o_new[np.sign(o_new) == sign].sum()
+        assert abs(a - b) <= 1e-9 * max(abs(a), 1.0) * max(1.0, offset * scale)
+    edges = np.sort(np.vstack([T2[:, [0, 1]], T2[:, [1, 2]], T2[:, [2, 0]]]), axis=1)
+    assert Counter(map(tuple, edges)).most_common(1)[0][1] <= 2
+    for i in placed:  # in the sheet nearest to it, within max_dz
+        j = tri[i]
+        A, B, C = V[T[j]]
+        w = np.linalg.solve(np.array([[A[0], B[0], C[0]], [A[1], B[1], C[1]], [1.0, 1.0, 1.0]]),
+                            np.r_[P[i, :2], 1.0])
+        assert (w > 0).all() and abs(w @ [A[2], B[2], C[2]] - P[i, 2]) <= max_dz + 1e-6

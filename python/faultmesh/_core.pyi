@@ -8,7 +8,7 @@ import enum
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TouchingRegion', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'incircle', 'join_holes', 'loft', 'loft_area', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
+__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TouchingRegion', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'incircle', 'insert_patch_data', 'join_holes', 'loft', 'loft_area', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
 class GeometryError(ValueError):
     pass
 class PatchOverlapError(GeometryError):
@@ -672,6 +672,20 @@ def incircle(a: typing.Any, b: typing.Any, c: typing.Any, d: typing.Any) -> nump
     Exact in-circle test per row: > 0 if d is inside the circle through the
     counter-clockwise a, b, c; < 0 outside; exactly 0 cocircular. Coordinates must be
     finite with |c| <= 1e60 (ValueError naming the argument and row otherwise).
+    """
+def insert_patch_data(vertices: typing.Any, triangles: typing.Any, points: typing.Any, *, max_dz: typing.SupportsFloat | typing.SupportsIndex = ...) -> tuple[numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.int64]]:
+    """
+    A layer's data (points (n, 3)) honoured inside a fault patch (vertices (k, 3),
+    triangles (m, 3)): each datum whose XY lies strictly inside a triangle's XY projection
+    (exact orient2d) becomes a vertex at its own elevation, in the triangle nearest to it
+    in z among those (a folded patch has several sheets), if that is at most max_dz away.
+    Each such triangle is triangulated again on its own (its edges constrained, the data
+    flipped to a constrained Delaunay triangulation), in its own XY orientation; the
+    other triangles are untouched. A datum within a hundredth of the triangle's height of
+    its edges, or of a datum placed in it before, is not placed (it would make a sliver).
+    
+    Returns (vertices (k + p, 3), triangles (m + 2p, 3), placed int64 (p,) the datum of
+    each new vertex, triangle int64 (n,) the input triangle each datum went into or -1).
     """
 def join_holes(rings: typing.Any, bridge: str = 'extreme') -> tuple[numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.int64]]:
     """
