@@ -1046,3 +1046,42 @@ def test_fading_throw_taken_at_the_hanging_walls_own_elevation(throw):
     # Where the throw fades, the share at the whole throw's elevation is off.
     old = -throw * share(q, np.full_like(x, -throw))
     assert (z - old).max() > 2.5
+
+
+def test_halfway_sections_kept_where_the_straight_loft_misses_the_cutoffs():
+    """derive._halfway_sections_to_keep on a fault striking along x (traces
+    at x = 0, 50, 100, 150, 200; the ones at 50 and 150 halfway): a halfway
+    section is kept where a cutoff lies farther than REFINE_SHARE of the
+    layer's largest throw from the straight line between its neighbours'
+    (x = 50: the throw bulges there), or where the cut layers change (x =
+    150: L2 is cut only there); the one on the straight line (x = 50 with
+    no bulge) is dropped, and so is one without a trace (past a tip)."""
+    from faultmesh.dataset import Fault, Trace
+    from faultmesh.derive import REFINE_SHARE, _halfway_sections_to_keep
+
+    class Strike:  # the fault surface's strike coordinate: x
+        @staticmethod
+        def u(xy):
+            return np.asarray(xy, dtype=float)[:, 0]
+
+    def trace(x, throw, layers=("L1",)):
+        lays = {lay: {"foot": [[x, -50.0, -100.0], [x, 0.0, -100.0]],
+                      "hanging": [[x, 5.0, -100.0 - throw], [x, 50.0, -100.0 - throw]]}
+                for lay in layers}
+        return Trace(None, [[x, 0.0, 0.0], [x, 10.0, -300.0]], lays)
+
+    def fault(bulge, l2_at_150=True):
+        return Fault("F", "normal", None, np.zeros((0, 2)),
+                     [trace(0.0, 10.0), trace(50.0, 20.0 + bulge), trace(100.0, 30.0),
+                      trace(150.0, 30.0, ("L1", "L2") if l2_at_150 else ("L1",)), trace(200.0, 30.0)])
+
+    halfway = np.array([50.0, 150.0, 250.0])  # 250: no trace there
+    big = {"L1": 40.0}
+    keep = _halfway_sections_to_keep(fault(0.0, False), Strike, halfway, 100.0, big)
+    assert keep.tolist() == []
+    dz = 1.5 * REFINE_SHARE * big["L1"]
+    keep = _halfway_sections_to_keep(fault(dz), Strike, halfway, 100.0, big)
+    assert keep.tolist() == [50.0, 150.0]
+    keep = _halfway_sections_to_keep(fault(0.5 * REFINE_SHARE * big["L1"], False), Strike, halfway,
+                                     100.0, big)
+    assert keep.tolist() == []

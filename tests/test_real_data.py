@@ -147,15 +147,16 @@ def test_fading_throw_fit_of_the_other_sense_gives_way_to_the_own_surfaces(full)
     _, _, _, derived, _ = full
     fr = derived.derivation.faults["claudius_fault"]
     p = fr.throw["val_330"]
-    # 8 sections a spacing apart and one a tenth of a spacing inside the end
-    # on the boundary (derive.END_SECTION_INSET; the other end is a tip),
-    # where a cutoff of val_330 lies outside the study area (not cut).
+    # 8 sections a spacing apart, the halfway sections worth keeping
+    # (derive.REFINE_SHARE) and one a tenth of a spacing inside the end on
+    # the boundary (derive.END_SECTION_INSET; the other end is a tip), where
+    # a cutoff of val_330 lies outside the study area (not cut).
     assert fr.ends == ["tip", "boundary"]
-    assert len(p["u"]) == 9 and p["cut"][:8].all() and not p["cut"][8]
+    assert 9 < len(p["u"]) < 16 and p["cut"][:-1].all() and not p["cut"][-1]
     # Every section keeps a throw of the normal sense (at least min_throw, 3 m).
     assert (p["throw"] >= 3.0).all(), p["throw"]
     assert not [w for w in fr.warnings if "has the sign of a reverse fault" in w], fr.warnings
-    assert len(fr.sections) == 9
+    assert len(fr.sections) == len(p["u"])
 
 
 def test_model_check_and_stitched_gaps(full):
