@@ -317,6 +317,40 @@ def test_an_end_on_the_boundary_gets_its_own_section(tmp_path):
     assert abs((u[-1] - u[-2]) / step - (0.5 - END_SECTION_INSET)) < 0.05, (u, step)
 
 
+def test_a_layer_leaving_the_area_obliquely_gets_a_section_near_where_it_does(tmp_path):
+    """Regression (random_ground(52) as v2 with section picks: F1, a reverse
+    fault of 31 degrees whose SW end runs out of the L-shaped area
+    obliquely; the deepest layer L3's cutoffs lie outside the area on the
+    outer sections, its outermost cut section was 76 m (0.29 of a spacing)
+    short of the true model's, and the builder carried that section's
+    patch 240 m along strike onto the boundary (the true model 143 m):
+    1.52x the true cutoffs' error near the faults, 0.29 m of the 0.35 m
+    excess in that carried stretch of L3. derive._fill_boundary_ends adds a
+    section for L3 as far out as both its cutoffs lie inside: 1.18x)."""
+    from faultmesh.derive import derive_faults
+    out = gr.evaluate_ground_v2(52, tmp_path)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
+    folder = tmp_path / "again"
+    spec, geo, path1 = gr.make_ground(52, folder)
+    ds1 = fm.load_dataset(path1)
+    ds2 = fm.load_dataset(gr.write_v2(ds1, geo, spec, folder / "v2", section_picks=True))
+    d2 = derive_faults(ds2)
+    fr = d2.derivation.faults["F1"]
+    assert fr.ends[0] == "boundary"
+    fs = fr.surface
+
+    def outermost(ds):
+        f = next(f for f in ds.faults if f.name == "F1")
+        return min(float(fs.u(np.asarray(t.plane)[:, :2]).mean()) for t in f.traces if "L3" in t.layers)
+
+    u = np.sort(next(iter(fr.throw.values()))["u"])
+    step = float(np.median(np.diff(u)))
+    # The derived one within a tenth of a spacing of the true one (before:
+    # 0.29 of a spacing inside it).
+    assert abs(outermost(d2) - outermost(ds1)) < 0.1 * step, (outermost(d2), outermost(ds1), step)
+
+
 @pytest.mark.xfail(strict=True, reason="open: since the layer data are put back into the gaps (issue 10) "
                    "the true cutoffs' model gained (1.038 -> 0.971 m), the derived one did not (1.237 -> "
                    "1.235 m): ratio 1.19 -> 1.27 > 1.25")
