@@ -873,7 +873,7 @@ def test_tops_repeated_across_another_fault_stay_in_their_block():
 
     d = derive.derive_faults(grounds.random_ground(489, version=2))
     throw = d.derivation.faults["F1"].as_dict()["throw"]["L5"]["throw"]
-    assert np.nanmax(np.abs(throw)) < 30.0
+    assert np.nanmax(np.abs(np.array(throw, dtype=float))) < 30.0
     faultmesh.build_model(d, evaluate=False).check()
 
 

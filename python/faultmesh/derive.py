@@ -1110,7 +1110,8 @@ class FaultDerivation:
     surface: FaultSurface
     sections: List[str]
     #: layer -> {"u": (k,), "throw": (k,), "cut": (k,) bool} on every section
-    #: (before the ends were trimmed); u is the strike coordinate.
+    #: (before the ends were trimmed); u is the strike coordinate; throw NaN
+    #: where the layer has no cutoffs on the section (None in as_dict).
     throw: Dict[str, Dict[str, np.ndarray]]
     tips: np.ndarray
     ends: List[str]
@@ -1123,10 +1124,21 @@ class FaultDerivation:
                 "source": self.surface.source, "dip": self.surface.dip,
                 "projection_axis": "xyz"[self.surface.axis], "sections": list(self.sections),
                 "ends": list(self.ends), "tips": self.tips.tolist(),
-                "throw": {lay: {k: v.tolist() for k, v in d.items()} for lay, d in self.throw.items()},
+                # NaN (a section without that layer's cutoffs) as null: the
+                # report goes into the model's metadata, which is JSON.
+                "throw": {lay: {k: _finite_or_none(v) for k, v in d.items()}
+                          for lay, d in self.throw.items()},
                 "cutoffs": {lay: {k: v.tolist() for k, v in d.items()}
                             for lay, d in self.cutoffs.items()}}
 
+
+
+def _finite_or_none(v: np.ndarray) -> list:
+    """``v.tolist()`` with every NaN / infinity as None."""
+    v = np.asarray(v)
+    if v.dtype.kind != "f":
+        return v.tolist()
+    return [float(x) if np.isfinite(x) else None for x in v.tolist()]
 
 @dataclass
 class DeriveReport:
@@ -2146,7 +2158,12 @@ def _fill_boundary_ends(fs: FaultSurface, ring: np.ndarray, lines: List[Dict[str
     whole section spacing more than the true cutoffs' model does (v2
     random_ground(52), a reverse fault of 31 deg: the deepest layer's last
     cut section 240 m from the boundary, the true model's 143 m; 0.29 m of
-    the ground's 0.35 m excess near-fault error there). In place (lines,
+    the ground's 0.35 m excess near-fault error there). Not where that
+    outermost section's cutoffs are bridged across a data gap at the fault
+    (its sides the joint surface, :func:`_joint_sides`): the extra section
+    would only extrapolate the bridge further (Claudius with every pick
+    within 300 m of the fault withheld: val_330 10.94 -> 11.06 m with it,
+    the extra section's throw 149 m). In place (lines,
     traces, good, throw, cut, cutpts, the layer's section sides); returns
     the new number of lines."""
     order = sorted(good, key=lambda i: lines[i]["u"])
@@ -2177,7 +2194,8 @@ def _fill_boundary_ends(fs: FaultSurface, ring: np.ndarray, lines: List[Dict[str
             margin = r["spacing"]
             k = next((k for k, i in enumerate(seq) if cut[lay][i]
                       and inside(traces[i], cutpts[lay][i], margin)), None)
-            if k is None or lines[seq[k]]["given"] is not None or seq[k] in r.get("hinted", {}):
+            if k is None or lines[seq[k]]["given"] is not None or seq[k] in r.get("hinted", {}) \
+                    or seq[k] in r["joint_secs"]:
                 continue
             u_a = lines[seq[k]]["u"]
             u_b = lines[seq[k - 1]]["u"] if k > 0 else ends_u[e]
