@@ -55,8 +55,14 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
    along the polyline, then bisection, all sections at once). Throw =
    footwall cutoff z - hanging-wall cutoff z: positive is normal, negative
    reverse. A layer is cut on a section when both cutoffs lie within the
-   fault's extent and the study area, and displaced when its throw reaches
-   ``min_throw`` on some section (other layers stay uncut).
+   fault's extent (or on the skirt a little past it up or down dip,
+   :func:`_dip_continuation`) and the study area, and displaced when its
+   throw reaches ``min_throw`` on some section (other layers stay uncut).
+   At an end on the boundary, a layer whose outermost cut section lies a
+   quarter spacing or more short of the next section out gets an extra
+   section as far out as its cutoffs stay a data spacing inside the study
+   area (:func:`_fill_boundary_ends`: the layer's band leaves the area
+   obliquely).
    The kind: per section and displaced layer the cutoff throw where both
    sides have data within two data spacings of their cutoffs, else the
    layer's offset across the fault at the fault's scale
