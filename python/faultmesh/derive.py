@@ -57,7 +57,8 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
    reverse. A layer is cut on a section when both cutoffs lie within the
    fault's extent (or on the skirt a little past it up or down dip,
    :func:`_dip_continuation`) and the study area, and displaced when its
-   throw reaches ``min_throw`` on some section (other layers stay uncut).
+   throw reaches ``min_throw`` on some section where both lie in the
+   extent itself (other layers stay uncut).
    At an end on the boundary, a layer whose outermost cut section lies a
    quarter spacing or more short of the next section out gets an extra
    section as far out as its cutoffs stay a data spacing inside the study
@@ -1086,7 +1087,9 @@ def _dip_continuation(tr: "_SectionTrace") -> np.ndarray:
     cutoffs up to 149 m above 72 m of sticks in depth, throws of -130 and
     -2 m among the -10 to -26 m of the sections in the extent). Along
     strike the extent's edge still ends the fault (a section without a
-    segment in the extent has none continued)."""
+    segment in the extent has none continued), and a layer counts as cut
+    by the fault only if it is somewhere within the extent itself
+    (_derive_fault: Claudius, whose fault ends below val_250)."""
     P = tr.points
     arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))]
     out = np.zeros((len(P), 4))
@@ -1103,14 +1106,15 @@ def _dip_continuation(tr: "_SectionTrace") -> np.ndarray:
     return out
 
 
-def _roots(traces: List[_SectionTrace], surf, side_data_near) -> List[Optional[Tuple[np.ndarray, bool]]]:
+def _roots(traces: List[_SectionTrace], surf, side_data_near) -> List[Optional[Tuple[np.ndarray, bool, bool]]]:
     """Per trace: the point (3,) where the surface z = surf(xy) meets the
-    trace polyline, and whether it lies in the fault's extent; None where
-    they do not meet. Among several meetings, the one nearest to the side's
+    trace polyline, whether it lies on the fault (in its extent or a little
+    past it up or down dip, :func:`_dip_continuation`) and whether it lies
+    in the extent itself; None where they do not meet. Among several meetings, the one nearest to the side's
     data (``side_data_near(xy)`` gives that distance). All traces at once:
     sign changes of trace z - surf z at the trace vertices, then bisection
     on the bracketing segments."""
-    out: List[Optional[Tuple[np.ndarray, bool]]] = [None] * len(traces)
+    out: List[Optional[Tuple[np.ndarray, bool, bool]]] = [None] * len(traces)
     if not traces:
         return out
     pts = np.vstack([t.points for t in traces])
@@ -1145,7 +1149,7 @@ def _roots(traces: List[_SectionTrace], surf, side_data_near) -> List[Optional[T
     arc = cont[cand, 0] + t * (cont[cand + 1, 0] - cont[cand, 0])
     on = real[cand] | ((cont[cand, 3] > 0) & (arc >= cont[cand, 1]) & (arc <= cont[cand, 2]))
     for i in order[first]:  # one per trace
-        out[int(tid[cand[i]])] = (root[i], bool(on[i]))
+        out[int(tid[cand[i]])] = (root[i], bool(on[i]), bool(real[cand[i]]))
     return out
 
 
@@ -1863,6 +1867,7 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
     cutpts: Dict[str, List[Optional[Tuple[np.ndarray, np.ndarray]]]] = {lay: [None] * n_lines
                                                                        for lay in res}
     nodata: Dict[str, List[Optional[str]]] = {lay: [None] * n_lines for lay in res}
+    in_extent = {lay: np.zeros(n_lines, dtype=bool) for lay in res}
     for lay, r in res.items():
         for j, i in enumerate(good):
             f = r["roots"]["foot"][j]
@@ -1875,12 +1880,18 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
             if f is None or h is None:
                 continue
             throw[lay][i], cut[lay][i], cutpts[lay][i] = _section_cutoffs(tr, f, h)
+            in_extent[lay][i] = cut[lay][i] and f[2] and h[2]
 
     # A layer counts as displaced by the fault if its cutoffs are at least
     # min_throw apart on some section; the others (a fault that dies out
     # below or above them) are left uncut.
+    # And a layer cut only past the fault's points (its cutoffs on the skirt
+    # up or down dip, _dip_continuation, on every section that shows the
+    # throw) stays uncut too: the fault may end there (Claudius: the fault's
+    # points stop below val_250, which it does not cut; its val_250 cutoffs
+    # lie on the skirt above them, with spurious throws of a few metres).
     for lay in res:
-        if not np.any(cut[lay] & (np.abs(throw[lay]) >= opt.min_throw)):
+        if not np.any(cut[lay] & in_extent[lay] & (np.abs(throw[lay]) >= opt.min_throw)):
             cut[lay][:] = False
     # The kind: per section and displaced layer, the cutoff throw where both
     # sides have data "near" their cutoffs (the same distance as the throw
