@@ -873,7 +873,7 @@ def test_tops_repeated_across_another_fault_stay_in_their_block():
 
     d = derive.derive_faults(grounds.random_ground(489, version=2))
     throw = d.derivation.faults["F1"].as_dict()["throw"]["L5"]["throw"]
-    assert np.nanmax(np.abs(throw)) < 30.0
+    assert np.nanmax(np.abs(np.array(throw, dtype=float))) < 30.0
     faultmesh.build_model(d, evaluate=False).check()
 
 
@@ -1085,3 +1085,35 @@ def test_halfway_sections_kept_where_the_straight_loft_misses_the_cutoffs():
     keep = _halfway_sections_to_keep(fault(0.5 * REFINE_SHARE * big["L1"], False), Strike, halfway,
                                      100.0, big)
     assert keep.tolist() == []
+
+
+def test_dip_continuation_window_past_the_extent_only():
+    """derive._dip_continuation: on a trace whose segments 3-5 (of 10, 10 m
+    each, straight down) lie in the extent, a cutoff on the skirt counts as
+    on the fault within a quarter of the extent part's 30 m (7.5 m) above
+    or below it, not in a gap between parts of the extent and not on a
+    trace without any."""
+    z = -10.0 * np.arange(11)
+    pts = np.column_stack([np.zeros(11), np.zeros(11), z])
+    real = np.zeros(10, dtype=bool)
+    real[3:6] = True
+    tr = derive._SectionTrace(np.zeros(2), np.array([1.0, 0.0]), 0.0, pts, np.zeros(11), real,
+                              (-1.0, 1.0))
+    c = derive._dip_continuation(tr)
+    assert np.allclose(c[:, 0], 10.0 * np.arange(11))
+    assert np.allclose(c[0, 1:3], [30.0 - 7.5, 60.0 + 7.5])
+    assert c[:3, 3].tolist() == [1.0] * 3 and c[3:6, 3].tolist() == [0.0] * 3
+    assert c[6:10, 3].tolist() == [1.0] * 4 and c[10, 3] == 0.0
+    gap = real.copy()
+    gap[4] = False   # a hole in the extent is no continuation
+    assert derive._dip_continuation(derive._SectionTrace(tr.origin, tr.direction, 0.0, pts, tr.s, gap,
+                                                         tr.interval))[4, 3] == 0.0
+    none = derive._dip_continuation(derive._SectionTrace(tr.origin, tr.direction, 0.0, pts, tr.s,
+                                                         np.zeros(10, dtype=bool), tr.interval))
+    assert not none[:, 3].any() and np.isinf(none[:, 1]).all()
+    # _roots: a layer plane crossing the trace 5 m below the extent (arc 65)
+    # is on the fault, 11 m below (arc 71: outside the window) is not.
+    for zl, on in ((-65.0, True), (-71.0, False), (-45.0, True)):
+        r = derive._roots([tr], lambda xy, zl=zl: np.full(len(xy), zl), lambda xy: np.zeros(len(xy)))[0]
+        assert r is not None and abs(r[0][2] - zl) < 1e-6 and r[1] is on, (zl, r)
+

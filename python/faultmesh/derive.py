@@ -55,8 +55,15 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
    along the polyline, then bisection, all sections at once). Throw =
    footwall cutoff z - hanging-wall cutoff z: positive is normal, negative
    reverse. A layer is cut on a section when both cutoffs lie within the
-   fault's extent and the study area, and displaced when its throw reaches
-   ``min_throw`` on some section (other layers stay uncut).
+   fault's extent (or on the skirt a little past it up or down dip,
+   :func:`_dip_continuation`) and the study area, and displaced when its
+   throw reaches ``min_throw`` on some section where both lie in the
+   extent itself (other layers stay uncut).
+   At an end on the boundary, a layer whose outermost cut section lies a
+   quarter spacing or more short of the next section out gets an extra
+   section as far out as its cutoffs stay a data spacing inside the study
+   area (:func:`_fill_boundary_ends`: the layer's band leaves the area
+   obliquely).
    The kind: per section and displaced layer the cutoff throw where both
    sides have data within two data spacings of their cutoffs, else the
    layer's offset across the fault at the fault's scale
@@ -1054,19 +1061,66 @@ def _section_trace(fs: FaultSurface, u: float, ring: np.ndarray,
     return _SectionTrace(o, d, float(u), pts, s, rk, interval)
 
 
-def _roots(traces: List[_SectionTrace], surf, side_data_near) -> List[Optional[Tuple[np.ndarray, bool]]]:
+#: How far a section's trace counts as the fault past its points up or
+#: down dip (:func:`_dip_continuation`): this share of the length of the
+#: trace's part in the extent.
+DIP_CONTINUATION = 0.25
+
+
+def _dip_continuation(tr: "_SectionTrace") -> np.ndarray:
+    """Per vertex of a section's trace (k, 4): its arc length along the
+    trace; the window of arc length [lo, hi] in which a cutoff on the skirt
+    still counts as on the fault; and 1.0 where a segment starting at the
+    vertex lies above the topmost or below the lowest segment in the extent
+    (0.0 elsewhere: in the extent, in a gap between its parts, or on a trace
+    without any). The window reaches :data:`DIP_CONTINUATION` of the
+    extent part's length past each end of it: the fault continued up or
+    down dip a little past its points on a section that crosses them.
+    Fault picks stop where the interpreter stopped (the random grounds'
+    sticks 20-80 m past the holes' elevations), not where the fault does: a
+    normal fault's hanging-wall cutoff, the throw below the footwall's data,
+    can lie past them (v2 random_ground(86): F2, 38 m of throw, 137 m of
+    sticks in depth, its hanging-wall cutoffs up to 13 m below them on the
+    middle five of eight sections, which were left uncut: 1.39x the true
+    cutoffs' error). Farther out the side surfaces are extrapolated as far
+    from the data as the fault from its points (v2 random_ground(94), F2:
+    cutoffs up to 149 m above 72 m of sticks in depth, throws of -130 and
+    -2 m among the -10 to -26 m of the sections in the extent). Along
+    strike the extent's edge still ends the fault (a section without a
+    segment in the extent has none continued), and a layer counts as cut
+    by the fault only if it is somewhere within the extent itself
+    (_derive_fault: Claudius, whose fault ends below val_250)."""
+    P = tr.points
+    arc = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))]
+    out = np.zeros((len(P), 4))
+    out[:, 0] = arc
+    out[:, 1], out[:, 2] = np.inf, -np.inf
+    k = np.flatnonzero(np.asarray(tr.real, dtype=bool))
+    if len(k) == 0:
+        return out
+    a, b = arc[k[0]], arc[k[-1] + 1]
+    reach = DIP_CONTINUATION * (b - a)
+    out[:, 1], out[:, 2] = a - reach, b + reach
+    idx = np.arange(len(P))
+    out[:, 3] = ((idx < k[0]) | ((idx > k[-1]) & (idx < len(P) - 1))).astype(float)
+    return out
+
+
+def _roots(traces: List[_SectionTrace], surf, side_data_near) -> List[Optional[Tuple[np.ndarray, bool, bool]]]:
     """Per trace: the point (3,) where the surface z = surf(xy) meets the
-    trace polyline, and whether it lies in the fault's extent; None where
-    they do not meet. Among several meetings, the one nearest to the side's
+    trace polyline, whether it lies on the fault (in its extent or a little
+    past it up or down dip, :func:`_dip_continuation`) and whether it lies
+    in the extent itself; None where they do not meet. Among several meetings, the one nearest to the side's
     data (``side_data_near(xy)`` gives that distance). All traces at once:
     sign changes of trace z - surf z at the trace vertices, then bisection
     on the bracketing segments."""
-    out: List[Optional[Tuple[np.ndarray, bool]]] = [None] * len(traces)
+    out: List[Optional[Tuple[np.ndarray, bool, bool]]] = [None] * len(traces)
     if not traces:
         return out
     pts = np.vstack([t.points for t in traces])
     tid = np.concatenate([np.full(len(t.points), i) for i, t in enumerate(traces)])
     real = np.concatenate([np.r_[t.real, False] for t in traces])  # per start vertex
+    cont = np.vstack([_dip_continuation(t) for t in traces])  # per vertex: arc, window
     h = pts[:, 2] - surf(pts[:, :2])
     same = tid[:-1] == tid[1:]
     ch = same & ((h[:-1] > 0) != (h[1:] > 0)) & np.isfinite(h[:-1]) & np.isfinite(h[1:])
@@ -1091,8 +1145,11 @@ def _roots(traces: List[_SectionTrace], surf, side_data_near) -> List[Optional[T
     dist = side_data_near(root[:, :2])
     order = np.lexsort((dist, tid[cand]))
     first = np.r_[True, tid[cand][order][1:] != tid[cand][order][:-1]]
+    # In the extent, or on the skirt within the continuation window.
+    arc = cont[cand, 0] + t * (cont[cand + 1, 0] - cont[cand, 0])
+    on = real[cand] | ((cont[cand, 3] > 0) & (arc >= cont[cand, 1]) & (arc <= cont[cand, 2]))
     for i in order[first]:  # one per trace
-        out[int(tid[cand[i]])] = (root[i], bool(real[cand[i]]))
+        out[int(tid[cand[i]])] = (root[i], bool(on[i]), bool(real[cand[i]]))
     return out
 
 
@@ -1110,7 +1167,8 @@ class FaultDerivation:
     surface: FaultSurface
     sections: List[str]
     #: layer -> {"u": (k,), "throw": (k,), "cut": (k,) bool} on every section
-    #: (before the ends were trimmed); u is the strike coordinate.
+    #: (before the ends were trimmed); u is the strike coordinate; throw NaN
+    #: where the layer has no cutoffs on the section (None in as_dict).
     throw: Dict[str, Dict[str, np.ndarray]]
     tips: np.ndarray
     ends: List[str]
@@ -1123,10 +1181,21 @@ class FaultDerivation:
                 "source": self.surface.source, "dip": self.surface.dip,
                 "projection_axis": "xyz"[self.surface.axis], "sections": list(self.sections),
                 "ends": list(self.ends), "tips": self.tips.tolist(),
-                "throw": {lay: {k: v.tolist() for k, v in d.items()} for lay, d in self.throw.items()},
+                # NaN (a section without that layer's cutoffs) as null: the
+                # report goes into the model's metadata, which is JSON.
+                "throw": {lay: {k: _finite_or_none(v) for k, v in d.items()}
+                          for lay, d in self.throw.items()},
                 "cutoffs": {lay: {k: v.tolist() for k, v in d.items()}
                             for lay, d in self.cutoffs.items()}}
 
+
+
+def _finite_or_none(v: np.ndarray) -> list:
+    """``v.tolist()`` with every NaN / infinity as None."""
+    v = np.asarray(v)
+    if v.dtype.kind != "f":
+        return v.tolist()
+    return [float(x) if np.isfinite(x) else None for x in v.tolist()]
 
 @dataclass
 class DeriveReport:
@@ -1918,6 +1987,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     cutpts: Dict[str, List[Optional[Tuple[np.ndarray, np.ndarray]]]] = {lay: [None] * n_lines
                                                                        for lay in res}
     nodata: Dict[str, List[Optional[str]]] = {lay: [None] * n_lines for lay in res}
+    in_extent = {lay: np.zeros(n_lines, dtype=bool) for lay in res}
     for lay, r in res.items():
         for j, i in enumerate(good):
             f = r["roots"]["foot"][j]
@@ -1930,12 +2000,18 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             if f is None or h is None:
                 continue
             throw[lay][i], cut[lay][i], cutpts[lay][i] = _section_cutoffs(tr, f, h)
+            in_extent[lay][i] = cut[lay][i] and f[2] and h[2]
 
     # A layer counts as displaced by the fault if its cutoffs are at least
     # min_throw apart on some section; the others (a fault that dies out
     # below or above them) are left uncut.
+    # And a layer cut only past the fault's points (its cutoffs on the skirt
+    # up or down dip, _dip_continuation, on every section that shows the
+    # throw) stays uncut too: the fault may end there (Claudius: the fault's
+    # points stop below val_250, which it does not cut; its val_250 cutoffs
+    # lie on the skirt above them, with spurious throws of a few metres).
     for lay in res:
-        if not np.any(cut[lay] & (np.abs(throw[lay]) >= opt.min_throw)):
+        if not np.any(cut[lay] & in_extent[lay] & (np.abs(throw[lay]) >= opt.min_throw)):
             cut[lay][:] = False
     # The kind: per section and displaced layer, the cutoff throw where both
     # sides have data "near" their cutoffs (the same distance as the throw
@@ -2059,6 +2135,11 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                 m = _merge_cutoffs(traces[i], f, h)
                 cutpts[lay][i] = (m, m)
                 throw[lay][i] = 0.0
+
+    # Ends on the boundary where a layer's band leaves the study area
+    # obliquely: an extra section for that layer near where it does.
+    n_lines = _fill_boundary_ends(fs, ring, lines, traces, good, res, throw, cut, cutpts,
+                                  ends_u, length / n_sec, sgn)
 
     # Ends: tips or boundary.
     order = np.argsort([ln["u"] for ln in lines])
@@ -2232,6 +2313,124 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                           np.array(tips).reshape(-1, 2), end_kind, cl)
     return new_fault, new_secs, rep
 
+
+#: Bisection steps that place a layer's extra section at an end on the
+#: study-area boundary (:func:`_fill_boundary_ends`): the gap between the
+#: layer's outermost cut section and the next one out is halved this often
+#: (6: to a 64th of it, a few metres on the random grounds).
+END_FILL_STEPS = 6
+#: How far inside the study area (in data spacings) both cutoffs of such
+#: an extra section lie: one, so that its polylines reach at least half a
+#: data spacing past the cutoffs (their far ends keep half a spacing from
+#: the boundary, :func:`_wall_polylines`). Farther in, the section falls
+#: short again: v2 random_ground(52) 1.18x with 1, 1.49x with 1.5, 1.51x
+#: with 2 (1.52x without the section); (49) 1.55x, 1.74x, 1.90x (1.87x).
+END_FILL_MARGIN = 1.0
+
+
+def _fill_boundary_ends(fs: FaultSurface, ring: np.ndarray, lines: List[Dict[str, Any]],
+                        traces: List[Optional[_SectionTrace]], good: List[int],
+                        res: Dict[str, Dict[str, Any]], throw: Dict[str, np.ndarray],
+                        cut: Dict[str, np.ndarray], cutpts: Dict[str, list],
+                        ends_u: Sequence[float], step: float, sgn: float) -> int:
+    """At an end of the fault on the study-area boundary, per layer: where
+    the layer's outermost section with both cutoffs a data spacing inside
+    the study area (so that its polylines fit, :func:`_wall_polylines`) is
+    a quarter section spacing or more from the next section out (or the
+    extent's edge) -- the layer's band leaves the area obliquely, so the
+    deeper layers of a dipping fault stop being cut sections earlier than
+    the shallow ones --, an extra section between the two, as far out as
+    both its cutoffs still lie a data spacing inside (bisection along
+    strike, :data:`END_FILL_STEPS`), with that layer's cutoffs from the
+    same side surfaces as that outermost section's. Layers whose extra
+    sections fall within a quarter spacing of each other share the
+    innermost one. The builder carries a layer's end section along strike
+    onto the boundary unchanged; without this it carried it over up to a
+    whole section spacing more than the true cutoffs' model does (v2
+    random_ground(52), a reverse fault of 31 deg: the deepest layer's last
+    cut section 240 m from the boundary, the true model's 143 m; 0.29 m of
+    the ground's 0.35 m excess near-fault error there). Not where that
+    outermost section's cutoffs are bridged across a data gap at the fault
+    (its sides the joint surface, :func:`_joint_sides`): the extra section
+    would only extrapolate the bridge further (Claudius with every pick
+    within 300 m of the fault withheld: val_330 10.94 -> 11.06 m with it,
+    the extra section's throw 149 m). In place (lines,
+    traces, good, throw, cut, cutpts, the layer's section sides); returns
+    the new number of lines."""
+    order = sorted(good, key=lambda i: lines[i]["u"])
+
+    def inside(tr, pts, margin):
+        s = [float((q[:2] - tr.origin) @ tr.direction) for q in pts]
+        lo, hi = tr.interval
+        return np.isfinite(lo) and min(s) >= lo + margin and max(s) <= hi - margin
+
+    def cut_at(u, sd, margin):
+        et = _section_trace(fs, float(u), ring)
+        if et is None or not np.isfinite(et.interval[0]):
+            return None
+        rr = [_roots([et], sd[nm], sd[nm].nearest)[0] for nm in ("foot", "hanging")]
+        if rr[0] is None or rr[1] is None:
+            return None
+        t, c, pts = _section_cutoffs(et, *rr)
+        if not c or t * sgn < 0 or not inside(et, pts, margin):
+            return None
+        return et, t, pts
+
+    for e in (0, 1):
+        if fs.ends[e] != "boundary" or not order:
+            continue
+        seq = order if e == 0 else order[::-1]
+        found = []   # (u, layer, sides, (trace, throw, cutoffs))
+        for lay, r in res.items():
+            margin = END_FILL_MARGIN * r["spacing"]
+            k = next((k for k, i in enumerate(seq) if cut[lay][i]
+                      and inside(traces[i], cutpts[lay][i], margin)), None)
+            if k is None or lines[seq[k]]["given"] is not None or seq[k] in r.get("hinted", {}) \
+                    or seq[k] in r["joint_secs"]:
+                continue
+            u_a = lines[seq[k]]["u"]
+            u_b = lines[seq[k - 1]]["u"] if k > 0 else ends_u[e]
+            if abs(u_b - u_a) < 0.25 * step:
+                continue
+            sd = _sides_of(r, seq[k])
+            lo, hi, best = u_a, u_b, None
+            for _ in range(END_FILL_STEPS):
+                m = 0.5 * (lo + hi)
+                got = cut_at(m, sd, margin)
+                if got is not None:
+                    lo, best = m, (m, lay, sd, got)
+                else:
+                    hi = m
+            if best is not None:
+                found.append(best)
+        # Innermost first; the others within a quarter spacing join it.
+        found.sort(key=lambda c: c[0] if e == 1 else -c[0])
+        while found:
+            u, lay, sd, got = found.pop(0)
+            i2 = len(lines)
+            lines.append({"u": float(u), "direction": fs.dip_dir, "origin": None,
+                          "given": None, "end": False})
+            traces.append(got[0])
+            good.append(i2)
+            for l2 in throw:
+                throw[l2] = np.r_[throw[l2], np.nan]
+                cut[l2] = np.r_[cut[l2], False]
+                cutpts[l2].append(None)
+            members = [(lay, sd, got)]
+            rest = []
+            for c in found:
+                joined = cut_at(u, c[2], res[c[1]]["spacing"]) \
+                    if abs(c[0] - u) < 0.25 * step else None
+                if joined is not None:
+                    members.append((c[1], c[2], joined))
+                else:
+                    rest.append(c)
+            found = rest
+            for l2, sd2, (_, t, pts) in members:
+                throw[l2][i2], cut[l2][i2], cutpts[l2][i2] = t, True, pts
+                if sd2 is not res[l2]["sides"]:
+                    res[l2]["sec_sides"][i2] = sd2
+    return len(lines)
 
 def _patch_problem(fault: Fault, layer: str, ring: np.ndarray) -> Optional[np.ndarray]:
     """None if the builder's patch of ``layer`` (faults.layer_patch, XY only)
