@@ -1847,9 +1847,10 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                      memo: Optional[Dict[str, Dict[Any, Any]]] = None
                      ) -> Tuple[Fault, Dict[str, Section], FaultDerivation]:
     """:func:`_derive_fault` on the sections at strike coordinates ``us``
-    (``grid``: :func:`_section_grid`). ``memo``: per layer, the fading-throw
-    fit and its cutoffs per section position, shared by derivations of the
-    same fault on the same grid (:func:`_decay_sections`)."""
+    (``grid``: :func:`_section_grid`). ``memo``: per layer, its side
+    surfaces (whole, per fault block, joint) and the fading-throw fit with
+    its cutoffs per section position (:func:`_decay_sections`), shared by
+    derivations of the same fault on the same grid."""
     memo = {} if memo is None else memo
     ring = np.asarray(ds.boundary, dtype=np.float64)
     u0, u1, spacing, n_sec = grid
@@ -1906,7 +1907,13 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             continue
         ext = fs.side(D)[1]
         split = {"hanging": ext >= 0, "foot": ext <= 0}
-        sides = _side_surfaces(D, split, frame, opt.k)
+        # The layer's fits depend on its data and the grid only: a second
+        # derivation of the fault on other sections (_derive_fault) takes
+        # them from the memo.
+        fits = memo.setdefault(lay, {})
+        if "sides" not in fits:
+            fits["sides"] = _side_surfaces(D, split, frame, opt.k)
+        sides = fits["sides"]
         if sides is None:
             continue
         near = opt.near if opt.near is not None else 4.0 * spacing_data
@@ -1922,19 +1929,19 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             # cutoffs are derived again from the data in the block of its
             # cutoffs, i.e. on their side of every partner fault.
             keys = np.column_stack([p.side(D)[1] for p in partners])
-            cache: Dict[Tuple[int, ...], Optional[Dict[str, SideSurface]]] = {}
             for j, i in enumerate(good):
                 f, h = roots["foot"][j], roots["hanging"][j]
                 if f is None or h is None:
                     continue
                 mid = 0.5 * (f[0] + h[0])
                 key = tuple(int(p.side(mid[None, :])[1][0]) for p in partners)
-                if key not in cache:
-                    inblock = np.all((keys == np.array(key)[None, :]) | (keys == 0), axis=1)
-                    blocks[key] = inblock
-                    cache[key] = _side_surfaces(D[inblock], {nm: split[nm][inblock] for nm in split},
-                                                frame, opt.k)
-                blk = cache[key]
+                if key not in blocks:
+                    blocks[key] = np.all((keys == np.array(key)[None, :]) | (keys == 0), axis=1)
+                if ("block", key) not in fits:
+                    inblock = blocks[key]
+                    fits["block", key] = _side_surfaces(D[inblock], {nm: split[nm][inblock] for nm in split},
+                                                        frame, opt.k)
+                blk = fits["block", key]
                 if blk is None:
                     continue
                 sec_sides[i] = blk
@@ -1943,8 +1950,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                     roots[nm][j] = _roots([traces[i]], blk[nm], blk[nm].nearest)[0]
         decay_own: Dict[int, tuple] = {}
         _decay_sections(D, split, frame, opt.k, spacing, spacing_data, fs, ring,
-                        [traces[i] for i in good], good, roots, sides, sec_sides, decay_own,
-                        memo.setdefault(lay, {}))
+                        [traces[i] for i in good], good, roots, sides, sec_sides, decay_own, fits)
         # Sections where neither side has data within two data spacings of
         # its cutoff (a data gap at the fault): there the two extrapolations
         # are unrelated and their difference is no throw. Both sides come
@@ -1961,14 +1967,13 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             if sd["foot"].nearest(f[0][None, :2])[0] > 2.0 * spacing_data and \
                     sd["hanging"].nearest(h[0][None, :2])[0] > 2.0 * spacing_data:
                 gap_secs.append((j, i))
-        joints: Dict[Tuple[int, ...], Optional[Dict[str, SideSurface]]] = {}
         for j, i in gap_secs:
             key = sec_block.get(i, ())
-            if key not in joints:
+            if ("joint", key) not in fits:
                 m = blocks[key]
-                joints[key] = _joint_sides(D[m], {nm: split[nm][m] for nm in split}, frame, opt.k,
-                                           spacing)
-            joint = joints[key]
+                fits["joint", key] = _joint_sides(D[m], {nm: split[nm][m] for nm in split}, frame, opt.k,
+                                                  spacing)
+            joint = fits["joint", key]
             if joint is not None:
                 sec_sides[i] = joint
                 decay_own.pop(i, None)
