@@ -524,3 +524,20 @@ def test_layers_crossing_near_a_derived_normal_fault_build_without_its_picks(see
     m = build_model(derive_faults(ds2), evaluate=False)
     assert "repair_crossings('L3', 'L4')" in m.metadata["repair_retry"]
     assert sum(t["points_in_fault_patches"] for t in m.metadata["tins"].values()) > 0
+
+
+@pytest.mark.parametrize("seed, holds", [(4, True), (75, False)])
+def test_the_kind_follows_the_layers_with_data_at_the_fault(seed, holds, tmp_path):
+    """Regression (random grounds as v2 with section picks): where one
+    layer has both sides' data at the fault and others have none on one
+    side, the others' offsets, bridged across hundreds of metres, decided
+    the kind. 4: F4, reverse, L3 -14 m at the fault, L1/L2 +21 m bridged:
+    normal, 1.26x the true cutoffs' error near the faults. 75: F3, normal,
+    L5 +13 m at the fault, L2 -78 m bridged: reverse. With only the layers
+    with data at the fault voting: both right, 4 at 0.63x (75 fails the
+    ratio for other reasons: F2's L2 cutoffs)."""
+    out = gr.evaluate_ground_v2(seed, tmp_path)
+    assert out["kind_ok"], out["kinds"]
+    if holds:
+        assert out["stage"] == "ok", (out["stage"], out["error"])
+        assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])

@@ -2045,7 +2045,18 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # ones sample the fault evenly along strike, and an end section's
     # cutoffs extrapolate to the boundary (holes-only random_ground(41) as
     # v2: with them the kind came out reverse, 4.60 -> 7.31x).
-    evidence: Dict[str, List[float]] = {}
+    # Where some layer has both sides' data near its cutoffs (local
+    # evidence), only such evidence votes: a layer whose one side has no
+    # data near the fault at all gets its throw from a surface bridged
+    # across the gap, which says little about the sense where another layer
+    # shows it directly (v2 grounds 4 and 75: the hanging walls of L1/L2,
+    # resp. L2-L4, have no data within 600-1300 m; their bridged offsets of
+    # +21 m, resp. -78 m, outvoted the one layer with data at the fault,
+    # -14 m, resp. +13 m, and the kind came out wrong). Claudius with every
+    # pick near the fault withheld has no local evidence: the regional
+    # offsets decide there.
+    local: Dict[str, List[float]] = {}
+    regional: Dict[str, List[float]] = {}
     for lay, r in res.items():
         for i in good:
             if not cut[lay][i] or lines[i].get("end"):
@@ -2054,11 +2065,12 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             gap = max(_sides_of(r, i)["foot"].nearest(f[None, :2])[0],
                       _sides_of(r, i)["hanging"].nearest(h[None, :2])[0])
             if gap <= r["near"]:
-                evidence.setdefault(lay, []).append(throw[lay][i])
+                local.setdefault(lay, []).append(throw[lay][i])
                 continue
             t = _regional_throw(traces[i], f, h, r["data"], r["side"], fs, spacing,
                                 max(r["near"], length))
-            evidence.setdefault(lay, []).append(t if np.isfinite(t) else throw[lay][i])
+            regional.setdefault(lay, []).append(t if np.isfinite(t) else throw[lay][i])
+    evidence = local if local else regional
     kind = None
     offset = float(sum(np.median(v) for v in evidence.values()))
     if evidence:
