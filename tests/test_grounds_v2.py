@@ -541,3 +541,23 @@ def test_the_kind_follows_the_layers_with_data_at_the_fault(seed, holds, tmp_pat
     if holds:
         assert out["stage"] == "ok", (out["stage"], out["error"])
         assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
+
+
+def test_a_layer_whose_cutoffs_lie_past_the_fault_points_on_one_side_all_along_is_cut(tmp_path):
+    """Regression (random_ground(42) as v2 with section picks: F4, a normal
+    fault at 45 degrees with 93 m of sticks in depth; L2's footwall cutoffs
+    lie in the sticks' extent, its hanging-wall cutoffs 31-38 m below them,
+    past derive.DIP_CONTINUATION on every section: no layer was cut, F4 got
+    plane traces only, no kind, 1.61x the true cutoffs' error near the
+    faults). A layer otherwise uncut whose other cutoff lies within
+    derive.DIP_PARTNER on at least half of the sections is cut there:
+    1.03x, F4 normal; L2 cut on most sections."""
+    from faultmesh.derive import derive_faults
+
+    out = gr.evaluate_ground_v2(42, tmp_path)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    assert out["kind_ok"], out["kinds"]
+    assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
+    _, ds2 = _v1_and_v2_with_picks(42, tmp_path / "again")
+    prof = derive_faults(ds2).derivation.faults["F4"].throw["L2"]
+    assert prof["cut"].mean() >= 0.5, prof
