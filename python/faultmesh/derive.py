@@ -2093,6 +2093,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # offsets decide there.
     local: Dict[str, List[float]] = {}
     regional: Dict[str, List[float]] = {}
+    local_at: Dict[str, set] = {lay: set() for lay in res}   # sections with local evidence
     for lay, r in res.items():
         for i in good:
             if not cut[lay][i] or lines[i].get("end"):
@@ -2102,6 +2103,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                       _sides_of(r, i)["hanging"].nearest(h[None, :2])[0])
             if gap <= r["near"]:
                 local.setdefault(lay, []).append(throw[lay][i])
+                local_at[lay].add(i)
                 continue
             t = _regional_throw(traces[i], f, h, r["data"], r["side"], fs, spacing,
                                 max(r["near"], length))
@@ -2139,12 +2141,36 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         warn.append(f"fault {fault.name!r}, layer {lay!r}, section at u={lines[i]['u']:.0f}: {why}")
         return True
 
-    # Throw hint where a side has no data near the fault.
+    # Throw hint where a side has no data near the fault. Without a hint,
+    # the throw of the layer nearest in the stack that has both sides' data
+    # near its cutoffs on the same section (and the kind's sense) instead:
+    # the throw changes little from one layer to the next on a section,
+    # while each side extrapolated, or both bridged by one surface, across
+    # a data gap at the fault can be off by its whole size (v2
+    # random_ground(75), F2: L1 with data at the fault, 22-51 m; L2-L5
+    # bridged, 75-1500 m; the truth 20-40 m on every layer).
+    rank = {lay: k for k, lay in enumerate(ds.layers)}
     for lay, r in res.items():
         for i in good:
             side = nodata[lay][i]
             if side is None or not cut[lay][i]:
                 continue
+            donors = [d for d in res if d != lay and i in local_at[d] and cut[d][i]
+                      and sgn * throw[d][i] > 0] if hint is None and kind is not None else []
+            if donors:
+                d = min(donors, key=lambda l: abs(rank[l] - rank[lay]))
+                sd, (f, h) = _sides_of(r, i), cutpts[lay][i]
+                if sd["foot"].nearest(f[None, :2])[0] > r["near"] and \
+                        sd["hanging"].nearest(h[None, :2])[0] > r["near"]:
+                    # Neither side near: the one farther from its data goes.
+                    side = "foot" if sd["foot"].nearest(f[None, :2])[0] > \
+                        sd["hanging"].nearest(h[None, :2])[0] else "hanging"
+                t = float(throw[d][i])
+                if use_shifted(lay, i, side, -t if side == "hanging" else t,
+                               f"no {side}-wall data within {r['near']:.0f} m of the cutoff; took "
+                               f"the throw of layer {d!r} there ({t:.1f} m), which has data near its "
+                               "cutoffs on both sides"):
+                    continue
             if hint is None:
                 warn.append(f"fault {fault.name!r}, layer {lay!r}, section at u={lines[i]['u']:.0f}: "
                             f"no {side}-wall data within {r['near']:.0f} m of the cutoff; "
@@ -2278,7 +2304,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         surf_h = hinted[1] if hinted and hinted[0] == "hanging" else _sides_of(r, i)["hanging"]
         poly = _wall_polylines(tr, f, h, surf_f, surf_h, *fars[lay], r["spacing"],
                                _room_between_faults(tr, f, h, fs, others, *fars[lay],
-                                                    carry=carry, ring=ring))
+                                                    carry=carry, ring=ring), partners)
         if poly is not None and lines[i].get("end"):
             # An end section whose polylines the boundary cuts to almost
             # nothing (END_SECTION_MIN_REACH): its patch, carried onto the
@@ -2747,11 +2773,13 @@ def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: F
 
 def _wall_polylines(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, surf_f, surf_h,
                     far_f: float, far_h: float, dsp: float,
-                    room: Tuple[float, float] = (-np.inf, np.inf)):
+                    room: Tuple[float, float] = (-np.inf, np.inf),
+                    partners: Sequence["FaultSurface"] = ()):
     """``foot`` (far end -> footwall cutoff) and ``hanging`` (hanging-wall
     cutoff -> far end) on the section, z from each side's surface, the far
-    ends within ``room`` (:func:`_room_between_faults`), or None if they do
-    not fit in the study area."""
+    ends within ``room`` (:func:`_room_between_faults`) and in the cutoff's
+    block of the crossing ``partners``, or None if they do not fit in the
+    study area."""
     sf = float((f[:2] - tr.origin) @ tr.direction)
     sh = float((h[:2] - tr.origin) @ tr.direction)
     a, b = tr.interval
@@ -2763,6 +2791,34 @@ def _wall_polylines(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, surf_f, sur
     eps = min(0.5 * dsp, 0.25 * (b - a))
     s_ff = max(sf - far_f, a + eps, room[0])
     s_hf = min(sh + far_h, b - eps, room[1])
+    if not (s_ff < sf and sh < s_hf):
+        return None
+    # A crossing partner (same group): the polyline stays in its cutoff's
+    # block, on the cutoff's side of every partner at the layer's own
+    # elevation (the side's surface there; 64 steps from the cutoff). Its z
+    # comes from that block's data (_derive_sections); past the partner the
+    # layer lies offset by the partner's throw (v2 random_ground(90): F1's
+    # hanging-wall polylines reached 236 m, 60 m past F2, a reverse fault
+    # abutting F1, their far ends 13-33 m below the layer there).
+    for wall, (cut, sc, s_far, surf) in enumerate(((f, sf, s_ff, surf_f), (h, sh, s_hf, surf_h))):
+        if not partners:
+            break
+        ss = sc + (s_far - sc) * np.linspace(0.0, 1.0, 65)
+        xy = tr.origin + ss[:, None] * tr.direction
+        P = np.column_stack([xy, surf(xy)])
+        P[0] = cut
+        over = np.zeros(65, dtype=bool)
+        for p in partners:
+            k = p.side(P)[1]
+            if k[0] != 0:
+                over |= (k != k[0]) & (k != 0)
+        bad = np.flatnonzero(over)
+        if len(bad):
+            stop = ss[max(bad[0] - 1, 0)]
+            if wall == 0:
+                s_ff = stop
+            else:
+                s_hf = stop
     if not (s_ff < sf and sh < s_hf):
         return None
     step = 0.5 * dsp
