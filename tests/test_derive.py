@@ -1117,3 +1117,35 @@ def test_dip_continuation_window_past_the_extent_only():
         r = derive._roots([tr], lambda xy, zl=zl: np.full(len(xy), zl), lambda xy: np.zeros(len(xy)))[0]
         assert r is not None and abs(r[0][2] - zl) < 1e-6 and r[1] is on, (zl, r)
 
+
+def test_partner_window_admits_the_other_cutoff_of_one_in_the_extent_only():
+    """derive._roots / _section_cutoffs(partner=True): with the extent at
+    arc 30-60 m of a straight trace, DIP_PARTNER (half the extent part's
+    length, 15 m) lets a cutoff at arc 72 m (12 m past the extent, outside
+    the DIP_CONTINUATION window of 7.5 m) pair with one in the extent; two
+    cutoffs both on the skirt never do, nor one past the wider window."""
+    assert derive.DIP_PARTNER == 2.0 * derive.DIP_CONTINUATION
+    z = -10.0 * np.arange(11)
+    pts = np.column_stack([np.linspace(0.0, 1e-9, 11), np.zeros(11), z])
+    real = np.zeros(10, dtype=bool)
+    real[3:6] = True
+    tr = derive._SectionTrace(np.zeros(2), np.array([1.0, 0.0]), 0.0, pts, np.zeros(11), real,
+                              (-1.0, 1.0))
+    c = derive._dip_continuation(tr)
+    assert np.allclose(c[0, 4:6], [30.0 - 15.0, 60.0 + 15.0])
+
+    def root(zl):
+        return derive._roots([tr], lambda xy: np.full(len(xy), zl), lambda xy: np.zeros(len(xy)))[0]
+
+    in_extent, past, far, skirt = root(-45.0), root(-72.0), root(-78.0), root(-66.0)
+    assert in_extent[2] and in_extent[3]
+    assert not past[1] and past[3] and not past[2]
+    assert not far[3]
+    assert skirt[1] and not skirt[2]
+    assert not derive._section_cutoffs(tr, in_extent, past)[1]
+    assert derive._section_cutoffs(tr, in_extent, past, partner=True)[1]
+    assert not derive._section_cutoffs(tr, in_extent, far, partner=True)[1]
+    # both on the skirt: on the fault by the narrow window, with or without partner
+    assert derive._section_cutoffs(tr, skirt, skirt, partner=True)[1]
+    assert not derive._section_cutoffs(tr, past, past, partner=True)[1]
+
