@@ -618,3 +618,31 @@ def test_polylines_stay_in_their_block_of_a_crossing_fault(tmp_path):
                     assert np.all((k == cutoff_side) | (k == 0)), (tr.section, lay, wall, k)
                     n += 1
     assert n > 0
+
+
+@pytest.mark.parametrize("seed, holds", [(62, False), (94, True)])
+def test_a_cutoff_throw_of_the_wrong_sense_takes_the_throw_along_strike(seed, holds, tmp_path):
+    """Regression (random grounds as v2 with section picks): a section
+    whose cutoff throw has the other sense than the fault's got zero throw
+    (merged cutoffs). 62: F2, a normal fault of 26 m, its one layer's
+    hanging wall without data within 420-840 m of the cutoffs on the four
+    sections towards the end on the boundary (a strip with one hole between
+    the fault and the boundary): the hanging wall extrapolated from the
+    south gave -9 to -32 m, set to zero, 2.14x the true cutoffs' error near
+    the faults. Now the side whose cutoff lies farther from the line of the
+    sections that show the throw (here the hanging wall) is the other
+    side's surface shifted by their throw (held beyond them towards an end
+    on the boundary): 1.59x (fails for other reasons). 94: F3's L1 at its
+    tip (-10 and -22 m past the last section showing 3 m): towards a tip the
+    throw dies out, so these stay at zero and the tip where it was, 1.23x
+    (holding 3.1 m there kept the sections, cutoffs 17 m off: 1.37x)."""
+    out = gr.evaluate_ground_v2(seed, tmp_path)
+    assert out["kind_ok"], out["kinds"]
+    if holds:
+        assert out["stage"] == "ok", (out["stage"], out["error"])
+        assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
+    else:
+        assert out["stage"] == "ratio", (out["stage"], out["error"])
+        assert out["ratio"] < 1.8, (out["error_v1"], out["error_v2"])
+        wrong = [w for w in out["warnings"] if "F2" in w and "has the sign" in w]
+        assert wrong and all("from the throw" in w for w in wrong), wrong
