@@ -2093,7 +2093,6 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # offsets decide there.
     local: Dict[str, List[float]] = {}
     regional: Dict[str, List[float]] = {}
-    local_at: Dict[str, set] = {lay: set() for lay in res}   # sections with local evidence
     for lay, r in res.items():
         for i in good:
             if not cut[lay][i] or lines[i].get("end"):
@@ -2103,7 +2102,6 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                       _sides_of(r, i)["hanging"].nearest(h[None, :2])[0])
             if gap <= r["near"]:
                 local.setdefault(lay, []).append(throw[lay][i])
-                local_at[lay].add(i)
                 continue
             t = _regional_throw(traces[i], f, h, r["data"], r["side"], fs, spacing,
                                 max(r["near"], length))
@@ -2141,36 +2139,12 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         warn.append(f"fault {fault.name!r}, layer {lay!r}, section at u={lines[i]['u']:.0f}: {why}")
         return True
 
-    # Throw hint where a side has no data near the fault. Without a hint,
-    # the throw of the layer nearest in the stack that has both sides' data
-    # near its cutoffs on the same section (and the kind's sense) instead:
-    # the throw changes little from one layer to the next on a section,
-    # while each side extrapolated, or both bridged by one surface, across
-    # a data gap at the fault can be off by its whole size (v2
-    # random_ground(75), F2: L1 with data at the fault, 22-51 m; L2-L5
-    # bridged, 75-1500 m; the truth 20-40 m on every layer).
-    rank = {lay: k for k, lay in enumerate(ds.layers)}
+    # Throw hint where a side has no data near the fault.
     for lay, r in res.items():
         for i in good:
             side = nodata[lay][i]
             if side is None or not cut[lay][i]:
                 continue
-            donors = [d for d in res if d != lay and i in local_at[d] and cut[d][i]
-                      and sgn * throw[d][i] > 0] if hint is None and kind is not None else []
-            if donors:
-                d = min(donors, key=lambda l: abs(rank[l] - rank[lay]))
-                sd, (f, h) = _sides_of(r, i), cutpts[lay][i]
-                if sd["foot"].nearest(f[None, :2])[0] > r["near"] and \
-                        sd["hanging"].nearest(h[None, :2])[0] > r["near"]:
-                    # Neither side near: the one farther from its data goes.
-                    side = "foot" if sd["foot"].nearest(f[None, :2])[0] > \
-                        sd["hanging"].nearest(h[None, :2])[0] else "hanging"
-                t = float(throw[d][i])
-                if use_shifted(lay, i, side, -t if side == "hanging" else t,
-                               f"no {side}-wall data within {r['near']:.0f} m of the cutoff; took "
-                               f"the throw of layer {d!r} there ({t:.1f} m), which has data near its "
-                               "cutoffs on both sides"):
-                    continue
             if hint is None:
                 warn.append(f"fault {fault.name!r}, layer {lay!r}, section at u={lines[i]['u']:.0f}: "
                             f"no {side}-wall data within {r['near']:.0f} m of the cutoff; "
