@@ -115,7 +115,7 @@ from __future__ import annotations
 from functools import cached_property
 import math
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -1117,8 +1117,17 @@ def _dip_continuation(tr: "_SectionTrace") -> np.ndarray:
     return out
 
 
+class _Root(NamedTuple):
+    """Where a side's surface meets a section's fault trace (:func:`_roots`)."""
+
+    point: np.ndarray  # (3,)
+    on: bool           # on the fault: in its extent or within DIP_CONTINUATION past it
+    real: bool         # in the extent itself
+    partner: bool      # within DIP_PARTNER past it (pairs with a cutoff in the extent)
+
+
 def _roots(traces: List[_SectionTrace], surf,
-           side_data_near) -> List[Optional[Tuple[np.ndarray, bool, bool, bool]]]:
+           side_data_near) -> List[Optional[_Root]]:
     """Per trace: the point (3,) where the surface z = surf(xy) meets the
     trace polyline, whether it lies on the fault (in its extent or a little
     past it up or down dip, :func:`_dip_continuation`), whether it lies
@@ -1128,7 +1137,7 @@ def _roots(traces: List[_SectionTrace], surf,
     side's data (``side_data_near(xy)`` gives that distance). All traces at once:
     sign changes of trace z - surf z at the trace vertices, then bisection
     on the bracketing segments."""
-    out: List[Optional[Tuple[np.ndarray, bool, bool, bool]]] = [None] * len(traces)
+    out: List[Optional[_Root]] = [None] * len(traces)
     if not traces:
         return out
     pts = np.vstack([t.points for t in traces])
@@ -1165,7 +1174,7 @@ def _roots(traces: List[_SectionTrace], surf,
     on = real[cand] | (skirt & (arc >= cont[cand, 1]) & (arc <= cont[cand, 2]))
     partner = real[cand] | (skirt & (arc >= cont[cand, 4]) & (arc <= cont[cand, 5]))
     for i in order[first]:  # one per trace
-        out[int(tid[cand[i]])] = (root[i], bool(on[i]), bool(real[cand[i]]), bool(partner[i]))
+        out[int(tid[cand[i]])] = _Root(root[i], bool(on[i]), bool(real[cand[i]]), bool(partner[i]))
     return out
 
 
@@ -1563,19 +1572,19 @@ def _own_sense_back(throw: float, own: tuple, sgn: float) -> bool:
     return throw * sgn < 0.0 and float(f[0][2] - h[0][2]) * sgn > 0.0
 
 
-def _section_cutoffs(tr: "_SectionTrace", f: tuple, h: tuple,
+def _section_cutoffs(tr: "_SectionTrace", f: _Root, h: _Root,
                      partner: bool = False) -> Tuple[float, bool, Tuple[np.ndarray, np.ndarray]]:
     """(throw, cut, (footwall cutoff, hanging-wall cutoff)) of a section
     from its roots ``f``, ``h`` (:func:`_roots`): cut where both sides meet
     the fault's trace within the section's interval in the study area, both
     on the fault (with ``partner``: or one in its extent and the other
     within :data:`DIP_PARTNER` of it)."""
-    sf = float((f[0][:2] - tr.origin) @ tr.direction)
-    sh = float((h[0][:2] - tr.origin) @ tr.direction)
+    sf = float((f.point[:2] - tr.origin) @ tr.direction)
+    sh = float((h.point[:2] - tr.origin) @ tr.direction)
     a, b = tr.interval
     inside = np.isfinite(a) and a <= min(sf, sh) and max(sf, sh) <= b
-    on = (f[1] and h[1]) or (partner and ((f[2] and h[3]) or (h[2] and f[3])))
-    return float(f[0][2] - h[0][2]), bool(on and inside), (f[0], h[0])
+    on = (f.on and h.on) or (partner and ((f.real and h.partner) or (h.real and f.partner)))
+    return float(f.point[2] - h.point[2]), bool(on and inside), (f.point, h.point)
 
 
 def _sides_of(r: Dict[str, Any], i: int) -> Dict[str, "SideSurface"]:
@@ -2025,7 +2034,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             if f is None or h is None:
                 continue
             throw[lay][i], cut[lay][i], cutpts[lay][i] = _section_cutoffs(tr, f, h)
-            in_extent[lay][i] = cut[lay][i] and f[2] and h[2]
+            in_extent[lay][i] = cut[lay][i] and f.real and h.real
             partner_cut[lay][i] = _section_cutoffs(tr, f, h, partner=True)[1]
 
     # A layer counts as displaced by the fault if its cutoffs are at least
