@@ -247,6 +247,28 @@ def test_picks_near_the_fault_withheld(md, data, full):
     assert r["misfit"]["val_330"]["median"] <= 11.2, r["misfit"]
 
 
+def test_the_partner_window_does_not_cut_a_layer_against_the_kind(md, data, full):
+    """Regression: with every pick within 500 m (3D) of a fault point
+    withheld, val_250 (above the fault's points: the fault dies out under
+    it) had its footwall cutoffs in the fault's extent and its hanging-wall
+    ones within the partner window (derive.DIP_PARTNER) above it on most
+    sections, so it was cut, with throws of -10 to -26 m on a fault the
+    other data say is normal; the sense rule then set them to zero, and the
+    layer crossed the fault cut but not offset (median error at its
+    withheld picks 4.38 m, 4.10 m uncut). The partner window admits a
+    cutoff past the fault's points because the throw carries it there, so
+    only a throw of the fault's sense counts: val_250 stays uncut, val_330
+    (cut within the extent) decides the kind."""
+    h, fpts = data
+    ring = np.asarray(full[0].boundary)
+    used, _ = md.near_fault_holdout(h, ring, md.distance_3d(fpts), 500.0)
+    derived = derive.derive_faults(md.make_dataset(used, fpts, boundary=ring))
+    rep = derived.derivation.faults[md.FAULT]
+    assert rep.kind == "normal"
+    assert sorted(rep.cutoffs) == ["val_330"], sorted(rep.cutoffs)
+    assert not rep.throw["val_250"]["cut"].any()
+
+
 def test_hole_fill_anchors_skip_the_fault_zone(full):
     """Regression (11.36 -> 11.07 m above): the hole fill's anchors, the
     layer TIN's study-area boundary vertices, are not taken where a fault

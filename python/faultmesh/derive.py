@@ -2054,6 +2054,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # of twice their neighbours' (v2 random_ground(94), F2: -44 m between
     # -17 and -26 m, 1.23 -> 1.57x).
     regular = [i for i in good if not lines[i].get("end")]
+    cut_by_partner = set()
     for lay in res:
         big = np.abs(throw[lay]) >= opt.min_throw
         if np.any(cut[lay] & in_extent[lay] & big):
@@ -2061,6 +2062,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         by_partner = partner_cut[lay] & big
         if regular and by_partner[regular].sum() >= 0.5 * len(regular):
             cut[lay] = by_partner
+            cut_by_partner.add(lay)
         else:
             cut[lay][:] = False
     # The kind: per section and displaced layer, the cutoff throw where both
@@ -2100,9 +2102,18 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # -14 m, resp. +13 m, and the kind came out wrong). Claudius with every
     # pick near the fault withheld has no local evidence: the regional
     # offsets decide there.
+    # A layer cut by the partner window only votes where no layer is cut
+    # within the extent: its throw is carried past the fault's points by
+    # the displacement, so it has the fault's sense only if that is the
+    # kind the other layers say (below).
+    voters = [lay for lay in res if cut[lay].any()]
+    if any(lay not in cut_by_partner for lay in voters):
+        voters = [lay for lay in voters if lay not in cut_by_partner]
     local: Dict[str, List[float]] = {}
     regional: Dict[str, List[float]] = {}
     for lay, r in res.items():
+        if lay not in voters:
+            continue
         for i in good:
             if not cut[lay][i] or lines[i].get("end"):
                 continue
@@ -2129,6 +2140,19 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         warn.append(f"fault {fault.name!r}: no layer is cut within the fault's extent; it gets "
                     "plane traces only")
     sgn = 1.0 if (kind or fault.kind or "normal") == "normal" else -1.0
+    # The partner window admits a cutoff past the fault's points because
+    # the throw carries it there: past the lower end, a normal fault's
+    # hanging wall or a reverse fault's footwall; past the upper end, the
+    # other. A throw of the other sense than the kind puts the wrong one
+    # there (a layer the fault dies out under, whose sides bend: Claudius
+    # with every pick within 500 m of the fault withheld, val_250 above the
+    # fault's points, -10 to -26 m on a normal fault, was cut and set to
+    # zero throw): such sections are not cut, and the layer not at all
+    # unless those of the fault's sense still make half of the regular ones.
+    if kind is not None:
+        for lay in cut_by_partner:
+            sense = cut[lay] & (sgn * throw[lay] >= opt.min_throw)
+            cut[lay] = sense if sense[regular].sum() >= 0.5 * len(regular) else np.zeros_like(sense)
 
     def use_shifted(lay, i, side, dz, why):
         """Replace the ``side`` cutoff of layer ``lay`` on line ``i`` by the
