@@ -490,6 +490,13 @@ Prepared prepare(LayerTinState& s, LayerData&& d) {
     for (const auto& b : d.on_boundary) per_side[b.side].push_back({b.s, true, b.x, b.y, b.z});
     // Boundary vertices (side by side, by arc length; a data point at the
     // position of a densification point replaces it), then the interior data.
+    // Pieces shorter than this cannot be protected (below): a data point and
+    // a densification point closer than it along the side are one place.
+    // A datum at a slanted side's midpoint gets its arc length from its own
+    // XY (StudyArea::locate), the densification point L j / k from the
+    // side's length: the two may differ in the last bit and place onto the
+    // same XY (fuzz of derive: (2775, 1375) on (3000, 250) -> (2550, 2500)).
+    const double min_piece = 1e-9 * perim;
     std::vector<double> pts;
     std::vector<char> known;
     std::vector<std::pair<std::size_t, double>> bpos;
@@ -498,13 +505,22 @@ Prepared prepare(LayerTinState& s, LayerData&& d) {
         std::stable_sort(v.begin(), v.end(), [](const BPoint& a, const BPoint& b) {
             return a.s < b.s || (a.s == b.s && a.known && !b.known);
         });
-        for (std::size_t j = 0; j < v.size(); ++j) {
-            if (j > 0 && v[j].s == v[j - 1].s) continue;  // the known one came first
-            pts.push_back(v[j].x);
-            pts.push_back(v[j].y);
-            pts.push_back(v[j].z);
-            known.push_back(v[j].known ? 1 : 0);
-            bpos.emplace_back(i, v[j].s);
+        std::vector<BPoint> kept;
+        kept.reserve(v.size());
+        for (const BPoint& p : v) {
+            if (!kept.empty() && p.s - kept.back().s < min_piece && p.known != kept.back().known) {
+                if (p.known) kept.back() = p;  // the datum replaces the densification point
+                continue;
+            }
+            if (!kept.empty() && p.s == kept.back().s) continue;  // the known one came first
+            kept.push_back(p);
+        }
+        for (const BPoint& p : kept) {
+            pts.push_back(p.x);
+            pts.push_back(p.y);
+            pts.push_back(p.z);
+            known.push_back(p.known ? 1 : 0);
+            bpos.emplace_back(i, p.s);
         }
     }
     const std::size_t nb = bpos.size();
@@ -538,7 +554,6 @@ Prepared prepare(LayerTinState& s, LayerData&& d) {
     std::vector<std::pair<std::size_t, double>> work;  // (side, sa) of pieces to check
     for (std::size_t i = 0; i < ns; ++i)
         for (const auto& e : s.by_side[i]) work.emplace_back(i, e.first);
-    const double min_piece = 1e-9 * perim;
     while (!work.empty()) {
         const auto w = work.back();
         work.pop_back();

@@ -512,3 +512,37 @@ TEST(LayerTinInterpolate, PointsOnTheBoundaryGetTheirPiecesElevation) {
     }
     EXPECT_GT(n, 5000u);
 }
+
+TEST(LayerTin, DataAtTheMidpointsOfSlantedSidesReplaceTheDensificationPointThere) {
+    // A datum exactly at a slanted side's midpoint gets its arc length from
+    // its XY, a densification point at the same place L j / k from the
+    // side's length: the two differ in the last bit where k is even (which
+    // depends on the number of data) and were both kept, one place, a piece
+    // of zero length that the protection could not split ("cannot protect
+    // the study-area boundary", found by the fuzz of fault derivation).
+    const std::vector<double> ring = {450.0, 0.0, 3000.0, 250.0, 2550.0, 2500.0, 0.0, 2000.0};
+    const fm::StudyArea area(ring.data(), 4);
+    std::size_t built = 0;
+    for (std::size_t n = 2; n <= 40; ++n) {
+        std::mt19937_64 g(n);
+        std::uniform_real_distribution<double> ux(800.0, 2200.0), uy(600.0, 1800.0);
+        std::vector<double> pts;
+        for (std::size_t i = 0; i < n; ++i) {
+            const double x = ux(g), y = uy(g);
+            pts.insert(pts.end(), {x, y, -100.0 + 0.01 * x});
+        }
+        for (std::size_t side = 1; side <= 2; ++side) {
+            const double x = 0.5 * (ring[2 * side] + ring[2 * side - 2]);
+            const double y = 0.5 * (ring[2 * side + 1] + ring[2 * side - 1]);
+            pts.insert(pts.end(), {x, y, -50.0 - static_cast<double>(side)});
+        }
+        ASSERT_NO_THROW({
+            const fm::LayerTin t("A", pts.data(), pts.size() / 3, area);
+            // Each midpoint is a vertex with its own elevation.
+            for (std::size_t k = pts.size() - 6; k < pts.size(); k += 3)
+                EXPECT_DOUBLE_EQ(t.interpolate(&pts[k], 1)[0], pts[k + 2]) << "n " << n;
+        }) << "n " << n;
+        ++built;
+    }
+    EXPECT_EQ(built, 39u);
+}
