@@ -256,7 +256,10 @@ def non_delaunay_edges(pts, tris, constrained) -> int:
     A, B, C, D = [], [], [], []
     for (u, v), w in half.items():
         if u < v and (v, u) in half and (u, v) not in constrained:
-            A.append(u); B.append(v); C.append(w); D.append(half[(v, u)])
+            A.append(u)
+            B.append(v)
+            C.append(w)
+            D.append(half[(v, u)])
     if not A:
         return 0
     ic = fm.incircle(pts[A], pts[B], pts[C], pts[D])
