@@ -616,3 +616,38 @@ def test_a_cutoff_throw_of_the_wrong_sense_takes_the_throw_along_strike(seed, ho
         assert out["ratio"] < 1.8, (out["error_v1"], out["error_v2"])
         wrong = [w for w in out["warnings"] if "F2" in w and "has the sign" in w]
         assert wrong and all("from the throw" in w for w in wrong), wrong
+
+
+def test_the_throw_tapers_to_a_tip_past_the_data(tmp_path):
+    """Regression (random_ground(89) as v2 with section picks: F1, a normal
+    fault of 35 m inside the area whose throw tapers to zero at both ends
+    of its 750 m; L4's and L5's hanging-wall data near it lie along its
+    middle 200 m only, the footwall's 360 m away or more. Each side's
+    surface continued the whole throw to the fault's ends: the end sections
+    kept 38-43 m where the truth has 9-22 m, hanging-wall cutoffs up to 34
+    m too deep, 2.50x the true cutoffs' error near the faults). Past the
+    last section with data near a cutoff, towards an end inside the area,
+    the throw is held under a straight taper to zero at the extent's edge:
+    the outermost sections within 3.4 m of the truth, 1.83x (the hanging
+    wall farther from the fault still misses, so the ground still fails)."""
+    from faultmesh.derive import derive_faults
+
+    spec, geo, path1 = gr.make_ground(89, tmp_path)
+    ds1 = fm.load_dataset(path1)
+    ds2 = fm.load_dataset(gr.write_v2(ds1, geo, spec, tmp_path / "v2", section_picks=True))
+    f1 = next(f for f in derive_faults(ds2).faults if f.name == "F1")
+    truth = geo.fault("F1")
+    off = {}
+    for tr in f1.traces:
+        walls = tr.layers.get("L4")
+        if walls is None:
+            continue
+        foot, hang = np.asarray(walls["foot"])[-1], np.asarray(walls["hanging"])[0]
+        u, _ = truth.uw(*(0.5 * (foot[:2] + hang[:2]) - geo.origin))
+        off[float(u)] = abs((foot[2] - hang[2]) - truth.throw * float(truth.taper(u)))
+    ends = sorted(off)
+    assert len(ends) >= 6
+    assert off[ends[0]] < 6.0 and off[ends[-1]] < 6.0, off
+    out = gr.evaluate_ground_v2(89, tmp_path / "eval")
+    assert out["kind_ok"], out["kinds"]
+    assert out["stage"] == "ratio" and out["ratio"] < 2.0, (out["stage"], out["ratio"])
