@@ -1,0 +1,234 @@
+"""Property test of fault derivation end to end (derive_faults + build_model
++ Model.check) on inputs the derivation was not written for, and the
+regression tests of what it found.
+
+The property (the project's contract): on any input, derive_faults and
+build_model either return a model whose check() passes, or raise a
+DatasetError / GeometryError that names the fault or the layer. Nothing else
+(IndexError, ZeroDivisionError, LinAlgError, a ValueError from scipy, ...).
+"""
+from __future__ import annotations
+
+from typing import Any, Callable, Dict
+
+import numpy as np
+from hypothesis import given, settings, strategies as st
+
+import faultmesh
+from faultmesh import derive
+from faultmesh.dataset import Boreholes, Dataset, DatasetError, Fault
+
+# ---------------------------------------------------------------------------
+# The generator
+# ---------------------------------------------------------------------------
+# A case is a dict of choices (``case_params``) drawn through ``pick``, so
+# that the same generator runs under hypothesis (the committed test) and
+# under a plain numpy RNG (many examples locally, collecting every failure).
+CHOICES: Dict[str, Any] = {
+    "utm": [False, True],             # coordinates offset to x ~ 5e5, y ~ 7e6
+    "rounding": [None, 0.01, 1.0],    # surveyors' rounding (m)
+    "ring": ["rect", "skewed"],
+    "size": [(600.0, 500.0), (3000.0, 2500.0), (8000.0, 3000.0)],
+    "n_layers": [1, 2, 3, 4],
+    "thickness": [5.0, 30.0, 120.0],
+    "holes": ["sparse", "medium", "dense"],   # 3-10, 20-40, 80-150 vertical holes
+    "holes_where": ["all", "one_side", "gap"],
+    "n_faults": [1, 1, 1, 2],
+    "second": ["crossing", "close"],
+}
+
+
+def _fault_choices():
+    return {
+        "dip": ["gentle", "mid", "steep"],        # 5-20, 30-80, 85-89.9 degrees
+        "shape": ["plane", "curved", "noisy"],
+        "points": ["sticks", "scatter", "few", "duplicated", "collinear"],
+        "length": ["short", "area", "long"],      # 0.2, 0.8-1.2, 3x the area
+        "ends_inside": [False, True],
+        "throw": ["normal", "reverse", "zero", "huge"],
+    }
+
+
+def case_params(pick: Callable[[str, Any], Any]) -> Dict[str, Any]:
+    """The choices of one case; ``pick(name, options)`` picks one of the
+    list ``options`` or, for a (lo, hi) tuple, a float in it."""
+    p = {k: pick(k, v) for k, v in CHOICES.items()}
+    p["faults"] = []
+    for i in range(p["n_faults"]):
+        fp = {k: pick(f"f{i}_{k}", v) for k, v in _fault_choices().items()}
+        fp["strike"] = pick(f"f{i}_strike", (0.0, 360.0))
+        fp["dip_t"] = pick(f"f{i}_dip_t", (0.0, 1.0))
+        fp["anchor"] = (pick(f"f{i}_ax", (0.2, 0.8)), pick(f"f{i}_ay", (0.2, 0.8)))
+        p["faults"].append(fp)
+    p["seed"] = int(pick("seed", (0.0, 2.0 ** 31)))
+    return p
+
+
+DIPS = {"gentle": (5.0, 20.0), "mid": (30.0, 80.0), "steep": (85.0, 89.9)}
+
+
+def _fault_geometry(fp, p, W, H, i):
+    """Anchor (2,), strike unit vector, unit normal (pointing to the hanging
+    wall), dip in degrees of fault ``i``."""
+    strike = fp["strike"]
+    if i == 1:
+        first = p["faults"][0]["strike"]
+        # crossing: strike differs by 40-90 degrees; close: nearly parallel.
+        strike = first + (40.0 + 50.0 * fp["dip_t"] if p["second"] == "crossing" else 5.0)
+    lo, hi = DIPS[fp["dip"]]
+    dip = lo + (hi - lo) * fp["dip_t"]
+    a = np.deg2rad(strike)
+    s = np.array([np.sin(a), np.cos(a)])
+    d = np.array([s[1], -s[0]])                  # dip direction (right of strike)
+    anchor = np.array([fp["anchor"][0] * W, fp["anchor"][1] * H])
+    if i == 1 and p["second"] == "close":
+        f0 = p["faults"][0]
+        anchor = np.array([f0["anchor"][0] * W, f0["anchor"][1] * H]) + 0.04 * min(W, H) * d
+    return anchor, s, d, dip
+
+
+def make_case(p: Dict[str, Any]) -> Dataset:
+    """The dataset (format 2: faults as points only) of choices ``p``."""
+    rng = np.random.default_rng(p["seed"])
+    W, H = p["size"]
+    origin = np.array([512345.67, 7012345.89]) if p["utm"] else np.zeros(2)
+    if p["ring"] == "rect":
+        ring = np.array([[0, 0], [W, 0], [W, H], [0, H]], dtype=float)
+    else:
+        ring = np.array([[0.15 * W, 0], [W, 0.1 * H], [0.85 * W, H], [0, 0.8 * H]])
+    layers = [f"L{i + 1}" for i in range(p["n_layers"])]
+    gx, gy = rng.uniform(-0.05, 0.05, 2)
+    top = -200.0 + rng.uniform(-50, 50)
+
+    def base(X, Y, li):
+        return top - li * p["thickness"] + gx * (X - W / 2) + gy * (Y - H / 2)
+
+    z_lo = top - p["n_layers"] * p["thickness"] - 0.05 * (W + H)
+    z_hi = top + 0.05 * (W + H)
+    geoms, faults, throws = [], [], []
+    for i, fp in enumerate(p["faults"]):
+        anchor, s, d, dip = _fault_geometry(fp, p, W, H, i)
+        zr = base(anchor[0], anchor[1], 0) - 0.5 * (p["n_layers"] - 1) * p["thickness"]
+        tan = np.tan(np.deg2rad(dip))
+        L = {"short": 0.2, "area": rng.uniform(0.8, 1.2), "long": 3.0}[fp["length"]] * max(W, H)
+        u0, u1 = (-0.5 * L, 0.5 * L)
+        if fp["ends_inside"]:
+            u1 = rng.uniform(0.05, 0.3) * L
+        bend = 0.1 * L if fp["shape"] == "curved" else 0.0
+
+        def fault_xyz(U, Z, anchor=anchor, s=s, d=d, tan=tan, zr=zr, bend=bend, L=L):
+            w = (zr - Z) / tan + bend * (2.0 * U / L) ** 2
+            xy = anchor + U[:, None] * s + w[:, None] * d
+            return np.column_stack([xy, Z])
+
+        kind_pts = fp["points"]
+        if kind_pts == "sticks":
+            nu, nz = rng.integers(3, 9), rng.integers(3, 8)
+            U, Z = np.meshgrid(np.linspace(u0, u1, nu), np.linspace(z_hi, z_lo, nz))
+            U, Z = U.ravel(), Z.ravel()
+            sticks = np.searchsorted(np.unique(U), U)
+        elif kind_pts == "few":
+            n = rng.integers(3, 5)
+            U, Z = rng.uniform(u0, u1, n), rng.uniform(z_lo, z_hi, n)
+            sticks = None
+        elif kind_pts == "collinear":
+            t = np.linspace(0.0, 1.0, rng.integers(3, 12))
+            U, Z = u0 + t * (u1 - u0), z_hi + t * (z_lo - z_hi)
+            sticks = None
+        else:
+            n = rng.integers(15, 80)
+            U, Z = rng.uniform(u0, u1, n), rng.uniform(z_lo, z_hi, n)
+            sticks = None
+        P = fault_xyz(U, Z)
+        if fp["shape"] == "noisy":
+            P = P + rng.normal(0.0, 0.01 * (z_hi - z_lo), P.shape)
+        if kind_pts == "duplicated":
+            P = np.concatenate([P, P[: max(1, len(P) // 3)]])
+        th = {"normal": 1.0, "reverse": -1.0, "zero": 0.0, "huge": 8.0}[fp["throw"]]
+        throws.append(th * p["thickness"] * rng.uniform(0.3, 1.0))
+        geoms.append((anchor, d, tan, zr))
+        faults.append((f"F{i + 1}", P, sticks))
+
+    n_holes = {"sparse": rng.integers(3, 11), "medium": rng.integers(20, 41),
+               "dense": rng.integers(80, 151)}[p["holes"]]
+    xy = rng.uniform([0, 0], [W, H], size=(4 * n_holes + 20, 2))
+    from faultmesh.dataset import points_in_polygon
+    xy = xy[points_in_polygon(xy, ring)]
+
+    def hanging_side(XY, Z, g):
+        anchor, d, tan, zr = g
+        # the fault's elevation under (x, y): above it is the hanging wall
+        w = (XY - anchor) @ d
+        return Z > zr - w * tan
+
+    a0 = geoms[0]
+    wdist = (xy - a0[0]) @ a0[1]
+    if p["holes_where"] == "one_side":
+        xy = xy[wdist < 0]
+    elif p["holes_where"] == "gap":
+        xy = xy[np.abs(wdist) > 0.1 * min(W, H)]
+    xy = xy[:n_holes]
+    ids, xs, lays, zs = [], [], [], []
+    for li, lay in enumerate(layers):
+        z0 = base(xy[:, 0], xy[:, 1], li)
+        # each copy (footwall: z0; hanging wall: z0 - throw) is kept where it
+        # lies on its own side of every fault (a repeat or a gap otherwise)
+        for sides in range(2 ** len(geoms)):
+            hang = [(sides >> j) & 1 for j in range(len(geoms))]
+            z = z0 - sum(t for t, h in zip(throws, hang) if h)
+            ok = np.ones(len(xy), dtype=bool)
+            for g, h in zip(geoms, hang):
+                ok &= hanging_side(xy, z, g) == bool(h)
+            for j in np.flatnonzero(ok):
+                ids.append(f"B{j + 1}")
+                xs.append(xy[j])
+                lays.append(lay)
+                zs.append(z[j])
+    xs = np.asarray(xs, dtype=float).reshape(-1, 2) + origin
+    zs = np.asarray(zs, dtype=float)
+    ring = ring + origin
+    r = p["rounding"]
+    if r:
+        xs, zs, ring = np.round(xs / r) * r, np.round(zs / r) * r, np.round(ring / r) * r
+    flts = []
+    for name, P, sticks in faults:
+        P = P + np.append(origin, 0.0)
+        if r:
+            P = np.round(P / r) * r
+        flts.append(Fault(name, points=P, sticks=sticks))
+    bh = Boreholes(np.asarray(ids, dtype=str), xs, np.asarray(lays, dtype=str), zs)
+    return Dataset(name="fuzz", layers=layers, boundary=ring, boreholes=bh, faults=flts)
+
+
+def check_case(ds: Dataset) -> str:
+    """Derive and build ``ds``: "ok" (the model's check() passed) or
+    "error: ..." (a DatasetError / GeometryError naming a fault or a layer).
+    Anything else raises (the property fails)."""
+    names = [f.name for f in ds.faults] + list(ds.layers)
+    try:
+        d = derive.derive_faults(ds)
+        m = faultmesh.build_model(d, evaluate=False)
+    except (DatasetError, faultmesh.GeometryError) as e:
+        msg = str(e)
+        assert any(repr(n) in msg or f"'{n}'" in msg for n in names), \
+            f"{type(e).__name__} names no fault or layer: {msg}"
+        return f"error: {msg}"
+    m.check()
+    return "ok"
+
+
+def _hyp_pick(data):
+    def pick(name, options):
+        if isinstance(options, tuple):
+            return data.draw(st.floats(*options, allow_nan=False), label=name)
+        return data.draw(st.sampled_from(options), label=name)
+    return pick
+
+
+@settings(max_examples=30, deadline=None, derandomize=True, database=None)
+@given(st.data())
+def test_fuzz_derive_faults(data):
+    """Property: derive + build on generated format-2 grounds (module doc)
+    either pass check() or raise a named DatasetError / GeometryError."""
+    check_case(make_case(case_params(_hyp_pick(data))))
+
