@@ -232,3 +232,59 @@ def test_fuzz_derive_faults(data):
     either pass check() or raise a named DatasetError / GeometryError."""
     check_case(make_case(case_params(_hyp_pick(data))))
 
+
+# ---------------------------------------------------------------------------
+# Regressions found by the property
+# ---------------------------------------------------------------------------
+def _flat_ground(fault_points, sticks=None, n=5):
+    """Two flat layers (-100 m, -130 m, no offset anywhere) on an n x n grid
+    of vertical holes over 1 km x 1 km, and fault F1 given by points."""
+    g = (np.arange(n) + 0.5) * 1000.0 / n
+    X, Y = np.meshgrid(g, g)
+    xy = np.column_stack([X.ravel(), Y.ravel()])
+    m = len(xy)
+    bh = Boreholes(np.tile([f"B{i}" for i in range(m)], 2), np.vstack([xy, xy]),
+                   np.repeat(["A", "B"], m), np.repeat([-100.0, -130.0], m))
+    ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], dtype=float)
+    return Dataset(name="flat", layers=["A", "B"], boundary=ring, boreholes=bh,
+                   faults=[Fault("F1", points=fault_points, sticks=sticks)])
+
+
+def test_derived_dataset_of_a_fault_cutting_no_layer_builds():
+    """Regression (fuzz: 4 noisy points of a 5 degree fault over a 600 m x
+    500 m area, 3 layers 5 m thick, 8 holes, no layer cut at the fault):
+    derive_faults gives the fault one plane trace of 2 points (no layer cut,
+    warned); build_model of that derived dataset derived the fault again,
+    now from that trace alone, and raised "fault 'F1': 2 point(s); a fault
+    surface needs at least 3", although build_model of the original dataset
+    passed. A fault an earlier derive_faults derived is not derived again,
+    and its report is kept."""
+    p = {"utm": False, "rounding": None, "ring": "skewed", "size": (600.0, 500.0),
+         "n_layers": 3, "thickness": 5.0, "holes": "sparse", "holes_where": "all",
+         "n_faults": 1, "second": "crossing", "seed": 1413342137,
+         "faults": [{"dip": "gentle", "shape": "noisy", "points": "few", "length": "long",
+                     "ends_inside": False, "throw": "huge", "strike": 284.2575,
+                     "dip_t": 0.0466, "anchor": (0.5004, 0.6997)}]}
+    d = derive.derive_faults(make_case(p))
+    assert [len(t.plane) for t in d.faults[0].traces] == [2]
+    assert any("no layer is cut" in w for w in d.derivation.warnings)
+    m = faultmesh.build_model(d, evaluate=False)
+    m.check()
+    assert "no layer is cut" in " ".join(m.metadata["derived_faults"]["F1"]["warnings"])
+    assert derive.derive_faults(d).derivation.faults["F1"] is d.derivation.faults["F1"]
+
+
+def test_derived_fault_without_any_trace_is_left_out():
+    """Regression (fuzz: 3 fault points of a 10 degree fault whose triangle
+    lies mostly outside the study area, no throw in the data): the derived fault had no trace at
+    all, and build_model raised "fault 'F1' has no trace" (fault_ends). Like
+    a derived fault with plane traces only, it is left out of the model (the
+    derivation warned that no layer is cut)."""
+    P = np.array([[-549.0, 883.0, -391.0], [-299.0, -454.0, -428.0], [1201.0, -61.0, -140.0]])
+    ds = _flat_ground(P)
+    d = derive.derive_faults(ds)
+    assert not d.faults[0].traces
+    for data in (ds, d):
+        m = faultmesh.build_model(data, evaluate=False)
+        m.check()
+        assert not m.faults

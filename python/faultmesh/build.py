@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
@@ -463,6 +464,13 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         dataset = derive_faults(dataset)
     if getattr(dataset, "derivation", None) is not None:
         meta["derived_faults"] = dataset.derivation.as_dict()
+        # A derived fault without any trace (no section in the study area
+        # meets both its extent and a cut layer; its derivation warned "no
+        # layer is cut") adds nothing to the model, like one with plane
+        # traces only: left out (fault_ends: "has no trace" otherwise).
+        derived = dataset.derivation.faults
+        dataset = replace(dataset, faults=[f for f in dataset.faults
+                                           if f.traces or f.name not in derived])
 
     # Steps 2 and 3: stratum TINs, layer-crossing repair.
     t0 = time.perf_counter()
