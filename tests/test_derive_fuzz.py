@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Any, Callable, Dict
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 import faultmesh
@@ -389,3 +390,60 @@ def test_derived_fault_without_any_trace_is_left_out():
         m = faultmesh.build_model(data, evaluate=False)
         m.check()
         assert not m.faults
+
+
+# ---------------------------------------------------------------------------
+# Found by the property, open (named errors, but on input that should build)
+# ---------------------------------------------------------------------------
+@pytest.mark.xfail(strict=True, reason="C++ LayerTin: a data point at the midpoint of a slanted "
+                   "side and the densification point there differ by 1 ulp in arc length")
+def test_holes_at_midpoints_of_slanted_sides_build():
+    """Open (fuzz, no fault needed): holes exactly at the midpoints of two
+    sides of a skewed quadrilateral, e.g. (2775, 1375) on (3000, 250) ->
+    (2550, 2500): the builder raises "LayerTin('A'): cannot protect the
+    study-area boundary near (2775, 1375): a data point lies on the boundary
+    within rounding but was not snapped onto it". The point is exactly on
+    the side (the policy rightly leaves it); StudyArea.locate gives it arc
+    length 1147.2793905583765, the side's densification point L * j / k
+    (k even, which depends on the data count) 1147.2793905583767: both
+    placed at (2775, 1375), not merged (LayerTin prepare() merges equal arc
+    lengths only), so the protection cannot split the zero-length piece.
+    Needs a C++ fix (merge a densification point with a data point it
+    places onto)."""
+    ring = np.array([[450.0, 0.0], [3000.0, 250.0], [2550.0, 2500.0], [0.0, 2000.0]])
+    mids = 0.5 * (ring + np.roll(ring, 1, axis=0))
+    xy = np.vstack([np.random.default_rng(0).uniform([800, 600], [2200, 1800], (8, 2)), mids[[1, 2]]])
+    n = len(xy)
+    bh = Boreholes([f"B{i}" for i in range(n)], xy, ["A"] * n, -100.0 + 0.01 * xy[:, 0])
+    faultmesh.build_model(Dataset(name="mid", layers=["A"], boundary=ring, boreholes=bh),
+                          evaluate=False).check()
+
+
+@pytest.mark.xfail(strict=True, reason="derive's outline check (faults._outline_crossings) "
+                   "exempts more boundary edges than the stitcher")
+def test_steep_fault_carried_onto_the_boundary_builds():
+    """Open (fuzz seed 2287 of generator v2 with a fault of 87.5 degrees:
+    600 m x 500 m, 1 m rounding, one layer, holes away from the fault and
+    at the ring's corners and side midpoints, throw fading along strike,
+    fault points in a 30 m slice): derive (kind normal) makes L1's patch
+    reach x = 0 with three outline vertices at one XY, (0, 375.42); the
+    stitcher rejects it ("stitch: layer 'L1', patch 'F1': the patch outline
+    is not simple in XY: edges (11, 12) and (13, 14) meet": (13, 14) has
+    zero length; at 90 degrees the same with four vertices at (600, 43.57)). derive's own check of the
+    patch (_patch_problem -> faults._outline_crossings) exempts every pair
+    of outline edges whose four ends are on the boundary; the stitcher
+    (stitch_outline.cpp) only pairs of edges each running along one side
+    between two different positions, not zero-length ones. Mirroring the
+    stitcher there would drop L1 from those sections (a lossy fix, and the
+    builder's own uses of _outline_crossings would change too); the cause
+    is the coincident carried ends of a nearly vertical fault."""
+    p = {"utm": False, "rounding": 1.0, "ring": "rect", "size": (600.0, 500.0), "n_layers": 1,
+         "thickness": 120.0, "holes": "medium", "holes_where": "gap", "n_faults": 1,
+         "second": "close", "seed": 566205726, "tiny": False, "layer_data": "holes",
+         "odd_holes": "on_ring", "empty_layer": False, "group": "G",
+         "faults": [{"dip": "steep", "shape": "plane", "points": "sticks", "length": "area",
+                     "ends_inside": False, "throw": "normal", "strike": 118.97643867452724,
+                     "dip_t": 0.5, "anchor": (0.2822838654385024, 0.5653426466236346),
+                     "axis_strike": False, "odd_points": None, "depth": "thin",
+                     "profile": "fading"}]}
+    faultmesh.build_model(make_case(p), evaluate=False).check()
