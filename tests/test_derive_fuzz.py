@@ -67,8 +67,9 @@ def _fault_extras():
         "axis_strike": [False, True],     # strike a multiple of 90 degrees
         "odd_points": [None, None, None, "vertical", "flat", "one_stick", "stick_per_point",
                        "outside"],
-        # the fault points' elevations: over the layers and beyond, all above
-        # or all below them, or a slice a quarter of a layer thick
+        # the fault points' elevations: over the layers and beyond, ending a
+        # quarter of a layer thickness above or below them (a layer thick),
+        # or a slice a quarter of a layer thick
         "depth": ["span", "above", "below", "thin"],
         # the throw along strike: constant, dying out to both ends, or
         # changing sense (a scissor fault)
@@ -176,8 +177,9 @@ def make_case(p: Dict[str, Any]) -> Dataset:
             return np.column_stack([xy, Z])
 
         zmid = top - 0.5 * (p["n_layers"] - 1) * thick
-        zl, zh = {"span": (z_lo, z_hi), "above": (z_hi, 2.0 * z_hi - z_lo),
-                  "below": (2.0 * z_lo - z_hi, z_lo),
+        z_bot = top - (p["n_layers"] - 1) * thick
+        zl, zh = {"span": (z_lo, z_hi), "above": (top + 0.25 * thick, top + 1.25 * thick),
+                  "below": (z_bot - 1.25 * thick, z_bot - 0.25 * thick),
                   "thin": (zmid - 0.125 * thick, zmid + 0.125 * thick)}[_opt(fp, "depth")]
         kind_pts = fp["points"]
         odd = _opt(fp, "odd_points")
@@ -391,6 +393,30 @@ def test_derived_fault_without_any_trace_is_left_out():
         m.check()
         assert not m.faults
 
+
+
+def test_derived_fault_with_equal_plane_traces_is_left_out():
+    """Regression (fuzz: a 13 degree fault given by 3-4 noisy points on one
+    stick, one layer, 3-10 holes all on the footwall side): no layer is cut,
+    and the fault's 9 plane traces of 3 points gave two equal centres, so
+    build_model raised a GeometryError naming nothing, "faults: zero-length
+    direction" (fault_ends, the strike between the first two traces). A
+    derived fault that cuts no layer has no patch and no surface in the
+    model, so build_model now leaves it out before taking its ends."""
+    p = {"utm": False, "rounding": None, "ring": "skewed", "size": (8000.0, 3000.0),
+         "n_layers": 1, "thickness": 30.0, "holes": "sparse", "holes_where": "one_side",
+         "n_faults": 1, "second": "crossing", "seed": 1219653818, "odd_holes": None,
+         "faults": [{"dip": "gentle", "shape": "noisy", "points": "few", "length": "long",
+                     "ends_inside": True, "throw": "huge", "strike": 359.490136238668,
+                     "dip_t": 0.610972055786287, "anchor": (0.7749434644804292, 0.41285301069865976),
+                     "odd_points": "one_stick"}]}
+    ds = make_case(p)
+    d = derive.derive_faults(ds)
+    assert d.faults[0].traces and not any(tr.layers for tr in d.faults[0].traces)
+    for data in (ds, d):
+        m = faultmesh.build_model(data, evaluate=False)
+        m.check()
+        assert not m.faults
 
 # ---------------------------------------------------------------------------
 # Found by the property, open (named errors, but on input that should build)
