@@ -327,8 +327,9 @@ def seeded_params(seed: int) -> Dict[str, Any]:
     return case_params(pick)
 
 
-# 40 cases, about 20 s. Locally the same generator ran 1,500 cases (seeds
-# 0-399, 1000-1399 and 2000-2399 of three versions of it, and the final one).
+# 40 cases, about 17 s. Locally its versions ran 2,139 cases (seeds 0-399,
+# 1000-1338, 2000-2399, 3000-3399, 4000-4299, 5000-5299; the last 300 with
+# this generator and the fixes: 162 built, 138 named errors, none other).
 @settings(max_examples=40, deadline=None, derandomize=True, database=None)
 @given(st.integers(0, 2 ** 31))
 def test_fuzz_derive_faults(seed):
