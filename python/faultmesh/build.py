@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
@@ -463,6 +464,15 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         dataset = derive_faults(dataset)
     if getattr(dataset, "derivation", None) is not None:
         meta["derived_faults"] = dataset.derivation.as_dict()
+        # A derived fault that cuts no layer (plane traces only, or no trace
+        # at all where no section meets its extent in the study area; its
+        # derivation warned "no layer is cut") has no patch and no surface
+        # in the model: left out. Its ends would be taken from those traces
+        # (fault_ends: "has no trace", or "zero-length direction" between
+        # two equal plane traces of a fault of 3 points on one stick).
+        derived = dataset.derivation.faults
+        dataset = replace(dataset, faults=[f for f in dataset.faults if f.name not in derived
+                                           or any(tr.layers for tr in f.traces)])
 
     # Steps 2 and 3: stratum TINs, layer-crossing repair.
     t0 = time.perf_counter()

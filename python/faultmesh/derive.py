@@ -3036,11 +3036,19 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
     sections = dict(dataset.sections)
     used = set(sections)
     faults: List[Fault] = []
-    report = DeriveReport()
     ring = np.asarray(dataset.boundary, dtype=np.float64)
     # Fault surfaces: of the faults to derive, and of their group partners
     # (whose blocks keep the data apart, see _derive_fault).
-    todo = {id(f) for f in dataset.faults if needs_derivation(f)}
+    # A fault that an earlier derive_faults derived (this dataset is its
+    # result, e.g. passed on to build_model) is not derived again: its points
+    # were used up, and one that got plane traces only (no layer cut) would
+    # read as a fault with no points ("has no points" / "2 point(s)"); its
+    # report is kept.
+    earlier = dataset.derivation.faults if dataset.derivation is not None else {}
+    todo = {id(f) for f in dataset.faults if needs_derivation(f)
+            and not (f.name in earlier and f.points is None and f.surface is None)}
+    report = DeriveReport({f.name: earlier[f.name] for f in dataset.faults
+                           if f.name in earlier and id(f) not in todo})
     todo_groups = {f.group for f in dataset.faults if id(f) in todo and f.group}
     surfs: Dict[str, FaultSurface] = {}
     warns: Dict[str, List[str]] = {}

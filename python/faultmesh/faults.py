@@ -2267,11 +2267,28 @@ def _triangles_near_region(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray]
     return np.unique(np.flatnonzero(near) // 3)
 
 
+def _along_one_side(xy: np.ndarray, S: np.ndarray, area: StudyArea) -> np.ndarray:
+    """Per edge S (e, 2) of points xy: True if it runs along one side of the
+    study area between two different positions on it (a corner is on the
+    side that starts and the side that ends there): the stitcher's boundary
+    edges (stitch_outline.cpp, OutlineEdge.study)."""
+    side, s = (np.asarray(a) for a in area.locate(xy))
+    prev = np.where((side >= 0) & (s == 0.0), (side - 1) % area.n_sides, -1)
+    a, b = S[:, 0], S[:, 1]
+    return (((side[a] >= 0) & (side[a] == side[b]) & (s[a] != s[b]))
+            | ((prev[a] >= 0) & (prev[a] == side[b])) | ((side[a] >= 0) & (side[a] == prev[b])))
+
+
 def _outline_crossings(V: np.ndarray, T: np.ndarray, area: Optional[StudyArea] = None) -> np.ndarray:
     """Rows of the triangles whose outline edges meet another outline edge of
     the patch in XY (exactly; edges sharing a vertex do not count), except
-    pairs lying wholly on the study-area boundary (a reverse fault that runs
-    out of the area folds along it, which the stitcher allows)."""
+    pairs of edges that each run along a side of the study area (a reverse
+    fault that runs out of the area folds along it, which the stitcher
+    allows). As the stitcher, a zero-length edge at a point of the boundary
+    is not such an edge: pairs "wholly on the boundary" were exempt before,
+    and the patch of a nearly vertical fault carried onto the boundary, with
+    coincident outline vertices there, passed derive's check and failed the
+    stitcher (fuzz: 87.5 and 90 degree faults, test_derive_fuzz.py)."""
     from .dataset import _segments_intersect
 
     c = boundary_contours(T, n_vertices=len(V))
@@ -2292,8 +2309,8 @@ def _outline_crossings(V: np.ndarray, T: np.ndarray, area: Optional[StudyArea] =
     hit = _segments_intersect(xy[S[i, 0]], xy[S[i, 1]], xy[S[j, 0]], xy[S[j, 1]])
     i, j = i[hit], j[hit]
     if area is not None and len(i):
-        onb = area.on_boundary(xy)
-        both = onb[S[i, 0]] & onb[S[i, 1]] & onb[S[j, 0]] & onb[S[j, 1]]
+        along = _along_one_side(xy, S, area)
+        both = along[i] & along[j]
         i, j = i[~both], j[~both]
     if len(i) == 0:
         return np.zeros(0, dtype=np.int64)

@@ -1,0 +1,477 @@
+"""Property test of fault derivation end to end (derive_faults + build_model
++ Model.check) on inputs the derivation was not written for, and the
+regression tests of what it found.
+
+The property (the project's contract): on any input, derive_faults and
+build_model either return a model whose check() passes, or raise a
+DatasetError / GeometryError that names the fault or the layer. Nothing else
+(IndexError, ZeroDivisionError, LinAlgError, a ValueError from scipy, ...).
+"""
+from __future__ import annotations
+
+from typing import Any, Callable, Dict
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import faultmesh
+from faultmesh import derive
+from faultmesh.dataset import Boreholes, Dataset, DatasetError, Fault, points_in_polygon
+
+# ---------------------------------------------------------------------------
+# The generator
+# ---------------------------------------------------------------------------
+# A case is a dict of choices (``case_params``) drawn through ``pick``; the
+# committed test draws them from a seeded numpy RNG (``seeded_params``), the
+# seed from hypothesis, and so does a local run over many seeds.
+CHOICES: Dict[str, Any] = {
+    "utm": [False, True],             # coordinates offset to x ~ 5e5, y ~ 7e6
+    "rounding": [None, 0.01, 1.0],    # surveyors' rounding (m)
+    "ring": ["rect", "skewed"],
+    "size": [(600.0, 500.0), (3000.0, 2500.0), (8000.0, 3000.0)],
+    "n_layers": [1, 2, 3, 4],
+    "thickness": [5.0, 30.0, 120.0],
+    "holes": ["sparse", "medium", "dense"],   # 3-10, 20-40, 80-150 vertical holes
+    "holes_where": ["all", "one_side", "gap"],
+    "n_faults": [1, 1, 1, 2],
+    "second": ["crossing", "close"],
+}
+# More choices, drawn after those above; a missing key (e.g. in a regression
+# test's explicit choices) takes the first option, the generator's behaviour
+# before they were added.
+EXTRAS: Dict[str, Any] = {
+    # (options repeated: drawn more often; the cases that can only end in a
+    # named error -- a layer without data, a fault wholly outside -- rarer)
+    "tiny": [False, False, False, True],  # a 6 m x 5 m area, layers 0.5 m apart
+    "layer_data": ["holes", "points", "both"],    # boreholes and/or extra points
+    "odd_holes": [None, "duplicated", "on_fault", "on_ring"],
+    "empty_layer": [False] * 7 + [True],  # a layer without any datum
+    "group": [None, "G"],             # the two faults in one group
+}
+
+
+def _fault_choices():
+    return {
+        "dip": ["gentle", "mid", "steep"],        # 5-20, 30-80, 85-89.9 degrees
+        "shape": ["plane", "curved", "noisy"],
+        "points": ["sticks", "scatter", "few", "duplicated", "collinear"],
+        "length": ["short", "area", "long"],      # 0.2, 0.8-1.2, 3x the area
+        "ends_inside": [False, True],
+        "throw": ["normal", "reverse", "zero", "huge"],
+    }
+
+
+def _fault_extras():
+    return {
+        "axis_strike": [False, True],     # strike a multiple of 90 degrees
+        "odd_points": [None, None, None, "vertical", "flat", "one_stick", "stick_per_point",
+                       "outside"],
+        # the fault points' elevations: over the layers and beyond, ending a
+        # quarter of a layer thickness above or below them (a layer thick),
+        # or a slice a quarter of a layer thick
+        "depth": ["span", "above", "below", "thin"],
+        # the throw along strike: constant, dying out to both ends, or
+        # changing sense (a scissor fault)
+        "profile": ["const", "fading", "scissor"],
+    }
+
+
+def case_params(pick: Callable[[str, Any], Any]) -> Dict[str, Any]:
+    """The choices of one case; ``pick(name, options)`` picks one of the
+    list ``options`` or, for a (lo, hi) tuple, a float in it."""
+    p = {k: pick(k, v) for k, v in CHOICES.items()}
+    p["faults"] = []
+    for i in range(p["n_faults"]):
+        fp = {k: pick(f"f{i}_{k}", v) for k, v in _fault_choices().items()}
+        fp["strike"] = pick(f"f{i}_strike", (0.0, 360.0))
+        fp["dip_t"] = pick(f"f{i}_dip_t", (0.0, 1.0))
+        fp["anchor"] = (pick(f"f{i}_ax", (0.2, 0.8)), pick(f"f{i}_ay", (0.2, 0.8)))
+        p["faults"].append(fp)
+    p["seed"] = int(pick("seed", (0.0, 2.0 ** 31)))
+    p.update({k: pick(k, v) for k, v in EXTRAS.items()})
+    for i, fp in enumerate(p["faults"]):
+        fp.update({k: pick(f"f{i}_{k}", v) for k, v in _fault_extras().items()})
+    return p
+
+
+def _opt(p, key):
+    """Choice ``key`` of ``p``; its first option when missing (EXTRAS)."""
+    if key in p:
+        return p[key]
+    return {**EXTRAS, **_fault_extras()}[key][0]
+
+
+DIPS = {"gentle": (5.0, 20.0), "mid": (30.0, 80.0), "steep": (85.0, 89.9)}
+
+
+def _fault_geometry(fp, p, W, H, i):
+    """Anchor (2,), strike unit vector, unit normal (pointing to the hanging
+    wall), dip in degrees of fault ``i``."""
+    strike = fp["strike"]
+    if _opt(fp, "axis_strike"):
+        strike = 90.0 * round(strike / 90.0)
+    if i == 1:
+        first = p["faults"][0]["strike"]
+        # crossing: strike differs by 40-90 degrees; close: nearly parallel.
+        strike = first + (40.0 + 50.0 * fp["dip_t"] if p["second"] == "crossing" else 5.0)
+    lo, hi = DIPS[fp["dip"]]
+    dip = lo + (hi - lo) * fp["dip_t"]
+    odd = _opt(fp, "odd_points")
+    if odd == "vertical":
+        dip = 90.0
+    elif odd == "flat":
+        dip = 0.5 + 4.5 * fp["dip_t"]
+    a = np.deg2rad(strike)
+    s = np.array([np.sin(a), np.cos(a)])
+    d = np.array([s[1], -s[0]])                  # dip direction (right of strike)
+    anchor = np.array([fp["anchor"][0] * W, fp["anchor"][1] * H])
+    if i == 1 and p["second"] == "close":
+        f0 = p["faults"][0]
+        anchor = np.array([f0["anchor"][0] * W, f0["anchor"][1] * H]) + 0.04 * min(W, H) * d
+    return anchor, s, d, dip
+
+
+def _profile(g, xy):
+    """The share (n,) of a fault's throw at ``xy`` along its strike."""
+    anchor, s, L, kind = g[0], g[4], g[5], g[6]
+    u = np.clip((xy - anchor) @ s / (0.5 * L), -1.0, 1.0)
+    return {"const": np.ones(len(xy)), "fading": 1.0 - np.abs(u), "scissor": u}[kind]
+
+
+def make_case(p: Dict[str, Any]) -> Dataset:
+    """The dataset (format 2: faults as points only) of choices ``p``."""
+    rng = np.random.default_rng(p["seed"])
+    W, H = p["size"]
+    thick = p["thickness"]
+    if _opt(p, "tiny"):
+        W, H, thick = 6.0, 5.0, 0.5
+    origin = np.array([512345.67, 7012345.89]) if p["utm"] else np.zeros(2)
+    if p["ring"] == "rect":
+        ring = np.array([[0, 0], [W, 0], [W, H], [0, H]], dtype=float)
+    else:
+        ring = np.array([[0.15 * W, 0], [W, 0.1 * H], [0.85 * W, H], [0, 0.8 * H]])
+    layers = [f"L{i + 1}" for i in range(p["n_layers"])]
+    gx, gy = rng.uniform(-0.05, 0.05, 2)
+    top = -200.0 + rng.uniform(-50, 50)
+
+    def base(X, Y, li):
+        return top - li * thick + gx * (X - W / 2) + gy * (Y - H / 2)
+
+    z_lo = top - p["n_layers"] * thick - 0.05 * (W + H)
+    z_hi = top + 0.05 * (W + H)
+    geoms, faults, throws = [], [], []
+    for i, fp in enumerate(p["faults"]):
+        anchor, s, d, dip = _fault_geometry(fp, p, W, H, i)
+        zr = base(anchor[0], anchor[1], 0) - 0.5 * (p["n_layers"] - 1) * thick
+        tan = np.tan(np.deg2rad(dip))
+        L = {"short": 0.2, "area": rng.uniform(0.8, 1.2), "long": 3.0}[fp["length"]] * max(W, H)
+        u0, u1 = (-0.5 * L, 0.5 * L)
+        if fp["ends_inside"]:
+            u1 = rng.uniform(0.05, 0.3) * L
+        bend = 0.1 * L if fp["shape"] == "curved" else 0.0
+
+        def fault_xyz(U, Z, anchor=anchor, s=s, d=d, tan=tan, zr=zr, bend=bend, L=L):
+            w = (zr - Z) / tan + bend * (2.0 * U / L) ** 2
+            xy = anchor + U[:, None] * s + w[:, None] * d
+            return np.column_stack([xy, Z])
+
+        zmid = top - 0.5 * (p["n_layers"] - 1) * thick
+        z_bot = top - (p["n_layers"] - 1) * thick
+        zl, zh = {"span": (z_lo, z_hi), "above": (top + 0.25 * thick, top + 1.25 * thick),
+                  "below": (z_bot - 1.25 * thick, z_bot - 0.25 * thick),
+                  "thin": (zmid - 0.125 * thick, zmid + 0.125 * thick)}[_opt(fp, "depth")]
+        kind_pts = fp["points"]
+        odd = _opt(fp, "odd_points")
+        if kind_pts == "sticks":
+            nu, nz = rng.integers(3, 9), rng.integers(3, 8)
+            U, Z = np.meshgrid(np.linspace(u0, u1, nu), np.linspace(zh, zl, nz))
+            U, Z = U.ravel(), Z.ravel()
+            sticks = np.searchsorted(np.unique(U), U)
+        elif kind_pts == "few":
+            n = rng.integers(3, 5)
+            U, Z = rng.uniform(u0, u1, n), rng.uniform(zl, zh, n)
+            sticks = None
+        elif kind_pts == "collinear":
+            t = np.linspace(0.0, 1.0, rng.integers(3, 12))
+            U, Z = u0 + t * (u1 - u0), zh + t * (zl - zh)
+            sticks = None
+        else:
+            n = rng.integers(15, 80)
+            U, Z = rng.uniform(u0, u1, n), rng.uniform(zl, zh, n)
+            sticks = None
+        P = fault_xyz(U, Z)
+        if fp["shape"] == "noisy":
+            P = P + rng.normal(0.0, 0.01 * (zh - zl), P.shape)
+        if kind_pts == "duplicated":
+            P = np.concatenate([P, P[: max(1, len(P) // 3)]])
+        if odd == "one_stick":
+            sticks = np.zeros(len(P), dtype=np.int64)
+        elif odd == "stick_per_point":
+            sticks = np.arange(len(P))
+        elif odd == "outside":
+            P = P + np.append(2.0 * max(W, H) * d, 0.0)
+        if sticks is not None and len(sticks) != len(P):
+            sticks = np.resize(sticks, len(P))
+        th = {"normal": 1.0, "reverse": -1.0, "zero": 0.0, "huge": 8.0}[fp["throw"]]
+        throws.append(th * thick * rng.uniform(0.3, 1.0))
+        geoms.append((anchor, d, tan, zr, s, L, _opt(fp, "profile")))
+        faults.append((f"F{i + 1}", P, sticks))
+
+    n_holes = {"sparse": rng.integers(3, 11), "medium": rng.integers(20, 41),
+               "dense": rng.integers(80, 151)}[p["holes"]]
+    xy = rng.uniform([0, 0], [W, H], size=(4 * n_holes + 20, 2))
+    xy = xy[points_in_polygon(xy, ring)]
+
+    def hanging_side(XY, Z, g):
+        anchor, d, tan, zr = g[:4]
+        # the fault's elevation under (x, y): above it is the hanging wall
+        w = (XY - anchor) @ d
+        if np.isinf(tan):
+            return w > 0
+        return Z > zr - w * tan
+
+    a0 = geoms[0]
+    wdist = (xy - a0[0]) @ a0[1]
+    if p["holes_where"] == "one_side":
+        xy = xy[wdist < 0]
+    elif p["holes_where"] == "gap":
+        xy = xy[np.abs(wdist) > 0.1 * min(W, H)]
+    xy = xy[:n_holes]
+    odd = _opt(p, "odd_holes")
+    if odd == "duplicated" and len(xy):
+        xy = np.concatenate([xy, xy[: max(1, len(xy) // 4)]])
+    elif odd == "on_fault":
+        # holes right on the first fault's trace at the layers' mid elevation
+        a, d = geoms[0][:2]
+        t = rng.uniform(-0.5, 0.5, 5) * min(W, H)
+        s0 = np.array([-d[1], d[0]])
+        xy = np.concatenate([xy, a + t[:, None] * s0])
+        xy = xy[points_in_polygon(xy, ring)]
+    elif odd == "on_ring":
+        xy = np.concatenate([xy, ring, 0.5 * (ring + np.roll(ring, 1, axis=0))])
+    ids, xs, lays, zs = [], [], [], []
+    for li, lay in enumerate(layers):
+        if _opt(p, "empty_layer") and li == len(layers) // 2:
+            continue
+        z0 = base(xy[:, 0], xy[:, 1], li)
+        # each copy (footwall: z0; hanging wall: z0 - throw) is kept where it
+        # lies on its own side of every fault (a repeat or a gap otherwise)
+        for sides in range(2 ** len(geoms)):
+            hang = [(sides >> j) & 1 for j in range(len(geoms))]
+            z = z0 - sum(t * _profile(g, xy) for t, g, h in zip(throws, geoms, hang) if h)
+            ok = np.ones(len(xy), dtype=bool)
+            for g, h in zip(geoms, hang):
+                ok &= hanging_side(xy, z, g) == bool(h)
+            for j in np.flatnonzero(ok):
+                ids.append(f"B{j + 1}")
+                xs.append(xy[j])
+                lays.append(lay)
+                zs.append(z[j])
+    xs = np.asarray(xs, dtype=float).reshape(-1, 2) + origin
+    zs = np.asarray(zs, dtype=float)
+    ring = ring + origin
+    r = p["rounding"]
+    if r:
+        xs, zs, ring = np.round(xs / r) * r, np.round(zs / r) * r, np.round(ring / r) * r
+    flts = []
+    for name, P, sticks in faults:
+        P = P + np.append(origin, 0.0)
+        if r:
+            P = np.round(P / r) * r
+        group = _opt(p, "group") if len(faults) > 1 else None
+        flts.append(Fault(name, points=P, sticks=sticks, group=group))
+    lays = np.asarray(lays, dtype=str)
+    ids = np.asarray(ids, dtype=str)
+    points = {}
+    if _opt(p, "layer_data") != "holes":
+        # the same tops as extra points of each layer (all of them, or every
+        # other hole's while the rest stay boreholes)
+        sel = np.ones(len(ids), dtype=bool)
+        if _opt(p, "layer_data") == "both":
+            sel = np.array([h[-1] in "13579" for h in ids], dtype=bool)
+        points = {lay: np.column_stack([xs[sel & (lays == lay)], zs[sel & (lays == lay)]])
+                  for lay in layers}
+        xs, zs, lays, ids = xs[~sel], zs[~sel], lays[~sel], ids[~sel]
+    bh = Boreholes(ids, xs, lays, zs)
+    return Dataset(name="fuzz", layers=layers, boundary=ring, boreholes=bh, points=points,
+                   faults=flts)
+
+
+def check_case(ds: Dataset) -> str:
+    """Derive and build ``ds``: "ok" (the model's check() passed) or
+    "error: ..." (a DatasetError / GeometryError naming a fault or a layer).
+    Anything else raises (the property fails)."""
+    names = [f.name for f in ds.faults] + list(ds.layers)
+    try:
+        d = derive.derive_faults(ds)
+        m = faultmesh.build_model(d, evaluate=False)
+    except (DatasetError, faultmesh.GeometryError) as e:
+        msg = str(e)
+        assert any(repr(n) in msg or f"'{n}'" in msg for n in names), \
+            f"{type(e).__name__} names no fault or layer: {msg}"
+        return f"error: {msg}"
+    m.check()
+    return "ok"
+
+
+def seeded_params(seed: int) -> Dict[str, Any]:
+    """The choices of case ``seed``: every pick from one numpy RNG (a case
+    found locally is rerun by its seed)."""
+    rng = np.random.default_rng([seed, 99])
+
+    def pick(name, options):
+        if isinstance(options, tuple):
+            return float(rng.uniform(*options))
+        return options[int(rng.integers(len(options)))]
+    return case_params(pick)
+
+
+# 40 cases, about 17 s. Locally its versions ran 2,139 cases (seeds 0-399,
+# 1000-1338, 2000-2399, 3000-3399, 4000-4299, 5000-5299; the last 300 with
+# this generator and the fixes: 162 built, 138 named errors, none other).
+@settings(max_examples=40, deadline=None, derandomize=True, database=None)
+@given(st.integers(0, 2 ** 31))
+def test_fuzz_derive_faults(seed):
+    """Property: derive + build on generated format-2 grounds (module doc)
+    either pass check() or raise a named DatasetError / GeometryError."""
+    check_case(make_case(seeded_params(seed)))
+
+
+# ---------------------------------------------------------------------------
+# Regressions found by the property
+# ---------------------------------------------------------------------------
+def _flat_ground(fault_points, sticks=None, n=5):
+    """Two flat layers (-100 m, -130 m, no offset anywhere) on an n x n grid
+    of vertical holes over 1 km x 1 km, and fault F1 given by points."""
+    g = (np.arange(n) + 0.5) * 1000.0 / n
+    X, Y = np.meshgrid(g, g)
+    xy = np.column_stack([X.ravel(), Y.ravel()])
+    m = len(xy)
+    bh = Boreholes(np.tile([f"B{i}" for i in range(m)], 2), np.vstack([xy, xy]),
+                   np.repeat(["A", "B"], m), np.repeat([-100.0, -130.0], m))
+    ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], dtype=float)
+    return Dataset(name="flat", layers=["A", "B"], boundary=ring, boreholes=bh,
+                   faults=[Fault("F1", points=fault_points, sticks=sticks)])
+
+
+def test_derived_dataset_of_a_fault_cutting_no_layer_builds():
+    """Regression (fuzz: 4 noisy points of a 5 degree fault over a 600 m x
+    500 m area, 3 layers 5 m thick, 8 holes, no layer cut at the fault):
+    derive_faults gives the fault one plane trace of 2 points (no layer cut,
+    warned); build_model of that derived dataset derived the fault again,
+    now from that trace alone, and raised "fault 'F1': 2 point(s); a fault
+    surface needs at least 3", although build_model of the original dataset
+    passed. A fault an earlier derive_faults derived is not derived again,
+    and its report is kept."""
+    p = {"utm": False, "rounding": None, "ring": "skewed", "size": (600.0, 500.0),
+         "n_layers": 3, "thickness": 5.0, "holes": "sparse", "holes_where": "all",
+         "n_faults": 1, "second": "crossing", "seed": 1413342137,
+         "faults": [{"dip": "gentle", "shape": "noisy", "points": "few", "length": "long",
+                     "ends_inside": False, "throw": "huge", "strike": 284.2575,
+                     "dip_t": 0.0466, "anchor": (0.5004, 0.6997)}]}
+    d = derive.derive_faults(make_case(p))
+    assert [len(t.plane) for t in d.faults[0].traces] == [2]
+    assert any("no layer is cut" in w for w in d.derivation.warnings)
+    m = faultmesh.build_model(d, evaluate=False)
+    m.check()
+    assert "no layer is cut" in " ".join(m.metadata["derived_faults"]["F1"]["warnings"])
+    assert derive.derive_faults(d).derivation.faults["F1"] is d.derivation.faults["F1"]
+
+
+def test_derived_fault_without_any_trace_is_left_out():
+    """Regression (fuzz: 3 fault points of a 10 degree fault whose triangle
+    lies mostly outside the study area, no throw in the data): the derived fault had no trace at
+    all, and build_model raised "fault 'F1' has no trace" (fault_ends). Like
+    a derived fault with plane traces only, it is left out of the model (the
+    derivation warned that no layer is cut)."""
+    P = np.array([[-549.0, 883.0, -391.0], [-299.0, -454.0, -428.0], [1201.0, -61.0, -140.0]])
+    ds = _flat_ground(P)
+    d = derive.derive_faults(ds)
+    assert not d.faults[0].traces
+    for data in (ds, d):
+        m = faultmesh.build_model(data, evaluate=False)
+        m.check()
+        assert not m.faults
+
+
+
+def test_derived_fault_with_equal_plane_traces_is_left_out():
+    """Regression (fuzz: a 13 degree fault given by 3-4 noisy points on one
+    stick, one layer, 3-10 holes all on the footwall side): no layer is cut,
+    and the fault's 9 plane traces of 3 points gave two equal centres, so
+    build_model raised a GeometryError naming nothing, "faults: zero-length
+    direction" (fault_ends, the strike between the first two traces). A
+    derived fault that cuts no layer has no patch and no surface in the
+    model, so build_model now leaves it out before taking its ends."""
+    p = {"utm": False, "rounding": None, "ring": "skewed", "size": (8000.0, 3000.0),
+         "n_layers": 1, "thickness": 30.0, "holes": "sparse", "holes_where": "one_side",
+         "n_faults": 1, "second": "crossing", "seed": 1219653818, "odd_holes": None,
+         "faults": [{"dip": "gentle", "shape": "noisy", "points": "few", "length": "long",
+                     "ends_inside": True, "throw": "huge", "strike": 359.490136238668,
+                     "dip_t": 0.610972055786287, "anchor": (0.7749434644804292, 0.41285301069865976),
+                     "odd_points": "one_stick"}]}
+    ds = make_case(p)
+    d = derive.derive_faults(ds)
+    assert d.faults[0].traces and not any(tr.layers for tr in d.faults[0].traces)
+    for data in (ds, d):
+        m = faultmesh.build_model(data, evaluate=False)
+        m.check()
+        assert not m.faults
+
+
+def test_steep_fault_carried_onto_the_boundary_builds():
+    """Regression (fuzz seed 2287 of generator v2, here with a fault of 87.5
+    degrees: 600 m x 500 m, 1 m rounding, one layer, holes away from the
+    fault and at the ring's corners and side midpoints, throw fading along
+    strike, fault points in a 30 m slice): derive (kind normal) made L1's
+    patch reach x = 0 with three outline vertices at one XY, (0, 375.42),
+    and the stitcher rejected it ("stitch: layer 'L1', patch 'F1': the
+    patch outline is not simple in XY: edges (11, 12) and (13, 14) meet":
+    (13, 14) has zero length; at 90 degrees the same with four vertices at
+    (600, 43.57); seed 4005, a vertical fault, on a slanted side). derive's
+    own check of the patch (_patch_problem -> faults._outline_crossings)
+    exempted every pair of outline edges whose four ends are on the
+    boundary; the stitcher (stitch_outline.cpp) only pairs of edges each
+    running along one side between two different positions. The check now
+    follows the stitcher, and derive drops L1 from the sections that made
+    the patch cross itself (2 warnings), so the model builds with F1."""
+    p = {"utm": False, "rounding": 1.0, "ring": "rect", "size": (600.0, 500.0), "n_layers": 1,
+         "thickness": 120.0, "holes": "medium", "holes_where": "gap", "n_faults": 1,
+         "second": "close", "seed": 566205726, "tiny": False, "layer_data": "holes",
+         "odd_holes": "on_ring", "empty_layer": False, "group": "G",
+         "faults": [{"dip": "steep", "shape": "plane", "points": "sticks", "length": "area",
+                     "ends_inside": False, "throw": "normal", "strike": 118.97643867452724,
+                     "dip_t": 0.5, "anchor": (0.2822838654385024, 0.5653426466236346),
+                     "axis_strike": False, "odd_points": None, "depth": "thin",
+                     "profile": "fading"}]}
+    d = derive.derive_faults(make_case(p))
+    m = faultmesh.build_model(d, evaluate=False)
+    m.check()
+    assert "F1" in m.faults and "L1" in m.metadata["faults"]["F1"]["layers"]
+
+# ---------------------------------------------------------------------------
+# Found by the property, open (a named error, but on input that should build)
+# ---------------------------------------------------------------------------
+@pytest.mark.xfail(strict=True, reason="C++ LayerTin: a data point at the midpoint of a slanted "
+                   "side and the densification point there differ by 1 ulp in arc length")
+def test_holes_at_midpoints_of_slanted_sides_build():
+    """Open (fuzz, no fault needed): holes exactly at the midpoints of two
+    sides of a skewed quadrilateral, e.g. (2775, 1375) on (3000, 250) ->
+    (2550, 2500): the builder raises "LayerTin('A'): cannot protect the
+    study-area boundary near (2775, 1375): a data point lies on the boundary
+    within rounding but was not snapped onto it". The point is exactly on
+    the side (the policy rightly leaves it); StudyArea.locate gives it arc
+    length 1147.2793905583765, the side's densification point L * j / k
+    (k even, which depends on the data count) 1147.2793905583767: both
+    placed at (2775, 1375), not merged (LayerTin prepare() merges equal arc
+    lengths only), so the protection cannot split the zero-length piece.
+    Needs a C++ fix (merge a densification point with a data point it
+    places onto)."""
+    ring = np.array([[450.0, 0.0], [3000.0, 250.0], [2550.0, 2500.0], [0.0, 2000.0]])
+    mids = 0.5 * (ring + np.roll(ring, 1, axis=0))
+    xy = np.vstack([np.random.default_rng(0).uniform([800, 600], [2200, 1800], (8, 2)), mids[[1, 2]]])
+    n = len(xy)
+    bh = Boreholes([f"B{i}" for i in range(n)], xy, ["A"] * n, -100.0 + 0.01 * xy[:, 0])
+    faultmesh.build_model(Dataset(name="mid", layers=["A"], boundary=ring, boreholes=bh),
+                          evaluate=False).check()
