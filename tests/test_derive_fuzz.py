@@ -12,7 +12,6 @@ from __future__ import annotations
 from typing import Any, Callable, Dict
 
 import numpy as np
-import pytest
 from hypothesis import given, settings, strategies as st
 
 import faultmesh
@@ -451,23 +450,21 @@ def test_steep_fault_carried_onto_the_boundary_builds():
     assert "F1" in m.faults and "L1" in m.metadata["faults"]["F1"]["layers"]
 
 # ---------------------------------------------------------------------------
-# Found by the property, open (a named error, but on input that should build)
+# Found by the property: a named error on input that should build (fixed)
 # ---------------------------------------------------------------------------
-@pytest.mark.xfail(strict=True, reason="C++ LayerTin: a data point at the midpoint of a slanted "
-                   "side and the densification point there differ by 1 ulp in arc length")
 def test_holes_at_midpoints_of_slanted_sides_build():
-    """Open (fuzz, no fault needed): holes exactly at the midpoints of two
-    sides of a skewed quadrilateral, e.g. (2775, 1375) on (3000, 250) ->
-    (2550, 2500): the builder raises "LayerTin('A'): cannot protect the
+    """Regression (fuzz, no fault needed): holes exactly at the midpoints of
+    two sides of a skewed quadrilateral, e.g. (2775, 1375) on (3000, 250) ->
+    (2550, 2500): the builder raised "LayerTin('A'): cannot protect the
     study-area boundary near (2775, 1375): a data point lies on the boundary
     within rounding but was not snapped onto it". The point is exactly on
     the side (the policy rightly leaves it); StudyArea.locate gives it arc
     length 1147.2793905583765, the side's densification point L * j / k
-    (k even, which depends on the data count) 1147.2793905583767: both
-    placed at (2775, 1375), not merged (LayerTin prepare() merges equal arc
-    lengths only), so the protection cannot split the zero-length piece.
-    Needs a C++ fix (merge a densification point with a data point it
-    places onto)."""
+    (k even, which depends on the data count) 1147.2793905583767: both were
+    placed at (2775, 1375), the LayerTin kept both (it merged equal arc
+    lengths only), and the protection could not split the zero-length
+    piece. LayerTin now lets a datum replace a densification point within
+    its shortest piece (ctest LayerTin.DataAtTheMidpointsOfSlantedSides...)."""
     ring = np.array([[450.0, 0.0], [3000.0, 250.0], [2550.0, 2500.0], [0.0, 2000.0]])
     mids = 0.5 * (ring + np.roll(ring, 1, axis=0))
     xy = np.vstack([np.random.default_rng(0).uniform([800, 600], [2200, 1800], (8, 2)), mids[[1, 2]]])

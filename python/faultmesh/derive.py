@@ -2171,13 +2171,18 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # other. A throw of the other sense than the kind puts the wrong one
     # there (a layer the fault dies out under, whose sides bend: Claudius
     # with every pick within 500 m of the fault withheld, val_250 above the
-    # fault's points, -10 to -26 m on a normal fault, was cut and set to
-    # zero throw): such sections are not cut, and the layer not at all
-    # unless those of the fault's sense still make half of the regular ones.
+    # fault's points, -10 to -26 m on a normal fault on every section, was
+    # cut and set to zero throw). A layer cut by the window alone stays cut
+    # only if at least half of its cut regular sections show the fault's
+    # sense; its other sections go to the rule of the other sense below
+    # (dropping them too left a nearly vertical fault's one layer under half
+    # of the regular sections and the fault out of the model: fuzz case of
+    # tests/test_derive_fuzz.py, test_steep_fault_carried_onto_the_boundary_builds).
     if kind is not None:
         for lay in cut_by_partner:
-            sense = cut[lay] & (sgn * throw[lay] >= opt.min_throw)
-            cut[lay] = sense if sense[regular].sum() >= 0.5 * len(regular) else np.zeros_like(sense)
+            shown = cut[lay] & (sgn * throw[lay] >= opt.min_throw)
+            if shown[regular].sum() < 0.5 * cut[lay][regular].sum():
+                cut[lay][:] = False
 
     def use_shifted(lay, i, side, dz, why, fade=None):
         """Replace the ``side`` cutoff of layer ``lay`` on line ``i`` by the
