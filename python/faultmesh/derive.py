@@ -2317,16 +2317,19 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     if kind is not None and not len(fault.tips):
         spacing_u = length / n_sec
         for lay, r in res.items():
+            # The layer's derived sections along strike and, per section,
+            # the distance from its nearer cutoff to that side's data: the
+            # same for both ends, taken once.
+            along = sorted((i for i in good if cut[lay][i] and lines[i]["given"] is None
+                            and not lines[i].get("end")), key=lambda i: lines[i]["u"])
+            supported = [min(_sides_of(r, i)[nm].nearest(cutpts[lay][i][k][None, :2])[0]
+                             for k, nm in enumerate(("foot", "hanging"))) <= TAPER_SUPPORT * spacing_u
+                         for i in along]
             for e in (0, 1):
                 if fs.ends[e] == "boundary":
                     continue
-                seq = sorted((i for i in good if cut[lay][i] and lines[i]["given"] is None
-                              and not lines[i].get("end")), key=lambda i: lines[i]["u"])
-                if e == 1:
-                    seq = seq[::-1]
-                data_gap = [min(_sides_of(r, i)[nm].nearest(cutpts[lay][i][k][None, :2])[0]
-                                for k, nm in enumerate(("foot", "hanging"))) for i in seq]
-                held = [k for k, dn in enumerate(data_gap) if dn <= TAPER_SUPPORT * spacing_u]
+                seq = along if e == 0 else along[::-1]
+                held = [k for k, ok in enumerate(supported if e == 0 else supported[::-1]) if ok]
                 if not held or held[0] == 0:
                     continue
                 anchor = seq[held[0]]
