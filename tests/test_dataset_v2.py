@@ -638,6 +638,25 @@ def test_points_only_dataset_builds_and_checks(tmp_path):
         np.testing.assert_array_equal(m.surfaces[lay].vertices, ref.surfaces[lay].vertices)
 
 
+def test_a_dataset_made_in_memory_needs_no_boreholes():
+    """Format v2 makes ``boreholes`` optional, so does the numpy API: a
+    Dataset made in memory with points only (boreholes left out or None)
+    builds the model of the same data given as borehole rows. Before, a
+    Dataset without boreholes failed in derive_faults with "AttributeError:
+    'NoneType' object has no attribute 'layer'"."""
+    ds = synthetic(0, n_boreholes=30)
+    pts = Dataset(name="pts", layers=ds.layers, boundary=ds.boundary,
+                  points={lay: ds.layer_points(lay) for lay in ds.layers}, faults=ds.faults)
+    assert len(pts.boreholes) == 0
+    m = fm.build_model(pts, evaluate=False)
+    m.check()
+    ref = fm.build_model(ds, evaluate=False)
+    for lay in ds.layers:
+        np.testing.assert_array_equal(m.surfaces[lay].vertices, ref.surfaces[lay].vertices)
+    with pytest.raises(DatasetError, match="boreholes must be a Boreholes table or None, got dict"):
+        Dataset(name="bad", layers=ds.layers, boundary=ds.boundary, boreholes={"collars": "c.csv"})
+
+
 # ---------------------------------------------------------------------------
 # Fuzz: mutated v2 JSON loads or raises a DatasetError naming where
 # ---------------------------------------------------------------------------

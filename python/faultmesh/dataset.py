@@ -284,6 +284,12 @@ class Boreholes:
             if len(self.rows) != n:
                 self.rows = None  # numbering no longer matches: fall back to row indices
 
+    @classmethod
+    def empty(cls, source: Optional[str] = None, desurveyed: bool = False) -> "Boreholes":
+        """No rows (the layer data come from ``points`` alone)."""
+        return cls(np.zeros(0, dtype=str), np.zeros((0, 2)), np.zeros(0, dtype=str), np.zeros(0),
+                   source, None if source is None else np.zeros(0, dtype=np.int64), desurveyed)
+
     @property
     def codes(self):
         """(layer names, layer code per row, hole code per row, hole names):
@@ -416,12 +422,13 @@ class Boreholes:
 @dataclass(eq=False)
 class Dataset:
     """A dataset in memory (formats v1 and v2, docs/dataset.md). ``boreholes``
-    may have no rows when ``points`` carry the layer data."""
+    may have no rows, or be None (taken as no rows), when ``points`` carry the
+    layer data."""
 
     name: str
     layers: List[str]
     boundary: np.ndarray
-    boreholes: Boreholes
+    boreholes: Optional[Boreholes] = None
     points: Dict[str, np.ndarray] = field(default_factory=dict)
     sections: Dict[str, Section] = field(default_factory=dict)
     faults: List[Fault] = field(default_factory=list)
@@ -451,6 +458,11 @@ class Dataset:
     drillholes: Optional[Any] = None
 
     def __post_init__(self) -> None:
+        if self.boreholes is None:
+            self.boreholes = Boreholes.empty()
+        elif not isinstance(self.boreholes, Boreholes):
+            raise DatasetError(f"Dataset {self.name!r}: boreholes must be a Boreholes table or None, "
+                               f"got {type(self.boreholes).__name__}")
         self.layers = [str(v) for v in self.layers]
         self.boundary = np.asarray(self.boundary, dtype=np.float64).reshape(-1, 2)
         self.points = {str(k): np.asarray(v, dtype=np.float64).reshape(-1, 3)
@@ -1896,8 +1908,7 @@ def _load_boreholes(file: Path, name: str, layers: List[str], ctx: _Ctx) -> Bore
     if not body:
         # Allowed: data may come from `points` alone (seismic picks, DEMs);
         # the boundary must then be given (checked by the caller).
-        return Boreholes(np.zeros(0, dtype=str), np.zeros((0, 2)), np.zeros(0, dtype=str),
-                         np.zeros(0), name, np.zeros(0, dtype=np.int64))
+        return Boreholes.empty(name)
     for r, ln in zip(body, bl):
         if len(r) != len(header):
             raise DatasetError(f"{file}, row {ln}: expected {len(header)} fields, got {len(r)}")
@@ -2108,8 +2119,7 @@ def load_dataset(path, *, snap: Optional[float] = None,
     else:
         bspec = doc.get("boreholes")
     if bspec is None and version == 2:
-        boreholes = Boreholes(np.zeros(0, dtype=str), np.zeros((0, 2)), np.zeros(0, dtype=str),
-                              np.zeros(0))
+        boreholes = Boreholes.empty()
     elif isinstance(bspec, dict):
         boreholes, drillholes = _load_drillhole_tables(bspec, layers, ctx)
     else:

@@ -709,8 +709,7 @@ class Drillholes:
                 " (list units that are not layers, such as 'unknown', in other_units)"
             raise DatasetError(f"{_where(it.file, it.lines[k], 'unit')}: unknown unit "
                                f"{_r(it.unit[k])}; layers are {layers}{extra}")
-        empty = Boreholes(np.zeros(0, dtype=str), np.zeros((0, 2)), np.zeros(0, dtype=str),
-                          np.zeros(0), str(it.file), np.zeros(0, dtype=np.int64), True)
+        empty = Boreholes.empty(str(it.file), desurveyed=True)
         if not len(it):
             return empty
         r = np.array([rank[u] for u in it.unit], dtype=np.int64)
