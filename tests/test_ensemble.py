@@ -103,6 +103,11 @@ class _Cluster:
             fh.close()
 
 
+# The tests on the cluster run in one pytest-xdist process (scripts/test.sh:
+# --dist loadgroup), so one cluster serves them all, as in a serial run.
+ON_THE_CLUSTER = pytest.mark.xdist_group("dask_cluster")
+
+
 @pytest.fixture(scope="module")
 def cluster(tmp_path_factory):
     c = _Cluster(tmp_path_factory.mktemp("dask"))
@@ -140,6 +145,7 @@ def _all_equal(a, b) -> None:
 # ---------------------------------------------------------------------------
 # On the real cluster
 # ---------------------------------------------------------------------------
+@ON_THE_CLUSTER
 def test_two_workers_and_one_give_bit_identical_statistics(cluster, paper):
     """The same seed gives the same statistics, bit for bit, on two workers
     (arrivals in any order), on a local cluster of one worker process and in
@@ -156,6 +162,7 @@ def test_two_workers_and_one_give_bit_identical_statistics(cluster, paper):
     assert np.nanmax(two.grid("std")) > 0      # the realizations differ
 
 
+@ON_THE_CLUSTER
 def test_failed_realizations_are_counted_with_seed_and_error(cluster, paper):
     """Faults shifted by 400 m (sigma) often leave the study area (or come so
     close to its boundary that the stitching fails): those realizations fail
@@ -182,6 +189,7 @@ def test_failed_realizations_are_counted_with_seed_and_error(cluster, paper):
     assert np.all(cnt[:, inside] == res.succeeded)
 
 
+@ON_THE_CLUSTER
 def test_a_killed_worker_loses_no_realization(cluster, paper):
     """A third worker is killed (SIGKILL) while it works: Dask runs its tasks
     again elsewhere and every realization is reduced."""
@@ -204,6 +212,7 @@ def test_a_killed_worker_loses_no_realization(cluster, paper):
     _all_equal(res, ref)
 
 
+@ON_THE_CLUSTER
 def test_a_slow_first_realization_holds_back_at_most_a_window_of_results(cluster):
     """Regression: results arriving before an earlier, slow one wait for it;
     new tasks used to be submitted on every arrival, so all of them could
@@ -219,6 +228,7 @@ def test_a_slow_first_realization_holds_back_at_most_a_window_of_results(cluster
     assert 2 <= most <= 4
 
 
+@ON_THE_CLUSTER
 def test_cli_end_to_end_on_the_builtin_dataset(cluster, tmp_path, capsys):
     from faultmesh.cli import main
 
