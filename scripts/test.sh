@@ -46,5 +46,9 @@ UBSAN_OPTIONS=print_stacktrace=1 \
   ctest --test-dir build/asan --output-on-failure -j2 --no-tests=error
 
 echo "== Python tests (pytest)"
-# Run from tests/ against the installed package (not the source tree).
-python3 -m pytest -p no:cacheprovider -q "$here/tests" "$@"
+# Run from tests/ against the installed package (not the source tree), in two
+# processes (pytest-xdist, one per core of the CI machine); --dist loadgroup
+# shares the tests out between them as they finish, except that those with
+# the same xdist_group mark (the Dask cluster's in test_ensemble.py) run in
+# one process, on one cluster.
+python3 -m pytest -p no:cacheprovider -q -n 2 --dist loadgroup "$here/tests" "$@"

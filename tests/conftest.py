@@ -1,6 +1,7 @@
 """Shared test fixtures: paths to test data and the CGAL reference programs."""
 from __future__ import annotations
 
+import fcntl
 import os
 import shutil
 import subprocess
@@ -31,14 +32,20 @@ def cgal_bin():
     libcgal-dev): a missing CGAL fails here rather than skipping the checks.
     """
     build = Path(os.environ.get("FAULTMESH_CGAL_BUILD", ROOT / "build" / "cgal"))
-    # Keep the generator of an existing build folder; choose Ninja for a new one.
-    fresh = not (build / "CMakeCache.txt").is_file()
-    gen = ["-G", "Ninja"] if fresh and shutil.which("ninja") else []
-    for cmd in (["cmake", "-S", str(ROOT / "bench" / "cgal"), "-B", str(build),
-                 "-DCMAKE_BUILD_TYPE=Release", *gen],
-                ["cmake", "--build", str(build), "-j2"]):
-        r = subprocess.run(cmd, capture_output=True, text=True)
-        assert r.returncode == 0, f"building the CGAL reference programs failed:\n{r.stdout}\n{r.stderr}"
+    build.mkdir(parents=True, exist_ok=True)
+    # Under pytest-xdist (scripts/test.sh: -n 2) each worker process runs this
+    # session fixture: the first one builds (about 45 s on two cores), the
+    # other waits on this lock and then finds the build up to date.
+    with open(build.parent / f"{build.name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        # Keep the generator of an existing build folder; choose Ninja for a new one.
+        fresh = not (build / "CMakeCache.txt").is_file()
+        gen = ["-G", "Ninja"] if fresh and shutil.which("ninja") else []
+        for cmd in (["cmake", "-S", str(ROOT / "bench" / "cgal"), "-B", str(build),
+                     "-DCMAKE_BUILD_TYPE=Release", *gen],
+                    ["cmake", "--build", str(build), "-j2"]):
+            r = subprocess.run(cmd, capture_output=True, text=True)
+            assert r.returncode == 0, f"building the CGAL reference programs failed:\n{r.stdout}\n{r.stderr}"
 
     def lookup(name: str) -> Path:
         exe = build / name

@@ -2185,7 +2185,7 @@ def _derive_symptom(out: Dict[str, Any]) -> str:
 
 
 def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, section_picks: bool = True,
-                       **overrides) -> Dict[str, Any]:
+                       built: Optional[Dict[str, Any]] = None, **overrides) -> Dict[str, Any]:
     """Ground ``seed`` as v1 (true cutoffs) and as v2 without cutoffs
     (:func:`write_v2`, with or without ``section_picks``), each loaded,
     built and checked; never raises for a failure of faultmesh (it is
@@ -2201,7 +2201,10 @@ def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, se
     cutoff_mean / cutoff_max (over the finite distances), cutoff_nan (count),
     uncut (true (fault, layer) pairs that no derived section cuts), error_v1,
     error_v2 (:func:`near_fault_errors`), ratio, warnings (derive's),
-    seconds."""
+    seconds. ``built``, a dict, receives the objects as far as they were
+    made: geo (the true geology), ds1 and ds2 (the datasets loaded), derived
+    (ds2 with its derived faults), m1 and m2 (the models), for a caller (the
+    tests) that looks further into them."""
     from ._core import GeometryError  # noqa: F401  (check() raises it)
     from .build import build_model
     from .dataset import load_dataset
@@ -2230,6 +2233,8 @@ def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, se
                 ds1 = load_dataset(path1)
             except Exception as e:
                 return fail("load:v1", e)
+            kept = built if built is not None else {}
+            kept["geo"], kept["ds1"] = geo, ds1
             try:
                 path2 = write_v2(ds1, geo, spec, folder / "v2", section_picks=section_picks)
                 out["v2"] = json.loads((folder / "v2" / "v2.json").read_text())
@@ -2240,11 +2245,13 @@ def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, se
                 ds2 = load_dataset(path2)
             except Exception as e:
                 return fail("load:v2", e)
+            kept["ds2"] = ds2
             t0 = time.perf_counter()
             try:
                 m1 = build_model(ds1, evaluate=False)
             except Exception as e:
                 return fail("build:v1", e)
+            kept["m1"] = m1
             try:
                 m1.check()
             except Exception as e:
@@ -2255,6 +2262,7 @@ def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, se
                 d2 = derive_faults(ds2)
             except Exception as e:
                 return fail("derive", e)
+            kept["derived"] = d2
             out["seconds"]["derive"] = time.perf_counter() - t0
             rep = d2.derivation
             out["warnings"] = [str(w)[:300] for w in rep.warnings]
@@ -2289,6 +2297,7 @@ def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, se
                 m2 = build_model(d2, evaluate=False, progress=progress)
             except Exception as e:
                 return fail(f"build:v2:{step['name']}", e)
+            kept["m2"] = m2
             try:
                 m2.check()
             except Exception as e:
