@@ -449,6 +449,34 @@ def test_steep_fault_carried_onto_the_boundary_builds():
     m.check()
     assert "F1" in m.faults and "L1" in m.metadata["faults"]["F1"]["layers"]
 
+def test_fault_crossing_the_area_at_one_cut_gets_sections_a_cut_step_apart():
+    """Regression (fuzz seed 21032 with every throw "huge": F2 given by 9
+    points on a line 7 km long, 0.3 m of noise off it, in a 30 m slice):
+    its fitted surface is a sliver whose extent crosses the study area at
+    one of _section_grid's 128 cuts along strike, so the crossing had
+    length 0 (floored at 1e-9 of u), the section spacing an eighth of that
+    (6e-8 m), and _joint_setup's throw knots every half spacing over the
+    fit's frame asked for 1.1e11 values: MemoryError (812 GiB) out of
+    derive_faults. A crossing shorter than one cut step now spans that
+    step around its cuts (spacing 6.8 m); the fault cuts no layer there
+    (warned) and the model builds without it."""
+    p = {"utm": False, "rounding": 0.01, "ring": "skewed", "size": (3000.0, 2500.0), "n_layers": 2,
+         "thickness": 120.0, "holes": "sparse", "holes_where": "all", "n_faults": 2,
+         "second": "crossing", "seed": 377938614, "tiny": False, "layer_data": "holes",
+         "odd_holes": "on_ring", "empty_layer": False, "group": None,
+         "faults": [{"dip": "steep", "shape": "noisy", "points": "duplicated", "length": "short",
+                     "ends_inside": True, "throw": "huge", "strike": 99.79835810569857,
+                     "dip_t": 0.4863853884707513, "anchor": (0.6378751249320556, 0.5640206018540508),
+                     "axis_strike": False, "odd_points": None, "depth": "thin", "profile": "fading"},
+                    {"dip": "steep", "shape": "noisy", "points": "collinear", "length": "long",
+                     "ends_inside": True, "throw": "huge", "strike": 304.15165131976715,
+                     "dip_t": 0.19507504678011678, "anchor": (0.5743373589354267, 0.7266132653277215),
+                     "axis_strike": False, "odd_points": None, "depth": "thin", "profile": "const"}]}
+    d = derive.derive_faults(make_case(p))
+    assert any("'F2': no layer is cut" in w for w in d.derivation.warnings)
+    faultmesh.build_model(d, evaluate=False).check()
+
+
 # ---------------------------------------------------------------------------
 # Found by the property: a named error on input that should build (fixed)
 # ---------------------------------------------------------------------------
