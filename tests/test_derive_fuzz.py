@@ -477,6 +477,38 @@ def test_fault_crossing_the_area_at_one_cut_gets_sections_a_cut_step_apart():
     faultmesh.build_model(d, evaluate=False).check()
 
 
+def test_crossing_layers_name_where_and_the_faults_that_cut_nothing():
+    """Found by the property (fuzz seed 20826 with every throw "huge": 4
+    layers 120 m apart, a 3 degree fault given in a 30 m slice and a
+    vertical one given 30-150 m above the layers, throws of 370-960 m): an
+    unbuildable input -- neither fault's points reach the layers, derive
+    warns that each cuts no layer and the builder leaves both out, so the
+    continuous layers carry the whole offset and cross. The error named
+    only the layers and asked whether their order was right
+    ("repair_crossings('L3', 'L4'): ... 'L4' lies above 'L3' over a large
+    area; is the layer order right?"), where L3 and L4 did not even cross
+    before the repair (L1/L2 did, by 356 m). It now says where each pair
+    from the top crosses before the repair, and that F1 and F2 cut no layer
+    and are left out of the model."""
+    p = {"utm": True, "rounding": 0.01, "ring": "rect", "size": (8000.0, 3000.0), "n_layers": 4,
+         "thickness": 120.0, "holes": "dense", "holes_where": "gap", "n_faults": 2, "second": "close",
+         "seed": 1841981165, "tiny": False, "layer_data": "both", "odd_holes": None,
+         "empty_layer": False, "group": None,
+         "faults": [{"dip": "steep", "shape": "curved", "points": "duplicated", "length": "long",
+                     "ends_inside": False, "throw": "huge", "strike": 201.068569695313,
+                     "dip_t": 0.4884599518033078, "anchor": (0.3560846993655812, 0.6108481032891144),
+                     "axis_strike": False, "odd_points": "flat", "depth": "thin", "profile": "const"},
+                    {"dip": "steep", "shape": "curved", "points": "collinear", "length": "short",
+                     "ends_inside": True, "throw": "huge", "strike": 109.031254598627,
+                     "dip_t": 0.346959065768478, "anchor": (0.5352610052850173, 0.5379839722625801),
+                     "axis_strike": False, "odd_points": "vertical", "depth": "above",
+                     "profile": "const"}]}
+    msg = check_case(make_case(p))
+    assert msg.startswith("error: repair_crossings('L3', 'L4')"), msg
+    assert "before the repair 'L2' lies up to 356.3 m above 'L1', most at (516476.7, 7013831.3)" in msg
+    assert "fault(s) 'F1', 'F2' cut no layer" in msg
+
+
 # ---------------------------------------------------------------------------
 # Found by the property: a named error on input that should build (fixed)
 # ---------------------------------------------------------------------------
