@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Any, Callable, Dict
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 import faultmesh
@@ -329,6 +330,9 @@ def seeded_params(seed: int) -> Dict[str, Any]:
 # 40 cases, about 17 s. Locally its versions ran 2,139 cases (seeds 0-399,
 # 1000-1338, 2000-2399, 3000-3399, 4000-4299, 5000-5299; the last 300 with
 # this generator and the fixes: 162 built, 138 named errors, none other).
+# Then 2,441 more: seeds 20000-21499 with every throw "huge" (866 built;
+# one MemoryError, fixed; 3 open, the vertical fault on the boundary below)
+# and 30000-30940 as drawn (562 built; 1 of those open).
 @settings(max_examples=40, deadline=None, derandomize=True, database=None)
 @given(st.integers(0, 2 ** 31))
 def test_fuzz_derive_faults(seed):
@@ -532,3 +536,36 @@ def test_holes_at_midpoints_of_slanted_sides_build():
     bh = Boreholes([f"B{i}" for i in range(n)], xy, ["A"] * n, -100.0 + 0.01 * xy[:, 0])
     faultmesh.build_model(Dataset(name="mid", layers=["A"], boundary=ring, boreholes=bh),
                           evaluate=False).check()
+
+
+# ---------------------------------------------------------------------------
+# Found by the property: open (the stitcher, C++)
+# ---------------------------------------------------------------------------
+@pytest.mark.xfail(strict=True, raises=faultmesh.GeometryError,
+                   reason="stitcher: two patch-outline vertices at one XY on the study boundary")
+def test_vertical_fault_carried_onto_the_boundary_builds():
+    """Open (fuzz seed 20903 with every throw "huge"; also 20811, 21103 and,
+    with the generator's own throws, 30741: 4 of 2,441 cases, every one a
+    vertical fault, dip 90, whose patch is carried along strike onto the
+    study boundary). A vertical fault's footwall and hanging-wall cutoffs
+    lie at one XY; carried onto the boundary they become two outline
+    vertices at one point of it, (127.133, 0) here at z -261.02 and
+    -260.97 (throw 0.05 m), joined by an outline edge of length 0. derive's
+    patch check passes it (faults._outline_crossings: the outline edges on
+    either side run along the side between different positions), the
+    stitcher rejects it: "stitch: layer 'L1', patch 'F1': the gap polygon
+    touches itself at vertex (512472.8034, 7012345.89) (the fault patch is
+    too close to another patch or to the boundary)" -- at a layer vertex
+    (stitch_contours.cpp, build_gap_polygons' chaining). Moving the second
+    vertex 1 cm along the side (a test, not a fix) builds and passes
+    check() in all four cases. The input should build."""
+    p = {"utm": True, "rounding": None, "ring": "rect", "size": (600.0, 500.0), "n_layers": 3,
+         "thickness": 5.0, "holes": "medium", "holes_where": "all", "n_faults": 1,
+         "second": "crossing", "seed": 1948886327, "tiny": False, "layer_data": "both",
+         "odd_holes": "on_ring", "empty_layer": False, "group": None,
+         "faults": [{"dip": "gentle", "shape": "curved", "points": "sticks", "length": "area",
+                     "ends_inside": False, "throw": "huge", "strike": 181.19174945446585,
+                     "dip_t": 0.018239964067449543, "anchor": (0.2650415617755283, 0.43926457220709225),
+                     "axis_strike": True, "odd_points": "vertical", "depth": "span", "profile": "const"}]}
+    d = derive.derive_faults(make_case(p))
+    faultmesh.build_model(d, evaluate=False).check()
