@@ -12,7 +12,6 @@ from __future__ import annotations
 from typing import Any, Callable, Dict
 
 import numpy as np
-import pytest
 from hypothesis import given, settings, strategies as st
 
 import faultmesh
@@ -331,8 +330,8 @@ def seeded_params(seed: int) -> Dict[str, Any]:
 # 1000-1338, 2000-2399, 3000-3399, 4000-4299, 5000-5299; the last 300 with
 # this generator and the fixes: 162 built, 138 named errors, none other).
 # Then 2,441 more: seeds 20000-21499 with every throw "huge" (866 built;
-# one MemoryError, fixed; 3 open, the vertical fault on the boundary below)
-# and 30000-30940 as drawn (562 built; 1 of those open).
+# one MemoryError; 3 stitcher errors of a vertical fault on the boundary;
+# both fixed) and 30000-30940 as drawn (562 built; 1 of the stitcher's).
 @settings(max_examples=40, deadline=None, derandomize=True, database=None)
 @given(st.integers(0, 2 ** 31))
 def test_fuzz_derive_faults(seed):
@@ -539,15 +538,13 @@ def test_holes_at_midpoints_of_slanted_sides_build():
 
 
 # ---------------------------------------------------------------------------
-# Found by the property: open (the stitcher, C++)
+# Found by the property: the stitcher (C++)
 # ---------------------------------------------------------------------------
-@pytest.mark.xfail(strict=True, raises=faultmesh.GeometryError,
-                   reason="stitcher: two patch-outline vertices at one XY on the study boundary")
 def test_vertical_fault_carried_onto_the_boundary_builds():
-    """Open (fuzz seed 20903 with every throw "huge"; also 20811, 21103 and,
-    with the generator's own throws, 30741: 4 of 2,441 cases, every one a
-    vertical fault, dip 90, whose patch is carried along strike onto the
-    study boundary). A vertical fault's footwall and hanging-wall cutoffs
+    """Regression (fuzz seed 20903 with every throw "huge"; also 20811,
+    21103 and, with the generator's own throws, 30741: 4 of 2,441 cases,
+    every one a vertical fault, dip 90, whose patch is carried along strike
+    onto the study boundary). A vertical fault's footwall and hanging-wall cutoffs
     lie at one XY; carried onto the boundary they become two outline
     vertices at one point of it, (127.133, 0) here at z -261.02 and
     -260.97 (throw 0.05 m), joined by an outline edge of length 0. derive's
@@ -556,9 +553,14 @@ def test_vertical_fault_carried_onto_the_boundary_builds():
     stitcher rejects it: "stitch: layer 'L1', patch 'F1': the gap polygon
     touches itself at vertex (512472.8034, 7012345.89) (the fault patch is
     too close to another patch or to the boundary)" -- at a layer vertex
-    (stitch_contours.cpp, build_gap_polygons' chaining). Moving the second
-    vertex 1 cm along the side (a test, not a fix) builds and passes
-    check() in all four cases. The input should build."""
+    (stitch_contours.cpp, build_gap_polygons' chaining). The stitcher's
+    outline step (stitch_outline.cpp) classified that edge as inside the
+    area, since its ends have the same position on the side, and it went
+    into the gap polygon. An edge whose ends are one point of a side now
+    runs along that side (ctest
+    Stitch.VerticalFaultCarriedOntoTheStudyBoundaryStitches): all four
+    cases build and pass check() (moving the second vertex 1 cm along the
+    side had done the same)."""
     p = {"utm": True, "rounding": None, "ring": "rect", "size": (600.0, 500.0), "n_layers": 3,
          "thickness": 5.0, "holes": "medium", "holes_where": "all", "n_faults": 1,
          "second": "crossing", "seed": 1948886327, "tiny": False, "layer_data": "both",
