@@ -329,6 +329,9 @@ def seeded_params(seed: int) -> Dict[str, Any]:
 # 40 cases, about 17 s. Locally its versions ran 2,139 cases (seeds 0-399,
 # 1000-1338, 2000-2399, 3000-3399, 4000-4299, 5000-5299; the last 300 with
 # this generator and the fixes: 162 built, 138 named errors, none other).
+# Then 2,441 more: seeds 20000-21499 with every throw "huge" (866 built;
+# one MemoryError; 3 stitcher errors of a vertical fault on the boundary;
+# both fixed) and 30000-30940 as drawn (562 built; 1 of the stitcher's).
 @settings(max_examples=40, deadline=None, derandomize=True, database=None)
 @given(st.integers(0, 2 ** 31))
 def test_fuzz_derive_faults(seed):
@@ -449,6 +452,66 @@ def test_steep_fault_carried_onto_the_boundary_builds():
     m.check()
     assert "F1" in m.faults and "L1" in m.metadata["faults"]["F1"]["layers"]
 
+def test_fault_crossing_the_area_at_one_cut_gets_sections_a_cut_step_apart():
+    """Regression (fuzz seed 21032 with every throw "huge": F2 given by 9
+    points on a line 7 km long, 0.3 m of noise off it, in a 30 m slice):
+    its fitted surface is a sliver whose extent crosses the study area at
+    one of _section_grid's 128 cuts along strike, so the crossing had
+    length 0 (floored at 1e-9 of u), the section spacing an eighth of that
+    (6e-8 m), and _joint_setup's throw knots every half spacing over the
+    fit's frame asked for 1.1e11 values: MemoryError (812 GiB) out of
+    derive_faults. A crossing shorter than one cut step now spans that
+    step around its cuts (spacing 6.8 m); the fault cuts no layer there
+    (warned) and the model builds without it."""
+    p = {"utm": False, "rounding": 0.01, "ring": "skewed", "size": (3000.0, 2500.0), "n_layers": 2,
+         "thickness": 120.0, "holes": "sparse", "holes_where": "all", "n_faults": 2,
+         "second": "crossing", "seed": 377938614, "tiny": False, "layer_data": "holes",
+         "odd_holes": "on_ring", "empty_layer": False, "group": None,
+         "faults": [{"dip": "steep", "shape": "noisy", "points": "duplicated", "length": "short",
+                     "ends_inside": True, "throw": "huge", "strike": 99.79835810569857,
+                     "dip_t": 0.4863853884707513, "anchor": (0.6378751249320556, 0.5640206018540508),
+                     "axis_strike": False, "odd_points": None, "depth": "thin", "profile": "fading"},
+                    {"dip": "steep", "shape": "noisy", "points": "collinear", "length": "long",
+                     "ends_inside": True, "throw": "huge", "strike": 304.15165131976715,
+                     "dip_t": 0.19507504678011678, "anchor": (0.5743373589354267, 0.7266132653277215),
+                     "axis_strike": False, "odd_points": None, "depth": "thin", "profile": "const"}]}
+    d = derive.derive_faults(make_case(p))
+    assert any("'F2': no layer is cut" in w for w in d.derivation.warnings)
+    faultmesh.build_model(d, evaluate=False).check()
+
+
+def test_crossing_layers_name_where_and_the_faults_that_cut_nothing():
+    """Found by the property (fuzz seed 20826 with every throw "huge": 4
+    layers 120 m apart, a 3 degree fault given in a 30 m slice and a
+    vertical one given 30-150 m above the layers, throws of 370-960 m): an
+    unbuildable input -- neither fault's points reach the layers, derive
+    warns that each cuts no layer and the builder leaves both out, so the
+    continuous layers carry the whole offset and cross. The error named
+    only the layers and asked whether their order was right
+    ("repair_crossings('L3', 'L4'): ... 'L4' lies above 'L3' over a large
+    area; is the layer order right?"), where L3 and L4 did not even cross
+    before the repair (L1/L2 did, by 356 m). It now says where each pair
+    from the top crosses before the repair, and that F1 and F2 cut no layer
+    and are left out of the model."""
+    p = {"utm": True, "rounding": 0.01, "ring": "rect", "size": (8000.0, 3000.0), "n_layers": 4,
+         "thickness": 120.0, "holes": "dense", "holes_where": "gap", "n_faults": 2, "second": "close",
+         "seed": 1841981165, "tiny": False, "layer_data": "both", "odd_holes": None,
+         "empty_layer": False, "group": None,
+         "faults": [{"dip": "steep", "shape": "curved", "points": "duplicated", "length": "long",
+                     "ends_inside": False, "throw": "huge", "strike": 201.068569695313,
+                     "dip_t": 0.4884599518033078, "anchor": (0.3560846993655812, 0.6108481032891144),
+                     "axis_strike": False, "odd_points": "flat", "depth": "thin", "profile": "const"},
+                    {"dip": "steep", "shape": "curved", "points": "collinear", "length": "short",
+                     "ends_inside": True, "throw": "huge", "strike": 109.031254598627,
+                     "dip_t": 0.346959065768478, "anchor": (0.5352610052850173, 0.5379839722625801),
+                     "axis_strike": False, "odd_points": "vertical", "depth": "above",
+                     "profile": "const"}]}
+    msg = check_case(make_case(p))
+    assert msg.startswith("error: repair_crossings('L3', 'L4')"), msg
+    assert "before the repair 'L2' lies up to 356.3 m above 'L1', most at (516476.7, 7013831.3)" in msg
+    assert "fault(s) 'F1', 'F2' cut no layer" in msg
+
+
 # ---------------------------------------------------------------------------
 # Found by the property: a named error on input that should build (fixed)
 # ---------------------------------------------------------------------------
@@ -472,3 +535,43 @@ def test_holes_at_midpoints_of_slanted_sides_build():
     bh = Boreholes([f"B{i}" for i in range(n)], xy, ["A"] * n, -100.0 + 0.01 * xy[:, 0])
     faultmesh.build_model(Dataset(name="mid", layers=["A"], boundary=ring, boreholes=bh),
                           evaluate=False).check()
+
+
+# ---------------------------------------------------------------------------
+# Found by the property: the stitcher (C++)
+# ---------------------------------------------------------------------------
+def test_vertical_fault_carried_onto_the_boundary_builds():
+    """Regression (fuzz seed 20903 with every throw "huge"; also 20811,
+    21103 and, with the generator's own throws, 30741: 4 of 2,441 cases,
+    every one a vertical fault, dip 90, whose patch is carried along strike
+    onto the study boundary). A vertical fault's footwall and hanging-wall cutoffs
+    lie at one XY; carried onto the boundary they become two outline
+    vertices at one point of it, (127.133, 0) here at z -261.02 and
+    -260.97 (throw 0.05 m), joined by an outline edge of length 0. derive's
+    patch check passes it (faults._outline_crossings: the outline edges on
+    either side run along the side between different positions), the
+    stitcher rejects it: "stitch: layer 'L1', patch 'F1': the gap polygon
+    touches itself at vertex (512472.8034, 7012345.89) (the fault patch is
+    too close to another patch or to the boundary)" -- at a layer vertex
+    (stitch_contours.cpp, build_gap_polygons' chaining). The stitcher's
+    outline step (stitch_outline.cpp) classified that edge as inside the
+    area, since its ends have the same position on the side, and it went
+    into the gap polygon. An edge whose ends are one point of a side now
+    runs along that side (ctest
+    Stitch.VerticalFaultCarriedOntoTheStudyBoundaryStitches): all four
+    cases build and pass check() (moving the second vertex 1 cm along the
+    side had done the same). derive's check follows: it no longer drops
+    the layers of the end sections of such a patch (here 15 drops)."""
+    p = {"utm": True, "rounding": None, "ring": "rect", "size": (600.0, 500.0), "n_layers": 3,
+         "thickness": 5.0, "holes": "medium", "holes_where": "all", "n_faults": 1,
+         "second": "crossing", "seed": 1948886327, "tiny": False, "layer_data": "both",
+         "odd_holes": "on_ring", "empty_layer": False, "group": None,
+         "faults": [{"dip": "gentle", "shape": "curved", "points": "sticks", "length": "area",
+                     "ends_inside": False, "throw": "huge", "strike": 181.19174945446585,
+                     "dip_t": 0.018239964067449543, "anchor": (0.2650415617755283, 0.43926457220709225),
+                     "axis_strike": True, "odd_points": "vertical", "depth": "span", "profile": "const"}]}
+    d = derive.derive_faults(make_case(p))
+    # derive's patch check follows the stitcher (faults._along_one_side):
+    # it dropped the layers of 5 end sections, 15 warnings, before.
+    assert not any("made the patch cross itself" in w for w in d.derivation.warnings)
+    faultmesh.build_model(d, evaluate=False).check()

@@ -147,10 +147,19 @@ void outline_patch(const StitcherState& s, StitchJob& job) {
                 const std::int64_t a = loop[i], b = loop[(i + 1) % loop.size()];
                 OEdge e{a, b, false, 0, 0.0, 0.0};
                 auto ia = hits.find(a), ib = hits.find(b);
+                // An edge of length 0 in XY at a point of the study boundary
+                // (a vertical fault's footwall and hanging-wall cutoffs
+                // carried onto the boundary: two vertices at one XY, their
+                // elevations apart by the throw) runs along its side too, from
+                // that point to itself: classified as an edge inside the area,
+                // it went into the gap polygon as a gap edge there and the gap
+                // touched itself at the layer vertex of that point (fuzz
+                // test_vertical_fault_carried_onto_the_boundary_builds).
+                const bool point = P(a)[0] == P(b)[0] && P(a)[1] == P(b)[1];
                 if (ia != hits.end() && ib != hits.end())
                     for (const auto& ha : ia->second)
                         for (const auto& hb : ib->second)
-                            if (!e.study && ha.side == hb.side && ha.s != hb.s) {
+                            if (!e.study && ha.side == hb.side && (ha.s != hb.s || point)) {
                                 e.study = true;
                                 e.side = ha.side;
                                 e.sa = ha.s;

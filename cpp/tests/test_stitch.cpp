@@ -205,6 +205,30 @@ TEST(Stitch, PatchOnTheStudyBoundaryGivesAPolygonWithoutHole) {
     EXPECT_NEAR(twice_signed_area(m), 2.0 * 100.0 * 100.0, 1e-6);
 }
 
+// A vertical fault carried onto the study boundary: its footwall and
+// hanging-wall cutoffs are two vertices at one XY there, (100, 35), their
+// elevations 1 apart; the outline edge between them has length 0 in XY. It
+// runs along the side (from the point to itself): classified as inside the
+// area, it went into the gap polygon, which touched itself there (fuzz,
+// test_derive_fuzz.py::test_vertical_fault_carried_onto_the_boundary_builds).
+TEST(Stitch, VerticalFaultCarriedOntoTheStudyBoundaryStitches) {
+    Mesh L = grid_tin();
+    auto tr = [](double x) {
+        std::vector<double> p;
+        const double ys[] = {30, 35, 35, 45}, zs[] = {0, 0, -1, -1};
+        for (int i = 0; i < 4; ++i) p.insert(p.end(), {x, ys[i], zs[i]});
+        return p;
+    };
+    Mesh P = loft_patch({{75.0, 37.0, 0.0}, tr(85.0), tr(100.0)});
+    LayerStitcher st(L.v.data(), L.v.size() / 3, L.t.data(), L.t.size() / 3, kSquare.data(), 4);
+    auto rep = st.stitch(P.v.data(), P.v.size() / 3, P.t.data(), P.t.size() / 3, "F1");
+    ASSERT_EQ(rep.gaps.size(), 1u);
+    EXPECT_EQ(rep.gaps[0].n_holes, 0);
+    StitchedMesh m = st.mesh();
+    expect_disk(m);
+    EXPECT_NEAR(twice_signed_area(m), 2.0 * 100.0 * 100.0, 1e-6);
+}
+
 // A patch piece that touches the study boundary at one vertex only (an end
 // carried onto the boundary and then clipped: random_ground(704) as v2),
 // then a later patch whose removed region swallows that piece's gap: the

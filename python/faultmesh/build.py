@@ -231,6 +231,48 @@ def _zones_overlap(e: PatchOverlapError, members: Dict[str, List[str]]) -> Datas
                         f"if they cross (T or X), or check their traces -- {e}")
 
 
+def _crossing_hint(dataset, area: StudyArea, spacing: Optional[float], message: str,
+                   uncut: List[str]) -> str:
+    """What the error of a crossing repair that gave up (``message``,
+    "repair_crossings('upper', 'lower'): ...") adds for the geologist: where
+    the layers' continuous TINs through their data cross before the repair,
+    for each pair of layers from the top down to the failed one (the repair
+    runs top down and pushes each layer below the one over it, so a failure
+    at ('L3', 'L4') may start at ('L1', 'L2'): fuzz seed 20826, where L3 and
+    L4 did not cross before the repair): how far at most, where, over what
+    box; and the derived faults ``uncut`` that cut no layer within their
+    extent and are left out of the model -- an offset in the data with no
+    fault to take it (fuzz: throws of 8 layer thicknesses on faults whose
+    points stop short of the layers)."""
+    import re
+
+    found = re.search(r"repair_crossings\('([^']*)', '([^']*)'\)", message)
+    layers = list(dataset.layers)
+    hint = []
+    if found and found.group(2) in layers:
+        try:
+            tins, _ = stratum_tins(dataset, area, spacing, repair=False)
+        except GeometryError:
+            tins = {}
+        for upper, lower in zip(layers[:layers.index(found.group(2))], layers[1:] if tins else []):
+            V = np.asarray(tins[lower].vertices)
+            above = V[:, 2] - tins[upper].interpolate(V[:, :2])
+            cross = np.flatnonzero(above > 0.0)
+            if len(cross):
+                worst = cross[np.argmax(above[cross])]
+                lo, hi = V[cross, :2].min(axis=0), V[cross, :2].max(axis=0)
+                hint.append(f"before the repair {lower!r} lies up to {above[worst]:.1f} m above {upper!r}, "
+                            f"most at ({V[worst, 0]:.1f}, {V[worst, 1]:.1f}), at {len(cross)} of its "
+                            f"{len(V)} TIN vertices within x {lo[0]:.1f}..{hi[0]:.1f}, "
+                            f"y {lo[1]:.1f}..{hi[1]:.1f}")
+    if uncut:
+        names = ", ".join(repr(n) for n in uncut)
+        hint.append(f"derived fault(s) {names} cut no layer within their extent (the derivation warned) and "
+                    "are left out of the model: if the layers' offset there is such a fault's, give it points "
+                    "that reach the layers")
+    return "".join("; " + h for h in hint)
+
+
 def _clearance(clearance: Optional[float], tin: "LayerTin") -> float:
     if clearance is not None:
         if not clearance >= 0.0:
@@ -471,8 +513,8 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         # (fault_ends: "has no trace", or "zero-length direction" between
         # two equal plane traces of a fault of 3 points on one stick).
         derived = dataset.derivation.faults
-        dataset = replace(dataset, faults=[f for f in dataset.faults if f.name not in derived
-                                           or any(tr.layers for tr in f.traces)])
+        uncut = [f.name for f in dataset.faults if f.name in derived and not any(tr.layers for tr in f.traces)]
+        dataset = replace(dataset, faults=[f for f in dataset.faults if f.name not in uncut])
 
     # Steps 2 and 3: stratum TINs, layer-crossing repair.
     t0 = time.perf_counter()
@@ -486,8 +528,11 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         derivation = getattr(dataset, "derivation", None)
         if not (derivation is not None and derivation.faults and "repair_crossings(" in str(e)):
             raise
-        tins, tin_meta = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, prog, n_threads,
-                                      fill_holes=fill_holes, every_derived_patch=True)
+        try:
+            tins, tin_meta = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, prog, n_threads,
+                                          fill_holes=fill_holes, every_derived_patch=True)
+        except GeometryError as e2:
+            raise GeometryError(f"{e2}{_crossing_hint(dataset, area, spacing, str(e2), uncut)}") from None
         tin_meta["repair_retry"] = (f"{e}; built again with each layer's extra points under a derived "
                                     "fault's patch left out of its continuous TIN")
     meta.update(tin_meta)

@@ -1819,7 +1819,18 @@ def _section_grid(fault: Fault, fs: FaultSurface, ring: np.ndarray,
     if not usable:
         raise GeometryError(f"derive: fault {fault.name!r}: its extent does not cross the study area")
     u0, u1 = min(usable), max(usable)
-    length = max(u1 - u0, 1e-9 * max(1.0, abs(u0)))
+    # The crossing is known to the grid's step only: one crossing shorter
+    # than a step (a single usable cut; fuzz case 21032 of
+    # test_derive_fuzz, a fault of 9 points on a line, its extent a sliver
+    # that crosses the area at one cut) spans that step around its cuts,
+    # not a length of zero -- the section spacing, an eighth of it, was
+    # 6e-8 m and the throw's knots every half spacing (_joint_setup) asked
+    # for 1e11 values (MemoryError).
+    cut_step = grid[1] - grid[0]
+    if u1 - u0 < cut_step:
+        mid = 0.5 * (u0 + u1)
+        u0, u1 = mid - 0.5 * cut_step, mid + 0.5 * cut_step
+    length = u1 - u0
     spacing = opt.spacing if opt.spacing is not None else length / 8.0
     if not spacing > 0:
         raise ValueError(f"derive_faults: spacing must be > 0, got {spacing}")

@@ -2269,13 +2269,16 @@ def _triangles_near_region(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray]
 
 def _along_one_side(xy: np.ndarray, S: np.ndarray, area: StudyArea) -> np.ndarray:
     """Per edge S (e, 2) of points xy: True if it runs along one side of the
-    study area between two different positions on it (a corner is on the
-    side that starts and the side that ends there): the stitcher's boundary
-    edges (stitch_outline.cpp, OutlineEdge.study)."""
+    study area between two different positions on it, or from a point of it
+    to that point (two vertices at one XY: a vertical fault's cutoffs carried
+    onto the boundary; a corner is on the side that starts and the side that
+    ends there): the stitcher's boundary edges (stitch_outline.cpp,
+    OutlineEdge.study)."""
     side, s = (np.asarray(a) for a in area.locate(xy))
     prev = np.where((side >= 0) & (s == 0.0), (side - 1) % area.n_sides, -1)
     a, b = S[:, 0], S[:, 1]
-    return (((side[a] >= 0) & (side[a] == side[b]) & (s[a] != s[b]))
+    point = np.all(xy[a] == xy[b], axis=1)
+    return (((side[a] >= 0) & (side[a] == side[b]) & ((s[a] != s[b]) | point))
             | ((prev[a] >= 0) & (prev[a] == side[b])) | ((side[a] >= 0) & (side[a] == prev[b])))
 
 
@@ -2284,11 +2287,14 @@ def _outline_crossings(V: np.ndarray, T: np.ndarray, area: Optional[StudyArea] =
     the patch in XY (exactly; edges sharing a vertex do not count), except
     pairs of edges that each run along a side of the study area (a reverse
     fault that runs out of the area folds along it, which the stitcher
-    allows). As the stitcher, a zero-length edge at a point of the boundary
-    is not such an edge: pairs "wholly on the boundary" were exempt before,
-    and the patch of a nearly vertical fault carried onto the boundary, with
+    allows). Pairs "wholly on the boundary" were exempt before, and the
+    patch of a nearly vertical fault carried onto the boundary, with
     coincident outline vertices there, passed derive's check and failed the
-    stitcher (fuzz: 87.5 and 90 degree faults, test_derive_fuzz.py)."""
+    stitcher (fuzz: 87.5 and 90 degree faults, test_derive_fuzz.py). An edge
+    of length 0 at a point of a side runs along it (as in the stitcher since
+    test_vertical_fault_carried_onto_the_boundary_builds; before, neither
+    counted it, and derive dropped the layers of the end sections of such a
+    patch: fuzz seed 20903 15 drops, 21103 3)."""
     from .dataset import _segments_intersect
 
     c = boundary_contours(T, n_vertices=len(V))
