@@ -1904,8 +1904,13 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
     memo: Dict[str, Dict[Any, Any]] = {}
     first, _, rep = _derive_sections(ds, fault, opt, z_range, set(used_names), fs, [], partners,
                                      others, grid, np.sort(np.r_[us, halfway]), memo)
-    largest = {lay: float(np.nanmax(np.abs(d["throw"]))) if len(d["throw"]) else 0.0
-               for lay, d in rep.throw.items()}
+    # A layer cut on no section has only NaN throws: its largest is NaN (no
+    # deviation exceeds a share of it, so no halfway section is kept for it),
+    # taken without numpy's all-NaN warning.
+    largest = {lay: float(np.max(np.abs(t[np.isfinite(t)]))) if np.isfinite(t).any()
+               else (math.nan if len(t) else 0.0)
+               for lay, t in ((lay, np.asarray(d["throw"], dtype=np.float64))
+                              for lay, d in rep.throw.items())}
     keep = _halfway_sections_to_keep(first, fs, halfway, step, largest)
     return _derive_sections(ds, fault, opt, z_range, used_names, fs, warn, partners, others, grid,
                             np.sort(np.r_[us, keep]), memo)
