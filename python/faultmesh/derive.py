@@ -465,7 +465,16 @@ def _min_curvature(frame: GridFrame, xy: np.ndarray, z: np.ndarray, ell: float,
         D2 = sp.csr_matrix((v, (r, c)), shape=(m - 2, m)) * (lt ** 2 / math.sqrt(lu) / dk ** 1.5)
     else:
         D2 = sp.csr_matrix((0, m))
-    K = sp.bmat([[M, B.T @ H], [H.T @ B, H.T @ H + D2.T @ D2]]).tocsc()
+    TT = H.T @ H + D2.T @ D2
+    # A throw knot that no hanging-wall datum weighs is undetermined (the
+    # second differences leave a line of T free), and the system singular:
+    # with one such datum every value came out NaN
+    # (test_carried_ends_of_a_pair_and_a_reverse_fault_keep_apart). A ridge
+    # of 1e-10 of the largest diagonal entry pins the free part of T to
+    # the smallest throw and moves a determined knot by about 1e-10 of it.
+    ridge = 1e-10 * max(float(M.diagonal().max()), float(TT.diagonal().max()) if m else 0.0)
+    TT = TT + sp.identity(m, format="csr") * ridge
+    K = sp.bmat([[M, B.T @ H], [H.T @ B, TT]]).tocsc()
     rhs2 = np.r_[rhs, H.T @ ((z - z0) / math.sqrt(N))]
     x = np.asarray(spsolve(K, rhs2, permc_spec="MMD_ATA"), dtype=np.float64)
     if energy is not None:
