@@ -330,9 +330,10 @@ def seeded_params(seed: int) -> Dict[str, Any]:
 # 40 cases, about 17 s. Locally its versions ran 2,139 cases (seeds 0-399,
 # 1000-1338, 2000-2399, 3000-3399, 4000-4299, 5000-5299; the last 300 with
 # this generator and the fixes: 162 built, 138 named errors, none other).
-# Then 2,441 more: seeds 20000-21499 with every throw "huge" (866 built;
-# one MemoryError; 3 stitcher errors of a vertical fault on the boundary;
-# both fixed) and 30000-30940 as drawn (562 built; 1 of the stitcher's).
+# Then 2,441 more: seeds 20000-21499 with every throw "huge" (866 built
+# before the fixes; one MemoryError and 3 stitcher errors of a vertical
+# fault on the boundary, all 4 building since) and 30000-30940 as drawn
+# (562 built before; 1 of the stitcher's, building since).
 @settings(max_examples=40, deadline=None, derandomize=True, database=None)
 @given(st.integers(0, 2 ** 31))
 def test_fuzz_derive_faults(seed):
