@@ -470,8 +470,7 @@ def _min_curvature(frame: GridFrame, xy: np.ndarray, z: np.ndarray, ell: float,
         D2 = sp.csr_matrix((v, (r, c)), shape=(m - 2, m)) * (lt ** 2 / math.sqrt(lu) / dk ** 1.5)
     else:
         D2 = sp.csr_matrix((0, m))
-    TT = H.T @ H + D2.T @ D2
-    K = sp.bmat([[M, B.T @ H], [H.T @ B, TT]]).tocsc()
+    K = sp.bmat([[M, B.T @ H], [H.T @ B, H.T @ H + D2.T @ D2]]).tocsc()
     rhs2 = np.r_[rhs, H.T @ ((z - z0) / math.sqrt(N))]
     # Throw knots that too few hanging-wall data weigh leave T undetermined
     # (the second differences leave a line free) and the system singular:
