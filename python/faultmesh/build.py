@@ -254,7 +254,8 @@ def _crossing_hint(dataset, area: StudyArea, spacing: Optional[float], message: 
             tins, _ = stratum_tins(dataset, area, spacing, repair=False)
         except GeometryError:
             tins = {}
-        for upper, lower in zip(layers[:layers.index(found.group(2))], layers[1:] if tins else []):
+        failed = layers.index(found.group(2)) if tins else 0
+        for upper, lower in zip(layers[:failed], layers[1:failed + 1]):
             V = np.asarray(tins[lower].vertices)
             above = V[:, 2] - tins[upper].interpolate(V[:, :2])
             cross = np.flatnonzero(above > 0.0)

@@ -1938,10 +1938,11 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
     # A layer cut on no section has only NaN throws: its largest is NaN (no
     # deviation exceeds a share of it, so no halfway section is kept for it),
     # taken without numpy's all-NaN warning.
-    largest = {lay: float(np.max(np.abs(t[np.isfinite(t)]))) if np.isfinite(t).any()
-               else (math.nan if len(t) else 0.0)
-               for lay, t in ((lay, np.asarray(d["throw"], dtype=np.float64))
-                              for lay, d in rep.throw.items())}
+    largest: Dict[str, float] = {}
+    for lay, d in rep.throw.items():
+        t = np.abs(np.asarray(d["throw"], dtype=np.float64))
+        t = t[np.isfinite(t)]
+        largest[lay] = float(t.max()) if len(t) else (math.nan if len(d["throw"]) else 0.0)
     keep = _halfway_sections_to_keep(first, fs, halfway, step, largest)
     return _derive_sections(ds, fault, opt, z_range, used_names, fs, warn, partners, others, grid,
                             np.sort(np.r_[us, keep]), memo)
