@@ -27,6 +27,13 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
 2. **Side split** (:func:`split_by_side`): the C++ :func:`faultmesh.fault_side`
    (exact) labels every layer datum hanging wall (+1, the block above the
    fault) or footwall (-1).
+   A layer known much more sparsely than another (holes under a horizon
+   picked on every section) first gets that horizon's shape
+   (:func:`_conformable_points`): its vertical offset from the reference,
+   measured at its data and interpolated, added to the reference's data --
+   only where cross-validation at its own data says the reference helps
+   and no fault steps the offset (a fault that cuts one layer and not the
+   other).
 3. **Side surfaces** (:class:`SideSurface`): each side of each layer is
    interpolated from that side's data only (the fault is a barrier): a
    minimum-curvature grid (:func:`_min_curvature`; a smoothing thin-plate
@@ -3067,6 +3074,163 @@ def _plane_trace(tr: _SectionTrace, layers: Dict[str, Dict[str, np.ndarray]]) ->
 # ---------------------------------------------------------------------------
 # Entry point
 # ---------------------------------------------------------------------------
+#: A layer's data are "sparse" against another layer's when their spacing
+#: (:func:`_median_spacing`) is at least this multiple of the other's: a
+#: layer known from holes only, under a horizon picked on every section.
+CONFORMABLE_SPARSE = 2.0
+
+
+#: Thickness samples a layer needs before its offset from a reference is
+#: interpolated and cross-validated (five folds of at least two).
+CONFORMABLE_MIN_SAMPLES = 10
+#: A step (m) in a layer's offset from its reference across a fault at or
+#: above which the fault displaces the two differently: derive_faults'
+#: default ``min_throw``, the throw below which a layer counts as uncut.
+CONFORMABLE_STEP = 3.0
+#: A conformable layer's cross-validated error must be below this share of
+#: its own interpolation's: at 0.8 the reference must remove a fifth of
+#: the error, well past the spread of a 5-fold estimate on tens of samples.
+CONFORMABLE_GAIN = 0.8
+
+
+def _block_keys(surfs: Sequence[FaultSurface], P: np.ndarray) -> np.ndarray:
+    """(n, f) side of each point (n, 3) of every fault's surface continued
+    past its extent (the split's sides, :func:`split_by_side`; +1, -1, 0 on
+    it): two points lie in one fault block when no fault separates them,
+    i.e. their keys agree wherever both are on a side. Past a fault's tip
+    this parts points the fault does not (fewer pairs, none wrong): the
+    fault points' extent in depth is seldom the fault's, and a layer above
+    the topmost fault point may well be offset."""
+    if not len(surfs):
+        return np.zeros((len(P), 0), dtype=np.int8)
+    return np.column_stack([f.side(P)[1] for f in surfs])
+
+
+def _same_block(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise: keys ``a`` and ``b`` (n, f) agree where both are +1 / -1."""
+    both = (np.abs(a) == 1) & (np.abs(b) == 1)
+    return np.all(~both | (a == b), axis=1)
+
+
+def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
+                        warn: Optional[List[str]] = None) -> Dict[str, np.ndarray]:
+    """Extra data for layers known much more sparsely than another layer
+    (holes only under a horizon picked on every section), the way a
+    geologist models a poorly known horizon conformable to a well-known
+    one: per sparse layer, its vertical offset from the nearest (in the
+    layer order) layer whose spacing is at most 1/:data:`CONFORMABLE_SPARSE`
+    of its own is measured at its data (the reference surface there: a
+    plane through the nearest reference data in the same fault block),
+    interpolated in map (a thin-plate spline, clamped to the measured
+    range: past the data an isochore does not keep growing) and added to
+    every reference datum whose vertical from it crosses no fault. Returns
+    layer -> (m, 3) points (none for a layer that is not sparse)."""
+    from scipy.interpolate import RBFInterpolator
+    from scipy.spatial import cKDTree
+
+    data = {lay: layer_data(ds, lay) for lay in ds.layers}
+    data = {lay: D[np.all(np.isfinite(D), axis=1)] for lay, D in data.items()}
+    sp = {lay: _median_spacing(D) if len(D) >= 3 else math.inf for lay, D in data.items()}
+    order = list(ds.layers)
+    out: Dict[str, np.ndarray] = {}
+    keys: Dict[str, np.ndarray] = {}
+    for i, lay in enumerate(order):
+        D = data[lay]
+        if len(D) < 3:
+            continue
+        refs = [r for r in order if r != lay and len(data[r]) >= 3
+                and sp[r] * CONFORMABLE_SPARSE <= sp[lay]]
+        if not refs:
+            continue
+        ref = min(refs, key=lambda r: (abs(order.index(r) - i), sp[r]))
+        R = data[ref]
+        for name, P in ((lay, D), (ref, R)):
+            if name not in keys:
+                keys[name] = _block_keys(surfs, P)
+        kD, kR = keys[lay], keys[ref]
+        # The reference surface at each datum: least-squares plane through
+        # its nearest reference data (up to 8, within 3 reference spacings:
+        # farther, a plane no longer stands for the surface) in its block.
+        kn = min(8, len(R))
+        dist, idx = cKDTree(R[:, :2]).query(D[:, :2], k=kn)
+        dist, idx = dist.reshape(len(D), kn), idx.reshape(len(D), kn)
+        ok = dist <= 3.0 * sp[ref]
+        ok &= np.stack([_same_block(kD, kR[idx[:, j]]) for j in range(kn)], axis=1)
+        xy0 = D[:, None, :2]
+        A = np.concatenate([np.ones((len(D), kn, 1)), R[idx, :2] - xy0], axis=2) * ok[..., None]
+        b = R[idx, 2] * ok
+        # A ridge of 1e-9 of the squared distances keeps a datum with one
+        # or two collinear neighbours solvable; it then takes their level.
+        AtA = np.einsum("nki,nkj->nij", A, A)
+        scale = np.maximum(np.einsum("nkj,nkj->n", A[..., 1:], A[..., 1:]), 1.0)
+        AtA[:, 1:, 1:] += 1e-9 * scale[:, None, None] * np.eye(2)
+        has = ok.sum(axis=1) >= 1
+        if has.sum() < 3:
+            continue
+        coef = np.linalg.solve(AtA[has] + 1e-12 * np.eye(3), np.einsum("nki,nk->ni", A[has], b[has])[..., None])[..., 0]
+        # The vertical between the datum and the reference surface above or
+        # below it must cross no fault: else the offset spans a throw.
+        col = np.all(kD[has] == _block_keys(surfs, np.column_stack([D[has, :2], coef[:, 0]])), axis=1)
+        off = (D[has, 2] - coef[:, 0])[col]
+        xy = D[has, :2][col]
+        xy, first = np.unique(xy, axis=0, return_index=True)
+        off, zl, kx = off[first], D[has, 2][col][first], kD[has][col][first]
+        if len(off) < CONFORMABLE_MIN_SAMPLES:
+            continue
+        c = xy.mean(axis=0)
+        # The same faults must displace both layers alike: a fault that
+        # cuts the reference but dies out below or above the layer (or the
+        # other way round) steps the offset across it, and the reference
+        # would carry its throw into the layer. Least squares: the offset
+        # as a plane plus one step per fault with samples on both sides.
+        cols = [np.ones(len(off)), xy[:, 0] - c[0], xy[:, 1] - c[1]]
+        steps = [(kx[:, j] > 0).astype(np.float64) for j in range(kx.shape[1])
+                 if (kx[:, j] > 0).any() and (kx[:, j] < 0).any()]
+        if steps:
+            coef_s, *_ = np.linalg.lstsq(np.column_stack(cols + steps), off, rcond=None)
+            if np.any(np.abs(coef_s[3:]) >= CONFORMABLE_STEP):
+                continue
+
+        def spline(sel, v):
+            return RBFInterpolator(xy[sel] - c, v[sel], kernel="thin_plate_spline", degree=1,
+                                   smoothing=0.0 if sel.sum() < 2000 else 1.0,
+                                   neighbors=None if sel.sum() <= 200 else 64)
+
+        # Conformable only where the data say so: in a 5-fold
+        # cross-validation at the layer's data, the reference plus the
+        # interpolated offset must predict the layer clearly better
+        # (CONFORMABLE_GAIN) than the layer's own data do. Thickness that
+        # varies as much as the layer itself (an unconformity, wedges)
+        # gains nothing from the reference and keeps the layer's own shape.
+        fold = np.random.default_rng(0).permutation(len(off)) % 5
+        e_conf, e_own = [], []
+        try:
+            for f in range(5):
+                tr, te = fold != f, fold == f
+                e_conf.append(spline(tr, off)(xy[te] - c) - off[te])
+                e_own.append(spline(tr, zl)(xy[te] - c) - zl[te])
+            tps = spline(np.ones(len(off), dtype=bool), off)
+        except (np.linalg.LinAlgError, ValueError):
+            continue   # samples on one line (a cross-section): no surface to fit
+        rms_conf = float(np.sqrt(np.mean(np.concatenate(e_conf) ** 2)))
+        rms_own = float(np.sqrt(np.mean(np.concatenate(e_own) ** 2)))
+        if not rms_conf < CONFORMABLE_GAIN * rms_own:
+            continue
+        lo, hi = float(off.min()), float(off.max())
+        # Reference data that are not right beside a datum of the layer
+        # (half a reference spacing: there the datum itself speaks).
+        far = cKDTree(D[:, :2]).query(R[:, :2])[0] > 0.5 * sp[ref]
+        Rf = R[far]
+        if not len(Rf):
+            continue
+        z = Rf[:, 2] + np.clip(tps(Rf[:, :2] - c), lo, hi)
+        P = np.column_stack([Rf[:, :2], z])
+        keep = np.all(kR[far] == _block_keys(surfs, P), axis=1)
+        if keep.any():
+            out[lay] = np.ascontiguousarray(P[keep])
+    return out
+
+
 def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_throw: float = 3.0,
                   reach: Optional[float] = None, near: Optional[float] = None, k: int = 12,
                   max_z_dip: float = 80.0) -> Dataset:
@@ -3151,6 +3315,15 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
             surfs[f.name] = every[f.name] = fault_surface(
                 f, ring, z_range, reach=opt.reach, max_z_dip=opt.max_z_dip,
                 warnings=warns[f.name], carry=carry)
+    work = dataset
+    conf = _conformable_points(dataset, list(every.values())) if todo else {}
+    if conf:
+        from dataclasses import replace
+        pts = dict(dataset.points)
+        for lay, P in conf.items():
+            pts[lay] = np.vstack([np.asarray(pts[lay], dtype=np.float64).reshape(-1, 3), P]) \
+                if lay in pts else P
+        work = replace(dataset, points=pts)
     for f in dataset.faults:
         if id(f) not in todo:
             faults.append(f)
@@ -3159,7 +3332,7 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
                     if g is not f and f.group and g.group == f.group and g.name in surfs]
         others = [every[g.name] for g in dataset.faults
                   if g is not f and not (f.group and g.group == f.group) and g.name in every]
-        nf, secs, rep = _derive_fault(dataset, f, opt, z_range, used, surfs[f.name],
+        nf, secs, rep = _derive_fault(work, f, opt, z_range, used, surfs[f.name],
                                       warns[f.name], partners, others)
         sections.update(secs)
         faults.append(nf)
