@@ -507,6 +507,8 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         dataset = derive_faults(dataset)
     if getattr(dataset, "derivation", None) is not None:
         meta["derived_faults"] = dataset.derivation.as_dict()
+        if dataset.derivation.layers:
+            meta["derived_layers"] = dataset.derivation.layers
         # A derived fault that cuts no layer (plane traces only, or no trace
         # at all where no section meets its extent in the study area; its
         # derivation warned "no layer is cut") has no patch and no surface

@@ -1264,9 +1264,14 @@ def _finite_or_none(v: np.ndarray) -> list:
 
 @dataclass
 class DeriveReport:
-    """Per fault name: a :class:`FaultDerivation`."""
+    """Per fault name: a :class:`FaultDerivation`; ``layers``: per layer
+    known much more sparsely than another, the reference layer it was made
+    conformable to and what the gates measured (:func:`_conformable_points`:
+    ``reference``, ``spacing``, ``reference_spacing``, ``samples``,
+    ``step``, ``cv_rms``, ``own_cv_rms``, and ``points`` when it was)."""
 
     faults: Dict[str, FaultDerivation] = field(default_factory=dict)
+    layers: Dict[str, Dict[str, Any]] = field(default_factory=dict)
 
     @property
     def warnings(self) -> List[str]:
@@ -3113,7 +3118,7 @@ def _same_block(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
-                        warn: Optional[List[str]] = None) -> Dict[str, np.ndarray]:
+                        log: Optional[Dict[str, Dict[str, Any]]] = None) -> Dict[str, np.ndarray]:
     """Extra data for layers known much more sparsely than another layer
     (holes only under a horizon picked on every section), the way a
     geologist models a poorly known horizon conformable to a well-known
@@ -3124,7 +3129,8 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
     interpolated in map (a thin-plate spline, clamped to the measured
     range: past the data an isochore does not keep growing) and added to
     every reference datum whose vertical from it crosses no fault. Returns
-    layer -> (m, 3) points (none for a layer that is not sparse)."""
+    layer -> (m, 3) points (none for a layer that is not sparse); ``log``
+    gets, per sparse layer, its reference and what each gate measured."""
     from scipy.interpolate import RBFInterpolator
     from scipy.spatial import cKDTree
 
@@ -3143,6 +3149,9 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
         if not refs:
             continue
         ref = min(refs, key=lambda r: (abs(order.index(r) - i), sp[r]))
+        rec: Dict[str, Any] = {"reference": ref, "spacing": sp[lay], "reference_spacing": sp[ref]}
+        if log is not None:
+            log[lay] = rec
         R = data[ref]
         for name, P in ((lay, D), (ref, R)):
             if name not in keys:
@@ -3175,6 +3184,7 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
         xy = D[has, :2][col]
         xy, first = np.unique(xy, axis=0, return_index=True)
         off, zl, kx = off[first], D[has, 2][col][first], kD[has][col][first]
+        rec["samples"] = int(len(off))
         if len(off) < CONFORMABLE_MIN_SAMPLES:
             continue
         c = xy.mean(axis=0)
@@ -3188,6 +3198,7 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
                  if (kx[:, j] > 0).any() and (kx[:, j] < 0).any()]
         if steps:
             coef_s, *_ = np.linalg.lstsq(np.column_stack(cols + steps), off, rcond=None)
+            rec["step"] = float(np.max(np.abs(coef_s[3:])))
             if np.any(np.abs(coef_s[3:]) >= CONFORMABLE_STEP):
                 continue
 
@@ -3214,6 +3225,7 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
             continue   # samples on one line (a cross-section): no surface to fit
         rms_conf = float(np.sqrt(np.mean(np.concatenate(e_conf) ** 2)))
         rms_own = float(np.sqrt(np.mean(np.concatenate(e_own) ** 2)))
+        rec["cv_rms"], rec["own_cv_rms"] = rms_conf, rms_own
         if not rms_conf < CONFORMABLE_GAIN * rms_own:
             continue
         lo, hi = float(off.min()), float(off.max())
@@ -3228,6 +3240,7 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
         keep = np.all(kR[far] == _block_keys(surfs, P), axis=1)
         if keep.any():
             out[lay] = np.ascontiguousarray(P[keep])
+            rec["points"] = int(keep.sum())
     return out
 
 
@@ -3275,7 +3288,8 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
     todo = {id(f) for f in dataset.faults if needs_derivation(f)
             and not (f.name in earlier and f.points is None and f.surface is None)}
     report = DeriveReport({f.name: earlier[f.name] for f in dataset.faults
-                           if f.name in earlier and id(f) not in todo})
+                           if f.name in earlier and id(f) not in todo},
+                          dict(dataset.derivation.layers) if dataset.derivation is not None else {})
     todo_groups = {f.group for f in dataset.faults if id(f) in todo and f.group}
     surfs: Dict[str, FaultSurface] = {}
     warns: Dict[str, List[str]] = {}
@@ -3316,7 +3330,7 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
                 f, ring, z_range, reach=opt.reach, max_z_dip=opt.max_z_dip,
                 warnings=warns[f.name], carry=carry)
     work = dataset
-    conf = _conformable_points(dataset, list(every.values())) if todo else {}
+    conf = _conformable_points(dataset, list(every.values()), report.layers) if todo else {}
     if conf:
         from dataclasses import replace
         pts = dict(dataset.points)
