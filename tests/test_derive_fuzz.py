@@ -92,6 +92,11 @@ def case_params(pick: Callable[[str, Any], Any]) -> Dict[str, Any]:
     p.update({k: pick(k, v) for k, v in EXTRAS.items()})
     for i, fp in enumerate(p["faults"]):
         fp.update({k: pick(f"f{i}_{k}", v) for k, v in _fault_extras().items()})
+    # Drawn last, so that the choices above stay those of the same seed
+    # before it was added: the top layer also picked on a grid (a seismic
+    # horizon over holes; the layers below take its shape,
+    # derive._conformable_points).
+    p["top_picks"] = pick("top_picks", [False, True])
     return p
 
 
@@ -268,6 +273,19 @@ def make_case(p: Dict[str, Any]) -> Dataset:
                 xs.append(xy[j])
                 lays.append(lay)
                 zs.append(z[j])
+    picks = np.zeros((0, 3))
+    if _opt(p, "top_picks") and not (_opt(p, "empty_layer") and len(layers) == 1):
+        # L1 on a 24 x 24 grid, each copy where it lies on its own sides
+        gxy = np.stack(np.meshgrid(np.linspace(0, W, 24), np.linspace(0, H, 24)), -1).reshape(-1, 2)
+        gxy = gxy[points_in_polygon(gxy, ring)]
+        z0 = base(gxy[:, 0], gxy[:, 1], 0)
+        for sides in range(2 ** len(geoms)):
+            hang = [(sides >> j) & 1 for j in range(len(geoms))]
+            z = z0 - sum(t * _profile(g, gxy) for t, g, h in zip(throws, geoms, hang) if h)
+            ok = np.ones(len(gxy), dtype=bool)
+            for g, h in zip(geoms, hang):
+                ok &= hanging_side(gxy, z, g) == bool(h)
+            picks = np.vstack([picks, np.column_stack([gxy[ok] + origin, z[ok]])])
     xs = np.asarray(xs, dtype=float).reshape(-1, 2) + origin
     zs = np.asarray(zs, dtype=float)
     ring = ring + origin
@@ -293,6 +311,10 @@ def make_case(p: Dict[str, Any]) -> Dataset:
         points = {lay: np.column_stack([xs[sel & (lays == lay)], zs[sel & (lays == lay)]])
                   for lay in layers}
         xs, zs, lays, ids = xs[~sel], zs[~sel], lays[~sel], ids[~sel]
+    if len(picks):
+        if r:
+            picks = np.round(picks / r) * r
+        points["L1"] = np.vstack([points["L1"], picks]) if "L1" in points else picks
     bh = Boreholes(ids, xs, lays, zs)
     return Dataset(name="fuzz", layers=layers, boundary=ring, boreholes=bh, points=points,
                    faults=flts)
