@@ -108,11 +108,12 @@ kind derived and given, warnings, throw profile, tips, cutoff lines).
 Accuracy and limitations (docs/derive.md, "Accuracy"): on the random
 grounds of :mod:`faultmesh.grounds` written as v2 with seismic-like section
 picks (seeds 0-99), the error near the faults is within 1.25x of the model
-built from the true cutoffs on 77 of 91 grounds (ratio median 0.76); with
-the drillholes' tops alone, 17 of 91 (median 2.66): a side whose data stop
+built from the true cutoffs on 78 of 91 grounds (ratio median 0.75); with
+the drillholes' tops alone, 20 of 91 (median 2.57): a side whose data stop
 far from the fault cannot show drag, rollover or a fading throw there. On
 block faults through plane layers (tests/test_derive_blocks.py) the
-cutoffs are exact to the picks' noise. Claudius with every pick within 300
+cutoffs are exact to the picks' noise; layers known from holes only under
+a picked one get cutoffs about as good as its own. Claudius with every pick within 300
 m (3D) of a fault point withheld: median error 10.9 m at those picks
 (examples/claudius).
 """
