@@ -626,30 +626,45 @@ class SideSurface:
         if m == 0:
             return np.zeros(0)
         dist, idx = self.tree.query(q, k=k)
-        dist = np.asarray(dist, dtype=np.float64).reshape(m, k)
-        idx = np.asarray(idx).reshape(m, k)
-        P = self.data[idx]                                        # (m, k, 3)
-        # 1e-12 of the neighbourhood's squared size keeps the weights finite
-        # at a datum without changing them anywhere else.
-        w = 1.0 / (dist ** 2 + 1e-12 * (1.0 + dist.max(axis=1, keepdims=True) ** 2))
-        idw = np.sum(w * P[:, :, 2], axis=1) / np.sum(w, axis=1)
-        out = idw
-        if k >= 3:
-            sw = np.sqrt(w)
-            A = np.stack([np.ones((m, k)), P[:, :, 0] - q[:, None, 0], P[:, :, 1] - q[:, None, 1]],
-                         axis=2) * sw[:, :, None]
-            b = P[:, :, 2] * sw
-            U, S, Vt = np.linalg.svd(A, full_matrices=False)      # (m,k,3) (m,3) (m,3,3)
-            # A relative singular value of 1e-6: the neighbours span a line
-            # to within a millionth of their spread; the plane's tilt across
-            # it is then undetermined and the fit falls back to IDW.
-            ok = S[:, -1] > 1e-6 * S[:, 0]
-            Sinv = np.where(S > 0, 1.0 / np.where(S > 0, S, 1.0), 0.0)
-            coef = np.einsum("mji,mj,mkj,mk->mi", Vt, Sinv, U, b)
-            out = np.where(ok, coef[:, 0], idw)
-        at = dist[:, 0] == 0.0
-        out[at] = P[at, 0, 2]
-        return out
+        return _local_planes(q, self.data[np.asarray(idx).reshape(m, k)],
+                             np.asarray(dist, dtype=np.float64).reshape(m, k))
+
+
+def _local_planes(q: np.ndarray, P: np.ndarray, dist: np.ndarray,
+                  valid: Optional[np.ndarray] = None) -> np.ndarray:
+    """z at the points ``q`` (m, 2) of the weighted least-squares planes
+    through their neighbours ``P`` (m, k, 3) at XY distances ``dist`` (m, k)
+    (weights 1 / distance^2; none for a neighbour not ``valid``, (m, k)
+    bool, each row with at least one valid), inverse-distance weighting
+    where the neighbours are nearly collinear, a neighbour's own z where it
+    lies at the point (all queries at once, one batched SVD)."""
+    m, k = dist.shape
+    # 1e-12 of the neighbourhood's squared size keeps the weights finite
+    # at a datum without changing them anywhere else.
+    w = 1.0 / (dist ** 2 + 1e-12 * (1.0 + dist.max(axis=1, keepdims=True) ** 2))
+    if valid is not None:
+        w = w * valid
+    idw = np.sum(w * P[:, :, 2], axis=1) / np.sum(w, axis=1)
+    out = idw
+    if k >= 3:
+        sw = np.sqrt(w)
+        A = np.stack([np.ones((m, k)), P[:, :, 0] - q[:, None, 0], P[:, :, 1] - q[:, None, 1]],
+                     axis=2) * sw[:, :, None]
+        b = P[:, :, 2] * sw
+        U, S, Vt = np.linalg.svd(A, full_matrices=False)      # (m,k,3) (m,3) (m,3,3)
+        # A relative singular value of 1e-6: the neighbours span a line
+        # to within a millionth of their spread; the plane's tilt across
+        # it is then undetermined and the fit falls back to IDW.
+        ok = S[:, -1] > 1e-6 * S[:, 0]
+        Sinv = np.where(S > 0, 1.0 / np.where(S > 0, S, 1.0), 0.0)
+        coef = np.einsum("mji,mj,mkj,mk->mi", Vt, Sinv, U, b)
+        out = np.where(ok, coef[:, 0], idw)
+    at = dist == 0.0
+    if valid is not None:
+        at &= valid
+    hit = at.any(axis=1)
+    out[hit] = P[hit, np.argmax(at[hit], axis=1), 2]
+    return out
 
 
 class _Shifted:
@@ -3166,7 +3181,7 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
             if name not in keys:
                 keys[name] = _block_keys(surfs, P)
         kD, kR = keys[lay], keys[ref]
-        # The reference surface at each datum: least-squares plane through
+        # The reference surface at each datum: the weighted plane through
         # its nearest reference data (up to 8, within 3 reference spacings:
         # farther, a plane no longer stands for the surface) in its block.
         kn = min(8, len(R))
@@ -3174,22 +3189,14 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
         dist, idx = dist.reshape(len(D), kn), idx.reshape(len(D), kn)
         ok = dist <= 3.0 * sp[ref]
         ok &= np.stack([_same_block(kD, kR[idx[:, j]]) for j in range(kn)], axis=1)
-        xy0 = D[:, None, :2]
-        A = np.concatenate([np.ones((len(D), kn, 1)), R[idx, :2] - xy0], axis=2) * ok[..., None]
-        b = R[idx, 2] * ok
-        # A ridge of 1e-9 of the squared distances keeps a datum with one
-        # or two collinear neighbours solvable; it then takes their level.
-        AtA = np.einsum("nki,nkj->nij", A, A)
-        scale = np.maximum(np.einsum("nkj,nkj->n", A[..., 1:], A[..., 1:]), 1.0)
-        AtA[:, 1:, 1:] += 1e-9 * scale[:, None, None] * np.eye(2)
-        has = ok.sum(axis=1) >= 1
+        has = ok.any(axis=1)
         if has.sum() < 3:
             continue
-        coef = np.linalg.solve(AtA[has] + 1e-12 * np.eye(3), np.einsum("nki,nk->ni", A[has], b[has])[..., None])[..., 0]
+        z_ref = _local_planes(D[has, :2], R[idx[has]], dist[has], ok[has])
         # The vertical between the datum and the reference surface above or
         # below it must cross no fault: else the offset spans a throw.
-        col = np.all(kD[has] == _block_keys(surfs, np.column_stack([D[has, :2], coef[:, 0]])), axis=1)
-        off = (D[has, 2] - coef[:, 0])[col]
+        col = np.all(kD[has] == _block_keys(surfs, np.column_stack([D[has, :2], z_ref])), axis=1)
+        off = (D[has, 2] - z_ref)[col]
         xy = D[has, :2][col]
         xy, first = np.unique(xy, axis=0, return_index=True)
         off, zl, kx = off[first], D[has, 2][col][first], kD[has][col][first]
