@@ -603,3 +603,15 @@ def test_vertical_fault_carried_onto_the_boundary_builds():
     # it dropped the layers of 5 end sections, 15 warnings, before.
     assert not any("made the patch cross itself" in w for w in d.derivation.warnings)
     faultmesh.build_model(d, evaluate=False).check()
+
+
+def test_fault_points_nearly_on_a_line_are_named_as_such():
+    """Regression (fuzz case 20024: 3-11 collinear points of a gentle fault
+    3x the area long, above the layers, rounded to the centimetre): the
+    rounding lifts the points off their line by 0.3 m over 6.6 km, past
+    fault_surface's one-line test, and the sliver they span crosses the
+    area at no section. The error said only that its extent does not cross
+    the study area; it now also says why."""
+    out = check_case(make_case(seeded_params(20024)))
+    assert out.startswith("error: ") and "'F1'" in out, out
+    assert "nearly on one line" in out and "does not cross the study area" in out, out

@@ -1877,7 +1877,20 @@ def _section_grid(fault: Fault, fs: FaultSurface, ring: np.ndarray,
         if np.any((sr >= t.interval[0]) & (sr <= t.interval[1])):
             usable.append(float(u))
     if not usable:
-        raise GeometryError(f"derive: fault {fault.name!r}: its extent does not cross the study area")
+        # Points that pass the one-line test of fault_surface by their
+        # rounding alone (fuzz case 20024: collinear points rounded to the
+        # centimetre over kilometres) span a sliver that no section finds:
+        # say so rather than only where it is not. A thousandth: a fault
+        # surface picked over its height is tens of metres wide per
+        # kilometre of length at the least.
+        V = fs.own[0]
+        sv = np.linalg.svd(V - V.mean(axis=0), compute_uv=False) / math.sqrt(max(len(V), 1))
+        why = ""
+        if len(sv) > 1 and sv[1] < 1e-3 * sv[0]:
+            why = (f"; its points lie nearly on one line ({sv[1]:.3g} m across it against {sv[0]:.3g} m "
+                   "along it, root mean square), so the surface they span is a sliver: give points "
+                   "spread over the fault's height and length")
+        raise GeometryError(f"derive: fault {fault.name!r}: its extent does not cross the study area{why}")
     u0, u1 = min(usable), max(usable)
     # The crossing is known to the grid's step only: one crossing shorter
     # than a step (a single usable cut; fuzz case 21032 of
