@@ -255,37 +255,38 @@ def make_case(p: Dict[str, Any]) -> Dataset:
         xy = xy[points_in_polygon(xy, ring)]
     elif odd == "on_ring":
         xy = np.concatenate([xy, ring, 0.5 * (ring + np.roll(ring, 1, axis=0))])
+    def own_side_copies(XY, li):
+        """Layer ``li`` at the places ``XY``: each copy (footwall: z0;
+        hanging wall: z0 - throw) where it lies on its own side of every
+        fault (a repeat or a gap otherwise), as (indices, z) per copy."""
+        z0 = base(XY[:, 0], XY[:, 1], li)
+        out = []
+        for sides in range(2 ** len(geoms)):
+            hang = [(sides >> j) & 1 for j in range(len(geoms))]
+            z = z0 - sum(t * _profile(g, XY) for t, g, h in zip(throws, geoms, hang) if h)
+            ok = np.ones(len(XY), dtype=bool)
+            for g, h in zip(geoms, hang):
+                ok &= hanging_side(XY, z, g) == bool(h)
+            out.append((np.flatnonzero(ok), z[ok]))
+        return out
+
     ids, xs, lays, zs = [], [], [], []
     for li, lay in enumerate(layers):
         if _opt(p, "empty_layer") and li == len(layers) // 2:
             continue
-        z0 = base(xy[:, 0], xy[:, 1], li)
-        # each copy (footwall: z0; hanging wall: z0 - throw) is kept where it
-        # lies on its own side of every fault (a repeat or a gap otherwise)
-        for sides in range(2 ** len(geoms)):
-            hang = [(sides >> j) & 1 for j in range(len(geoms))]
-            z = z0 - sum(t * _profile(g, xy) for t, g, h in zip(throws, geoms, hang) if h)
-            ok = np.ones(len(xy), dtype=bool)
-            for g, h in zip(geoms, hang):
-                ok &= hanging_side(xy, z, g) == bool(h)
-            for j in np.flatnonzero(ok):
+        for idx, z in own_side_copies(xy, li):
+            for j, zj in zip(idx, z):
                 ids.append(f"B{j + 1}")
                 xs.append(xy[j])
                 lays.append(lay)
-                zs.append(z[j])
+                zs.append(zj)
     picks = np.zeros((0, 3))
     if _opt(p, "top_picks") and not (_opt(p, "empty_layer") and len(layers) == 1):
-        # L1 on a 24 x 24 grid, each copy where it lies on its own sides
+        # L1 also on a 24 x 24 grid (a seismic horizon)
         gxy = np.stack(np.meshgrid(np.linspace(0, W, 24), np.linspace(0, H, 24)), -1).reshape(-1, 2)
         gxy = gxy[points_in_polygon(gxy, ring)]
-        z0 = base(gxy[:, 0], gxy[:, 1], 0)
-        for sides in range(2 ** len(geoms)):
-            hang = [(sides >> j) & 1 for j in range(len(geoms))]
-            z = z0 - sum(t * _profile(g, gxy) for t, g, h in zip(throws, geoms, hang) if h)
-            ok = np.ones(len(gxy), dtype=bool)
-            for g, h in zip(geoms, hang):
-                ok &= hanging_side(gxy, z, g) == bool(h)
-            picks = np.vstack([picks, np.column_stack([gxy[ok] + origin, z[ok]])])
+        for idx, z in own_side_copies(gxy, 0):
+            picks = np.vstack([picks, np.column_stack([gxy[idx] + origin, z])])
     xs = np.asarray(xs, dtype=float).reshape(-1, 2) + origin
     zs = np.asarray(zs, dtype=float)
     ring = ring + origin
