@@ -51,6 +51,13 @@ EXTRAS: Dict[str, Any] = {
 }
 
 
+# Drawn after every choice above, so that those stay the ones the same seed
+# drew before it was added: the top layer also picked on a grid (a seismic
+# horizon over holes; the layers below take its shape,
+# derive._conformable_points).
+LAST: Dict[str, Any] = {"top_picks": [False, True]}
+
+
 def _fault_choices():
     return {
         "dip": ["gentle", "mid", "steep"],        # 5-20, 30-80, 85-89.9 degrees
@@ -92,19 +99,15 @@ def case_params(pick: Callable[[str, Any], Any]) -> Dict[str, Any]:
     p.update({k: pick(k, v) for k, v in EXTRAS.items()})
     for i, fp in enumerate(p["faults"]):
         fp.update({k: pick(f"f{i}_{k}", v) for k, v in _fault_extras().items()})
-    # Drawn last, so that the choices above stay those of the same seed
-    # before it was added: the top layer also picked on a grid (a seismic
-    # horizon over holes; the layers below take its shape,
-    # derive._conformable_points).
-    p["top_picks"] = pick("top_picks", [False, True])
+    p.update({k: pick(k, v) for k, v in LAST.items()})
     return p
 
 
 def _opt(p, key):
-    """Choice ``key`` of ``p``; its first option when missing (EXTRAS)."""
+    """Choice ``key`` of ``p``; its first option when missing (EXTRAS, LAST)."""
     if key in p:
         return p[key]
-    return {**EXTRAS, **_fault_extras()}[key][0]
+    return {**EXTRAS, **_fault_extras(), **LAST}[key][0]
 
 
 DIPS = {"gentle": (5.0, 20.0), "mid": (30.0, 80.0), "steep": (85.0, 89.9)}
