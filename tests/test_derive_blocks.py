@@ -116,17 +116,25 @@ def block_ground(seed: int, undulation: bool = True, sparse_every: int = 1) -> B
     return BlockGround(ds, kind, throw, layer_z)
 
 
-def cutoff_misfits(g: BlockGround, derived: Dataset) -> dict:
-    """side -> z (m) of each derived cutoff point above the true layer of
-    its side at its XY (the point lies on the fault, so this is its
-    distance from the true cutoff line measured vertically)."""
-    out = {"foot": [], "hanging": []}
+def misfits_by_layer(g: BlockGround, derived: Dataset) -> dict:
+    """(layer index, side) -> z (m) of each derived cutoff point above the
+    true layer of its side ("foot", "hanging") at its XY (the point lies on
+    the fault, so this is its distance from the true cutoff line measured
+    vertically)."""
+    out: dict = {}
     for tr in derived.faults[0].traces:
         for i, lay in enumerate(g.dataset.layers):
             for side, P in tr.layers.get(lay, {}).items():
                 c = P[-1] if side == "foot" else P[0]
-                out[side].append(float(c[2] - g.side_z(i, side, c[0], c[1])))
+                out.setdefault((i, side), []).append(float(c[2] - g.side_z(i, side, c[0], c[1])))
     return {k: np.asarray(v) for k, v in out.items()}
+
+
+def cutoff_misfits(g: BlockGround, derived: Dataset) -> dict:
+    """side -> the misfits of :func:`misfits_by_layer` of every layer."""
+    m = misfits_by_layer(g, derived)
+    return {side: np.concatenate([v for (_, sd), v in m.items() if sd == side] or [np.zeros(0)])
+            for side in ("foot", "hanging")}
 
 
 # Grounds drawn so that a test takes a few seconds (at most about 1,000
@@ -174,18 +182,6 @@ def test_block_faults_through_undulating_layers_build(seed):
     assert len(m.faults) == 1
 
 
-def _misfits_by_layer(g: BlockGround, derived: Dataset) -> dict:
-    """(layer index, side) -> |z| (m) of each derived cutoff point off the
-    true layer of its side (as :func:`cutoff_misfits`)."""
-    out: dict = {}
-    for tr in derived.faults[0].traces:
-        for i, lay in enumerate(g.dataset.layers):
-            for side, P in tr.layers.get(lay, {}).items():
-                c = P[-1] if side == "foot" else P[0]
-                out.setdefault((i, side), []).append(abs(float(c[2] - g.side_z(i, side, c[0], c[1]))))
-    return {k: np.asarray(v) for k, v in out.items()}
-
-
 @pytest.mark.parametrize("seed", [5, 3])
 def test_a_layer_known_from_holes_only_follows_the_picked_horizon_to_its_cutoffs(seed):
     """The top layer picked on a grid, the layers below known only at every
@@ -207,7 +203,7 @@ def test_a_layer_known_from_holes_only_follows_the_picked_horizon_to_its_cutoffs
         rec = d.derivation.layers[lay]
         assert rec["reference"] == "L1" and rec["points"] > 0, rec
         assert rec["cv_rms"] < 0.8 * rec["own_cv_rms"] and abs(rec["steps"][0]) < 3.0, rec
-    m = _misfits_by_layer(g, d)
+    m = {k: np.abs(v) for k, v in misfits_by_layer(g, d).items()}
     for side in ("foot", "hanging"):
         top = m[0, side].mean()
         sparse = np.concatenate([v for (i, sd), v in m.items() if i > 0 and sd == side])

@@ -2084,13 +2084,13 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             # Fault blocks: with crossing faults (a group), each section's
             # cutoffs are derived again from the data in the block of its
             # cutoffs, i.e. on their side of every partner fault.
-            keys = np.column_stack([p.side(D)[1] for p in partners])
+            keys = _block_keys(partners, D)
             for j, i in enumerate(good):
                 f, h = roots["foot"][j], roots["hanging"][j]
                 if f is None or h is None:
                     continue
                 mid = 0.5 * (f[0] + h[0])
-                key = tuple(int(p.side(mid[None, :])[1][0]) for p in partners)
+                key = tuple(int(v) for v in _block_keys(partners, mid[None, :])[0])
                 if key not in blocks:
                     blocks[key] = np.all((keys == np.array(key)[None, :]) | (keys == 0), axis=1)
                 if ("block", key) not in fits:
