@@ -479,6 +479,23 @@ def test_build_model_derives_faults_given_by_points():
     assert "derived_faults" not in faultmesh.build_model(ds, evaluate=False).metadata
 
 
+def test_derived_dataset_keeps_what_the_given_one_says():
+    """derive_faults returns the given dataset with derived faults, not a
+    new one made of some of its fields: the snap distance, the
+    adjustments, the point sources (messages name file and row) and the
+    drillhole tables stay. Regression: it kept ten fields and dropped
+    these four (a derived dataset's messages named no file, and a build
+    from it took the default snap distance)."""
+    from dataclasses import replace
+    ds = datasets.synthetic(2, kind="normal", dip=60.0, n_boreholes=120, n_layers=2)
+    v2 = replace(v2_of(ds), snap_distance=0.25, point_sources={ds.layers[0]: ("top.csv", None)},
+                 drillholes=object())
+    d = derive.derive_faults(v2)
+    assert d.snap_distance == 0.25 and d.point_sources == v2.point_sources
+    assert d.drillholes is v2.drillholes and d.adjustments == v2.adjustments
+    assert d.derivation is not None and d.faults[0].traces
+
+
 def test_given_kind_contradicted_is_a_warning():
     ds = datasets.synthetic(0, kind="normal", dip=60.0, n_boreholes=120, n_layers=2)
     v2 = v2_of(ds)

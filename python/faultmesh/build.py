@@ -58,9 +58,10 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
     data = dataset.all_layer_points()
     in_patches: Dict[str, int] = {}
     for lay in layers:
-        n_extra = len(dataset.points.get(lay, ()))
+        n_extra = len(dataset.points.get(lay, ())) + len(dataset.derived_points.get(lay, ()))
         if n_extra:
-            # A layer's extra points follow its borehole hits (all_layer_points).
+            # A layer's extra points, then its derived ones, follow its
+            # borehole hits (all_layer_points).
             P = data[lay]
             drop = np.zeros(len(P), dtype=bool)
             drop[len(P) - n_extra:] = _in_fault_zones(dataset, lay, area, P[len(P) - n_extra:],
@@ -557,12 +558,16 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     # patch was extended there (the surface then follows the extension).
     pinches: Dict[str, List[List[Tuple[np.ndarray, np.ndarray]]]] = {f.name: [[], []]
                                                                      for f in dataset.faults}
-    # Each layer's data, sorted by x (a patch takes those in its box).
+    # Each layer's data, sorted by x (a patch takes those in its box); with
+    # the points the derivation added (Dataset.derived_points), which shape
+    # the continuous TIN the patch replaces there too.
     by_x: Dict[str, np.ndarray] = {}
 
     def data_of(lay: str) -> np.ndarray:
         if lay not in by_x:
             D = layer_data(dataset, lay)
+            if lay in dataset.derived_points:
+                D = np.vstack([D, dataset.derived_points[lay]])
             by_x[lay] = D[np.argsort(D[:, 0], kind="stable")]
         return by_x[lay]
 

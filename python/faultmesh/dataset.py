@@ -456,6 +456,15 @@ class Dataset:
     #: plain ``hole_id,x,y,layer,z`` table or data made in memory. Kept so that
     #: :meth:`save` writes the tables back; not compared (the tops are).
     drillholes: Optional[Any] = None
+    #: Points the fault derivation adds to a layer known much more sparsely
+    #: than another (layer -> (m, 3)): the layer conformable to that one
+    #: (:func:`faultmesh.derive._conformable_points`, docs/derive.md). Not
+    #: data: :func:`faultmesh.derive.layer_data` leaves them out, the
+    #: continuous TIN (:meth:`layer_points`) takes them after the layer's
+    #: own points; not compared; :meth:`save` writes them with the layer's
+    #: points (the saved dataset's faults carry the derived cutoffs, so
+    #: nothing is derived from it again: the points stay as data).
+    derived_points: Dict[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.boreholes is None:
@@ -467,6 +476,8 @@ class Dataset:
         self.boundary = np.asarray(self.boundary, dtype=np.float64).reshape(-1, 2)
         self.points = {str(k): np.asarray(v, dtype=np.float64).reshape(-1, 3)
                        for k, v in self.points.items()}
+        self.derived_points = {str(k): np.asarray(v, dtype=np.float64).reshape(-1, 3)
+                               for k, v in self.derived_points.items()}
         self.adjustments = list(self.adjustments)
 
     def point_label(self, layer: str, i: int) -> str:
@@ -481,8 +492,8 @@ class Dataset:
         """Equal data (name, crs, layers, boundary, boreholes, points, sections,
         faults, with their points, sticks, surface and throw); ``path``,
         ``truth``, ``geology``, ``snap_distance``, ``adjustments``,
-        ``point_sources`` and ``drillholes`` (the source tables: the tops
-        desurveyed from them are compared) are not compared."""
+        ``point_sources``, ``derived_points`` and ``drillholes`` (the source
+        tables: the tops desurveyed from them are compared) are not compared."""
         if not isinstance(other, Dataset):
             return NotImplemented
         return (self.name == other.name and self.crs == other.crs
@@ -567,10 +578,11 @@ class Dataset:
         return self._with_extra_points(layer, out)
 
     def _with_extra_points(self, layer: str, hits: np.ndarray) -> np.ndarray:
-        """A layer's borehole hits (n, 3) followed by its extra points."""
-        extra = self.points.get(layer)
-        if extra is not None and len(extra):
-            hits = np.vstack([hits, np.asarray(extra, dtype=np.float64).reshape(-1, 3)])
+        """A layer's borehole hits (n, 3) followed by its extra points and
+        then its derived points."""
+        for extra in (self.points.get(layer), self.derived_points.get(layer)):
+            if extra is not None and len(extra):
+                hits = np.vstack([hits, np.asarray(extra, dtype=np.float64).reshape(-1, 3)])
         return np.ascontiguousarray(hits, dtype=np.float64)
 
     def all_layer_points(self) -> Dict[str, np.ndarray]:
@@ -2434,7 +2446,13 @@ def save_dataset(ds: Dataset, path, *, section_coords: bool = False,
         bspec = name_for("boreholes", "csv")
         files[bspec] = "\n".join(lines) + "\n"
     pmap: Dict[str, str] = {}
-    for lay, arr in ds.points.items():
+    # A derived dataset's derived points (Dataset.derived_points) go with the
+    # layer's points: the saved dataset's faults carry the derived cutoffs,
+    # and its layers the points the model was built from.
+    every_points = {lay: np.vstack([ds.points.get(lay, np.zeros((0, 3))), ds.derived_points[lay]])
+                    if lay in ds.derived_points else arr
+                    for lay, arr in {**ds.derived_points, **ds.points}.items()}
+    for lay, arr in every_points.items():
         fname = name_for(f"points_{_safe(lay)}", "csv")
         pmap[lay] = fname
         files[fname] = "x,y,z\n" + "".join(f"{_fmt(x)},{_fmt(y)},{_fmt(z)}\n" for x, y, z in arr)
