@@ -9,6 +9,7 @@ DatasetError / GeometryError that names the fault or the layer. Nothing else
 """
 from __future__ import annotations
 
+import math
 from typing import Any, Callable, Dict
 
 import numpy as np
@@ -512,7 +513,7 @@ def test_fault_crossing_the_area_at_one_cut_gets_sections_a_cut_step_apart():
 # with only NaN throws through np.nanmax, which warned "All-NaN slice
 # encountered" (now without the warning).
 @pytest.mark.filterwarnings("error:All-NaN slice:RuntimeWarning")
-def test_crossing_layers_name_where_and_the_faults_that_cut_nothing():
+def test_crossing_layers_name_where_and_the_faults_that_cut_nothing(monkeypatch):
     """Found by the property (fuzz seed 20826 with every throw "huge": 4
     layers 120 m apart, a 3 degree fault given in a 30 m slice and a
     vertical one given 30-150 m above the layers, throws of 370-960 m): an
@@ -524,7 +525,12 @@ def test_crossing_layers_name_where_and_the_faults_that_cut_nothing():
     area; is the layer order right?"), where L3 and L4 did not even cross
     before the repair (L1/L2 did, by 356 m). It now says where each pair
     from the top crosses before the repair, and that F1 and F2 cut no layer
-    and are left out of the model."""
+    and are left out of the model.
+
+    Since the derived points go into the built model, this case builds: L1
+    (holes 457 m apart) takes the shape of L2 (281 m), offsets included, and
+    no longer crosses it. The message is tested on the case as it was, with
+    no layer taken as sparse."""
     p = {"utm": True, "rounding": 0.01, "ring": "rect", "size": (8000.0, 3000.0), "n_layers": 4,
          "thickness": 120.0, "holes": "dense", "holes_where": "gap", "n_faults": 2, "second": "close",
          "seed": 1841981165, "tiny": False, "layer_data": "both", "odd_holes": None,
@@ -538,6 +544,8 @@ def test_crossing_layers_name_where_and_the_faults_that_cut_nothing():
                      "dip_t": 0.346959065768478, "anchor": (0.5352610052850173, 0.5379839722625801),
                      "axis_strike": False, "odd_points": "vertical", "depth": "above",
                      "profile": "const"}]}
+    assert check_case(make_case(p)) == "ok"
+    monkeypatch.setattr(derive, "CONFORMABLE_SPARSE", math.inf)
     msg = check_case(make_case(p))
     assert msg.startswith("error: repair_crossings('L3', 'L4')"), msg
     assert "before the repair 'L2' lies up to 356.3 m above 'L1', most at (516476.7, 7013831.3)" in msg
