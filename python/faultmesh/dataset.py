@@ -2449,10 +2449,10 @@ def save_dataset(ds: Dataset, path, *, section_coords: bool = False,
     # A derived dataset's derived points (Dataset.derived_points) go with the
     # layer's points: the saved dataset's faults carry the derived cutoffs,
     # and its layers the points the model was built from.
-    every_points = {lay: np.vstack([ds.points.get(lay, np.zeros((0, 3))), ds.derived_points[lay]])
-                    if lay in ds.derived_points else arr
-                    for lay, arr in {**ds.derived_points, **ds.points}.items()}
-    for lay, arr in every_points.items():
+    for lay in list(ds.points) + [lay for lay in ds.derived_points if lay not in ds.points]:
+        arr = ds.points.get(lay, np.zeros((0, 3)))
+        if lay in ds.derived_points:
+            arr = np.vstack([arr, ds.derived_points[lay]])
         fname = name_for(f"points_{_safe(lay)}", "csv")
         pmap[lay] = fname
         files[fname] = "x,y,z\n" + "".join(f"{_fmt(x)},{_fmt(y)},{_fmt(z)}\n" for x, y, z in arr)

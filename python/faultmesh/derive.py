@@ -3149,10 +3149,11 @@ CONFORMABLE_STEP = 3.0
 #: often means that the fault dies out between the two layers: the step is
 #: then the whole throw of one of them, which tapers along strike, so one
 #: step per fault misplaces it by up to its size near the fault. Random
-#: grounds with section picks (seeds 0-99): with every significant step
-#: refused 78 of 91 within 1.25x of the true cutoffs' model; kept up to
-#: 10 m 79 (96 1.64 -> 0.86, 75 2.94 -> 1.70, 45 0.98 -> 0.84; worse 49
-#: 1.49 -> 1.59); kept at any size also 79, but 89 2.16 -> 2.84 (its F1,
+#: grounds with section picks (seeds 0-99; the extra points not yet in the
+#: built model): with every significant step refused 78 of 91 within 1.25x
+#: of the true cutoffs' model; kept up to 10 m 79 (96 1.64 -> 0.86, 75
+#: 2.94 -> 1.70, 45 0.98 -> 0.84; worse 49 1.49 -> 1.59); kept at any size
+#: also 79, but 89 2.16 -> 2.84 (its F1,
 #: 12-33 m along strike, cuts the layer and not the reference: step 14 m)
 #: and 41 0.61 -> 0.96 (steps of 35 and 123 m).
 CONFORMABLE_STEP_MAX = 10.0
@@ -3255,9 +3256,13 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
         cols = [np.ones(len(off)), xy[:, 0] - c[0], xy[:, 1] - c[1]]
         step_j = [j for j in range(kx.shape[1]) if (kx[:, j] > 0).any() and (kx[:, j] < 0).any()]
         steps = [(kx[:, j] > 0).astype(np.float64) for j in step_j]
+        # The steps kept (faults, metres): taken out of the offsets, put
+        # back per block on the extra points.
+        kept_j: List[int] = []
+        kept_v = np.zeros(0)
 
         def stepped(K):
-            return np.zeros(len(K))
+            return (K[:, kept_j] > 0).astype(np.float64) @ kept_v
         if steps:
             A_s = np.column_stack(cols + steps)
             coef_s, *_ = np.linalg.lstsq(A_s, off, rcond=None)
@@ -3276,12 +3281,8 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
                 # different throws: the offset is interpolated with its
                 # steps taken out, and each extra point gets its block's
                 # steps back.
-                sj = [j for j, q in zip(step_j, sig) if q]
-                sv = step[sig]
-                rec["steps_kept"] = [surfs[j].name for j in sj]
-
-                def stepped(K, sj=sj, sv=sv):
-                    return (K[:, sj] > 0).astype(np.float64) @ sv
+                kept_j, kept_v = [j for j, q in zip(step_j, sig) if q], step[sig]
+                rec["steps_kept"] = [surfs[j].name for j in kept_j]
                 off = off - stepped(kx)
 
         # An interpolating spline (the offsets are tops and picks, exact to
