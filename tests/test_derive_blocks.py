@@ -291,10 +291,16 @@ def test_the_built_model_of_a_sparse_layer_follows_the_picked_horizon(tmp_path):
     without = fm.build_model(replace(d, derived_points={}), evaluate=False)
     e1, e0 = errors(with_pts), errors(without)
     assert np.all(e1[1:] <= 1.0) and np.all(e1[1:] <= 0.5 * e0[1:]), (e1, e0)
-    # Saved, they are written with the layer's points (docs/dataset.md).
+    # Saved, they are written with the layer's points (docs/dataset.md), and
+    # the dataset read back builds the same model.
     back = fm.load_dataset(d.save(tmp_path / "derived"))
     for lay in g.dataset.layers[1:]:
         assert np.allclose(back.layer_points(lay), d.layer_points(lay), rtol=0.0, atol=1e-9)
+    rebuilt = fm.build_model(back, evaluate=False)
+    for lay in d.layers:
+        a1, _, n1 = evaluate_surface(with_pts.surfaces[lay], X, Y)
+        a2, _, n2 = evaluate_surface(rebuilt.surfaces[lay], X, Y)
+        assert np.array_equal(n1, n2) and np.allclose(a1[n1 > 0], a2[n2 > 0], rtol=0.0, atol=1e-6), lay
 
 
 def test_a_layer_the_fault_does_not_displace_takes_no_shape_from_one_it_does():
