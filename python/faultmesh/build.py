@@ -565,9 +565,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
 
     def data_of(lay: str) -> np.ndarray:
         if lay not in by_x:
-            D = layer_data(dataset, lay)
-            if lay in dataset.derived_points:
-                D = np.vstack([D, dataset.derived_points[lay]])
+            D = layer_data(dataset, lay, derived=True)
             by_x[lay] = D[np.argsort(D[:, 0], kind="stable")]
         return by_x[lay]
 

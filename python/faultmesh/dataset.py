@@ -459,7 +459,8 @@ class Dataset:
     #: Points the fault derivation adds to a layer known much more sparsely
     #: than another (layer -> (m, 3)): the layer conformable to that one
     #: (:func:`faultmesh.derive._conformable_points`, docs/derive.md). Not
-    #: data: :func:`faultmesh.derive.layer_data` leaves them out, the
+    #: data: :func:`faultmesh.derive.layer_data` leaves them out (unless
+    #: asked with ``derived=True``, as the side surfaces and patches do), the
     #: continuous TIN (:meth:`layer_points`) takes them after the layer's
     #: own points; not compared; :meth:`save` writes them with the layer's
     #: points (the saved dataset's faults carry the derived cutoffs, so
@@ -577,10 +578,10 @@ class Dataset:
             out = np.column_stack([b.xy[sel], b.z[sel]])
         return self._with_extra_points(layer, out)
 
-    def _with_extra_points(self, layer: str, hits: np.ndarray) -> np.ndarray:
+    def _with_extra_points(self, layer: str, hits: np.ndarray, derived: bool = True) -> np.ndarray:
         """A layer's borehole hits (n, 3) followed by its extra points and
-        then its derived points."""
-        for extra in (self.points.get(layer), self.derived_points.get(layer)):
+        then (with ``derived``) its derived points."""
+        for extra in (self.points.get(layer), self.derived_points.get(layer) if derived else None):
             if extra is not None and len(extra):
                 hits = np.vstack([hits, np.asarray(extra, dtype=np.float64).reshape(-1, 3)])
         return np.ascontiguousarray(hits, dtype=np.float64)

@@ -149,17 +149,15 @@ def needs_derivation(fault: Fault) -> bool:
             or not any(tr.layers for tr in fault.traces))
 
 
-def layer_data(dataset: Dataset, layer: str) -> np.ndarray:
+def layer_data(dataset: Dataset, layer: str, derived: bool = False) -> np.ndarray:
     """Every datum (n, 3) of ``layer``: all borehole rows (a hole that meets
     the layer twice across a reverse fault gives both tops, one per side)
-    plus the layer's extra points."""
+    plus the layer's extra points; with ``derived``, then the points the
+    derivation added (``Dataset.derived_points``: what the side surfaces and
+    the built model's patches take, not the data that decide them)."""
     b = dataset.boreholes
     sel = b.layer == layer
-    out = [np.column_stack([b.xy[sel], b.z[sel]])]
-    extra = dataset.points.get(layer)
-    if extra is not None and len(extra):
-        out.append(np.asarray(extra, dtype=np.float64).reshape(-1, 3))
-    return np.ascontiguousarray(np.vstack(out), dtype=np.float64)
+    return dataset._with_extra_points(layer, np.column_stack([b.xy[sel], b.z[sel]]), derived)
 
 
 def layer_order(points: Dict[str, np.ndarray]) -> List[str]:
@@ -1314,11 +1312,6 @@ class _Options:
     near: Optional[float]
     k: int
     max_z_dip: float
-    #: layer -> extra points of a sparse layer (:func:`_conformable_points`):
-    #: added to its data for the side surfaces; the continuous TIN gets
-    #: them as ``Dataset.derived_points`` (:func:`_spoiled_vertices` through
-    #: ``layer_points``, as the build)
-    conformable: Dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def _spoiled_vertices(fs: "FaultSurface", layer: str, data: np.ndarray,
@@ -2056,9 +2049,9 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     res: Dict[str, Dict[str, Any]] = {}
     hint = (fault.throw or {}).get("max")
     for lay in ds.layers:
-        D = layer_data(ds, lay)
-        if lay in opt.conformable:
-            D = np.vstack([D, opt.conformable[lay]])
+        # With the points of a sparse layer made conformable
+        # (Dataset.derived_points, _conformable_points).
+        D = layer_data(ds, lay, derived=True)
         if len(D) < 3:
             continue
         spacing_data = _median_spacing(D)
@@ -3420,11 +3413,11 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
                 f, ring, z_range, reach=opt.reach, max_z_dip=opt.max_z_dip,
                 warnings=warns[f.name], carry=carry)
     if todo:
-        opt.conformable = _conformable_points(dataset, list(every.values()), report.layers)
-        # The continuous TINs take them too (Dataset.derived_points): the
-        # spoiled band measured here (_spoiled_vertices) is then the built
-        # model's.
-        dataset = replace(dataset, derived_points=opt.conformable)
+        # The side surfaces take them (_derive_sections), and so do the
+        # continuous TINs: the spoiled band measured here
+        # (_spoiled_vertices, through layer_points) is the built model's.
+        dataset = replace(dataset, derived_points=_conformable_points(
+            dataset, list(every.values()), report.layers))
     for f in dataset.faults:
         if id(f) not in todo:
             faults.append(f)
