@@ -760,3 +760,30 @@ def test_the_v2_example_of_the_docs_loads(tmp_path):
     assert f3.group == "F3-F4" and f3.sticks.tolist() == ["1", "1", "2", "2"]
     assert [list(t.layers) for t in f3.traces] == [["val_250"], []]
     np.testing.assert_array_equal(f3.traces[0].plane[0], [1210, 1500, -50])
+
+
+def test_derived_key_round_trips_and_bad_values_are_named(v2_dir, tmp_path):
+    # F3 has layer cutoffs: marked derived it loads so, and saves so.
+    p = edit(v2_dir, lambda doc: doc["faults"][2].update(derived=True))
+    ds = load_dataset(p)
+    assert [f.derived for f in ds.faults] == [False, False, True]
+    back = load_dataset(ds.save(tmp_path / "out"))
+    assert [f.derived for f in back.faults] == [False, False, True]
+    assert json.loads((tmp_path / "out" / "dataset.json").read_text())["faults"][2]["derived"] is True
+    # What makes version 1 refuse it (Dataset.save quotes the first three).
+    from faultmesh.dataset import _v2_only
+    assert "fault 'F3' has derived cutoffs" in _v2_only(ds)
+    # Not a boolean; and true on a fault whose traces have no cutoffs.
+    p = edit(v2_dir, lambda doc: doc["faults"][2].update(derived="yes"))
+    with pytest.raises(DatasetError, match=r"fault 'F3' derived.*must be true or false, got 'yes'"):
+        load_dataset(p)
+    # A derived fault that cuts no layer (plane traces only; the build
+    # leaves it out) needs no derivation once its points are used up.
+    from faultmesh.derive import needs_derivation
+    p = edit(v2_dir, lambda doc: (doc["faults"][2].update(derived=False),
+                                  doc["faults"][0].update(derived=True)))
+    f1 = load_dataset(p).faults[0]
+    assert f1.derived and needs_derivation(f1)          # it still has its points
+    f1.points = f1.sticks = None
+    f1.kind = "normal"
+    assert not needs_derivation(f1)

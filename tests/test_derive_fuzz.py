@@ -627,3 +627,25 @@ def test_fault_points_nearly_on_a_line_are_named_as_such():
     out = check_case(make_case(seeded_params(20024)))
     assert out.startswith("error: ") and "'F1'" in out, out
     assert "nearly on one line" in out and "does not cross the study area" in out, out
+
+
+def test_a_saved_derived_dataset_whose_faults_cut_no_layer_builds_the_same_model(tmp_path):
+    # Case 47001: both faults' points miss the layers ("no layer is cut",
+    # plane traces only); the build leaves them out. Saved, such a fault
+    # was read back as one to derive again from its plane traces (its
+    # points used up), and a fault marked derived was at first refused for
+    # having no cutoffs: it is a derived fault that cuts nothing.
+    from faultmesh.dataset import load_dataset
+
+    d = derive.derive_faults(make_case(seeded_params(47001)))
+    assert [(f.derived, any(t.layers for t in f.traces)) for f in d.faults] == [(True, False)] * 2
+    m = faultmesh.build_model(d, evaluate=False)
+    back = load_dataset(d.save(tmp_path / "o", version=2))
+    assert [f.derived for f in back.faults] == [True, True]
+    assert not any(derive.needs_derivation(f) for f in back.faults)
+    m2 = faultmesh.build_model(back, evaluate=False)
+    m2.check()
+    assert set(m.surfaces) == set(m2.surfaces)
+    for k in m.surfaces:
+        np.testing.assert_allclose(m2.surfaces[k].vertices, m.surfaces[k].vertices, rtol=0, atol=1e-6)
+        np.testing.assert_array_equal(m2.surfaces[k].triangles, m.surfaces[k].triangles)

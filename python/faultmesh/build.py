@@ -170,7 +170,9 @@ def _in_fault_zones(dataset, layer: str, area: StudyArea, points: np.ndarray,
     xy = np.ascontiguousarray(np.asarray(points, dtype=np.float64)[:, :2])
     z = np.asarray(points, dtype=np.float64).reshape(-1, 3)[:, 2]
     rep = getattr(dataset, "derivation", None)
-    derived = set(rep.faults) if rep is not None else set()
+    # Derived in this session (the report) or read back as derived (saved).
+    derived = (set(rep.faults) if rep is not None else set()) | \
+        {f.name for f in dataset.faults if f.derived}
     for f in dataset.faults:
         if kind is not None and f.kind != kind and not (every_derived and f.name in derived):
             continue
@@ -516,8 +518,11 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         # in the model: left out. Its ends would be taken from those traces
         # (fault_ends: "has no trace", or "zero-length direction" between
         # two equal plane traces of a fault of 3 points on one stick).
-        derived = dataset.derivation.faults
-        uncut = [f.name for f in dataset.faults if f.name in derived and not any(tr.layers for tr in f.traces)]
+    # (Also one read back from a saved derived dataset, Fault.derived.)
+    derived = dataset.derivation.faults if getattr(dataset, "derivation", None) is not None else {}
+    uncut = [f.name for f in dataset.faults if (f.name in derived or f.derived)
+             and not any(tr.layers for tr in f.traces)]
+    if uncut:
         dataset = replace(dataset, faults=[f for f in dataset.faults if f.name not in uncut])
 
     # Steps 2 and 3: stratum TINs, layer-crossing repair.
@@ -530,7 +535,9 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         # once more with every pick under a derived patch left out of the
         # TINs (the patches take them back; _in_fault_zones, every_derived).
         derivation = getattr(dataset, "derivation", None)
-        if not (derivation is not None and derivation.faults and "repair_crossings(" in str(e)):
+        any_derived = (derivation is not None and bool(derivation.faults)) or \
+            any(f.derived for f in dataset.faults)
+        if not (any_derived and "repair_crossings(" in str(e)):
             raise
         try:
             tins, tin_meta = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, prog, n_threads,

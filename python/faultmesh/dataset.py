@@ -126,7 +126,14 @@ class Fault:
     without ``layers`` contribute their ``plane``. ``throw`` (e.g.
     ``{"max": 40.0}``, metres) is a hint used only where a side of the fault
     has no data near it. The cutoffs of such a fault are derived by
-    :func:`faultmesh.derive.derive_faults` (``build_model`` calls it)."""
+    :func:`faultmesh.derive.derive_faults` (``build_model`` calls it).
+    ``derived``: the traces' cutoffs were derived by
+    :func:`~faultmesh.derive.derive_faults` (which sets it) from the layer
+    data, so the fault's patches stand for those data near it (the builder
+    leaves the layer data under a derived fault's patches out of the
+    continuous TINs and the patches honour them, :mod:`faultmesh.build`);
+    format 2 saves it as ``"derived": true``, so that a saved derived dataset
+    builds the model its source builds."""
 
     name: str
     kind: Optional[str] = None
@@ -137,6 +144,7 @@ class Fault:
     sticks: Optional[np.ndarray] = None
     surface: Optional[Tuple[np.ndarray, np.ndarray]] = None
     throw: Optional[Dict[str, float]] = None
+    derived: bool = False
 
     def __post_init__(self) -> None:
         self.tips = np.asarray(self.tips, dtype=np.float64).reshape(-1, 2)
@@ -1579,7 +1587,7 @@ _TOP_KEYS = {"faultmesh_dataset", "name", "crs", "layers", "boundary", "borehole
 _SECTION_KEYS = {"name", "origin", "azimuth"} | _NOTES
 _FAULT_KEYS = {"name", "kind", "group", "tips", "traces"} | _NOTES
 #: Keys of a fault that only format version 2 knows.
-_FAULT_KEYS_V2_ONLY = {"points", "surface", "throw"}
+_FAULT_KEYS_V2_ONLY = {"points", "surface", "throw", "derived"}
 _FAULT_KEYS_V2 = _FAULT_KEYS | _FAULT_KEYS_V2_ONLY
 #: ``"boreholes": {...}`` in version 2: drillhole tables.
 _DRILLHOLE_KEYS = {"collars", "surveys", "intervals", "other_units"} | _NOTES
@@ -2270,8 +2278,11 @@ def load_dataset(path, *, snap: Optional[float] = None,
                 tl[lay] = {side: ctx.polyline(ctx.need(sides, side, lw), f"{lw} {side}", sec)
                            for side in ("foot", "hanging")}
             traces.append(Trace(sname, plane, tl))
+        derived = fd.get("derived", False)
+        if not isinstance(derived, bool):
+            raise ctx.err(f"{w} derived", f"must be true or false, got {_short(derived)}")
         faults.append(Fault(fname, kind, group, tips, traces, points=fpoints, sticks=fsticks,
-                            surface=fsurface, throw=throw))
+                            surface=fsurface, throw=throw, derived=derived))
 
     ds = Dataset(name=name, layers=layers, boundary=ring, boreholes=boreholes, points=points,
                  sections=sections, faults=faults, crs=crs, path=p, snap_distance=snap_key,
@@ -2358,6 +2369,8 @@ def _v2_only(ds: Dataset) -> List[str]:
             out.append(f"{fw} has a fault surface")
         if f.throw is not None:
             out.append(f"{fw} has a throw")
+        if f.derived:
+            out.append(f"{fw} has derived cutoffs")
         if not f.traces:
             out.append(f"{fw} has no trace")
     return out
@@ -2492,6 +2505,8 @@ def save_dataset(ds: Dataset, path, *, section_coords: bool = False,
         fd.update(fault_files[f.name])
         if f.throw is not None:
             fd["throw"] = {k: float(v) for k, v in f.throw.items()}
+        if f.derived:
+            fd["derived"] = True
         tl = []
         for t in f.traces:
             sec = ds.sections.get(t.section) if t.section is not None else None

@@ -144,7 +144,10 @@ __all__ = ["derive_faults", "needs_derivation", "FaultSurface", "fault_surface",
 def needs_derivation(fault: Fault) -> bool:
     """True if ``fault`` lacks what :func:`faultmesh.build_model` consumes
     (no trace with layer cutoffs, or no kind) or brings geometry to derive
-    from (points, a surface)."""
+    from (points, a surface). A fault read back as derived (``derived``,
+    its points used up) needs nothing more, also where it cuts no layer."""
+    if fault.derived and fault.kind is not None and fault.points is None and fault.surface is None:
+        return False
     return (fault.kind is None or fault.points is not None or fault.surface is not None
             or not any(tr.layers for tr in fault.traces))
 
@@ -2616,7 +2619,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # What the builder consumes: the points, surface and hint were used up
     # (the fault then needs no second derivation).
     new_fault = Fault(fault.name, final_kind, fault.group, np.array(tips).reshape(-1, 2),
-                      [t for _, t in out_traces])
+                      [t for _, t in out_traces], derived=True)
     _drop_crossing_sections(new_fault, ring, warn)
     prof = {lay: {"u": np.array([lines[i]["u"] for i in order]), "throw": throw[lay][order],
                   "cut": cut[lay][order]} for lay in res}
