@@ -212,3 +212,76 @@ def test_every_build_model_option_has_a_cli_option(tmp_path, monkeypatch):
     with pytest.raises(SystemExit) as e:
         main(["build", "paper_like", "-o", str(tmp_path / "c"), "--spacing", "-1"])
     assert e.value.code == 2
+
+
+def _v2_ground(folder: Path, seed: int = 23) -> Path:
+    """A generated ground written as format 2 without cutoffs (fault sticks,
+    drillhole tables, section picks): what `faultmesh derive` is for."""
+    import faultmesh.grounds as gr
+    from faultmesh.dataset import load_dataset
+
+    spec, geo, p1 = gr.make_ground(seed, folder)
+    return Path(gr.write_v2(load_dataset(p1), geo, spec, folder / "v2", section_picks=True))
+
+
+def test_derive_writes_the_derived_dataset_its_cutoff_lines_and_report(tmp_path, capsys):
+    from faultmesh.dataset import load_dataset
+    from faultmesh.derive import derive_faults, needs_derivation
+    from faultmesh.formats.gocad import read_pl
+
+    src = _v2_ground(tmp_path)
+    out = tmp_path / "derived"
+    assert main(["derive", str(src), "-o", str(out)]) == 0, capsys.readouterr().err
+    text = capsys.readouterr().out
+    names = sorted(p.name for p in out.iterdir())
+    for f in ("dataset.json", "cutoffs.pl", "derivation.json", "run.json", "collars.csv",
+              "intervals.csv"):
+        assert f in names, names
+    # The report is the library's derivation of the same dataset.
+    lib = derive_faults(load_dataset(src))
+    rep = json.loads((out / "derivation.json").read_text())
+    assert rep["faults"] == json.loads(json.dumps(lib.derivation.as_dict()))
+    for name, fd in lib.derivation.faults.items():
+        assert f"fault {name!r}: {fd.kind}," in text
+    # Every cutoff line, footwall and hanging wall of each cut layer, as a
+    # named PLine with the report's points (written with round-trip digits).
+    lines = read_pl(out / "cutoffs.pl").metadata["polylines"]
+    want = {f"{name} {lay} {label} cutoff": np.asarray(sides[side])
+            for name, fd in lib.derivation.faults.items() for lay, sides in fd.cutoffs.items()
+            for side, label in (("foot", "footwall"), ("hanging", "hanging wall"))}
+    assert want and set(lines) == set(want)
+    for k, P in want.items():
+        assert np.array_equal(np.asarray(lines[k]["vertices"]), P), k
+        assert len(lines[k]["segments"]) == len(P) - 1      # open lines
+    # The derived dataset needs no derivation and builds the model that the
+    # source builds (the cutoffs are the derived ones, hand-drawn now).
+    ds = load_dataset(out / "dataset.json")
+    assert ds.faults and not any(needs_derivation(f) for f in ds.faults)
+    a = faultmesh.build_model(load_dataset(src), evaluate=False)
+    b = faultmesh.build_model(ds, evaluate=False)
+    assert set(a.surfaces) == set(b.surfaces)
+    for n in a.surfaces:
+        assert np.allclose(a.surfaces[n].vertices, b.surfaces[n].vertices, rtol=0, atol=1e-6), n
+        assert np.array_equal(a.surfaces[n].triangles, b.surfaces[n].triangles), n
+
+
+def test_derive_without_a_fault_to_derive_says_so_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "d"
+    assert main(["derive", "paper_like", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "no fault to derive" in err and "hand-drawn cutoffs" in err and len(err.splitlines()) == 1
+    assert not out.exists()
+
+
+def test_derive_of_a_bad_dataset_names_file_and_row_and_writes_nothing(tmp_path, capsys):
+    src = _v2_ground(tmp_path)
+    doc = json.loads(src.read_text())
+    pts = src.parent / doc["faults"][0]["points"]
+    rows = pts.read_text().splitlines()
+    rows[3] = rows[3].split(",")[0] + ",north" + "," + ",".join(rows[3].split(",")[2:])
+    pts.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "d"
+    assert main(["derive", str(src), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert pts.name in err and "row 4" in err, err
+    assert not out.exists()

@@ -22,6 +22,9 @@ examples:
                                              write model files, report and pictures
   faultmesh build site/dataset.json -o out   build a model from your own dataset
   faultmesh build paper_like -o out --loft shortest_diagonal
+  faultmesh derive site/dataset.json -o derived
+                                             fault cutoffs, tips and kind from the data:
+                                             derived dataset.json, cutoffs.pl
   faultmesh section out/site.3dt --origin 4500 3200 --azimuth 90 -o cut.csv --png cut.png
   faultmesh quality out/site.3dt --json quality.json
   faultmesh convert out/site.3dt site.ml     (GOCAD Model3d; also .ts .vtu .vtk .vtp
@@ -402,6 +405,68 @@ def cmd_build(args) -> int:
     return 0
 
 
+def cmd_derive(args) -> int:
+    """Derive the cutoffs, tips and kind of every fault given by points, a
+    surface or plane traces (faultmesh.derive) and write the derived dataset,
+    the cutoff lines and the derivation report; nothing is built."""
+    import json
+
+    from .dataset import prepare_for_build
+    from .derive import derive_faults, needs_derivation
+    from .formats.gocad import write_polylines
+    import numpy as np
+
+    out = Path(args.output)
+    _check_output_folder(out, "derive")
+    ds, builtin = _load_dataset(args.dataset, args)
+    todo = [f.name for f in ds.faults if needs_derivation(f)]
+    if not todo:
+        raise CliError(f"dataset {ds.name!r}: no fault to derive (every fault has "
+                       f"{'hand-drawn cutoffs' if ds.faults else 'none: the dataset has no fault'})")
+    ds, _ = prepare_for_build(ds)     # build_model's data checks, the same input
+    kw: Dict[str, object] = {"min_throw": args.min_throw}
+    if args.spacing is not None:
+        kw["spacing"] = args.spacing
+    _info(args, f"deriving {len(todo)} fault(s) of {ds.name!r} ...")
+    t0 = time.perf_counter()
+    derived = derive_faults(ds, **kw)
+    secs = time.perf_counter() - t0
+    rep = derived.derivation
+    # Each cutoff line along strike, footwall and hanging wall of every cut
+    # layer, as its own named PLine (GOCAD tools and faultmesh's .pl reader).
+    lines = []
+    for name, fd in rep.faults.items():
+        for lay, sides in fd.cutoffs.items():
+            for side, label in (("foot", "footwall"), ("hanging", "hanging wall")):
+                P = np.asarray(sides[side], dtype=np.float64).reshape(-1, 3)
+                if len(P) >= 2:
+                    lines.append((f"{name} {lay} {label} cutoff", P,
+                                  [f"faultmesh_fault:{name}", f"faultmesh_layer:{lay}",
+                                   f"faultmesh_side:{side}"]))
+    with _run_writer(args, "derive") as run:
+        stage = run.stage
+        derived.save(stage, version=2)
+        if lines:
+            write_polylines(stage / "cutoffs.pl", lines, ds.crs or "")
+        doc = {"faults": rep.as_dict(), "layers": rep.layers}
+        (stage / "derivation.json").write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n")
+        files = sorted(p for p in stage.rglob("*") if p.is_file())
+        run.commit(dataset=_dataset_record(ds, builtin))
+    _echo(f"{len(todo)} fault(s) of {ds.name!r} derived in {secs:.1f} s; written to {out.resolve()}/")
+    for f in files:
+        _echo(f"  {run.final(f)}")
+    for name in todo:
+        fd = rep.faults[name]
+        thr = {lay: np.asarray(t["throw"], dtype=np.float64) for lay, t in fd.throw.items()}
+        cut = [f"{lay} {np.nanmin(np.abs(v)):.1f}-{np.nanmax(np.abs(v)):.1f} m"
+               for lay, v in thr.items() if lay in fd.cutoffs and np.isfinite(v).any()]
+        given = f" (given {fd.given_kind})" if fd.given_kind and fd.given_kind != fd.kind else ""
+        _echo(f"fault {name!r}: {fd.kind or 'no kind'}{given}, ends {'/'.join(fd.ends)}, "
+              f"{len(fd.sections)} sections; throw " + (", ".join(cut) or "none: no layer is cut")
+              + (f"; {len(fd.warnings)} warning(s) in derivation.json" if fd.warnings else ""))
+    return 0
+
+
 def cmd_section(args) -> int:
     model = _load_model(args.model)
     sec = model.section(tuple(args.origin), args.azimuth)
@@ -705,6 +770,29 @@ def make_parser() -> argparse.ArgumentParser:
     _add_dataset_options(p)
     _add_common(p)
     p.set_defaults(func=cmd_build)
+
+    p = sub.add_parser("derive", formatter_class=fmt,
+                       help="derive the fault cutoffs, tips and kind from the data and write "
+                            "the derived dataset (no model)",
+                       description="Derive the cutoffs, throw, tips and kind of every fault of "
+                       "DATASET given by points, a surface or plane traces from the layer data "
+                       "(docs/derive.md), as 'build' does before building, and write to DIR: "
+                       "dataset.json (format 2, with each derived fault's traces and cutoffs: "
+                       "edit them and build it, hand-drawn cutoffs win), cutoffs.pl (every "
+                       "footwall and hanging-wall cutoff line as a GOCAD PLine) and "
+                       "derivation.json (the derivation report).",
+                       epilog="example:\n  faultmesh derive site/dataset.json -o derived\n"
+                              "  faultmesh build derived/dataset.json -o out")
+    p.add_argument("dataset", metavar="DATASET", help="dataset JSON (docs/dataset.md)")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    p.add_argument("--spacing", type=_positive, metavar="M",
+                   help="distance between the derived sections along strike (default: an "
+                        "eighth of each fault's length)")
+    p.add_argument("--min-throw", type=_non_negative, default=3.0, metavar="M",
+                   help="a layer whose throw never reaches M is not cut (default 3)")
+    _add_dataset_options(p)
+    _add_common(p)
+    p.set_defaults(func=cmd_derive)
 
     p = sub.add_parser("section", formatter_class=fmt, help="cut a model by a vertical plane",
                        description="Cut every surface of MODEL by the vertical plane through "

@@ -233,22 +233,47 @@ def model3d_lines(model) -> List[str]:
     return out + model_lines(model)
 
 
+def pline_lines(name: str, xyz: np.ndarray, crs: str, *, closed: bool = False,
+                header: Sequence[str] = (), color: str = "0 0 0 1") -> List[str]:
+    """One ``GOCAD PLine 1`` object: a polyline through the points ``xyz``
+    (k, 3) in order (one ``ILINE``; ``closed`` adds the segment back to the
+    first point), named ``name``, with the extra ``header`` lines (``key:value``)
+    and the CRS block."""
+    xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+    out = ["GOCAD PLine 1", "HEADER {", f"name:{_bare(name, 'name')}", f"*line*color:{color}",
+           *header, "}"]
+    out += _crs_block(crs)
+    out.append("ILINE")
+    out.extend(f"VRTX {i} {p}" for i, p in enumerate(format_floats(xyz), start=1))
+    k = len(xyz)
+    out.extend(f"SEG {i} {i % k + 1}" for i in range(1, k + (1 if closed else 0)))
+    out.append("END")
+    return out
+
+
 def boundary_lines(model) -> List[str]:
     """The study boundary as a closed PLine at the model's highest elevation."""
     b = np.asarray(model.boundary, dtype=np.float64).reshape(-1, 2)
     tops = [s.vertices[:, 2].max() for s, _, _ in _entries(model) if s.n_vertices]
     z = float(max(tops)) if tops else 0.0
-    out = ["GOCAD PLine 1", "HEADER {", f"name:{_bare(str(model.name) + ' boundary', 'name')}",
-           "*line*color:0 0 0 1", "faultmesh_role:boundary",
-           f"faultmesh_model:{_bare(model.name, 'model name')}", "}"]
-    out += _crs_block(model.crs)
-    out.append("ILINE")
-    pts = np.column_stack([b, np.full(len(b), z)])
-    out.extend(f"VRTX {i} {xyz}" for i, xyz in enumerate(format_floats(pts), start=1))
-    k = len(b)
-    out.extend(f"SEG {i} {i % k + 1}" for i in range(1, k + 1))
-    out.append("END")
-    return out
+    return pline_lines(str(model.name) + " boundary", np.column_stack([b, np.full(len(b), z)]),
+                       model.crs, closed=True,
+                       header=["faultmesh_role:boundary",
+                               f"faultmesh_model:{_bare(model.name, 'model name')}"])
+
+
+def write_polylines(path, lines: Sequence[Tuple[str, np.ndarray, Sequence[str]]], crs: str,
+                    files: Optional[AtomicFiles] = None) -> List[Path]:
+    """A ``.pl`` file of open polylines: ``lines`` = (name, xyz (k, 3),
+    extra header lines) per polyline, each its own PLine object (what
+    :func:`read_pl` and SKUA/GOCAD read as one named line each)."""
+    path = Path(path)
+    text: List[str] = []
+    for name, xyz, header in lines:
+        text += pline_lines(name, xyz, crs, header=header)
+    with (AtomicFiles() if files is None else _Shared(files)) as f:
+        f.open(path).write("\n".join(text) + "\n")
+    return [path]
 
 
 def boundary_path(path) -> Path:
