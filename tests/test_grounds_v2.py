@@ -661,3 +661,30 @@ def test_the_throw_tapers_to_a_tip_past_the_data(evaluated):
     assert off[ends[0]] < 6.0 and off[ends[-1]] < 6.0, off
     assert out["kind_ok"], out["kinds"]
     assert out["stage"] == "ratio" and out["ratio"] < 2.3, (out["stage"], out["ratio"])
+
+
+def test_a_hanging_wall_without_data_near_its_cutoff_takes_the_throw_along_strike(evaluated, tmp_path):
+    """Regression (random grounds as v2 with section picks: the layers are
+    picked along the true sections only, a few hundred metres apart).
+    61: F3, a normal fault of 14-35 m with an end on the boundary 200 m past
+    its last pick line; its hanging-wall cutoffs lay within 8 m of the
+    truth at the pick lines and 50-60 m too deep between and beyond them
+    (its footwall's within 1 m): L1's on the section 240 m from the nearest
+    pick, 60.4 m. Now a section with no hanging-wall datum within half a
+    section spacing of its cutoff takes the throw of the sections that have
+    one, along strike: within 8 m there (the ground fails for other
+    reasons, 2.03x -> 1.75x). 69: F1's cutoff throws 11-30 m between its
+    pick lines where the truth has 40-45 m, 1.42x; now 1.00x."""
+    out, built = evaluated(61)
+    geo, f3 = built["geo"], next(f for f in built["derived"].faults if f.name == "F3")
+    off = []
+    for tr in f3.traces:
+        walls = tr.layers.get("L1")
+        if walls is None:
+            continue
+        h = np.asarray(walls["hanging"])[0]
+        off.append(abs(h[2] - geo.side_value("L1", "F3", "hanging", h[None, 0], h[None, 1])[0]))
+    assert len(off) >= 8 and off[0] < 8.0, off       # the end on the boundary
+    assert any("F3" in w and "no hanging-wall data near it" in w for w in out["warnings"])
+    out = gr.evaluate_ground_v2(69, tmp_path)
+    assert out["stage"] == "ok" and out["ratio"] <= gr.V2_RATIO, (out["stage"], out["ratio"])

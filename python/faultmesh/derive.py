@@ -1500,6 +1500,23 @@ DECAY_PROFILES: Tuple[Optional[Tuple[float, float]], ...] = tuple(
 TAPER_SUPPORT = 1.0
 
 
+#: A section whose hanging-wall cutoff has no hanging-wall datum within
+#: HANGING_SUPPORT section spacings (XY) takes the cutoff throw of the
+#: sections around it that have one (:func:`_derive_sections`, step 4 of
+#: the module doc), where those lie at most HANGING_BRIDGE section spacings
+#: apart (or it lies within half of that beyond the outermost towards an
+#: end on the boundary) and its own throw differs from theirs by more than
+#: max(``min_throw``, HANGING_TOLERANCE of it). Measured on the v2 random
+#: grounds with section picks (seeds 0-99; docs/derive.md step 4): a
+#: quarter spacing of support and no tolerance replaced sections whose own
+#: surfaces were right (ratio median 0.740 -> 0.802, ground 27 0.23 ->
+#: 0.60x); half a spacing with a quarter of tolerance 0.740 -> 0.764 and
+#: with the bridge bound of 3 spacings 0.742, no ground lost, 69 gained.
+HANGING_SUPPORT = 0.5
+HANGING_BRIDGE = 3.0
+HANGING_TOLERANCE = 0.25
+
+
 #: Where the fading-throw fit (:func:`_decay_sides`) replaces a section's
 #: hanging wall: the hanging-wall data nearest its cutoff are more than
 #: DECAY_GAP data spacings away, and a datum that shows at least half of
@@ -2400,6 +2417,59 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                 m = _merge_cutoffs(traces[i], f, h)
                 cutpts[lay][i] = (m, m)
                 throw[lay][i] = 0.0
+
+    # Sections whose hanging-wall cutoff has no hanging-wall datum within
+    # HANGING_SUPPORT section spacings, between sections that have one (at
+    # most HANGING_BRIDGE spacings apart) or within half of that beyond the
+    # outermost such section towards an end on the boundary: where their
+    # own cutoff throw differs from the throw interpolated along strike
+    # from those sections (the fault's sense, at least min_throw) by more
+    # than max(min_throw, HANGING_TOLERANCE of it), the hanging wall's
+    # cutoff is the footwall's surface shifted by that throw, its surface
+    # moved there and linearly less out to a data spacing (_Faded). Picks
+    # on seismic lines or hand-drawn sections across the fault show the
+    # hanging wall only along the lines; between them, hundreds of metres
+    # from any datum, its surface extrapolates (random_ground(61) as v2
+    # with section picks: F3's hanging-wall cutoffs within 8 m of the truth
+    # at the three pick lines, 50-58 m too deep 110-230 m from them, the
+    # footwall's within 1.6 m all along), where the throw of the sections
+    # at the lines, straight along strike between them, is what the model
+    # from hand-drawn sections lofts. Not farther than HANGING_BRIDGE
+    # spacings: a throw that peaks between two supported sections far apart
+    # is missed by the straight line (random_ground(40): F1's L2 got -16 to
+    # -30 m where its own surfaces gave -24 to -40 m, the truth's; 0.74x ->
+    # 1.01x without the bound). Towards a tip the taper below decides.
+    if kind is not None:
+        spacing_u = length / n_sec
+        for lay, r in res.items():
+            along = sorted((i for i in good if cut[lay][i] and lines[i]["given"] is None
+                            and not lines[i].get("end") and i not in r.get("hinted", {})),
+                           key=lambda i: lines[i]["u"])
+            seen = [i for i in along if sgn * throw[lay][i] >= opt.min_throw and
+                    _sides_of(r, i)["hanging"].nearest(cutpts[lay][i][1][None, :2])[0]
+                    <= HANGING_SUPPORT * spacing_u]
+            if len(seen) < 2:
+                continue
+            su = np.array([lines[i]["u"] for i in seen])
+            st = np.array([throw[lay][i] for i in seen])
+            for i in along:
+                if i in seen:
+                    continue
+                u = lines[i]["u"]
+                k = int(np.searchsorted(su, u))
+                if 0 < k < len(su):
+                    if su[k] - su[k - 1] > HANGING_BRIDGE * spacing_u:
+                        continue
+                elif fs.ends[0 if k == 0 else 1] != "boundary" or \
+                        min(abs(su[0] - u), abs(su[-1] - u)) > 0.5 * HANGING_BRIDGE * spacing_u:
+                    continue
+                t = float(np.interp(u, su, st))
+                if abs(throw[lay][i] - t) <= max(opt.min_throw, HANGING_TOLERANCE * abs(t)):
+                    continue
+                use_shifted(lay, i, "hanging", -t,
+                            f"cutoff throw {throw[lay][i]:.1f} m with no hanging-wall data near "
+                            f"it; the hanging wall's cutoff from the throw {t:.1f} m of the "
+                            "sections along strike that have them", fade=r["spacing"])
 
     # Towards an end inside the study area, past the last section with a
     # cutoff that has data of its side within TAPER_SUPPORT section
