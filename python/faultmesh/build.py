@@ -169,18 +169,14 @@ def _in_fault_zones(dataset, layer: str, area: StudyArea, points: np.ndarray,
         return inside
     xy = np.ascontiguousarray(np.asarray(points, dtype=np.float64)[:, :2])
     z = np.asarray(points, dtype=np.float64).reshape(-1, 3)[:, 2]
-    rep = getattr(dataset, "derivation", None)
-    # Derived in this session (the report) or read back as derived (saved).
-    derived = (set(rep.faults) if rep is not None else set()) | \
-        {f.name for f in dataset.faults if f.derived}
     for f in dataset.faults:
-        if kind is not None and f.kind != kind and not (every_derived and f.name in derived):
+        if kind is not None and f.kind != kind and not (every_derived and f.derived):
             continue
         p = fm.layer_patch(f, layer, fm.fault_ends(f), area)
         if p is None or not len(p.triangles):
             continue
         zl, zh, hits = sample_surface(p.vertices, p.triangles, xy)
-        if both_sheets and f.name not in derived and not np.any((hits >= 2) & (zh > zl) & (z - zl < zh - z)):
+        if both_sheets and not f.derived and not np.any((hits >= 2) & (zh > zl) & (z - zl < zh - z)):
             continue
         inside |= hits > 0
     return inside
@@ -518,10 +514,9 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         # in the model: left out. Its ends would be taken from those traces
         # (fault_ends: "has no trace", or "zero-length direction" between
         # two equal plane traces of a fault of 3 points on one stick).
-    # (Also one read back from a saved derived dataset, Fault.derived.)
-    derived = dataset.derivation.faults if getattr(dataset, "derivation", None) is not None else {}
-    uncut = [f.name for f in dataset.faults if (f.name in derived or f.derived)
-             and not any(tr.layers for tr in f.traces)]
+    # (Fault.derived: also one read back from a saved derived dataset.)
+    any_derived = any(f.derived for f in dataset.faults)    # left out or not
+    uncut = [f.name for f in dataset.faults if f.derived and not any(tr.layers for tr in f.traces)]
     if uncut:
         dataset = replace(dataset, faults=[f for f in dataset.faults if f.name not in uncut])
 
@@ -534,9 +529,6 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
         # Layers that still cross after the repair, with derived faults:
         # once more with every pick under a derived patch left out of the
         # TINs (the patches take them back; _in_fault_zones, every_derived).
-        derivation = getattr(dataset, "derivation", None)
-        any_derived = (derivation is not None and bool(derivation.faults)) or \
-            any(f.derived for f in dataset.faults)
         if not (any_derived and "repair_crossings(" in str(e)):
             raise
         try:

@@ -411,10 +411,11 @@ def cmd_derive(args) -> int:
     the cutoff lines and the derivation report; nothing is built."""
     import json
 
+    import numpy as np
+
     from .dataset import prepare_for_build
     from .derive import derive_faults, needs_derivation
     from .formats.gocad import write_polylines
-    import numpy as np
 
     out = Path(args.output)
     _check_output_folder(out, "derive")

@@ -146,10 +146,8 @@ def needs_derivation(fault: Fault) -> bool:
     (no trace with layer cutoffs, or no kind) or brings geometry to derive
     from (points, a surface). A fault read back as derived (``derived``,
     its points used up) needs nothing more, also where it cuts no layer."""
-    if fault.derived and fault.kind is not None and fault.points is None and fault.surface is None:
-        return False
     return (fault.kind is None or fault.points is not None or fault.surface is not None
-            or not any(tr.layers for tr in fault.traces))
+            or not (fault.derived or any(tr.layers for tr in fault.traces)))
 
 
 def layer_data(dataset: Dataset, layer: str, derived: bool = False) -> np.ndarray:
@@ -2028,6 +2026,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     ring = np.asarray(ds.boundary, dtype=np.float64)
     u0, u1, spacing, n_sec = grid
     length = u1 - u0
+    spacing_u = length / n_sec     # the sections' actual spacing along strike
     # An end on the study-area boundary gets a section of its own a hair
     # inside the extent's edge (END_SECTION_INSET): the builder carries the
     # end section's patch along strike onto the boundary unchanged, and the
@@ -2041,7 +2040,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     given = [tr for tr in fault.traces if tr.layers]
     given_u = [float(fs.u(np.asarray(tr.plane)[:, :2]).mean()) for tr in given]
     if given_u:
-        keep = np.array([min(abs(u - g) for g in given_u) >= 0.5 * length / n_sec for u in us])
+        keep = np.array([min(abs(u - g) for g in given_u) >= 0.5 * spacing_u for u in us])
         us = us[keep]
     # Sections: derived ones, then the given traces' sections.
     lines: List[Dict[str, Any]] = []
@@ -2439,12 +2438,15 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # is missed by the straight line (random_ground(40): F1's L2 got -16 to
     # -30 m where its own surfaces gave -24 to -40 m, the truth's; 0.74x ->
     # 1.01x without the bound). Towards a tip the taper below decides.
+    def derived_along(lay: str) -> List[int]:
+        """The layer's cut sections derived here (not given, not an extra
+        end section), in order along strike."""
+        return sorted((i for i in good if cut[lay][i] and lines[i]["given"] is None
+                       and not lines[i].get("end")), key=lambda i: lines[i]["u"])
+
     if kind is not None:
-        spacing_u = length / n_sec
         for lay, r in res.items():
-            along = sorted((i for i in good if cut[lay][i] and lines[i]["given"] is None
-                            and not lines[i].get("end") and i not in r.get("hinted", {})),
-                           key=lambda i: lines[i]["u"])
+            along = [i for i in derived_along(lay) if i not in r.get("hinted", {})]
             seen = [i for i in along if sgn * throw[lay][i] >= opt.min_throw and
                     _sides_of(r, i)["hanging"].nearest(cutpts[lay][i][1][None, :2])[0]
                     <= HANGING_SUPPORT * spacing_u]
@@ -2490,13 +2492,11 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # truth has 9-22 m, hanging-wall cutoffs up to 34 m too deep: 2.50x,
     # now 1.83x, the end throws within 3.4 m).
     if kind is not None and not len(fault.tips):
-        spacing_u = length / n_sec
         for lay, r in res.items():
             # The layer's derived sections along strike and, per section,
             # the distance from its nearer cutoff to that side's data: the
             # same for both ends, taken once.
-            along = sorted((i for i in good if cut[lay][i] and lines[i]["given"] is None
-                            and not lines[i].get("end")), key=lambda i: lines[i]["u"])
+            along = derived_along(lay)
             supported = [min(_sides_of(r, i)[nm].nearest(cutpts[lay][i][k][None, :2])[0]
                              for k, nm in enumerate(("foot", "hanging"))) <= TAPER_SUPPORT * spacing_u
                          for i in along]
@@ -2525,7 +2525,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # Ends on the boundary where a layer's band leaves the study area
     # obliquely: an extra section for that layer near where it does.
     n_lines = _fill_boundary_ends(fs, ring, lines, traces, good, res, throw, cut, cutpts,
-                                  ends_u, length / n_sec, sgn)
+                                  ends_u, spacing_u, sgn)
 
     # Ends: tips or boundary.
     order = np.argsort([ln["u"] for ln in lines])
