@@ -524,6 +524,24 @@ def test_round_trip_v2_faults(tmp_path_factory, faults):
     assert back == ds and back.allclose(ds)
 
 
+def test_interleaved_sticks_save_as_consecutive_rows(tmp_path):
+    # In memory a stick's points may be interleaved with another's (the
+    # derive fuzz generator makes such faults); the file wants each stick's
+    # rows consecutive, so saving wrote a file its loader refused ("stick '0'
+    # resumes after other sticks"). Saved now stick by stick, in order of
+    # first appearance, each stick's points in their order.
+    base = synthetic(0, n_boreholes=12)
+    ring = np.array([[0.0, 0], [1000, 0], [1000, 1000], [0, 1000]])
+    b = Boreholes(np.repeat(["a", "b", "c"], 3), np.repeat([[100.0, 100], [900, 200], [500, 800]], 3, 0),
+                  ["L1", "L2", "L3"] * 3, [0.0, -10, -20] * 3)
+    P = np.array([[400, 0, 0], [600, 0, 0], [400, 500, -50], [600, 500, -50], [400, 900, -90.0]])
+    f = Fault("F", points=P, sticks=np.array(["s1", "s2", "s1", "s2", "s1"]))
+    back = load_dataset(Dataset("rt", base.layers, ring, b, faults=[f]).save(tmp_path / "o"))
+    g = back.fault("F")
+    assert g.sticks.tolist() == ["s1"] * 3 + ["s2"] * 2
+    np.testing.assert_array_equal(g.points, P[[0, 2, 4, 1, 3]])
+
+
 # ---------------------------------------------------------------------------
 # Deviated drillholes vs the equivalent hole_id,x,y,layer,z table: same model
 # ---------------------------------------------------------------------------

@@ -649,3 +649,21 @@ def test_a_saved_derived_dataset_whose_faults_cut_no_layer_builds_the_same_model
     for k in m.surfaces:
         np.testing.assert_allclose(m2.surfaces[k].vertices, m.surfaces[k].vertices, rtol=0, atol=1e-6)
         np.testing.assert_array_equal(m2.surfaces[k].triangles, m.surfaces[k].triangles)
+
+
+def test_a_layer_with_two_data_is_refused_by_the_build_as_by_the_loader(tmp_path):
+    # Case 47040: layer L1 has 2 data points inside the study area. The
+    # loader refuses such a layer (a stratum TIN needs 3), but build_model
+    # built it in memory (the C++ TIN takes any number >= 1), so a dataset
+    # that built could not be loaded back once saved. One rule now
+    # (dataset.check_layer_data), the same message from both.
+    from faultmesh.dataset import DatasetError, load_dataset
+
+    ds = make_case(seeded_params(47040))
+    assert len(ds.layer_points("L1")) == 2
+    with pytest.raises(DatasetError, match=r"layer 'L1': has 2 data point\(s\) inside the study area .* "
+                                           "needs at least 3"):
+        faultmesh.build_model(ds, evaluate=False)
+    ds.save(tmp_path / "o", version=2)
+    with pytest.raises(DatasetError, match=r"dataset.json: layer 'L1': has 2 data point\(s\) inside"):
+        load_dataset(tmp_path / "o" / "dataset.json")

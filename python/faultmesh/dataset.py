@@ -1549,10 +1549,27 @@ def check_layer_order(ds: Dataset) -> List[Adjustment]:
     return warnings
 
 
+def check_layer_data(ds: Dataset) -> None:
+    """Every layer has at least 3 data inside the study area (borehole hits,
+    extra points and, in a derived dataset, the conformable points): the
+    least that fixes a surface's dip; with fewer its TIN would be flat or a
+    guess across the whole area. One rule for :func:`load_dataset` and
+    :func:`faultmesh.build_model` (a dataset built in memory must load back
+    once saved). Run on a dataset the boundary policy has been applied to
+    (points beyond the area dropped). Raises :class:`DatasetError` naming
+    the layer."""
+    for lay in ds.layers:
+        n = len(ds.layer_points(lay))
+        if n < 3:
+            raise DatasetError(f"layer {lay!r}: has {n} data point(s) inside the study area "
+                               "(borehole hits plus extra points); a stratum TIN needs at least 3")
+
+
 def prepare_for_build(ds: Dataset):
     """What :func:`faultmesh.build_model` runs first, before any repair:
     the data checks (:func:`check_hole_positions`, :func:`check_layer_order`,
-    raising :class:`DatasetError`) and :func:`apply_boundary_policy`.
+    raising :class:`DatasetError`), :func:`apply_boundary_policy` and
+    :func:`check_layer_data` on its result.
 
     Returns ``(dataset, record)``: the dataset as the policy leaves it (the
     same data for a loaded dataset, the policy being idempotent) and the
@@ -1561,6 +1578,7 @@ def prepare_for_build(ds: Dataset):
     check_hole_positions(ds)
     warns = [w for w in check_layer_order(ds) if w not in ds.adjustments]
     out = apply_boundary_policy(ds)
+    check_layer_data(out)
     if warns:
         out.adjustments.extend(warns)
     return out, input_record(out)
@@ -2295,11 +2313,10 @@ def load_dataset(path, *, snap: Optional[float] = None,
     except DatasetError as e:
         raise DatasetError(f"{p}: {e}") from None
     ds = apply_boundary_policy(ds, snap)
-    for lay in layers:
-        n = len(ds.layer_points(lay))
-        if n < 3:
-            raise ctx.err(f"layer {lay!r}", f"has {n} data point(s) inside the study area "
-                          "(borehole hits plus extra points); a stratum TIN needs at least 3")
+    try:
+        check_layer_data(ds)
+    except DatasetError as e:
+        raise DatasetError(f"{p}: {e}") from None
     return ds
 
 
@@ -2549,8 +2566,16 @@ def _fault_points_csv(f: Fault) -> str:
     labels = [str(v) for v in np.asarray(f.sticks).reshape(-1).tolist()]
     for v in set(labels):
         _check_csv_field(v, f"fault {f.name!r} stick label")
-    return "x,y,z,stick\n" + "".join(f"{rep(x)},{rep(y)},{rep(z)},{k}\n"
-                                     for (x, y, z), k in zip(P, labels))
+    # Each stick's rows together, the sticks in order of first appearance,
+    # each stick's points in their order: the file wants a stick's rows
+    # consecutive (read_fault_points), in memory they may be interleaved
+    # (derive takes a stick's points in their order either way).
+    first: Dict[str, int] = {}
+    for i, k in enumerate(labels):
+        first.setdefault(k, i)
+    order = sorted(range(len(labels)), key=lambda i: (first[labels[i]], i))
+    return "x,y,z,stick\n" + "".join(f"{rep(P[i][0])},{rep(P[i][1])},{rep(P[i][2])},{labels[i]}\n"
+                                     for i in order)
 
 
 def _fault_surface_ts(f: Fault, crs: str) -> str:
