@@ -166,6 +166,16 @@ def test_fault_side_matches_exact_brute_force(seed, axis, hanging_sign):
                    on + rng.normal(0, 1e-9, size=on.shape) * np.abs(on),
                    base + rng.uniform(-100.0, 600.0, size=(20, 3))])
     side, ext, tri, located = faultmesh.fault_side(V, T, Q, axis=axis, hanging_sign=hanging_sign)
+    # The same TIN set up once (FaultSide) answers the same, from its own
+    # copies: the caller's arrays changed afterwards change nothing.
+    once = faultmesh.FaultSide(V.copy(), T.copy(), axis=axis, hanging_sign=hanging_sign)
+    Vc, Tc = V.copy(), T.copy()
+    kept = faultmesh.FaultSide(Vc, Tc, axis=axis, hanging_sign=hanging_sign)
+    Vc[:] = np.nan
+    Tc[:] = 0
+    for got in (once.sides(Q), kept.sides(Q)):
+        for a, b in zip(got, (side, ext, tri, located)):
+            assert np.array_equal(a, b)
     for i, p in enumerate(Q):
         want, wt = _brute_side(V, T, p, axis, hanging_sign)
         assert side[i] == want, (i, p)
@@ -203,6 +213,20 @@ def test_fault_side_extent_mask_and_errors():
     Vv = np.array([[0, 0, 0], [10, 0, 0], [0, 0, 10.0]])
     with pytest.raises(faultmesh.GeometryError, match="projection along z"):
         faultmesh.fault_side(Vv, np.array([[0, 1, 2]]), P)
+    # FaultSide: the same checks, named after it.
+    with pytest.raises(ValueError, match="FaultSide: hanging_sign must be"):
+        faultmesh.FaultSide(V, T, hanging_sign=2)
+    with pytest.raises(ValueError, match="FaultSide: extent must be a bool array of shape"):
+        faultmesh.FaultSide(V, T, extent=np.array([True]))
+    with pytest.raises(ValueError, match="FaultSide: triangles row 1 has vertex index 7"):
+        faultmesh.FaultSide(V, np.array([[0, 1, 2], [1, 7, 2]]))
+    with pytest.raises(faultmesh.GeometryError, match="FaultSide: the fault surface has no triangle"):
+        faultmesh.FaultSide(V, np.zeros((0, 3), dtype=np.int64))
+    fs = faultmesh.FaultSide(V, T, extent=np.array([True, False]))
+    assert fs.n_triangles == 2
+    with pytest.raises(ValueError, match=r"FaultSide.sides: points row 0 has a non-finite coordinate"):
+        fs.sides(np.array([[np.inf, 0, 0.0]]))
+    assert [a.tolist() for a in fs.sides(P)] == [side.tolist(), ext.tolist(), tri.tolist(), loc.tolist()]
 
 
 def test_fault_fields_validated():

@@ -922,6 +922,7 @@ def test_every_property_of_every_bound_class():
     square = np.array([[0, 0], [100, 0], [100, 100], [0, 100.0]])
     instances = {
         "AabbTree": fm.AabbTree(v, t),
+        "FaultSide": fm.FaultSide(v, t),
         "BoundaryContours": fm.boundary_contours(t),
         "DelaunayInfo": fm.delaunay(v[:, :2], return_info=True),
         "LayerTin": fm.LayerTin("L", np.c_[LV[:, :2], LV[:, 2]], square),
@@ -998,6 +999,16 @@ def test_kernels_never_read_arrays_another_thread_changes():
             if err is None:
                 lo, hi, hits = r
                 assert np.all(hits[~np.isnan(lo)] > 0) and np.all(np.nan_to_num(lo) <= np.nan_to_num(hi))
+            # FaultSide keeps its copies for its life; nearest_segment copies per call.
+            r, err = call(["FaultSide", "fault_side"], ["vertices", "triangles"], fm.FaultSide, V3, T)
+            if err is None:
+                side, _, tri, _ = r.sides(np.c_[Q, np.ones(len(Q))])
+                assert set(side.tolist()) <= {1, -1, 0, fm.BEYOND_FAULT} and tri.max() < len(T)
+            r, err = call(["nearest_segment"], ["points", "starts", "ends"], fm.nearest_segment,
+                          P, Q[:-1], Q[1:])
+            if err is None:
+                idx, dist = r
+                assert idx.min() >= 0 and idx.max() < len(Q) - 1 and np.all(dist >= 0)
     finally:
         stop.set()
         th.join()

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import faultmesh
 from faultmesh.invariants import check_gaps, check_model, check_surface, on_boundary_tolerance
@@ -297,3 +299,45 @@ def test_check_model_names_the_bad_surface():
     m.gaps.append(Gap("F9", "nope", np.arange(1), 3, 0))
     with pytest.raises(faultmesh.GeometryError, match="unknown layers"):
         m.check()
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.sampled_from([0.0, 5.0e5, 7.8e6]), st.sampled_from([1.0, 40.0, 3000.0]))
+def test_nearest_segment_matches_every_pair(seed, offset, length):
+    """faultmesh.nearest_segment (C++, a walk over the segments sorted by x)
+    against the distance to every segment (numpy): the same distance and,
+    among ties, the lowest index; random and repeated segments, zero-length
+    ones, points on segments and at their ends, UTM-sized offsets."""
+    from faultmesh.invariants import _point_segment_distance
+
+    rng = np.random.default_rng(seed)
+    m, n = int(rng.integers(1, 60)), int(rng.integers(1, 80))
+    A = offset + rng.uniform(-500, 500, size=(m, 2))
+    ang = rng.uniform(0, 2 * np.pi, m)
+    B = A + rng.uniform(0, length, m)[:, None] * np.c_[np.cos(ang), np.sin(ang)]
+    B[: m // 10] = A[: m // 10]                          # zero-length segments
+    if m > 2:
+        A[-1], B[-1] = A[0], B[0]                        # a repeated segment
+    P = np.vstack([offset + rng.uniform(-800, 800, size=(n, 2)), A[:5], B[:5],
+                   0.5 * (A[:5] + B[:5])])
+    idx, dist = faultmesh.nearest_segment(P, A, B)
+    every = _point_segment_distance(P, A, B)
+    assert np.allclose(dist, every.min(axis=1), rtol=1e-12, atol=1e-9 * max(1.0, offset))
+    # The chosen segment is at that distance (ties: any of the nearest within rounding).
+    assert np.allclose(every[np.arange(len(P)), idx], every.min(axis=1), rtol=1e-12,
+                       atol=1e-9 * max(1.0, offset))
+
+
+def test_nearest_segment_edge_cases_and_errors():
+    idx, dist = faultmesh.nearest_segment(np.array([[0.0, 0.0]]), np.zeros((0, 2)), np.zeros((0, 2)))
+    assert idx.tolist() == [-1] and np.isinf(dist[0])
+    # Two identical segments: the lower index; x, y of (k, 3) arrays only.
+    idx, dist = faultmesh.nearest_segment(np.array([[1.0, 1.0, 99.0]]), np.array([[0, 0, 5], [0, 0, 7.0]]),
+                                          np.array([[2, 0, 5], [2, 0, 7.0]]))
+    assert idx.tolist() == [0] and dist.tolist() == [1.0]
+    with pytest.raises(ValueError, match=r"nearest_segment: starts and ends must have the same number of rows"):
+        faultmesh.nearest_segment(np.zeros((1, 2)), np.zeros((2, 2)), np.zeros((1, 2)))
+    with pytest.raises(ValueError, match=r"nearest_segment: points row 1 has a non-finite coordinate"):
+        faultmesh.nearest_segment(np.array([[0, 0], [np.nan, 0.0]]), np.zeros((1, 2)), np.ones((1, 2)))
+    with pytest.raises(ValueError, match=r"nearest_segment: ends row 0 has a coordinate beyond"):
+        faultmesh.nearest_segment(np.zeros((1, 2)), np.zeros((1, 2)), np.array([[1e61, 0.0]]))

@@ -19,6 +19,7 @@ void bind_layer_tin(py::module_& m);
 void bind_surface_sampling(py::module_& m);
 void bind_fault_side(py::module_& m);
 void bind_patch_data(py::module_& m);
+void bind_nearest_segment(py::module_& m);
 }  // namespace faultmesh::bindings
 
 PYBIND11_MODULE(_core, m) {
@@ -60,4 +61,5 @@ PYBIND11_MODULE(_core, m) {
     fb::bind_surface_sampling(m);
     fb::bind_fault_side(m);
     fb::bind_patch_data(m);
+    fb::bind_nearest_segment(m);
 }

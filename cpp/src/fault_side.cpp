@@ -17,7 +17,6 @@
 
 namespace faultmesh {
 namespace detail {
-namespace {
 
 using Index = std::int64_t;
 
@@ -25,8 +24,9 @@ using Index = std::int64_t;
 // triangles with a non-zero projected area and their orientation signs.
 class ProjectedFault {
 public:
+    // Copies of the vertices and triangles: the object outlives the call.
     ProjectedFault(const double* xyz, std::size_t n, const Index* tri, std::size_t m, int axis)
-        : xyz_(xyz), tri_(tri), uv_(2 * n), sign_(m, 0) {
+        : xyz_(xyz, xyz + 3 * n), tri_(tri, tri + 3 * m), uv_(2 * n), sign_(m, 0) {
         const int iu = (axis + 1) % 3, iv = (axis + 2) % 3;
         for (std::size_t i = 0; i < n; ++i) {
             uv_[2 * i] = xyz[3 * i + iu];
@@ -50,11 +50,12 @@ public:
         tree_ = AabbTree(boxes);
         // Boundary edges of the live triangles and their owners: the planes
         // that continue the surface past its edges.
-        boundary_ = detail::owned_boundary_edges(tri, live_);
+        boundary_ = detail::owned_boundary_edges(tri_.data(), live_);
     }
 
     const double* uv(Index v) const { return uv_.data() + 2 * v; }
-    const double* xyz(Index v) const { return xyz_ + 3 * v; }
+    const double* xyz(Index v) const { return xyz_.data() + 3 * v; }
+    std::size_t n_triangles() const { return sign_.size(); }
 
     // The smallest-index triangle whose closed projection contains q (u, v), or -1.
     Index locate(const double* q) const {
@@ -92,8 +93,8 @@ private:
                s * orient2d_sign(c, a, q) >= 0;
     }
 
-    const double* xyz_;
-    const Index* tri_;
+    std::vector<double> xyz_;
+    std::vector<Index> tri_;
     std::vector<double> uv_;
     std::vector<std::int8_t> sign_;
     std::vector<Index> live_;
@@ -101,32 +102,50 @@ private:
     AabbTree tree_;
 };
 
-}  // namespace
 }  // namespace detail
 
-FaultSideResult fault_side(const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
-                           std::size_t n_triangles, const double* points, std::size_t n_points, int axis,
-                           int hanging_sign, const std::uint8_t* extent) {
+FaultSide::FaultSide(const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
+                     std::size_t n_triangles, int axis, int hanging_sign, const std::uint8_t* extent)
+    : FaultSide("FaultSide", vertices, n_vertices, triangles, n_triangles, axis, hanging_sign, extent) {}
+
+FaultSide::FaultSide(const char* fn, const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
+                     std::size_t n_triangles, int axis, int hanging_sign, const std::uint8_t* extent)
+    : hanging_sign_(hanging_sign), axis_(axis) {
     using Index = std::int64_t;
+    const std::string f(fn);
     if (axis < 0 || axis > 2)
-        throw std::invalid_argument("fault_side: axis must be 0 (x), 1 (y) or 2 (z), got " + std::to_string(axis));
+        throw std::invalid_argument(f + ": axis must be 0 (x), 1 (y) or 2 (z), got " + std::to_string(axis));
     if (hanging_sign != 1 && hanging_sign != -1)
-        throw std::invalid_argument("fault_side: hanging_sign must be +1 or -1, got " +
-                                    std::to_string(hanging_sign));
+        throw std::invalid_argument(f + ": hanging_sign must be +1 or -1, got " + std::to_string(hanging_sign));
     for (std::size_t t = 0; t < n_triangles; ++t)
         for (int i = 0; i < 3; ++i) {
             const Index v = triangles[3 * t + i];
             if (v < 0 || static_cast<std::size_t>(v) >= n_vertices)
-                throw std::invalid_argument("fault_side: triangles row " + std::to_string(t) + " has vertex index " +
+                throw std::invalid_argument(f + ": triangles row " + std::to_string(t) + " has vertex index " +
                                             std::to_string(v) + " outside [0, " + std::to_string(n_vertices) + ")");
         }
     // All three coordinates enter orient2d (projected) and orient3d.
-    check_coordinates(vertices, n_vertices, 3, 3, "fault_side", "vertices");
-    check_coordinates(points, n_points, 3, 3, "fault_side", "points");
-    if (n_triangles == 0) throw GeometryError("fault_side: the fault surface has no triangle");
+    check_coordinates(vertices, n_vertices, 3, 3, fn, "vertices");
+    if (n_triangles == 0) throw GeometryError(f + ": the fault surface has no triangle");
+    fault_ = std::make_unique<detail::ProjectedFault>(vertices, n_vertices, triangles, n_triangles, axis);
+    if (extent != nullptr) extent_.assign(extent, extent + n_triangles);
+}
 
-    const detail::ProjectedFault fault(vertices, n_vertices, triangles, n_triangles, axis);
-    const int iu = (axis + 1) % 3, iv = (axis + 2) % 3;
+FaultSide::~FaultSide() = default;
+FaultSide::FaultSide(FaultSide&&) noexcept = default;
+FaultSide& FaultSide::operator=(FaultSide&&) noexcept = default;
+
+std::size_t FaultSide::n_triangles() const { return fault_->n_triangles(); }
+
+FaultSideResult FaultSide::sides(const double* points, std::size_t n_points) const {
+    check_coordinates(points, n_points, 3, 3, "FaultSide.sides", "points");
+    return query(points, n_points);
+}
+
+FaultSideResult FaultSide::query(const double* points, std::size_t n_points) const {
+    using Index = std::int64_t;
+    const detail::ProjectedFault& fault = *fault_;
+    const int iu = (axis_ + 1) % 3, iv = (axis_ + 2) % 3;
     FaultSideResult out;
     out.side.resize(n_points);
     out.extended.resize(n_points);
@@ -138,14 +157,22 @@ FaultSideResult fault_side(const double* vertices, std::size_t n_vertices, const
         Index t = fault.locate(q);
         const bool located = t >= 0;
         if (!located) t = fault.nearest_boundary_owner(q);
-        const auto s = static_cast<std::int8_t>(hanging_sign * fault.plane_side(t, p));
-        const bool inside = located && (extent == nullptr || extent[t] != 0);
+        const auto s = static_cast<std::int8_t>(hanging_sign_ * fault.plane_side(t, p));
+        const bool inside = located && (extent_.empty() || extent_[static_cast<std::size_t>(t)] != 0);
         out.extended[i] = s;
         out.side[i] = inside ? s : kBeyondFault;
         out.triangle[i] = t;
         out.located[i] = located ? 1 : 0;
     }
     return out;
+}
+
+FaultSideResult fault_side(const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
+                           std::size_t n_triangles, const double* points, std::size_t n_points, int axis,
+                           int hanging_sign, const std::uint8_t* extent) {
+    const FaultSide fault("fault_side", vertices, n_vertices, triangles, n_triangles, axis, hanging_sign, extent);
+    check_coordinates(points, n_points, 3, 3, "fault_side", "points");
+    return fault.query(points, n_points);
 }
 
 }  // namespace faultmesh

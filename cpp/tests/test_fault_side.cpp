@@ -3,6 +3,7 @@
 #include <faultmesh/fault_side.hpp>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <stdexcept>
@@ -144,4 +145,32 @@ TEST(FaultSide, BadInputIsNamed) {
     // A vertical fault has no area in the projection along z.
     const Grid vert = plane_grid(0, 2, 1.0, 0.0, 0.0, +[](double, double) { return 5.0; });
     EXPECT_THROW(run(vert, p, 2, 1), faultmesh::GeometryError);
+}
+
+TEST(FaultSide, SetUpOnceAnswersAsTheFunctionAndOwnsItsData) {
+    // A curved fault (w = x^2 / 50 on a grid) with a skirt triangle masked out;
+    // random points, some beyond the grid (no triangle: nearest boundary edge).
+    Grid g = plane_grid(2, 6, 10.0, 0.0, 0.0, +[](double x, double) { return x * x / 50.0; });
+    std::vector<std::uint8_t> extent(g.t.size() / 3, 1);
+    extent[3] = 0;
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> U(-10.0, 70.0), W(-5.0, 100.0);
+    std::vector<double> p;
+    for (int i = 0; i < 500; ++i) p.insert(p.end(), {U(rng), U(rng), W(rng)});
+    const FaultSideResult want = run(g, p, 2, -1, extent.data());
+    faultmesh::FaultSide once(g.v.data(), g.v.size() / 3, g.t.data(), g.t.size() / 3, 2, -1, extent.data());
+    // The object keeps copies: the caller's arrays may change or go.
+    std::fill(g.v.begin(), g.v.end(), 0.0);
+    std::fill(g.t.begin(), g.t.end(), 0);
+    std::fill(extent.begin(), extent.end(), 1);
+    for (int round = 0; round < 2; ++round) {
+        const FaultSideResult got = once.sides(p.data(), p.size() / 3);
+        EXPECT_EQ(got.side, want.side);
+        EXPECT_EQ(got.extended, want.extended);
+        EXPECT_EQ(got.triangle, want.triangle);
+        EXPECT_EQ(got.located, want.located);
+    }
+    EXPECT_EQ(once.n_triangles(), 72u);
+    std::vector<double> nan = {0.5, std::nan(""), 1.0};
+    EXPECT_THROW(once.sides(nan.data(), 1), std::invalid_argument);
 }

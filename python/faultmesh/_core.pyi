@@ -8,7 +8,7 @@ import enum
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TouchingRegion', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'incircle', 'insert_patch_data', 'join_holes', 'loft', 'loft_area', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
+__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'FaultSide', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TouchingRegion', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'incircle', 'insert_patch_data', 'join_holes', 'loft', 'loft_area', 'nearest_segment', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
 class GeometryError(ValueError):
     pass
 class PatchOverlapError(GeometryError):
@@ -579,6 +579,21 @@ class TouchingRegion:
         """
         Number of rings it was built from.
         """
+class FaultSide:
+    """
+    A fault TIN set up once for fault_side queries (projection, AABB tree,
+    boundary edges; its own copies of the arrays). sides(points) returns what
+    fault_side(vertices, triangles, points, ...) returns.
+    """
+    def __init__(self, vertices: typing.Any, triangles: typing.Any, *, axis: typing.SupportsInt | typing.SupportsIndex = 2, hanging_sign: typing.SupportsInt | typing.SupportsIndex = 1, extent: typing.Any = None) -> None:
+        ...
+    def sides(self, points: typing.Any) -> tuple:
+        """
+        (side, extended, triangle, located) of each point (n, 3), as fault_side.
+        """
+    @property
+    def n_triangles(self) -> int:
+        ...
 def boundary_contours(triangles: typing.Any, *, n_vertices: typing.Any = None) -> BoundaryContours:
     """
     Full boundary report (BoundaryContours): loops, open_chains, pinch_vertices,
@@ -646,7 +661,7 @@ def delaunay(xy: typing.Any, return_info: bool = False) -> typing.Any:
     Raises ValueError for a wrong shape or a NaN/inf coordinate or one beyond 1e60 (naming the row),
     faultmesh.GeometryError for fewer than 3 distinct points or all collinear.
     """
-def fault_side(vertices: typing.Any, triangles: typing.Any, points: typing.Any, *, axis: typing.SupportsInt | typing.SupportsIndex = 2, hanging_sign: typing.SupportsInt | typing.SupportsIndex = 1, extent: typing.Any = None) -> tuple[numpy.typing.NDArray[numpy.int8], numpy.typing.NDArray[numpy.int8], numpy.typing.NDArray[numpy.int64], typing.Any]:
+def fault_side(vertices: typing.Any, triangles: typing.Any, points: typing.Any, *, axis: typing.SupportsInt | typing.SupportsIndex = 2, hanging_sign: typing.SupportsInt | typing.SupportsIndex = 1, extent: typing.Any = None) -> tuple:
     """
     Side of each point (n, 3) relative to a fault TIN (vertices (k, 3), triangles (m, 3))
     that is a function over the plane of the other two axes when projected along `axis`
@@ -708,6 +723,14 @@ def loft(a: typing.Any, b: typing.Any, method: str = 'min_area', *, closed: bool
 def loft_area(a: typing.Any, b: typing.Any, triangles: typing.Any) -> float:
     """
     Sum of the 3D areas of triangles indexing the points of a then b.
+    """
+def nearest_segment(points: typing.Any, starts: typing.Any, ends: typing.Any) -> tuple[numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.float64]]:
+    """
+    The nearest of the segments starts[j] -> ends[j] ((m, 2|3), only x, y used) to each
+    point (n, 2|3), in XY. Returns (index int64 (n,), distance float64 (n,)); with no
+    segment every index is -1 and every distance inf. Among segments at the same distance
+    the lowest index wins. Coordinates must be finite with |c| <= 1e60 (ValueError
+    naming the argument and row otherwise).
     """
 def orient2d(a: typing.Any, b: typing.Any, c: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
     """

@@ -129,7 +129,7 @@ from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ._core import (BEYOND_FAULT, GeometryError, boundary_loops, delaunay, fault_side,
+from ._core import (BEYOND_FAULT, FaultSide, GeometryError, boundary_loops, delaunay,
                     triangulate_polygon)
 from .dataset import Dataset, Fault, Section, Trace, points_in_polygon
 
@@ -503,6 +503,53 @@ def _min_curvature(frame: GridFrame, xy: np.ndarray, z: np.ndarray, ell: float,
     return x[:frame.n] + z0, x[frame.n:]
 
 
+def _sign_change(f, lo: np.ndarray, hi: np.ndarray, f_lo: np.ndarray, f_hi: np.ndarray,
+                 tol: np.ndarray) -> np.ndarray:
+    """Per bracket i: a point of [lo_i, hi_i] where f changes between
+    positive and not (f_lo_i > 0 != f_hi_i > 0), to within ``tol_i``.
+    ``f(x, i)`` gives f at the points ``x`` of the brackets ``i`` (the still
+    open ones only). Illinois false position (the stale end's value halved
+    when the same end moves twice running), every fifth step a plain
+    halving: a few steps per bracket where f is smooth, never more than
+    five per halving where it is not (a clamp, the plane fit beyond a
+    grid). All brackets are stepped together, so a call costs as many
+    evaluations of f as its slowest bracket needs; 40 halvings of each
+    (the rule until 2026-12-03) cost 40, most of derive's time on dense
+    data. An exact zero of f is taken as the point."""
+    lo, hi = np.array(lo, dtype=np.float64), np.array(hi, dtype=np.float64)
+    f_lo, f_hi = np.array(f_lo, dtype=np.float64), np.array(f_hi, dtype=np.float64)
+    # Below 4 ulp of the ends a bracket cannot shrink further.
+    tol = np.maximum(np.asarray(tol, dtype=np.float64),
+                     4.0 * np.spacing(np.maximum(np.abs(lo), np.abs(hi))))
+    pos_lo = f_lo > 0
+    out = 0.5 * (lo + hi)
+    last = np.zeros(len(lo), dtype=np.int8)      # the end moved last: -1 lo, +1 hi
+    open_ = np.flatnonzero((hi - lo) > tol)
+    for step in range(400):
+        if not len(open_):
+            break
+        a, b, fa, fb = lo[open_], hi[open_], f_lo[open_], f_hi[open_]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            x = (a * fb - b * fa) / (fb - fa)
+        halve = ~((x > a) & (x < b)) | (step % 5 == 4)
+        x = np.where(halve, 0.5 * (a + b), x)
+        fx = np.asarray(f(x, open_), dtype=np.float64)
+        zero = fx == 0.0
+        on_lo = ((fx > 0) == pos_lo[open_]) & ~zero
+        on_hi = ~on_lo & ~zero
+        # Illinois: the end that stays gets its value halved when the
+        # other end moved last time too.
+        i_lo, i_hi = open_[on_lo], open_[on_hi]
+        f_hi[i_lo] = np.where(last[i_lo] == -1, 0.5 * f_hi[i_lo], f_hi[i_lo])
+        f_lo[i_hi] = np.where(last[i_hi] == 1, 0.5 * f_lo[i_hi], f_lo[i_hi])
+        lo[i_lo], f_lo[i_lo], last[i_lo] = x[on_lo], fx[on_lo], -1
+        hi[i_hi], f_hi[i_hi], last[i_hi] = x[on_hi], fx[on_hi], 1
+        out[open_] = np.where(zero, x, 0.5 * (lo[open_] + hi[open_]))
+        keep = ~zero & ((hi[open_] - lo[open_]) > tol[open_])
+        open_ = open_[keep]
+    return out
+
+
 class SideSurface:
     """z(x, y) of one side of a layer.
 
@@ -590,8 +637,8 @@ class SideSurface:
         dipping fault depends on the elevation. z lies between s - t (whole
         throw) and s (none); d is linear in z between the fault's vertices,
         taken as a line over that height (two distance queries), and z
-        found by bisection where z - (s - t g) changes sign (40 halvings:
-        a throw of up to a kilometre to a nanometre, numpy only). Until
+        found where z - (s - t g) changes sign (:func:`_sign_change`, to a
+        nanometre). Until
         2026-12-02 g was taken at s - t, the elevation of the whole throw:
         below a normal fault's hanging wall, where the fault lies nearer in
         map view (g too large), and above a reverse fault's, where it lies
@@ -612,13 +659,14 @@ class SideSurface:
         s, t, lo, hi, d_lo, d_hi = (v[var] for v in (s, t, lo, hi, d_lo, d_hi))
         span = hi - lo
         slope = np.where(span > 0, (d_hi - d_lo) / np.where(span > 0, span, 1.0), 0.0)
-        a, b = lo, hi
-        for _ in range(40):
-            mid = 0.5 * (a + b)
-            up = mid - (s - t * _decay_share(d_lo + slope * (mid - lo), prof)) > 0.0
-            b = np.where(up, mid, b)
-            a = np.where(up, a, mid)
-        g[var] = _decay_share(d_lo + slope * (0.5 * (a + b) - lo), prof)
+
+        def excess(z: np.ndarray, i: np.ndarray) -> np.ndarray:
+            return z - (s[i] - t[i] * _decay_share(d_lo[i] + slope[i] * (z - lo[i]), prof))
+
+        every = np.arange(len(var))
+        # To a nanometre (a throw of up to a kilometre: as 40 halvings did).
+        z = _sign_change(excess, lo, hi, excess(lo, every), excess(hi, every), np.full(len(var), 1e-9))
+        g[var] = _decay_share(d_lo + slope * (z - lo), prof)
         return g
 
     def plane(self, xy: np.ndarray) -> np.ndarray:
@@ -760,10 +808,30 @@ class FaultSurface:
         """Strike coordinate (m from ``centre``) of XY points (k, 2)."""
         return (np.asarray(xy, dtype=np.float64).reshape(-1, 2) - self.centre[:2]) @ self.strike
 
+    @cached_property
+    def locator(self) -> FaultSide:
+        """The TIN set up once for the exact side test (a derivation asks
+        hundreds of times per fault; its tree, built per call, was a fifth
+        of derive's time on dense fault points). The arrays are not changed
+        after construction (a changed surface is a new FaultSurface)."""
+        return FaultSide(self.vertices, self.triangles, axis=self.axis, hanging_sign=self.hanging_sign,
+                         extent=self.extent)
+
+    def __getstate__(self) -> Dict[str, Any]:
+        # The locator (a C++ object) is set up again on demand after
+        # unpickling (a derived dataset travels to an ensemble's workers).
+        state = dict(self.__dict__)
+        state.pop("locator", None)
+        return state
+
+    def sides(self, points: np.ndarray):
+        """(side, extended, triangle, located) of points (n, 3) by the exact
+        side test (:func:`faultmesh.fault_side`)."""
+        return self.locator.sides(np.asarray(points, dtype=np.float64))
+
     def side(self, points: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
         """(side, extended) of points (n, 3) by :func:`faultmesh.fault_side`."""
-        s, e, _, _ = fault_side(self.vertices, self.triangles, np.asarray(points, dtype=np.float64),
-                                axis=self.axis, hanging_sign=self.hanging_sign, extent=self.extent)
+        s, e, _, _ = self.sides(points)
         return np.asarray(s), np.asarray(e)
 
 
@@ -1193,8 +1261,8 @@ def _roots(traces: List[_SectionTrace], surf,
     (:data:`DIP_PARTNER`) of a partner of a cutoff in the extent; None
     where they do not meet. Among several meetings, the one nearest to the
     side's data (``side_data_near(xy)`` gives that distance). All traces at once:
-    sign changes of trace z - surf z at the trace vertices, then bisection
-    on the bracketing segments."""
+    sign changes of trace z - surf z at the trace vertices, then
+    :func:`_sign_change` on the bracketing segments."""
     out: List[Optional[_Root]] = [None] * len(traces)
     if not traces:
         return out
@@ -1210,18 +1278,14 @@ def _roots(traces: List[_SectionTrace], surf,
         return out
     a, b = pts[cand], pts[cand + 1]
     ha = h[cand]
-    lo = np.zeros(len(cand))
-    hi = np.ones(len(cand))
-    # Bisection: 40 halvings of a trace segment (at most a few hundred
-    # metres) leave under a nanometre.
-    for _ in range(40):
-        m = 0.5 * (lo + hi)
-        p = a + m[:, None] * (b - a)
-        hm = p[:, 2] - surf(p[:, :2])
-        left = (hm > 0) == (ha > 0)
-        lo = np.where(left, m, lo)
-        hi = np.where(left, hi, m)
-    t = 0.5 * (lo + hi)
+
+    def h_at(m: np.ndarray, i: np.ndarray) -> np.ndarray:
+        p = a[i] + m[:, None] * (b[i] - a[i])
+        return p[:, 2] - surf(p[:, :2])
+
+    # To a nanometre along the segment (its length in the parameter).
+    seg = np.maximum(np.linalg.norm(b - a, axis=1), 1e-300)
+    t = _sign_change(h_at, np.zeros(len(cand)), np.ones(len(cand)), ha, h[cand + 1], 1e-9 / seg)
     root = a + t[:, None] * (b - a)
     dist = side_data_near(root[:, :2])
     order = np.lexsort((dist, tid[cand]))
@@ -1752,8 +1816,7 @@ def _on_fault(fs: FaultSurface, D: np.ndarray) -> np.ndarray:
     """Mask (n,) of the layer data ``D`` (n, 3) that lie on the fault
     surface: within :data:`ON_FAULT` of the plane of the extent's triangle
     that the exact side test located them in (:func:`_in_the_gap`)."""
-    s, _, tri, _ = fault_side(fs.vertices, fs.triangles, np.asarray(D, dtype=np.float64),
-                              axis=fs.axis, hanging_sign=fs.hanging_sign, extent=fs.extent)
+    s, _, tri, _ = fs.sides(D)
     s, tri = np.asarray(s), np.asarray(tri)
     out = np.zeros(len(D), dtype=bool)
     m = np.flatnonzero((s != BEYOND_FAULT) & (tri >= 0))
@@ -3048,7 +3111,7 @@ def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: F
     lo, hi = sf - far_f, sh + far_h
     if not others:
         return lo, hi
-    from .invariants import _point_segment_distance
+    from ._core import nearest_segment
 
     ratio = ROOM_SHARE / (1.0 - ROOM_SHARE)
     for cut, sc, far, sgn in ((f, sf, far_f, -1.0), (h, sh, far_h, 1.0)):
@@ -3071,10 +3134,9 @@ def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: F
             P = (P[:, None, :] + (t[:, None] * np.linspace(0.0, 1.0, n_way))[:, :, None]
                  * carry[None, None, :]).reshape(-1, 2)
         mine = _contour_xy(own, float(cut[2]))
-        d_own = (_point_segment_distance(P, mine[:, 0], mine[:, 1]).min(axis=1) if len(mine)
+        d_own = (nearest_segment(P, mine[:, 0], mine[:, 1])[1] if len(mine)
                  else np.hypot(*(P - cut[:2]).T))
-        d_other = np.min([_point_segment_distance(P, c[:, 0], c[:, 1]).min(axis=1) for c in theirs],
-                         axis=0)
+        d_other = nearest_segment(P, *np.vstack(theirs).transpose(1, 0, 2))[1]
         over = (d_own > ratio * d_other).reshape(65, n_way).any(axis=1)
         # The cutoff itself (step 0) counts only on its way (at the section
         # it lies on this fault's trace, the room rule's origin).

@@ -1013,7 +1013,8 @@ def _boundary_section(p: _Placed, end: int, ring_g: np.ndarray, origin: np.ndarr
 def _inside_or_on(ring_g: np.ndarray):
     """Inside test that also accepts points within 64 ulps of the largest
     coordinate of a side (points computed on a boundary section)."""
-    from .invariants import _point_segment_distance, on_boundary_tolerance
+    from ._core import nearest_segment
+    from .invariants import on_boundary_tolerance
     tol = on_boundary_tolerance(ring_g)
 
     def f(xy):
@@ -1021,7 +1022,7 @@ def _inside_or_on(ring_g: np.ndarray):
         ok = points_in_polygon(xy, ring_g)
         if not ok.all():
             out = ~ok
-            dist = _point_segment_distance(xy[out], ring_g, np.roll(ring_g, -1, axis=0)).min(axis=1)
+            dist = nearest_segment(xy[out], ring_g, np.roll(ring_g, -1, axis=0))[1]
             ok[np.flatnonzero(out)[dist <= tol]] = True
         return ok
 
@@ -1234,14 +1235,14 @@ def _realise(seed: int, plan: Dict[str, Any], rng: np.random.Generator, folder: 
             # lofted patch: drop them.
             a = s.origin
             b = a + 1e4 * s.direction
-            from .invariants import _point_segment_distance
+            from ._core import nearest_segment
             keep = []
             for t in traces:
                 if t.section == s.name:
                     keep.append(t)
                     continue
                 P = np.vstack([t.plane[:, :2]] + [v[:, :2] for sd in t.layers.values() for v in sd.values()])
-                dist = float(_point_segment_distance(P, a[None, :], b[None, :]).min())
+                dist = float(nearest_segment(P, a[None, :], b[None, :])[1].min())
                 if dist >= 0.4 * spacing[fm.name]:
                     keep.append(t)
             traces = keep

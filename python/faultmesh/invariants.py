@@ -61,7 +61,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ._core import GeometryError, orient2d
+from ._core import GeometryError, nearest_segment, orient2d
 
 # Unit roundoff of IEEE double (2^-53).
 _EPS = 2.0 ** -53
@@ -91,7 +91,8 @@ def on_boundary_tolerance(boundary: np.ndarray) -> float:
 
 
 def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distances (k, s) of points p (k, 2) to segments a->b (s, 2)."""
+    """Distances (k, s) of points p (k, 2) to segments a->b (s, 2): every
+    pair (the nearest segment alone: :func:`faultmesh._core.nearest_segment`)."""
     d = b - a  # (s, 2)
     ap = p[:, None, :] - a[None, :, :]
     dd = np.einsum("ij,ij->i", d, d)
@@ -182,7 +183,7 @@ def _loops_off_the_area(V: np.ndarray, bfrom: np.ndarray, bto: np.ndarray, label
         if k == outer:
             continue
         verts = bfrom[lab == k]
-        d = _point_segment_distance(V[verts, :2], B, np.roll(B, -1, axis=0)).min(axis=1)
+        d = nearest_segment(V[verts, :2], B, np.roll(B, -1, axis=0))[1]
         if (d > tol).any():
             v = int(verts[np.argmax(d)])
             return (f"loop {k} (through vertex {v} {V[v, :2].tolist()}) is not on the study-area "

@@ -37,6 +37,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace faultmesh {
@@ -61,6 +62,44 @@ struct FaultSideResult {
     std::vector<std::uint8_t> located;
 };
 
+namespace detail {
+class ProjectedFault;
+}
+
+// The fault TIN of fault_side() set up once (projection, AABB tree, boundary
+// edges) for many queries: a derivation asks for the sides of a few dozen
+// points at a time, hundreds of times per fault, and setting up a tree of
+// thousands of triangles per call was most of its time. It keeps its own
+// copies of the vertices, triangles and extent; queries are const and may
+// run concurrently. Checks and exceptions as fault_side().
+class FaultSide {
+public:
+    FaultSide(const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
+              std::size_t n_triangles, int axis, int hanging_sign, const std::uint8_t* extent = nullptr);
+    ~FaultSide();
+    FaultSide(FaultSide&&) noexcept;
+    FaultSide& operator=(FaultSide&&) noexcept;
+    FaultSide(const FaultSide&) = delete;
+    FaultSide& operator=(const FaultSide&) = delete;
+
+    // Sides of n_points points (x, y, z interleaved; coordinates checked).
+    FaultSideResult sides(const double* points, std::size_t n_points) const;
+    std::size_t n_triangles() const;
+
+private:
+    // `fn` names the caller in the messages of the input checks.
+    FaultSide(const char* fn, const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
+              std::size_t n_triangles, int axis, int hanging_sign, const std::uint8_t* extent);
+    FaultSideResult query(const double* points, std::size_t n_points) const;
+    friend FaultSideResult fault_side(const double*, std::size_t, const std::int64_t*, std::size_t, const double*,
+                                      std::size_t, int, int, const std::uint8_t*);
+
+    std::unique_ptr<detail::ProjectedFault> fault_;
+    std::vector<std::uint8_t> extent_;  // empty: every triangle inside
+    int hanging_sign_ = 1;
+    int axis_ = 2;
+};
+
 // Sides of n_points points (x, y, z interleaved) relative to the fault TIN
 // (n_vertices vertices x, y, z interleaved; n_triangles triangles, 3 vertex
 // indices each, any orientation). `extent` is null (every triangle is inside
@@ -71,7 +110,7 @@ struct FaultSideResult {
 // a non-finite coordinate (naming the row), and GeometryError if no triangle
 // has a non-zero projected area. Work: O(n_triangles log n_triangles) for the
 // tree, then per point a tree walk; a point in no triangle also scans the
-// boundary edges.
+// boundary edges. (FaultSide(...).sides(...): the same, set up once.)
 FaultSideResult fault_side(const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
                            std::size_t n_triangles, const double* points, std::size_t n_points, int axis,
                            int hanging_sign, const std::uint8_t* extent = nullptr);
