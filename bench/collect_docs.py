@@ -7,7 +7,7 @@ README can link one page.
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-ORDER = ["delaunay", "polygon", "aabb", "boundary", "compare", "scale", "model", "ensemble", "sweep"]
+ORDER = ["delaunay", "polygon", "aabb", "boundary", "compare", "scale", "model", "ensemble", "derive", "sweep"]
 
 
 def main() -> None:

@@ -3,7 +3,7 @@
     python bench/run.py [NAME ...] [--runs N] [--quick] [--build-dir DIR] [--dry-run]
 
 NAME: any of delaunay, polygon, aabb, boundary, compare, scale, model, ensemble,
-sweep (default: all, in that order). Each benchmark is its own script (bench/bench_<name>.py,
+derive, sweep (default: all, in that order). Each benchmark is its own script (bench/bench_<name>.py,
 bench/compare.py), run here as a subprocess with the same Python and
 environment (set FAULTMESH_DEV_BUILD=$PWD/build/<dir> to bench a development
 build); see bench/README.md for what each one measures.
@@ -60,6 +60,9 @@ BENCHMARKS: Dict[str, Tuple[str, str, List[str], List[str]]] = {
     # faultmesh.ensemble on local Dask clusters of 1 and 2 workers: throughput,
     # overhead per realization, client memory for two n.
     "ensemble": ("bench_ensemble.py", "--runs", [], ["--quick"]),
+    # derive_faults against the build of the model it derives (dense fault
+    # points of the random grounds, Claudius; quick: ground 0 alone).
+    "derive": ("bench_derive.py", "--runs", [], ["--seeds", "0", "--no-claudius", "--no-write"]),
     # Random grounds: >= 500 seeds built and checked, failures classified
     # (--runs does not apply: each seed runs once; --quick: 8 seeds).
     "sweep": ("sweep.py", "", [], ["--quick"]),
