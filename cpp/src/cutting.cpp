@@ -56,7 +56,7 @@ public:
         tree_ = AabbTree(boxes);
         // Boundary edges of the live triangles, with the triangle that owns
         // them: the planes that extend F beyond its projection.
-        boundary_ = owned_boundary_edges(tri, live_);
+        boundary_ = OwnedBoundary(owned_boundary_edges(tri, live_), [this](Index w) { return xyz_ + 3 * w; });
         (void)n;
     }
 
@@ -103,14 +103,13 @@ private:
     }
 
     Index nearest_boundary_triangle(const double* p, double& best) const {
-        return nearest_edge_owner(
-            boundary_, [this](Index w) { return xyz_ + 3 * w; }, p, live_.front(), best);
+        return boundary_.nearest_owner(p, live_.front(), best);
     }
 
     const double* xyz_;
     const Index* tri_;
     std::vector<Index> live_;
-    std::vector<OwnedEdge> boundary_;
+    OwnedBoundary boundary_;
     AabbTree tree_;
     Box2 bounds_{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
                  -std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};

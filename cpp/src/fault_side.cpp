@@ -50,7 +50,8 @@ public:
         tree_ = AabbTree(boxes);
         // Boundary edges of the live triangles and their owners: the planes
         // that continue the surface past its edges.
-        boundary_ = detail::owned_boundary_edges(tri_.data(), live_);
+        boundary_ = detail::OwnedBoundary(detail::owned_boundary_edges(tri_.data(), live_),
+                                          [this](Index v) { return uv(v); });
     }
 
     const double* uv(Index v) const { return uv_.data() + 2 * v; }
@@ -73,8 +74,7 @@ public:
     // side against that plane is exact).
     Index nearest_boundary_owner(const double* q) const {
         double best;
-        return detail::nearest_edge_owner(
-            boundary_, [this](Index v) { return uv(v); }, q, live_.front(), best);
+        return boundary_.nearest_owner(q, live_.front(), best);
     }
 
     // +1 if p lies on the +axis side of triangle t's plane, -1 on the other, 0 on it.
@@ -98,7 +98,7 @@ private:
     std::vector<double> uv_;
     std::vector<std::int8_t> sign_;
     std::vector<Index> live_;
-    std::vector<detail::OwnedEdge> boundary_;
+    detail::OwnedBoundary boundary_;
     AabbTree tree_;
 };
 

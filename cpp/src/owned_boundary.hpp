@@ -4,6 +4,7 @@
 // its projection (the plane of the nearest boundary triangle).
 #pragma once
 
+#include <faultmesh/nearest_segment.hpp>
 #include <faultmesh/segments.hpp>
 
 #include <algorithm>
@@ -40,23 +41,35 @@ inline std::vector<OwnedEdge> owned_boundary_edges(const std::int64_t* tri, cons
     return out;
 }
 
-// Owner of the edge nearest to p in XY (squared distance in `best`);
-// `point(v)` gives vertex v's x, y. `fallback` when there is no edge.
-// Distances in floating point: this only chooses which plane continues the
-// surface.
-template <class Point>
-std::int64_t nearest_edge_owner(const std::vector<OwnedEdge>& edges, Point point, const double* p,
-                                std::int64_t fallback, double& best) {
-    best = std::numeric_limits<double>::infinity();
-    std::int64_t owner = fallback;
-    for (const auto& e : edges) {
-        const double d2 = segment_distance2(point(e.a), point(e.b), p);
-        if (d2 < best) {
-            best = d2;
-            owner = e.owner;
+// The boundary edges with their owners, indexed for nearest-edge queries
+// (nearest_segment.hpp; built once per surface).
+struct OwnedBoundary {
+    std::vector<OwnedEdge> edges;
+    SegmentIndex index;
+
+    OwnedBoundary() = default;
+    // `point(v)` gives vertex v's x, y.
+    template <class Point>
+    OwnedBoundary(std::vector<OwnedEdge> e, Point point) : edges(std::move(e)) {
+        std::vector<double> a(2 * edges.size()), b(2 * edges.size());
+        for (std::size_t k = 0; k < edges.size(); ++k) {
+            const double* pa = point(edges[k].a);
+            const double* pb = point(edges[k].b);
+            a[2 * k] = pa[0];
+            a[2 * k + 1] = pa[1];
+            b[2 * k] = pb[0];
+            b[2 * k + 1] = pb[1];
         }
+        index = SegmentIndex(a.data(), b.data(), edges.size());
     }
-    return owner;
-}
+
+    // Owner of the edge nearest to p in XY (squared distance in `best`);
+    // `fallback` when there is no edge. Distances in floating point: this
+    // only chooses which plane continues the surface. Ties: the first edge.
+    std::int64_t nearest_owner(const double* p, std::int64_t fallback, double& best) const {
+        const std::int64_t k = index.nearest(p, best);
+        return k < 0 ? fallback : edges[static_cast<std::size_t>(k)].owner;
+    }
+};
 
 }  // namespace faultmesh::detail

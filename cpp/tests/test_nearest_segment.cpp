@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -96,3 +97,22 @@ TEST(NearestSegment, StrideThreeReadsXYOnly) {
 }
 
 }  // namespace
+
+TEST(NearestSegment, IndexKeepsItsCopyAndAnswersAsTheBatch) {
+    std::vector<double> A = {0, 0, 10, 0, 20, 5}, B = {5, 0, 10, 8, 30, 5};
+    const faultmesh::SegmentIndex index(A.data(), B.data(), 3);
+    std::fill(A.begin(), A.end(), 1e9);  // the caller's arrays may change
+    std::fill(B.begin(), B.end(), 1e9);
+    const double p[2] = {11, 4}, q[2] = {26, 9}, r[2] = {-3, 4};
+    double d2;
+    EXPECT_EQ(index.nearest(p, d2), 1);
+    EXPECT_EQ(d2, 1.0);
+    EXPECT_EQ(index.nearest(q, d2), 2);
+    EXPECT_EQ(d2, 16.0);
+    EXPECT_EQ(index.nearest(r, d2), 0);
+    EXPECT_EQ(d2, 25.0);
+    EXPECT_EQ(index.size(), 3u);
+    const faultmesh::SegmentIndex empty;
+    EXPECT_EQ(empty.nearest(p, d2), -1);
+    EXPECT_TRUE(std::isinf(d2));
+}

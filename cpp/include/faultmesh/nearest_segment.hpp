@@ -23,6 +23,26 @@
 
 namespace faultmesh {
 
+// The segments indexed once for many nearest-segment queries (the walk
+// above). Keeps its own copy of the segments' x, y.
+class SegmentIndex {
+public:
+    SegmentIndex() = default;
+    // starts, ends: m rows of `stride` doubles (x, y first).
+    SegmentIndex(const double* starts, const double* ends, std::size_t m, std::size_t stride = 2);
+    // The nearest segment to p (x, y): its index, or -1 with no segment;
+    // its squared XY distance in `d2` (+inf with no segment). Ties: the
+    // lowest index.
+    std::int64_t nearest(const double* p, double& d2) const;
+    std::size_t size() const { return order_.size(); }
+
+private:
+    std::vector<double> ab_;         // per segment x0, y0, x1, y1
+    std::vector<std::size_t> order_;  // segments by the x of their box centres
+    std::vector<double> sorted_cx_;   // those x, in that order
+    double half_w_ = 0.0;             // the widest box's half width
+};
+
 struct NearestSegment {
     std::vector<std::int64_t> index;  // per point: the nearest segment (-1 if m == 0)
     std::vector<double> distance;     // per point: its XY distance (+inf if m == 0)
