@@ -688,3 +688,53 @@ def test_a_hanging_wall_without_data_near_its_cutoff_takes_the_throw_along_strik
     assert any("F3" in w and "no hanging-wall data near it" in w for w in out["warnings"])
     out = gr.evaluate_ground_v2(69, tmp_path)
     assert out["stage"] == "ok" and out["ratio"] <= gr.V2_RATIO, (out["stage"], out["ratio"])
+
+
+def test_picks_on_a_derived_patch_outline_stay_out_of_it_whatever_the_last_bits(evaluated, monkeypatch):
+    """Regression (random ground 2 as v2 with section picks): derive places
+    end sections on the pick lines, so picks lie on a patch's outline. Which
+    side of it they fell on was decided by the last bits of the outline:
+    moving the derived cutoffs by 1e-10 m (another root finder) put two of
+    L3's picks into F1's patch, the layer's TIN lost them, its boundary
+    spacing (from the data count) changed and with it every boundary
+    vertex; the error near the faults moved by 6 %. Within
+    build.ON_OUTLINE of the outline a point is not in the patch: the same
+    model for cutoffs moved by +-1e-10 m."""
+    from dataclasses import replace
+
+    import faultmesh
+    from faultmesh import build
+
+    _, built = evaluated(2)
+    derived = built["derived"]
+
+    def nudged(d):
+        # Every cutoff polyline (and so the patches' outlines) moved by d in x and y.
+        faults = []
+        for f in derived.faults:
+            traces = [replace(t, layers={lay: {side: np.asarray(a) + [d, d, 0.0] for side, a in sd.items()}
+                                         for lay, sd in t.layers.items()}) for t in f.traces]
+            faults.append(replace(f, traces=traces))
+        return replace(derived, faults=faults)
+
+    def in_patches():
+        out = []
+        for d in (-1e-10, 0.0, 1e-10):
+            ds = nudged(d)
+            area = faultmesh.StudyArea(build._ccw_ring(ds.boundary))
+            out.append([int(build._in_fault_zones(ds, lay, area, ds.layer_points(lay), kind="reverse",
+                                                  both_sheets=True).sum()) for lay in ds.layers])
+        return out
+
+    counts = in_patches()
+    assert counts[0] == counts[1] == counts[2], counts
+    # The rule is what holds it: without it (every point the patch's closed
+    # triangles contain) the counts differ.
+    with monkeypatch.context() as mp:
+        mp.setattr(build, "ON_OUTLINE", -1.0)
+        off = in_patches()
+    assert not off[0] == off[1] == off[2], off
+    m = faultmesh.build_model(nudged(1e-10), evaluate=False)
+    m0 = built["m2"]
+    for lay in m0.surfaces:
+        assert m.surfaces[lay].vertices.shape == m0.surfaces[lay].vertices.shape, lay
