@@ -389,6 +389,16 @@ def test_side_frame_covers_both_sides_of_the_fault():
     q = np.vstack([V[:, :2] + t * np.array([1.0, 0.0]) for t in (-0.9 * pad, -0.5 * pad, 0.5 * pad)])
     q = q[points_in_polygon(q, ring)]
     assert len(q) > 0 and frame.inside(q).all()
+    # The side test set up once (FaultSurface.locator) answers as the
+    # function, also after a pickle round trip (which drops the C++ object).
+    import pickle
+
+    Q = np.c_[q, np.full(len(q), -250.0)]
+    want = faultmesh.fault_side(fs.vertices, fs.triangles, Q, axis=fs.axis,
+                                hanging_sign=fs.hanging_sign, extent=fs.extent)
+    for surf in (fs, pickle.loads(pickle.dumps(fs))):
+        assert all(np.array_equal(a, b) for a, b in zip(surf.sides(Q), want))
+    assert "locator" not in pickle.loads(pickle.dumps(fs)).__dict__
 
 
 # ---------------------------------------------------------------------------

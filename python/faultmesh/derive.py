@@ -513,9 +513,9 @@ def _sign_change(f, lo: np.ndarray, hi: np.ndarray, f_lo: np.ndarray, f_hi: np.n
     halving: a few steps per bracket where f is smooth, never more than
     five per halving where it is not (a clamp, the plane fit beyond a
     grid). All brackets are stepped together, so a call costs as many
-    evaluations of f as its slowest bracket needs; 40 halvings of each
-    (the rule until 2026-12-03) cost 40, most of derive's time on dense
-    data. An exact zero of f is taken as the point."""
+    evaluations of f as its slowest bracket needs (40 halvings of each
+    cost 40: most of derive's time on dense data). An exact zero of f is
+    taken as the point."""
     lo, hi = np.array(lo, dtype=np.float64), np.array(hi, dtype=np.float64)
     f_lo, f_hi = np.array(f_lo, dtype=np.float64), np.array(f_hi, dtype=np.float64)
     # Below 4 ulp of the ends a bracket cannot shrink further.
