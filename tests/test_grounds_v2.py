@@ -690,7 +690,7 @@ def test_a_hanging_wall_without_data_near_its_cutoff_takes_the_throw_along_strik
     assert out["stage"] == "ok" and out["ratio"] <= gr.V2_RATIO, (out["stage"], out["ratio"])
 
 
-def test_picks_on_a_derived_patch_outline_stay_out_of_it_whatever_the_last_bits(evaluated, monkeypatch):
+def test_picks_on_a_derived_patch_outline_are_in_it_whatever_the_last_bits(evaluated, monkeypatch):
     """Regression (random ground 2 as v2 with section picks): derive places
     end sections on the pick lines, so picks lie on a patch's outline. Which
     side of it they fell on was decided by the last bits of the outline:
@@ -698,8 +698,8 @@ def test_picks_on_a_derived_patch_outline_stay_out_of_it_whatever_the_last_bits(
     L3's picks into F1's patch, the layer's TIN lost them, its boundary
     spacing (from the data count) changed and with it every boundary
     vertex; the error near the faults moved by 6 %. Within
-    build.ON_OUTLINE of the outline a point is not in the patch: the same
-    model for cutoffs moved by +-1e-10 m."""
+    build.ON_OUTLINE of the outline a point is in the patch (as one
+    exactly on it is): the same model for cutoffs moved by +-1e-10 m."""
     from dataclasses import replace
 
     import faultmesh
@@ -728,8 +728,8 @@ def test_picks_on_a_derived_patch_outline_stay_out_of_it_whatever_the_last_bits(
 
     counts = in_patches()
     assert counts[0] == counts[1] == counts[2], counts
-    # The rule is what holds it: without it (every point the patch's closed
-    # triangles contain) the counts differ.
+    # The rule is what holds it: without it (only the points the patch's
+    # closed triangles contain) the counts differ.
     with monkeypatch.context() as mp:
         mp.setattr(build, "ON_OUTLINE", -1.0)
         off = in_patches()

@@ -106,7 +106,7 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
 
 
 #: Points within this distance (m, XY) of a fault patch's outline count as
-#: on it, not in the patch (_in_fault_zones): a micrometre, below any
+#: on it, and so in the patch (_in_fault_zones): a micrometre, below any
 #: survey's precision and above the nanometre to which derive places the
 #: cutoffs (and the rounding of coordinates of 1e7 m, 2e-9 m).
 ON_OUTLINE = 1e-6
@@ -185,21 +185,23 @@ def _in_fault_zones(dataset, layer: str, area: StudyArea, points: np.ndarray,
         zl, zh, hits = sample_surface(p.vertices, p.triangles, xy)
         if both_sheets and not f.derived and not np.any((hits >= 2) & (zh > zl) & (z - zl < zh - z)):
             continue
-        hit = np.flatnonzero(hits > 0)
-        if len(hit):
-            # A point on the outline (within ON_OUTLINE) is not in the
-            # patch: its side would be decided by the last bits of the
-            # outline's vertices. Picks on a seismic line lie on the end
-            # section a derivation places on that line; cutoffs moved by
-            # 1e-10 m (another root finder) moved two of random ground 2's
-            # L3 picks into the patch, the TIN's data count and with it
-            # its boundary spacing changed, and the error near the faults
-            # by 6 %.
-            e = boundary_edges(p.triangles, n_vertices=len(p.vertices))
-            V = np.asarray(p.vertices, dtype=np.float64)
-            _, d = nearest_segment(xy[hit], V[e[:, 0], :2], V[e[:, 1], :2])
-            hit = hit[d > ON_OUTLINE]
-        inside[hit] = True
+        hit = hits > 0
+        # A point within ON_OUTLINE of the outline is in the patch, as one
+        # exactly on it (the closed triangles) is: which side of the
+        # outline it falls on would otherwise be decided by the last bits
+        # of the outline's vertices. Picks on a seismic line lie on the end
+        # section a derivation places on that line; cutoffs moved by
+        # 1e-10 m (another root finder) moved two of random ground 2's L3
+        # picks across it, the TIN's data count and with it its boundary
+        # spacing changed, and the error near the faults by 6 %.
+        V = np.asarray(p.vertices, dtype=np.float64)
+        lo, hi = V[:, :2].min(axis=0) - ON_OUTLINE, V[:, :2].max(axis=0) + ON_OUTLINE
+        near = np.flatnonzero(~hit & np.all((xy >= lo) & (xy <= hi), axis=1))
+        if len(near):
+            e = boundary_edges(p.triangles, n_vertices=len(V))
+            _, d = nearest_segment(xy[near], V[e[:, 0], :2], V[e[:, 1], :2])
+            hit[near[d <= ON_OUTLINE]] = True
+        inside |= hit
     return inside
 
 
