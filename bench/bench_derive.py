@@ -61,7 +61,7 @@ def claudius(folder: Path):
 
 def counts(ds) -> Tuple[int, int]:
     n_fault = sum(len(f.points) if f.points is not None else 0 for f in ds.faults)
-    n_layer = sum(len(ds.layer_points(lay)) for lay in ds.layers)
+    n_layer = sum(len(p) for p in ds.all_layer_points().values())
     return n_fault, n_layer
 
 

@@ -1558,8 +1558,8 @@ def check_layer_data(ds: Dataset) -> None:
     once saved). Run on a dataset the boundary policy has been applied to
     (points beyond the area dropped). Raises :class:`DatasetError` naming
     the layer."""
-    for lay in ds.layers:
-        n = len(ds.layer_points(lay))
+    for lay, pts in ds.all_layer_points().items():     # one pass over the borehole table
+        n = len(pts)
         if n < 3:
             raise DatasetError(f"layer {lay!r}: has {n} data point(s) inside the study area "
                                "(borehole hits plus extra points); a stratum TIN needs at least 3")

@@ -358,7 +358,7 @@ def check_surface(surface, boundary: Optional[np.ndarray] = None) -> None:
     off = bverts[~on_side[bverts].any(axis=1)]
     if off.size:
         v = int(off[0])
-        d = float(_point_segment_distance(V[v:v + 1, :2], A, Bn).min())
+        d = float(nearest_segment(V[v:v + 1, :2], A, Bn)[1][0])
         _fail(name, "boundary on the study area", f"boundary vertex {v} {V[v, :2].tolist()} is "
               f"{d:.6g} off the study-area boundary (tolerance {tol:.3g})")
     along = (on_side[bfrom] & on_side[bto]).any(axis=1)
