@@ -1200,3 +1200,39 @@ def test_partner_window_admits_the_other_cutoff_of_one_in_the_extent_only():
     assert derive._section_cutoffs(tr, skirt, skirt, partner=True)[1]
     assert not derive._section_cutoffs(tr, past, past, partner=True)[1]
 
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), at_vertex=st.booleans())
+def test_contour_of_a_level_is_every_triangle_it_cuts(seed, at_vertex):
+    """derive._contour_xy takes the triangles a level cuts from the fault's
+    triangles ordered by lowest z (FaultSurface.own_levels): the same
+    segments, in the same order, as a pass over every triangle, also at a
+    level through vertices (a vertex at the level counts as above it)."""
+    rng = np.random.default_rng(seed)
+    # A curved, rough fault from points in sticks, at UTM-sized coordinates.
+    o = np.array([512345.0, 7212345.0])
+    ys, zs = np.meshgrid(np.arange(0.0, 1201.0, 100.0), np.arange(-100.0, -601.0, -50.0))
+    x = 400.0 + (-zs) / np.tan(np.deg2rad(55.0)) + 1e-4 * (ys - 600.0) ** 2 + rng.normal(0.0, 3.0, ys.shape)
+    P = np.column_stack([o[0] + x.ravel(), o[1] + ys.ravel(), zs.ravel() + rng.normal(0.0, 1.0, ys.size)])
+    ring = o + np.array([[0.0, -100.0], [1500.0, -100.0], [1500.0, 1300.0], [0.0, 1300.0]])
+    fs = derive.fault_surface(Fault("F", points=P, sticks=np.searchsorted(np.unique(ys), ys.ravel())),
+                              ring, (-700.0, 0.0))
+    V, T = fs.own
+    levels = (V[rng.integers(0, len(V), 20), 2] if at_vertex
+              else rng.uniform(V[:, 2].min() - 10.0, V[:, 2].max() + 10.0, 20))
+    for z in levels:
+        above = V[:, 2] >= z
+        A = above[T]
+        Tc = T[A.any(axis=1) & ~A.all(axis=1)]
+        want = []
+        for tri in Tc:
+            seg = []
+            for a, b in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])):
+                if above[a] != above[b]:
+                    t = (z - V[a, 2]) / (V[b, 2] - V[a, 2])
+                    seg.append(V[a, :2] + t * (V[b, :2] - V[a, :2]))
+            want.append(seg)
+        got = derive._contour_xy(fs, float(z))
+        assert np.array_equal(got, np.array(want).reshape(-1, 2, 2))
+        assert len(got) == len(Tc)

@@ -804,6 +804,18 @@ class FaultSurface:
         remap = np.cumsum(used) - 1
         return self.vertices[used], remap[T]
 
+    @cached_property
+    def own_levels(self) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The own part's triangles ordered by their lowest vertex's z:
+        (order (t,) into ``own``'s triangles, lowest z in that order,
+        highest z in that order). :func:`_contour_xy` asks per cutoff for the
+        triangles a level cuts (those below it that reach it): a prefix of
+        this order, not a pass over every triangle."""
+        V, T = self.own
+        Z = V[:, 2][T]
+        order = np.argsort(Z.min(axis=1), kind="stable")
+        return order, Z.min(axis=1)[order], Z.max(axis=1)[order]
+
     def u(self, xy: np.ndarray) -> np.ndarray:
         """Strike coordinate (m from ``centre``) of XY points (k, 2)."""
         return (np.asarray(xy, dtype=np.float64).reshape(-1, 2) - self.centre[:2]) @ self.strike
@@ -3028,15 +3040,17 @@ def _contour_xy(fs: FaultSurface, z: float) -> np.ndarray:
     """Segments (k, 2, 2) in XY where the horizontal plane at ``z`` cuts the
     fault's own extent (its trace at that elevation)."""
     V, T = fs.own
-    above = V[:, 2] >= z
-    A = above[T]
-    cut = A.any(axis=1) & ~A.all(axis=1)
-    Tc = T[cut]
+    # The triangles with a vertex below z and one at or above it, in their
+    # order in ``own`` (the segments' order as a pass over all would give).
+    order, lo, hi = fs.own_levels
+    n = int(np.searchsorted(lo, z, side="left"))
+    Tc = T[np.sort(order[:n][hi[:n] >= z])]
+    above = V[:, 2][Tc] >= z
     pts = np.zeros((len(Tc), 2, 2))
     k = np.zeros(len(Tc), dtype=int)
     for i, j in ((0, 1), (1, 2), (2, 0)):
         a, b = Tc[:, i], Tc[:, j]
-        rows = np.flatnonzero(above[a] != above[b])
+        rows = np.flatnonzero(above[:, i] != above[:, j])
         a, b = a[rows], b[rows]
         t = (z - V[a, 2]) / (V[b, 2] - V[a, 2])
         pts[rows, k[rows]] = V[a, :2] + t[:, None] * (V[b, :2] - V[a, :2])
