@@ -667,3 +667,48 @@ def test_a_layer_with_two_data_is_refused_by_the_build_as_by_the_loader(tmp_path
     ds.save(tmp_path / "o", version=2)
     with pytest.raises(DatasetError, match=r"dataset.json: layer 'L1': has 2 data point\(s\) inside"):
         load_dataset(tmp_path / "o" / "dataset.json")
+
+
+@pytest.mark.parametrize("seed, fault, point, why, row_why", [
+    # Every point its own stick (odd_points "stick_per_point").
+    (51007, "F1", 0, r"stick '0' has one point; a stick is a polyline of at least 2 points",
+     r"row 2, field 'stick': stick '0' has one point"),
+    # One stick of collinear points rounded to 1 m: two consecutive points coincide.
+    (51020, "F2", 1, r"the point repeats the previous point of stick '0' \(point 0\)",
+     r"row 3, fields 'x', 'y', 'z': the point repeats the previous point of stick '0' \(row 2\)"),
+])
+def test_sticks_a_file_refuses_are_refused_in_memory_too(tmp_path, seed, fault, point, why, row_why):
+    # Fuzz cases 51007 and 51020: derive and build took a fault whose sticks
+    # a fault-points file may not have (a stick of one point, a point that
+    # repeats the one before it on its stick), so the dataset saved and its
+    # loader refused it (12 of the 100 cases 51000-51099). One rule now
+    # (fault_inputs.stick_problem, dataset.check_fault_sticks), naming the
+    # fault and the point in memory, the file's row when loaded.
+    from faultmesh.dataset import DatasetError, load_dataset
+
+    ds = make_case(seeded_params(seed))
+    msg = rf"fault '{fault}', point {point}: {why}"
+    with pytest.raises(DatasetError, match=msg):
+        derive.derive_faults(ds)
+    with pytest.raises(DatasetError, match=msg):
+        faultmesh.build_model(ds, evaluate=False)
+    ds.save(tmp_path / "o", version=2)
+    with pytest.raises(DatasetError, match=rf"fault_{fault}_points.csv, {row_why}"):
+        load_dataset(tmp_path / "o" / "dataset.json")
+
+
+def test_stick_rules_in_memory_follow_each_stick_through_interleaved_points():
+    # In memory a stick's points may be interleaved with another's (save
+    # writes them stick by stick): the rules apply to each stick's own
+    # sequence, not to neighbouring rows.
+    from faultmesh.fault_inputs import stick_problem
+
+    P = np.array([[0.0, 0, 0], [5, 0, 0], [0, 1, -1], [5, 1, -1], [0, 1, -1], [5, 2, -2]])
+    # a: rows 0, 2, 4; b: rows 1, 3, 5. Rows 2 and 4 coincide and are consecutive on stick a.
+    assert stick_problem(P, np.array(["a", "b", "a", "b", "a", "b"])) == \
+        (4, 2, "the point repeats the previous point of stick 'a'")
+    # Rows 3 and 4 coincide in x only: fine.
+    assert stick_problem(P[:4], np.array(["a", "b", "a", "b"])) is None
+    # Labels compared as text, as a file's: 1 and "1" are one stick.
+    assert stick_problem(P[:3], np.array([1, "1", 2], dtype=object)) == \
+        (2, None, "stick '2' has one point; a stick is a polyline of at least 2 points")

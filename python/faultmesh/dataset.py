@@ -1565,10 +1565,31 @@ def check_layer_data(ds: Dataset) -> None:
                                "(borehole hits plus extra points); a stratum TIN needs at least 3")
 
 
+def check_fault_sticks(ds: Dataset) -> None:
+    """Every fault's sticks keep the rules of a fault-points file
+    (:func:`faultmesh.fault_inputs.stick_problem`: at least 2 points per
+    stick, no point repeating the one before it on its stick): one rule for
+    :func:`load_dataset` (which names the file's row) and a dataset made in
+    memory (:func:`prepare_for_build`, :func:`faultmesh.derive.derive_faults`;
+    it must load back once saved). Raises :class:`DatasetError` naming the
+    fault, the point (its index in ``Fault.points``) and the stick."""
+    from .fault_inputs import stick_problem
+
+    for f in ds.faults:
+        if f.points is None or f.sticks is None:
+            continue
+        bad = stick_problem(f.points, f.sticks)
+        if bad is not None:
+            k, prev, why = bad
+            raise DatasetError(f"fault {f.name!r}, point {k}: {why}"
+                               + (f" (point {prev})" if prev is not None else ""))
+
+
 def prepare_for_build(ds: Dataset):
     """What :func:`faultmesh.build_model` runs first, before any repair:
-    the data checks (:func:`check_hole_positions`, :func:`check_layer_order`,
-    raising :class:`DatasetError`), :func:`apply_boundary_policy` and
+    the data checks (:func:`check_hole_positions`, :func:`check_fault_sticks`,
+    :func:`check_layer_order`, raising :class:`DatasetError`),
+    :func:`apply_boundary_policy` and
     :func:`check_layer_data` on its result.
 
     Returns ``(dataset, record)``: the dataset as the policy leaves it (the
@@ -1576,6 +1597,7 @@ def prepare_for_build(ds: Dataset):
     JSON-ready record for ``model.metadata["input"]``: ``snap_distance``,
     ``counts`` per kind, ``summary`` and every ``adjustment``."""
     check_hole_positions(ds)
+    check_fault_sticks(ds)
     warns = [w for w in check_layer_order(ds) if w not in ds.adjustments]
     out = apply_boundary_policy(ds)
     check_layer_data(out)

@@ -131,7 +131,7 @@ import numpy as np
 
 from ._core import (BEYOND_FAULT, FaultSide, GeometryError, boundary_loops, delaunay,
                     triangulate_polygon)
-from .dataset import Dataset, Fault, Section, Trace, points_in_polygon
+from .dataset import Dataset, Fault, Section, Trace, check_fault_sticks, points_in_polygon
 
 __all__ = ["derive_faults", "needs_derivation", "FaultSurface", "fault_surface", "split_by_side",
            "SideSurface", "DeriveReport", "FaultDerivation", "layer_order", "study_area",
@@ -3502,6 +3502,7 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
     if k < 3:
         raise ValueError(f"derive_faults: k must be >= 3, got {k}")
     opt = _Options(spacing, float(min_throw), reach, near, int(k), float(max_z_dip))
+    check_fault_sticks(dataset)   # the sticks as a file must have them (it loads once saved)
     zs = [layer_data(dataset, lay)[:, 2] for lay in dataset.layers]
     zs = np.concatenate(zs) if zs else np.zeros(0)
     z_range = (float(zs.min()), float(zs.max())) if len(zs) else (0.0, 0.0)

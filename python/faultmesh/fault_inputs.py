@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import NamedTuple, Optional
+from typing import NamedTuple, Optional, Tuple
 
 import numpy as np
 
@@ -101,19 +101,44 @@ def read_fault_points(path, *, ctx: Optional[_Ctx] = None,
                                f"other sticks (it started at row {ln[seen[lab]]}); the rows of a "
                                "stick must be consecutive, in order along the stick")
         seen[lab] = k
-    run_len = np.diff(np.append(run_rows, len(sticks)))
-    short = run_len < 2
-    if short.any():
-        k = int(run_rows[np.flatnonzero(short)[0]])
-        raise DatasetError(f"{file}, row {ln[k]}, field 'stick': stick {str(sticks[k])!r} has one "
-                           "point; a stick is a polyline of at least 2 points")
-    same = np.zeros(len(sticks), dtype=bool)
-    same[1:] = ~start[1:] & np.all(pts[1:] == pts[:-1], axis=1)
-    if same.any():
-        k = int(np.flatnonzero(same)[0])
-        raise DatasetError(f"{file}, row {ln[k]}, fields 'x', 'y', 'z': the point repeats the "
-                           f"previous point of stick {str(sticks[k])!r} (row {ln[k - 1]})")
+    bad = stick_problem(pts, sticks)
+    if bad is not None:
+        k, prev, why = bad
+        if prev is None:
+            raise DatasetError(f"{file}, row {ln[k]}, field 'stick': {why}")
+        raise DatasetError(f"{file}, row {ln[k]}, fields 'x', 'y', 'z': {why} (row {ln[prev]})")
     return FaultPoints(pts, sticks)
+
+
+def stick_problem(points: np.ndarray, sticks) -> Optional[Tuple[int, Optional[int], str]]:
+    """The first break of the rules a stick keeps (the file's and the
+    in-memory ``Fault``'s: one rule, so that a dataset that derives also
+    loads once saved): a stick has at least 2 points, and no two
+    consecutive points of a stick coincide. ``sticks`` (m,): the label of
+    each point (compared as text, as a file's are); a stick's points are
+    those of its label in their order (in memory they may be interleaved
+    with another stick's; a file has them consecutive). Returns None, or
+    (point index, index of the point it repeats or None, what is wrong) --
+    the first stick of one point (in order of first appearance), else the
+    first repeated point (in stick order)."""
+    lab = np.asarray(sticks).astype(str).reshape(-1)
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if not len(lab):
+        return None
+    _, first, inv, count = np.unique(lab, return_index=True, return_inverse=True, return_counts=True)
+    one = np.flatnonzero(count < 2)
+    if len(one):
+        k = int(first[one[np.argmin(first[one])]])
+        return k, None, f"stick {str(lab[k])!r} has one point; a stick is a polyline of at least 2 points"
+    # The points stick by stick (sticks in order of first appearance).
+    rank = np.argsort(np.argsort(first, kind="stable"), kind="stable")
+    order = np.argsort(rank[inv], kind="stable")
+    a, b = order[:-1], order[1:]
+    same = np.flatnonzero((lab[a] == lab[b]) & np.all(P[a] == P[b], axis=1))
+    if len(same):
+        k, prev = int(b[same[0]]), int(a[same[0]])
+        return k, prev, f"the point repeats the previous point of stick {str(lab[k])!r}"
+    return None
 
 
 def read_fault_surface(path, *, ctx: Optional[_Ctx] = None,
