@@ -635,9 +635,17 @@ def test_a_saved_derived_dataset_whose_faults_cut_no_layer_builds_the_same_model
     # was read back as one to derive again from its plane traces (its
     # points used up), and a fault marked derived was at first refused for
     # having no cutoffs: it is a derived fault that cuts nothing.
+    from dataclasses import replace
+
     from faultmesh.dataset import load_dataset
 
-    d = derive.derive_faults(make_case(seeded_params(47001)))
+    # Its faults' points come one stick per point, which no file may hold
+    # (test_sticks_a_file_refuses_are_refused_in_memory_too); without the
+    # labels the derivation is the same (a stick of one point adds no
+    # segment to densify).
+    ds = make_case(seeded_params(47001))
+    ds = replace(ds, faults=[replace(f, sticks=None) for f in ds.faults])
+    d = derive.derive_faults(ds)
     assert [(f.derived, any(t.layers for t in f.traces)) for f in d.faults] == [(True, False)] * 2
     m = faultmesh.build_model(d, evaluate=False)
     back = load_dataset(d.save(tmp_path / "o", version=2))
@@ -712,3 +720,17 @@ def test_stick_rules_in_memory_follow_each_stick_through_interleaved_points():
     # Labels compared as text, as a file's: 1 and "1" are one stick.
     assert stick_problem(P[:3], np.array([1, "1", 2], dtype=object)) == \
         (2, None, "stick '2' has one point; a stick is a polyline of at least 2 points")
+
+
+def test_folded_patch_reaching_past_its_outline_loses_sections_in_derive_not_the_build():
+    # Fuzz case 51074: a nearly vertical (89.4 degrees) reverse fault given
+    # as one stick, throw several layer thicknesses; derive replaced two
+    # sections' wrong-sense throws and handed over an L1 patch whose outline
+    # was simple but whose sheets did not cover their XY image once, which
+    # the stitcher refuses ("does not cover its XY image once"). derive's
+    # patch check now asks the stitcher's third question too, and drops the
+    # sections that make it so: the model builds and passes check().
+    ds = make_case(seeded_params(51074))
+    assert check_case(ds) == "ok"
+    d = derive.derive_faults(ds)
+    assert any("reach past its outline" in w for w in d.derivation.warnings)
