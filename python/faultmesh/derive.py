@@ -2895,13 +2895,14 @@ def _fill_boundary_ends(fs: FaultSurface, ring: np.ndarray, lines: List[Dict[str
 
 def _patch_problem(fault: Fault, layer: str, ring: np.ndarray) -> Optional[np.ndarray]:
     """None if the builder's patch of ``layer`` (faults.layer_patch, XY only)
-    is fine for the stitcher: one simple outline and, for a normal fault, no
-    triangle turned over in XY (its patch does not fold; exact orient2d).
+    is fine for the stitcher: one simple outline, its XY image covered once
+    and, for a normal fault, no triangle turned over in XY (its patch does
+    not fold; exact orient2d).
     Otherwise the XY (k, 2) of the patch vertices involved (of the turned
-    triangles, or at the outline's first self-contact; all vertices when the
-    patch cannot be made)."""
+    triangles, at the outline's crossings, or of the triangles not covering
+    their image once; all vertices when the patch cannot be made)."""
     from . import faults as fm
-    from ._core import orient2d
+    from ._core import orient2d, triangles_not_covered_once
     try:
         p = fm.layer_patch(fault, layer, fm.fault_ends(fault), ring, None)
     except GeometryError:
@@ -2924,6 +2925,13 @@ def _patch_problem(fault: Fault, layer: str, ring: np.ndarray) -> Optional[np.nd
     # that, near-fault error 6.0x the true cutoffs' model; kept: 1.07x).
     rows = fm._outline_crossings(V, T, fm.as_study_area(ring))
     if len(rows) == 0:
+        # And the stitcher's third test: the patch covers its XY image once
+        # (counted with orientation). A folded patch whose sheets end at
+        # different places reaches out of its outline (fuzz case 51074: a
+        # nearly vertical reverse fault, one section's wrong-sense throw
+        # replaced, its hanging-wall sheet past the footwall's end).
+        rows = np.asarray(triangles_not_covered_once(V, T), dtype=np.int64)
+    if len(rows) == 0:
         return None
     return V[np.unique(T[rows].ravel()), :2]
 
@@ -2934,9 +2942,10 @@ def _patch_is_simple(fault: Fault, layer: str, ring: np.ndarray) -> bool:
 
 
 def _drop_crossing_sections(fault: Fault, ring: np.ndarray, warn: List[str]) -> None:
-    """Where a layer's patch would cross itself (:func:`_patch_problem`;
-    cutoffs extrapolated wildly on some section, so that consecutive
-    sections' polylines cross), drop the layer from the section with the
+    """Where a layer's patch would cross itself or reach past its outline
+    (:func:`_patch_problem`; cutoffs extrapolated wildly on some section, so
+    that consecutive sections' polylines cross or one sheet ends past the
+    others), drop the layer from the section with the
     most vertices at the problem (ties: the throw farthest from the layer's
     median), until the patch is fine or the layer has no section left. In
     place; a warning per drop."""
@@ -2955,7 +2964,8 @@ def _drop_crossing_sections(fault: Fault, ring: np.ndarray, warn: List[str]) -> 
             worst = with_l[int(np.lexsort((-np.abs(t - np.median(t)), -hits))[0])]
             del worst.layers[lay]
             warn.append(f"fault {fault.name!r}, layer {lay!r}: dropped from section "
-                        f"{worst.section!r}, whose cutoffs made the patch cross itself")
+                        f"{worst.section!r}, whose cutoffs made the patch cross itself or "
+                        "reach past its outline")
 
 
 def _pull_inside(t: np.ndarray, ring: np.ndarray, fs: FaultSurface) -> np.ndarray:
