@@ -738,3 +738,50 @@ def test_picks_on_a_derived_patch_outline_are_in_it_whatever_the_last_bits(evalu
     m0 = built["m2"]
     for lay in m0.surfaces:
         assert m.surfaces[lay].vertices.shape == m0.surfaces[lay].vertices.shape, lay
+
+
+def test_folded_patch_kept_clear_of_its_partner_needs_no_clean_up_whatever_the_last_bits(evaluated, monkeypatch):
+    """Regression (random ground 24 as v2 with section picks): F2, a reverse
+    fault abutting F1, is made clear of F1's patch in L1 (faults._clear_of):
+    the loft that touches F1 is left out and the two runs either side are
+    closed. Each run was simple, but the run beyond F1 (the end section
+    carried onto the boundary, closed back towards F1) crossed the other's
+    closure; group_patch's clean-up then removed 112-148 of the patch's 253
+    triangles, how many decided by the cutoffs' last bits (error near the
+    faults 1.09-1.18x the true cutoffs' model for cutoffs moved by
+    +-1e-10 m). A variant whose runs cross is not taken: the patch reaches
+    the group clip simple, the clip removes nothing, and the model keeps
+    its error whatever the last bits."""
+    from dataclasses import replace
+
+    from faultmesh import faults
+
+    out, built = evaluated(24)
+    derived, geo = built["derived"], built["geo"]
+    removed = []
+    clip = faults.clip_patch
+
+    def counted(V, T, rings, *a, **k):
+        got = clip(V, T, rings, *a, **k)
+        removed.append(len(T) - len(got[1]))
+        return got
+
+    monkeypatch.setattr(faults, "clip_patch", counted)
+
+    def nudged(d):
+        faults = []
+        for f in derived.faults:
+            traces = [replace(t, layers={lay: {side: np.asarray(a) + [d[0], d[1], 0.0] for side, a in sd.items()}
+                                         for lay, sd in t.layers.items()}) for t in f.traces]
+            faults.append(replace(f, traces=traces))
+        return replace(derived, faults=faults)
+
+    ratios = []
+    for d in ((0.0, 0.0), (-1e-10, 0.0), (0.0, 1e-10), (0.0, -1e-10)):
+        removed.clear()
+        m = fm.build_model(nudged(d), evaluate=False)
+        assert removed and sum(removed) == 0, (d, removed)
+        e1, e2 = gr.near_fault_errors([built["m1"], m], geo, derived.boundary)
+        ratios.append(e2 / e1)
+    assert max(ratios) - min(ratios) < 0.01, ratios
+    assert max(ratios) <= gr.V2_RATIO, ratios
