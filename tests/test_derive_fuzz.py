@@ -734,3 +734,25 @@ def test_folded_patch_reaching_past_its_outline_loses_sections_in_derive_not_the
     assert check_case(ds) == "ok"
     d = derive.derive_faults(ds)
     assert any("reach past its outline" in w for w in d.derivation.warnings)
+
+
+def test_a_saved_derived_fault_without_any_trace_loads_and_is_left_out(tmp_path):
+    # Fuzz case 52053: F2's 50 points (duplicated, a gentle plane, no throw)
+    # give no plane trace in the study area; the derived dataset keeps F2
+    # without geometry and the build leaves it out. Saved, its loader
+    # refused the fault ("needs its geometry"). A fault marked derived may
+    # have none; loaded, it is left out of the same model.
+    from faultmesh.dataset import load_dataset
+
+    d = derive.derive_faults(make_case(seeded_params(52053)))
+    f2 = d.fault("F2")
+    assert f2.derived and not f2.traces and f2.points is None and f2.surface is None
+    m = faultmesh.build_model(d, evaluate=False)
+    back = load_dataset(d.save(tmp_path / "o", version=2))
+    assert back.fault("F2").derived and not back.fault("F2").traces
+    m2 = faultmesh.build_model(back, evaluate=False)
+    m2.check()
+    assert set(m.faults) == set(m2.faults) and set(m.surfaces) == set(m2.surfaces)
+    for k in m.surfaces:
+        np.testing.assert_allclose(m2.surfaces[k].vertices, m.surfaces[k].vertices, rtol=0, atol=1e-6)
+        np.testing.assert_array_equal(m2.surfaces[k].triangles, m.surfaces[k].triangles)

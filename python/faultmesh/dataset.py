@@ -2287,9 +2287,16 @@ def load_dataset(path, *, snap: Optional[float] = None,
             tds = ctx.lst(ctx.need(fd, "traces", w), w + " traces")
             if not tds:
                 raise ctx.err(w + " traces", "needs at least one trace")
-        else:
+        derived = fd.get("derived", False)
+        if not isinstance(derived, bool):
+            raise ctx.err(f"{w} derived", f"must be true or false, got {_short(derived)}")
+        if version != 1:
             tds = ctx.lst(fd.get("traces", []), w + " traces")
-            if not tds and fpoints is None and fsurface is None:
+            # A derived fault may have none: its derivation found no plane
+            # trace in the study area, and the build leaves it out, as it
+            # does the same dataset in memory (a dataset that builds loads
+            # back once saved: fuzz case 52053).
+            if not tds and fpoints is None and fsurface is None and not derived:
                 raise ctx.err(w, "needs its geometry: 'traces' (at least one), 'points' (a CSV "
                               "of points on the fault) or 'surface' (a GOCAD TSurf)")
         traces: List[Trace] = []
@@ -2318,9 +2325,6 @@ def load_dataset(path, *, snap: Optional[float] = None,
                 tl[lay] = {side: ctx.polyline(ctx.need(sides, side, lw), f"{lw} {side}", sec)
                            for side in ("foot", "hanging")}
             traces.append(Trace(sname, plane, tl))
-        derived = fd.get("derived", False)
-        if not isinstance(derived, bool):
-            raise ctx.err(f"{w} derived", f"must be true or false, got {_short(derived)}")
         faults.append(Fault(fname, kind, group, tips, traces, points=fpoints, sticks=fsticks,
                             surface=fsurface, throw=throw, derived=derived))
 
