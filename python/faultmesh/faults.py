@@ -1961,8 +1961,8 @@ def _clear_of(seq: List[np.ndarray], cuts: List[Optional[Tuple[int, int]]],
             # cross either (a run of the end polyline carried onto the
             # boundary beyond the partner, closed back towards it, crossed
             # the other run's closure: random_ground(24) as v2, F2 in L1;
-            # group_patch's clean-up then removed 112 or 139 of its 253
-            # triangles, which of the two depending on the cutoffs' last bits).
+            # group_patch's clean-up then removed 0 to 148 of its 253
+            # triangles, how many depending on the cutoffs' last bits).
             if not ok or (len(runs) > 1 and not _simple_patch(*_assemble_runs(runs, method), area)):
                 continue
             fold = sum(_fold_area(list(zip(r, rc)), method) for r, rc in runs)
