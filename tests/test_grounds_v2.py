@@ -54,6 +54,18 @@ def evaluated(tmp_path_factory):
     return get
 
 
+def cutoffs_moved(ds, dx: float, dy: float):
+    """``ds`` with every cutoff polyline of its faults (and so its patches'
+    outlines) moved by (dx, dy) in XY."""
+    from dataclasses import replace
+
+    faults = [replace(f, traces=[replace(t, layers={lay: {side: np.asarray(a) + [dx, dy, 0.0]
+                                                          for side, a in sd.items()}
+                                                    for lay, sd in t.layers.items()})
+                                 for t in f.traces]) for f in ds.faults]
+    return replace(ds, faults=faults)
+
+
 def vertical_holes(ds2) -> set:
     """Ids of the holes without a survey station off the vertical."""
     s = ds2.drillholes.holes.surveys
@@ -700,7 +712,6 @@ def test_picks_on_a_derived_patch_outline_are_in_it_whatever_the_last_bits(evalu
     vertex; the error near the faults moved by 6 %. Within
     build.ON_OUTLINE of the outline a point is in the patch (as one
     exactly on it is): the same model for cutoffs moved by +-1e-10 m."""
-    from dataclasses import replace
 
     import faultmesh
     from faultmesh import build
@@ -709,13 +720,7 @@ def test_picks_on_a_derived_patch_outline_are_in_it_whatever_the_last_bits(evalu
     derived = built["derived"]
 
     def nudged(d):
-        # Every cutoff polyline (and so the patches' outlines) moved by d in x and y.
-        faults = []
-        for f in derived.faults:
-            traces = [replace(t, layers={lay: {side: np.asarray(a) + [d, d, 0.0] for side, a in sd.items()}
-                                         for lay, sd in t.layers.items()}) for t in f.traces]
-            faults.append(replace(f, traces=traces))
-        return replace(derived, faults=faults)
+        return cutoffs_moved(derived, d, d)
 
     def in_patches():
         out = []
@@ -752,7 +757,6 @@ def test_folded_patch_kept_clear_of_its_partner_needs_no_clean_up_whatever_the_l
     +-1e-10 m). A variant whose runs cross is not taken: the patch reaches
     the group clip simple, the clip removes nothing, and the model keeps
     its error whatever the last bits."""
-    from dataclasses import replace
 
     from faultmesh import faults
 
@@ -769,12 +773,7 @@ def test_folded_patch_kept_clear_of_its_partner_needs_no_clean_up_whatever_the_l
     monkeypatch.setattr(faults, "clip_patch", counted)
 
     def nudged(d):
-        faults = []
-        for f in derived.faults:
-            traces = [replace(t, layers={lay: {side: np.asarray(a) + [d[0], d[1], 0.0] for side, a in sd.items()}
-                                         for lay, sd in t.layers.items()}) for t in f.traces]
-            faults.append(replace(f, traces=traces))
-        return replace(derived, faults=faults)
+        return cutoffs_moved(derived, *d)
 
     ratios = []
     for d in ((0.0, 0.0), (-1e-10, 0.0), (0.0, 1e-10), (0.0, -1e-10)):

@@ -813,8 +813,9 @@ class FaultSurface:
         this order, not a pass over every triangle."""
         V, T = self.own
         Z = V[:, 2][T]
-        order = np.argsort(Z.min(axis=1), kind="stable")
-        return order, Z.min(axis=1)[order], Z.max(axis=1)[order]
+        lo = Z.min(axis=1)
+        order = np.argsort(lo, kind="stable")
+        return order, lo[order], Z.max(axis=1)[order]
 
     def u(self, xy: np.ndarray) -> np.ndarray:
         """Strike coordinate (m from ``centre``) of XY points (k, 2)."""
@@ -2940,7 +2941,7 @@ def _patch_problem(fault: Fault, layer: str, ring: np.ndarray) -> Optional[np.nd
     triangles, at the outline's crossings, or of the triangles not covering
     their image once; all vertices when the patch cannot be made)."""
     from . import faults as fm
-    from ._core import orient2d, triangles_not_covered_once
+    from ._core import orient2d
     try:
         p = fm.layer_patch(fault, layer, fm.fault_ends(fault), ring, None)
     except GeometryError:
@@ -2961,14 +2962,11 @@ def _patch_problem(fault: Fault, layer: str, ring: np.ndarray) -> Optional[np.nd
     # boundary, so outline edges that meet there, wholly on the boundary,
     # are allowed (random_ground(0) as v2: 5 of 8 sections were dropped for
     # that, near-fault error 6.0x the true cutoffs' model; kept: 1.07x).
-    rows = fm._outline_crossings(V, T, fm.as_study_area(ring))
-    if len(rows) == 0:
-        # And the stitcher's third test: the patch covers its XY image once
-        # (counted with orientation). A folded patch whose sheets end at
-        # different places reaches out of its outline (fuzz case 51074: a
-        # nearly vertical reverse fault, one section's wrong-sense throw
-        # replaced, its hanging-wall sheet past the footwall's end).
-        rows = np.asarray(triangles_not_covered_once(V, T), dtype=np.int64)
+    # And the covered-once test: a folded patch whose sheets end at
+    # different places reaches out of its outline (fuzz case 51074: a nearly
+    # vertical reverse fault, one section's wrong-sense throw replaced, its
+    # hanging-wall sheet past the footwall's end).
+    rows = fm._unfit_triangles(V, T, fm.as_study_area(ring))
     if len(rows) == 0:
         return None
     return V[np.unique(T[rows].ravel()), :2]

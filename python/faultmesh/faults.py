@@ -1188,7 +1188,21 @@ def _simple_patch(V: np.ndarray, T: np.ndarray, area: StudyArea) -> bool:
     counted with orientation."""
     if len(T) == 0 or len(boundary_contours(T, n_vertices=len(V)).pinch_vertices):
         return False
-    return not len(_outline_crossings(V, T, area)) and not len(triangles_not_covered_once(V, T))
+    return not len(_unfit_triangles(V, T, area))
+
+
+def _unfit_triangles(V: np.ndarray, T: np.ndarray, area: Optional[StudyArea]) -> np.ndarray:
+    """Rows of the triangles the stitcher objects to in a patch without
+    pinch vertices: those at outline edges that cross (:func:`_outline_crossings`),
+    else those where the patch does not cover its XY image once, counted
+    with orientation (the stitcher's region is what the outline encloses:
+    ``triangles_not_covered_once``); empty if the patch is fit. One test for
+    the group clip's clean-up (:func:`clip_patch`), :func:`_simple_patch` and
+    derive's patch check (``derive._patch_problem``)."""
+    rows = _outline_crossings(V, T, area)
+    if rows.size == 0:
+        rows = np.asarray(triangles_not_covered_once(V, T), dtype=np.int64)
+    return rows
 
 
 def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
@@ -2380,13 +2394,10 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
         if bad.size:
             T = T[~np.isin(T, bad).any(axis=1)]
             continue
-        rows = _outline_crossings(V, T, area)
-        if rows.size == 0:
-            # The stitcher's region is what the outline encloses: where the
-            # clip left a sheet reaching past the others (sweep seeds 24,
-            # 147, 246, 395: a gap edge used by 4 triangles), the patch does
-            # not cover its image once (triangles_not_covered_once).
-            rows = np.asarray(triangles_not_covered_once(V, T), dtype=np.int64)
+        # Crossing outline edges, else (where the clip left a sheet reaching
+        # past the others: sweep seeds 24, 147, 246, 395, a gap edge used by
+        # 4 triangles) the triangles not covering their image once.
+        rows = _unfit_triangles(V, T, area)
         if rows.size == 0:
             break
         keep = np.ones(len(T), dtype=bool)
