@@ -948,7 +948,7 @@ def test_layer_data_in_a_normal_faults_gap_belong_to_neither_side():
     cutoff; the footwall cutoffs came out 9-39 m from the true ones on four
     of eight sections (error near the fault 1.96 x the true cutoffs'
     model). Data on the fault with the footwall above them are now left
-    out of both sides (_in_the_gap): cutoffs within 5 m (0.97 x). A datum
+    out of both sides (_data_sides): cutoffs within 5 m (0.97 x). A datum
     on a reverse fault (random_ground(0): at F1's hanging-wall cutoff,
     0.015 m above the fault) stays."""
     from faultmesh import grounds
@@ -973,7 +973,9 @@ def test_layer_data_in_a_normal_faults_gap_belong_to_neither_side():
     sp = derive._median_spacing(D)
     frame = derive._side_frame(fs, np.asarray(ds.boundary), 3.0 * sp, sp / 2.0)
     assert derive._on_fault(fs, D).sum() == 1
-    assert not derive._in_the_gap(fs, D, frame, 12).any()
+    gap, ext = derive._data_sides(fs, D, frame, 12)
+    # It stays, in the hanging wall (whose surface passes nearer to it).
+    assert not gap.any() and ext[derive._on_fault(fs, D)].tolist() == [1]
 
 
 def test_fading_throw_fit_also_where_the_hanging_walls_data_come_near():

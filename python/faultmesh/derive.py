@@ -1858,7 +1858,7 @@ ON_FAULT = 0.05
 def _on_fault(fs: FaultSurface, D: np.ndarray) -> np.ndarray:
     """Mask (n,) of the layer data ``D`` (n, 3) that lie on the fault
     surface: within :data:`ON_FAULT` of the plane of the extent's triangle
-    that the exact side test located them in (:func:`_in_the_gap`)."""
+    that the exact side test located them in (:func:`_data_sides`)."""
     s, _, tri, _ = fs.sides(D)
     s, tri = np.asarray(s), np.asarray(tri)
     out = np.zeros(len(D), dtype=bool)
@@ -1875,35 +1875,47 @@ def _on_fault(fs: FaultSurface, D: np.ndarray) -> np.ndarray:
     return out
 
 
-def _in_the_gap(fs: FaultSurface, D: np.ndarray, frame: GridFrame, k: int) -> np.ndarray:
-    """Mask (n,) of the layer data ``D`` (n, 3) that lie in a normal
-    fault's gap, where the layer's top is the fault itself: on the fault
-    (:func:`_on_fault`) with the footwall's surface (fitted without the
-    data on the fault) above them. Such a datum lies between the cutoffs
-    and shows neither side's surface; taken as one side's datum (the exact
-    side test puts it on either) it drags that side onto the other's
-    cutoff. random_ground(16) as v2: five L1 points in F1's gap went into
-    the footwall, whose cutoffs came out 9-39 m too deep on four of eight
-    sections (error near the fault 1.96 x the true cutoffs' model; without
-    them 0.97 x). A datum on a reverse fault lies at the hanging wall's
-    cutoff, the footwall's surface below it, and stays (random_ground(0) as
-    v2: one on F1, 0.015 m above it; left out, the ratio went from 0.97 to
-    1.28). The hanging wall's surface is no test: extrapolated up to the
-    fault it may pass above a datum in the gap (random_ground(16): by 6.5
-    m at one of the five)."""
+def _data_sides(fs: FaultSurface, D: np.ndarray, frame: GridFrame,
+                k: int) -> Tuple[np.ndarray, np.ndarray]:
+    """(gap (n,), ext (n,)) of the layer data ``D`` (n, 3): ``gap`` marks
+    those in a normal fault's gap, where the layer's top is the fault
+    itself: on the fault (:func:`_on_fault`) with the footwall's surface
+    (fitted without the data on the fault) above them. Such a datum lies
+    between the cutoffs and shows neither side's surface; taken as one
+    side's datum (the exact side test puts it on either) it drags that side
+    onto the other's cutoff. random_ground(16) as v2: five L1 points in
+    F1's gap went into the footwall, whose cutoffs came out 9-39 m too deep
+    on four of eight sections (error near the fault 1.96 x the true
+    cutoffs' model; without them 0.97 x). The hanging wall's surface is no
+    test: extrapolated up to the fault it may pass above a datum in the gap
+    (random_ground(16): by 6.5 m at one of the five).
+
+    ``ext`` is each datum's side (:meth:`FaultSurface.side`: +1 hanging
+    wall, -1 footwall, 0 on the surface), except for the other data on the
+    fault: such a datum is a cutoff (a normal fault's footwall cutoff, a
+    reverse fault's hanging-wall cutoff: random_ground(0) as v2, one on F1
+    0.015 m above it; left out, the error near the faults went from 0.97
+    to 1.28x the true cutoffs' model), and it goes to the side whose
+    surface passes nearer to it. The exact test's side of a datum within
+    :data:`ON_FAULT` of the surface is rounding's choice: a horizon picked
+    across a normal fault (its gap marked every 30 m; block ground 5 of
+    the tests) left four such data beside the footwall's cutoff, two went
+    to the hanging wall, which they pulled up onto the footwall's cutoff,
+    and as the only data near the cutoffs they made the fault reverse."""
+    ext = np.asarray(fs.side(D)[1]).astype(np.int8)
     on = _on_fault(fs, D)
+    gap = np.zeros(len(D), dtype=bool)
     if not on.any():
-        return on
+        return gap, ext
     rest = ~on
-    ext = fs.side(D[rest])[1]
-    sides = _side_surfaces(D[rest], {"hanging": ext >= 0, "foot": ext <= 0}, frame, k)
+    sides = _side_surfaces(D[rest], {"hanging": ext[rest] >= 0, "foot": ext[rest] <= 0}, frame, k)
     if sides is None:
-        return on
+        return on, ext
     q = D[on]
-    gap = sides["foot"](q[:, :2]) > q[:, 2]
-    out = np.zeros(len(D), dtype=bool)
-    out[np.flatnonzero(on)[gap]] = True
-    return out
+    zf, zh = sides["foot"](q[:, :2]), sides["hanging"](q[:, :2])
+    gap[np.flatnonzero(on)] = zf > q[:, 2]
+    ext[np.flatnonzero(on)] = np.where(np.abs(zh - q[:, 2]) < np.abs(zf - q[:, 2]), 1, -1)
+    return gap, ext
 
 
 def _in_own_block(D: np.ndarray, fs: FaultSurface, others: Sequence[FaultSurface],
@@ -2182,10 +2194,10 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         spacing_data = _median_spacing(D)
         D = D[_in_own_block(D, fs, others, 0.5 * spacing_data)]
         frame = _side_frame(fs, ring, 3.0 * spacing + 2.0 * spacing_data, spacing_data / 2.0)
-        D = D[~_in_the_gap(fs, D, frame, opt.k)]
+        gap, ext = _data_sides(fs, D, frame, opt.k)
+        D, ext = D[~gap], ext[~gap]
         if len(D) < 3:
             continue
-        ext = fs.side(D)[1]
         split = {"hanging": ext >= 0, "foot": ext <= 0}
         # The layer's fits depend on its data and the grid only: a second
         # derivation of the fault on other sections (_derive_fault) takes
