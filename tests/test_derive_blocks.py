@@ -400,3 +400,34 @@ def test_picks_on_the_fault_beside_the_footwall_cutoff_join_the_footwall():
     for side in ("foot", "hanging"):
         assert np.abs(m[0, side]).mean() <= 4.0, (side, m[0, side])
     assert_sparse_layers_as_good_as_the_top(g, d)
+
+
+def test_a_step_is_kept_only_where_it_predicts_better_than_a_smooth_offset():
+    """derive._steps_predict on 40 draws of offsets at 80 random places,
+    with a fault line through them: a thickness wave of 3-8 m (wavelength
+    0.6-1.5 times the area) alone seldom predicts better with a step (at
+    most 4 of 40; measured 3, and the standard-error rule alone keeps 5:
+    together, as derive._conformable_points asks both, none); the same wave
+    plus a step of 4-9 m across the line does in at least 36 (measured 39,
+    both rules 37)."""
+    from scipy.interpolate import RBFInterpolator
+    from faultmesh.derive import _steps_predict
+    kept = {False: 0, True: 0}
+    for seed in range(40):
+        rng = np.random.default_rng([seed, 3])
+        xy = rng.uniform(0.0, 2000.0, (80, 2))
+        c = xy.mean(axis=0)
+        side = (xy[:, 0] + 0.3 * xy[:, 1] > 1300.0).astype(np.float64)
+        wl, amp = rng.uniform(1200.0, 3000.0), rng.uniform(3.0, 8.0)
+        wave = amp * np.sin(2 * np.pi * xy[:, 0] / wl + rng.uniform(0, 6)) * np.cos(2 * np.pi * xy[:, 1] / wl)
+        A = np.column_stack([np.ones(len(xy)), xy[:, 0] - c[0], xy[:, 1] - c[1], side])
+        fold = np.random.default_rng(0).permutation(len(xy)) % 5
+        step = rng.uniform(4.0, 9.0)
+
+        def spline(sel, v):
+            return RBFInterpolator(xy[sel] - c, v[sel], kernel="thin_plate_spline", degree=1)
+
+        for with_step in (False, True):
+            off = -20.0 + wave + (step * side if with_step else 0.0)
+            kept[with_step] += _steps_predict(spline, xy - c, fold, off, A, np.array([3]))
+    assert kept[False] <= 4 and kept[True] >= 36, kept
