@@ -1728,45 +1728,65 @@ def _decay_sections(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFram
                     trs: List["_SectionTrace"], idx: List[int], roots: Dict[str, list],
                     sides: Dict[str, "SideSurface"], sec_sides: Dict[int, Dict[str, "SideSurface"]],
                     own: Optional[Dict[int, tuple]] = None,
-                    memo: Optional[Dict[Any, Any]] = None) -> None:
-    """The sections (``trs``, line indices ``idx``; not those of a fault
-    block, already in ``sec_sides``) whose hanging-wall cutoff lies more
-    than :data:`DECAY_GAP` data spacings (0: any) from the hanging wall's
-    data get the hanging wall of the fading-throw fit (:func:`_decay_sides`) where
-    a datum that shows the throw lies within :data:`DECAY_NEAR` section
-    spacings along strike: ``sec_sides`` and ``roots`` (per side, one per
-    section) updated in place; ``own`` (line index -> the replaced roots of
-    the own surfaces, foot and hanging) filled for :func:`_own_sense_back`.
-    The fit (13 solves) only runs where some section has such a gap.
-    ``memo`` (a dict kept by the caller for this layer between derivations
-    of the same fault on other sections, :func:`_derive_fault`): the fit and
-    the cutoffs per section position are taken from it, or put in it."""
-    cand = [j for j, i in enumerate(idx) if i not in sec_sides and roots["hanging"][j] is not None
-            and sides["hanging"].nearest(roots["hanging"][j][0][None, :2])[0] > DECAY_GAP * spacing_data]
+                    memo: Optional[Dict[Any, Any]] = None,
+                    sec_block: Optional[Dict[int, Tuple[int, ...]]] = None,
+                    blocks: Optional[Dict[Tuple[int, ...], np.ndarray]] = None) -> None:
+    """The sections (``trs``, line indices ``idx``) whose hanging-wall
+    cutoff lies more than :data:`DECAY_GAP` data spacings (0: any) from the
+    hanging wall's data get the hanging wall of the fading-throw fit
+    (:func:`_decay_sides`) where a datum that shows the throw lies within
+    :data:`DECAY_NEAR` section spacings along strike: ``sec_sides`` and
+    ``roots`` (per side, one per section) updated in place; ``own`` (line
+    index -> the replaced roots of the own surfaces, foot and hanging)
+    filled for :func:`_own_sense_back`. A section of a fault block of
+    crossing faults (``sec_block``: line index -> the block's key,
+    ``blocks``: key -> its data's mask; its sides already in ``sec_sides``)
+    takes the fit of its block's data, beside its block's footwall. The fit
+    (13 solves) only runs where some section has such a gap, once per
+    block. ``memo`` (a dict kept by the caller for this layer between
+    derivations of the same fault on other sections, :func:`_derive_fault`):
+    the fits and the cutoffs per section position are taken from it, or
+    put in it."""
+    sec_block = sec_block or {}
+    cand: Dict[Tuple[int, ...], List[int]] = {}
+    for j, i in enumerate(idx):
+        if roots["hanging"][j] is None or (i in sec_sides and i not in sec_block):
+            continue
+        sd0 = sec_sides.get(i, sides)
+        if sd0["hanging"].nearest(roots["hanging"][j][0][None, :2])[0] > DECAY_GAP * spacing_data:
+            cand.setdefault(sec_block.get(i, ()), []).append(j)
     if not cand:
         return
     memo = {} if memo is None else memo
-    if "fit" not in memo:
-        memo["fit"] = _decay_sides(D, split, frame, k, spacing, fs, ring)
-    dj = memo["fit"]
-    if dj is None or not len(dj["hanging"].seen_u):
-        return
-    seen_u = dj["hanging"].seen_u
-    sd = {"foot": sides["foot"], "hanging": dj["hanging"]}
-    for j in cand:
-        if np.min(np.abs(seen_u - trs[j].u)) > DECAY_NEAR * spacing:
+    for key, js in cand.items():
+        at_fit = "fit" if key == () else ("fit", key)
+        if at_fit not in memo:
+            if key == ():
+                memo[at_fit] = _decay_sides(D, split, frame, k, spacing, fs, ring)
+            else:
+                m = blocks[key]
+                memo[at_fit] = _decay_sides(D[m], {nm: split[nm][m] for nm in split}, frame, k,
+                                            spacing, fs, ring)
+        dj = memo[at_fit]
+        if dj is None or not len(dj["hanging"].seen_u):
             continue
-        at = ("roots", trs[j].u, trs[j].direction.tobytes())
-        if at not in memo:
-            memo[at] = {nm: _roots([trs[j]], sd[nm], sd[nm].nearest)[0] for nm in sd}
-        rr = memo[at]
-        if rr["foot"] is None or rr["hanging"] is None:
-            continue
-        if own is not None:
-            own[idx[j]] = (roots["foot"][j], roots["hanging"][j])
-        sec_sides[idx[j]] = sd
-        for nm in sd:
-            roots[nm][j] = rr[nm]
+        seen_u = dj["hanging"].seen_u
+        for j in js:
+            i = idx[j]
+            if np.min(np.abs(seen_u - trs[j].u)) > DECAY_NEAR * spacing:
+                continue
+            sd = {"foot": sec_sides.get(i, sides)["foot"], "hanging": dj["hanging"]}
+            at = ("roots", key, trs[j].u, trs[j].direction.tobytes())
+            if at not in memo:
+                memo[at] = {nm: _roots([trs[j]], sd[nm], sd[nm].nearest)[0] for nm in sd}
+            rr = memo[at]
+            if rr["foot"] is None or rr["hanging"] is None:
+                continue
+            if own is not None:
+                own[i] = (roots["foot"][j], roots["hanging"][j])
+            sec_sides[i] = sd
+            for nm in sd:
+                roots[nm][j] = rr[nm]
 
 
 def _own_sense_back(throw: float, own: tuple, sgn: float) -> bool:
@@ -2242,7 +2262,8 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                     roots[nm][j] = _roots([traces[i]], blk[nm], blk[nm].nearest)[0]
         decay_own: Dict[int, tuple] = {}
         _decay_sections(D, split, frame, opt.k, spacing, spacing_data, fs, ring,
-                        [traces[i] for i in good], good, roots, sides, sec_sides, decay_own, fits)
+                        [traces[i] for i in good], good, roots, sides, sec_sides, decay_own, fits,
+                        sec_block, blocks)
         # Sections where neither side has data within two data spacings of
         # its cutoff (a data gap at the fault): there the two extrapolations
         # are unrelated and their difference is no throw. Both sides come
