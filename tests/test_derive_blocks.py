@@ -122,6 +122,16 @@ def block_ground(seed: int, undulation: bool = True, sparse_every: int = 1,
     return BlockGround(ds, kind, throw, layer_z, throw_growth)
 
 
+def fault_surfaces(ds: Dataset) -> list:
+    """The derivation's surface of each fault of ``ds``
+    (:func:`faultmesh.derive.fault_surface`) over the layer data's depth
+    range: what :func:`faultmesh.derive._conformable_points` takes."""
+    from faultmesh.derive import fault_surface, layer_data
+    ring = np.asarray(ds.boundary, dtype=np.float64)
+    zs = np.concatenate([layer_data(ds, lay)[:, 2] for lay in ds.layers])
+    return [fault_surface(f, ring, (float(zs.min()), float(zs.max())), warnings=[]) for f in ds.faults]
+
+
 def misfits_by_layer(g: BlockGround, derived: Dataset) -> dict:
     """(layer index, side) -> z (m) of each derived cutoff point above the
     true layer of its side ("foot", "hanging") at its XY (the point lies on
@@ -310,12 +320,10 @@ def test_a_layer_the_fault_does_not_displace_takes_no_shape_from_one_it_does():
     across the fault, here the whole throw of 31 m, is measured and refused:
     more than :data:`faultmesh.derive.CONFORMABLE_STEP_MAX`) -- while the
     same ground with every layer displaced does use it."""
-    from faultmesh.derive import _conformable_points, fault_surface, layer_data
+    from faultmesh.derive import _conformable_points
     g = block_ground(5, sparse_every=4)
     ds = g.dataset
-    ring = np.asarray(ds.boundary, dtype=np.float64)
-    zs = np.concatenate([layer_data(ds, lay)[:, 2] for lay in ds.layers])
-    fs = [fault_surface(ds.faults[0], ring, (float(zs.min()), float(zs.max())), warnings=[])]
+    fs = fault_surfaces(ds)
     assert set(_conformable_points(ds, fs)) == set(ds.layers[1:])
     pts = dict(ds.points)
     for i, lay in enumerate(ds.layers[1:], start=1):
@@ -363,14 +371,11 @@ def test_picks_on_the_fault_are_no_reference_for_a_sparse_layer(seed):
     point within 2.5 m of its layer's truth on one side or the other
     (picks carry 0.3 m of noise, the isochore is interpolated). Measured:
     at most 1.74 m (seed 5), 2.04 m (seed 10); before 15.3 and 15.2 m."""
-    from faultmesh.derive import _conformable_points, fault_surface, layer_data
+    from faultmesh.derive import _conformable_points
     g = with_gap_picks(block_ground(seed, sparse_every=4))
     assert g.kind == "normal"
     ds = g.dataset
-    ring = np.asarray(ds.boundary, dtype=np.float64)
-    zs = np.concatenate([layer_data(ds, lay)[:, 2] for lay in ds.layers])
-    fs = [fault_surface(ds.faults[0], ring, (float(zs.min()), float(zs.max())), warnings=[])]
-    extra = _conformable_points(ds, fs)
+    extra = _conformable_points(ds, fault_surfaces(ds))
     assert set(extra) == set(ds.layers[1:])
     for i, lay in enumerate(ds.layers[1:], start=1):
         P = extra[lay]

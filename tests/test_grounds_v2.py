@@ -325,10 +325,11 @@ HOLDING_V2_PICKS = [27, 63, 22, 34, 51]
 
 
 def _v1_and_v2_with_picks(seed, folder):
-    """Ground ``seed`` loaded as v1 and as v2 with its section picks."""
+    """Ground ``seed``: its truth, and its datasets loaded as v1 and as v2
+    with its section picks."""
     spec, geo, path1 = gr.make_ground(seed, folder)
     ds1 = fm.load_dataset(path1)
-    return ds1, fm.load_dataset(gr.write_v2(ds1, geo, spec, folder / "v2", section_picks=True))
+    return geo, ds1, fm.load_dataset(gr.write_v2(ds1, geo, spec, folder / "v2", section_picks=True))
 
 
 @pytest.mark.parametrize("seed", HOLDING_V2_PICKS)
@@ -623,7 +624,7 @@ def test_polylines_stay_in_their_block_of_a_crossing_fault(tmp_path):
     F2 still misses the layer's rise towards it)."""
     from faultmesh.derive import derive_faults
 
-    _, ds2 = _v1_and_v2_with_picks(90, tmp_path)
+    _, _, ds2 = _v1_and_v2_with_picks(90, tmp_path)
     d2 = derive_faults(ds2)
     f2 = d2.derivation.faults["F2"].surface
     f1 = next(f for f in d2.faults if f.name == "F1")
@@ -870,8 +871,7 @@ def test_sparse_layers_take_no_shape_from_picks_on_a_fault(tmp_path):
     Measured: none of L2, L3, L5 (before 5, 5, 8), 5 of L4 (before 9: L4
     keeps a step across F1 that the truth does not have, Open)."""
     from faultmesh import derive
-    ds1, ds = _v1_and_v2_with_picks(49, tmp_path)
-    spec, geo, _ = gr.make_ground(49, tmp_path / "truth")
+    geo, _, ds = _v1_and_v2_with_picks(49, tmp_path)
     ring = np.asarray(ds.boundary, dtype=np.float64)
     zs = np.concatenate([derive.layer_data(ds, lay)[:, 2] for lay in ds.layers])
     surfs = [derive.fault_surface(f, ring, (float(zs.min()) - 100.0, float(zs.max()) + 100.0),

@@ -1748,26 +1748,21 @@ def _decay_sections(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFram
     the fits and the cutoffs per section position are taken from it, or
     put in it."""
     sec_block = sec_block or {}
+    blocks = blocks or {}
+    # Candidates per fault block (key () for the whole layer's data).
     cand: Dict[Tuple[int, ...], List[int]] = {}
     for j, i in enumerate(idx):
-        if roots["hanging"][j] is None or (i in sec_sides and i not in sec_block):
-            continue
-        sd0 = sec_sides.get(i, sides)
-        if sd0["hanging"].nearest(roots["hanging"][j][0][None, :2])[0] > DECAY_GAP * spacing_data:
+        h = roots["hanging"][j]
+        if h is not None and sec_sides.get(i, sides)["hanging"].nearest(h[0][None, :2])[0] \
+                > DECAY_GAP * spacing_data:
             cand.setdefault(sec_block.get(i, ()), []).append(j)
-    if not cand:
-        return
     memo = {} if memo is None else memo
     for key, js in cand.items():
-        at_fit = "fit" if key == () else ("fit", key)
-        if at_fit not in memo:
-            if key == ():
-                memo[at_fit] = _decay_sides(D, split, frame, k, spacing, fs, ring)
-            else:
-                m = blocks[key]
-                memo[at_fit] = _decay_sides(D[m], {nm: split[nm][m] for nm in split}, frame, k,
+        if ("fit", key) not in memo:
+            m = blocks.get(key, slice(None))
+            memo["fit", key] = _decay_sides(D[m], {nm: split[nm][m] for nm in split}, frame, k,
                                             spacing, fs, ring)
-        dj = memo[at_fit]
+        dj = memo["fit", key]
         if dj is None or not len(dj["hanging"].seen_u):
             continue
         seen_u = dj["hanging"].seen_u
@@ -1875,11 +1870,13 @@ def _regional_throw(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, data: np.nd
 ON_FAULT = 0.05
 
 
-def _on_fault(fs: FaultSurface, D: np.ndarray) -> np.ndarray:
+def _on_fault(fs: FaultSurface, D: np.ndarray, located=None) -> np.ndarray:
     """Mask (n,) of the layer data ``D`` (n, 3) that lie on the fault
     surface: within :data:`ON_FAULT` of the plane of the extent's triangle
-    that the exact side test located them in (:func:`_data_sides`)."""
-    s, _, tri, _ = fs.sides(D)
+    that the exact side test located them in (:func:`_data_sides`;
+    ``located``: that test's answer for ``D``, :meth:`FaultSurface.sides`,
+    where the caller has it already)."""
+    s, _, tri, _ = fs.sides(D) if located is None else located
     s, tri = np.asarray(s), np.asarray(tri)
     out = np.zeros(len(D), dtype=bool)
     m = np.flatnonzero((s != BEYOND_FAULT) & (tri >= 0))
@@ -1922,8 +1919,9 @@ def _data_sides(fs: FaultSurface, D: np.ndarray, frame: GridFrame,
     the tests) left four such data beside the footwall's cutoff, two went
     to the hanging wall, which they pulled up onto the footwall's cutoff,
     and as the only data near the cutoffs they made the fault reverse."""
-    ext = np.asarray(fs.side(D)[1]).astype(np.int8)
-    on = _on_fault(fs, D)
+    located = fs.sides(D)
+    ext = np.asarray(located[1]).astype(np.int8)
+    on = _on_fault(fs, D, located)
     gap = np.zeros(len(D), dtype=bool)
     if not on.any():
         return gap, ext
@@ -3470,14 +3468,19 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
     # footwall cutoffs came out 12-38 m too deep, and in the plane fits at
     # the samples they made steps across F1 (5-9 m) that the truth (one
     # throw for every layer) does not have.
+    # One exact side test per layer and fault gives both which data lie on
+    # a fault and each datum's fault block (:func:`_block_keys`).
+    keys: Dict[str, np.ndarray] = {}
     for lay, D in data.items():
+        located = [fs.sides(D) for fs in surfs]
         on = np.zeros(len(D), dtype=bool)
-        for fs in surfs:
-            on |= _on_fault(fs, D)
-        data[lay] = D[~on]
+        for fs, loc in zip(surfs, located):
+            on |= _on_fault(fs, D, loc)
+        K = np.column_stack([np.asarray(loc[1]) for loc in located]) if surfs \
+            else np.zeros((len(D), 0), dtype=np.int8)
+        data[lay], keys[lay] = D[~on], K[~on]
     order = list(ds.layers)
     out: Dict[str, np.ndarray] = {}
-    keys: Dict[str, np.ndarray] = {}
     for i, lay in enumerate(order):
         D = data[lay]
         if len(D) < 3:
@@ -3491,9 +3494,6 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
         if log is not None:
             log[lay] = rec
         R = data[ref]
-        for name, P in ((lay, D), (ref, R)):
-            if name not in keys:
-                keys[name] = _block_keys(surfs, P)
         kD, kR = keys[lay], keys[ref]
         # The reference surface at each datum: the weighted plane through
         # its nearest reference data (up to 8, within 3 reference spacings:
