@@ -1573,10 +1573,21 @@ DECAY_PROFILES: Tuple[Optional[Tuple[float, float]], ...] = tuple(
 
 #: Towards an end inside the study area, the cutoff throws of the sections
 #: past the last one with a cutoff that has data of its side within this
-#: many section spacings are held under a straight taper to zero at the
-#: extent's edge (:func:`_derive_sections`): within a section spacing a
+#: many section spacings, at or past the section towards the end
+#: (:func:`_tip_side_datum`), are held under a straight taper to zero at
+#: the extent's edge (:func:`_derive_sections`): within a section spacing a
 #: datum shows the layer where the section is; farther out along strike
-#: the side surfaces extrapolate.
+#: the side surfaces extrapolate. Data only behind a section (towards the
+#: fault's middle) do not hold it: they show a throw the tip has not yet
+#: taken down, and each side's surface carries it on to the section
+#: (held-out random ground 178 as v2: the section 50 m from the tip kept
+#: 10.4 m of throw from hanging-wall data 85 m behind it, where the truth
+#: has about 4 m; its hanging-wall cutoffs 5.7 and 6.8 m too deep).
+#: Measured on the v2 sweeps with section picks: seeds 0-99 84 of 91
+#: within 1.25x (84), ratio median 0.730 -> 0.717 (66 1.24 -> 0.78x);
+#: held out (100-199) 78 -> 79 of 90 (115 1.29 -> 1.22x), median 0.766
+#: -> 0.744; worse on two that failed already (146 1.29 -> 2.17, 164
+#: 2.07 -> 2.48).
 TAPER_SUPPORT = 1.0
 
 
@@ -1782,6 +1793,19 @@ def _decay_sections(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFram
             sec_sides[i] = sd
             for nm in sd:
                 roots[nm][j] = rr[nm]
+
+
+def _tip_side_datum(side: "SideSurface", fs: FaultSurface, cut: np.ndarray, u: float,
+                    end: int, reach: float) -> bool:
+    """Whether ``side`` has a datum within ``reach`` (XY) of its cutoff
+    ``cut`` at or past the section's strike coordinate ``u`` towards the
+    fault's ``end`` (0: lower u, 1: higher u): one that shows the layer
+    between the section and the tip, not only behind it."""
+    near = side.tree.query_ball_point(np.asarray(cut, dtype=np.float64)[:2], reach)
+    if not near:
+        return False
+    ud = fs.u(side.data[np.asarray(near, dtype=np.int64), :2])
+    return bool(np.any(ud <= u) if end == 0 else np.any(ud >= u))
 
 
 def _own_sense_back(throw: float, own: tuple, sgn: float) -> bool:
@@ -2638,25 +2662,25 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # now 1.83x, the end throws within 3.4 m).
     if kind is not None and not len(fault.tips):
         for lay, r in res.items():
-            # The layer's derived sections along strike and, per section,
-            # the distance from its nearer cutoff to that side's data: the
-            # same for both ends, taken once.
+            # The layer's derived sections along strike, from the end in;
+            # the first whose cutoff has a datum of its side within reach
+            # between it and the tip (_tip_side_datum) holds its throw.
             along = derived_along(lay)
-            supported = [min(_sides_of(r, i)[nm].nearest(cutpts[lay][i][k][None, :2])[0]
-                             for k, nm in enumerate(("foot", "hanging"))) <= TAPER_SUPPORT * spacing_u
-                         for i in along]
             for e in (0, 1):
                 if fs.ends[e] == "boundary":
                     continue
                 seq = along if e == 0 else along[::-1]
-                held = [k for k, ok in enumerate(supported if e == 0 else supported[::-1]) if ok]
-                if not held or held[0] == 0:
-                    continue
-                anchor = seq[held[0]]
+                first = next((k for k, i in enumerate(seq)
+                              if any(_tip_side_datum(_sides_of(r, i)[nm], fs, cutpts[lay][i][k2],
+                                                     lines[i]["u"], e, TAPER_SUPPORT * spacing_u)
+                                     for k2, nm in enumerate(("foot", "hanging")))), None)
+                if not first:
+                    continue        # none holds, or the outermost does
+                anchor = seq[first]
                 t0, u_a = throw[lay][anchor], lines[anchor]["u"]
                 if sgn * t0 < opt.min_throw:
                     continue
-                for i in seq[:held[0]]:
+                for i in seq[:first]:
                     share = (lines[i]["u"] - ends_u[e]) / (u_a - ends_u[e]) if u_a != ends_u[e] else 0.0
                     cap = t0 * float(np.clip(share, 0.0, 1.0))
                     if sgn * throw[lay][i] <= sgn * cap or i in r.get("hinted", {}):
