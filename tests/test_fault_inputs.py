@@ -189,3 +189,82 @@ def test_surface_errors_name_the_file(tmp_path):
     with pytest.raises(DatasetError,
                        match=r"missing\.ts: fault 'F2' surface: file .*missing\.ts' not found"):
         read_fault_surface(tmp_path / "missing.ts", label="fault 'F2' surface")
+
+
+# A quad of two triangles, 0-1-2 and 1-3-2 wound alike (both clockwise in
+# map view), 1 km along strike, 300 m down dip.
+_QUAD_V = "VRTX 1 0 0 0\nVRTX 2 1000 0 0\nVRTX 3 0 200 -300\nVRTX 4 1000 200 -300\n"
+
+
+def _ts(body: str, name: str = "F1") -> str:
+    return f"GOCAD TSurf 1\nHEADER {{\nname: {name}\n}}\nTFACE\n{body}END\n"
+
+
+def _wound_alike(t: np.ndarray) -> bool:
+    """Every edge shared by two triangles runs opposite ways in them."""
+    e = np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]])
+    return len({tuple(x) for x in e.tolist()}) == len(e)
+
+
+def test_a_surface_of_mixed_winding_is_wound_alike(tmp_path):
+    """Regression (the fuzz of the v2 input): a quad exported as two
+    triangles wound opposite ways loaded, and every derivation and build of
+    it stopped at `max() arg is an empty sequence` (its outline: every edge
+    counted as inside). The winding carries no data: each connected part is
+    wound like its first triangle."""
+    f = tmp_path / "f1.ts"
+    f.write_text(_ts(_QUAD_V + "TRGL 1 2 3\nTRGL 2 3 4\n"))
+    v, t = read_fault_surface(f)
+    assert t.tolist() == [[0, 1, 2], [1, 3, 2]]
+    # A grid with every third triangle flipped, and two parts apart.
+    n = 6
+    V = [(x * 100.0, y * 100.0, -y * 50.0) for y in range(n) for x in range(n)]
+    tris = []
+    for y in range(n - 1):
+        for x in range(n - 1):
+            a = y * n + x + 1
+            tris += [(a, a + 1, a + n), (a + 1, a + n + 1, a + n)]
+    tris = [(p, r, q) if k % 3 == 2 else (p, q, r) for k, (p, q, r) in enumerate(tris)]
+    far = [(x + 5000.0, y, z) for x, y, z in V[:3]]
+    body = "".join(f"VRTX {i + 1} {x} {y} {z}\n" for i, (x, y, z) in enumerate(V + far))
+    body += "".join(f"TRGL {p} {q} {r}\n" for p, q, r in tris)
+    body += f"TRGL {len(V) + 1} {len(V) + 3} {len(V) + 2}\n"
+    f.write_text(_ts(body))
+    v, t = read_fault_surface(f)
+    assert len(t) == len(tris) + 1 and _wound_alike(t)
+    assert t[0].tolist() == [0, 1, n]                  # the first triangle keeps its winding
+    assert t[-1].tolist() == [len(V), len(V) + 2, len(V) + 1]
+
+
+def test_a_fault_exported_twice_into_one_file_is_read_once(tmp_path):
+    f = tmp_path / "f1.ts"
+    quad = _QUAD_V + "TRGL 1 2 3\nTRGL 2 4 3\n"
+    f.write_text(_ts(quad) + _ts(quad, "F1_copy"))
+    v, t = read_fault_surface(f)
+    assert len(v) == 4 and t.tolist() == [[0, 1, 2], [1, 3, 2]]
+
+
+def test_triangles_that_are_no_surface_are_refused_naming_the_file_and_edge(tmp_path):
+    f = tmp_path / "f1.ts"
+    # A third triangle on the quad's diagonal (overlapping patches).
+    f.write_text(_ts(_QUAD_V + "VRTX 5 500 500 -500\nTRGL 1 2 3\nTRGL 2 4 3\nTRGL 2 3 5\n"))
+    with pytest.raises(DatasetError, match=re.escape(f"{f}: the fault's triangles are no surface: "
+                                                     "the edge between [1000.0, 0.0, 0.0] and "
+                                                     "[0.0, 200.0, -300.0] is shared by 3")):
+        read_fault_surface(f)
+    # A Moebius strip: no winding makes every shared edge run opposite ways.
+    k = 6
+    ang = np.linspace(0.0, 2 * np.pi, k, endpoint=False)
+    inner = [(1000 * np.cos(a), 1000 * np.sin(a), -100.0 * (i % 2)) for i, a in enumerate(ang)]
+    outer = [(1500 * np.cos(a), 1500 * np.sin(a), -300.0 + 100.0 * (i % 2)) for i, a in enumerate(ang)]
+    body = "".join(f"VRTX {i + 1} {x:.3f} {y:.3f} {z:.3f}\n" for i, (x, y, z) in enumerate(inner + outer))
+    for i in range(k):
+        j = (i + 1) % k
+        a, b, c, d = i + 1, j + 1, k + i + 1, k + j + 1
+        if j == 0:                      # the half twist: inner and outer swap
+            b, d = d, b
+        body += f"TRGL {a} {b} {c}\nTRGL {b} {d} {c}\n"
+    f.write_text(_ts(body))
+    with pytest.raises(DatasetError, match=re.escape(f"{f}: the fault's triangles cannot all be "
+                                                     "wound alike (a one-sided surface)")):
+        read_fault_surface(f)

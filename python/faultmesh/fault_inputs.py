@@ -205,4 +205,59 @@ def read_fault_surface(path, *, ctx: Optional[_Ctx] = None,
         local = k - sum(len(t) for t in tris[:owner])
         raise DatasetError(f"{file}: TSurf {names[owner]!r} triangle {local + 1} "
                            f"(corners {V[T[k]].tolist()}) has two corners at the same position")
+    T = _wound_alike(T, V, file)
     return FaultSurface(np.ascontiguousarray(V), np.ascontiguousarray(T, dtype=np.int64))
+
+
+def _wound_alike(T: np.ndarray, V: np.ndarray, file: Path) -> np.ndarray:
+    """The triangles ``T`` of a fault surface, each connected part wound
+    like its first triangle; a triangle repeated (the same three corners,
+    e.g. a fault exported twice into one file) kept once. The winding of a
+    TSurf carries no data, and exporters mix it (a quad as two triangles
+    wound opposite ways); with it mixed the surface has no outline (every
+    edge inside). A :class:`DatasetError` naming ``file`` and the corners
+    where the triangles are no surface: an edge shared by three or more
+    triangles (overlapping patches), or a part that cannot be wound alike
+    (one-sided, as a Moebius strip). Vectorised: the parity of the flips
+    along a path of the triangles' adjacency from each part's first
+    triangle is a shortest-path length (scipy's Dijkstra) with edges that
+    keep the winding weighing 2 and those that flip it 3."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components, dijkstra
+
+    T = np.asarray(T, dtype=np.int64)
+    _, first = np.unique(np.sort(T, axis=1), axis=0, return_index=True)
+    T = T[np.sort(first)]
+    m = len(T)
+    a = T.reshape(-1)
+    b = T[:, [1, 2, 0]].reshape(-1)
+    tri = np.repeat(np.arange(m), 3)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    key = lo * (int(V.shape[0]) + 1) + hi
+    order = np.argsort(key, kind="stable")
+    key_s = key[order]
+    start = np.r_[0, np.flatnonzero(np.diff(key_s)) + 1]
+    count = np.diff(np.r_[start, len(key_s)])
+    if (count > 2).any():
+        j = order[start[np.argmax(count > 2)]]
+        raise DatasetError(f"{file}: the fault's triangles are no surface: the edge between "
+                           f"{V[lo[j]].tolist()} and {V[hi[j]].tolist()} is shared by "
+                           f"{int(count.max(initial=0))} triangles (overlapping patches?)")
+    pair = start[count == 2]
+    e1, e2 = order[pair], order[pair + 1]
+    t1, t2 = tri[e1], tri[e2]
+    same = a[e1] == a[e2]               # both use the edge in the same direction
+    w = np.where(same, 3.0, 2.0)
+    G = coo_matrix((np.r_[w, w], (np.r_[t1, t2], np.r_[t2, t1])), shape=(m, m)).tocsr()
+    _, part = connected_components(G, directed=False)
+    roots = np.unique(part, return_index=True)[1]      # each part's first triangle
+    dist = dijkstra(G, directed=False, indices=roots, min_only=True)
+    flip = (np.rint(dist).astype(np.int64) % 2) == 1
+    T = np.where(flip[:, None], T[:, [0, 2, 1]], T)
+    bad = (flip[t1] ^ flip[t2]) != same
+    if bad.any():
+        j = e1[np.argmax(bad)]
+        raise DatasetError(f"{file}: the fault's triangles cannot all be wound alike (a one-sided "
+                           f"surface) at the edge between {V[lo[j]].tolist()} and "
+                           f"{V[hi[j]].tolist()}")
+    return T
