@@ -756,3 +756,68 @@ def test_a_saved_derived_fault_without_any_trace_loads_and_is_left_out(tmp_path)
     for k in m.surfaces:
         np.testing.assert_allclose(m2.surfaces[k].vertices, m.surfaces[k].vertices, rtol=0, atol=1e-6)
         np.testing.assert_array_equal(m2.surfaces[k].triangles, m.surfaces[k].triangles)
+
+
+def _stepped_ground(fault_points, sticks=None, n=6):
+    """Two layers offset 20 m across x = 500 (holes on an n x n grid over
+    1 km x 1 km) and fault F1 given by points."""
+    g = (np.arange(n) + 0.5) * 1000.0 / n
+    X, Y = np.meshgrid(g, g)
+    xy = np.column_stack([X.ravel(), Y.ravel()])
+    m = len(xy)
+    drop = np.where(xy[:, 0] > 500.0, -20.0, 0.0)
+    bh = Boreholes(np.tile([f"B{i}" for i in range(m)], 2), np.vstack([xy, xy]),
+                   np.repeat(["A", "B"], m), np.r_[-100.0 + drop, -130.0 + drop])
+    ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], dtype=float)
+    return Dataset(name="stepped", layers=["A", "B"], boundary=ring, boreholes=bh,
+                   faults=[Fault("F1", points=fault_points, sticks=sticks)])
+
+
+def test_a_fault_a_centimetre_long_gets_no_more_throw_knots_than_its_frame_resolves(monkeypatch):
+    """Regression (the fuzz of the v2 input: three fault points 1 cm apart
+    derived for a minute, 1 mm apart for over ten): the throw's knots went
+    every half section spacing (an eighth of the fault's length) over the
+    whole frame of the layer's data -- 1.1e7 knots on a grid of 6 x 6
+    nodes, 20 s per solve. They go no closer than an eighth of the frame's
+    cell now."""
+    seen = []
+    real = derive._joint_setup
+
+    def spy(D, split, frame, spacing):
+        out = real(D, split, frame, spacing)
+        if out is not None:
+            seen.append((len(out[-1]), frame.nu))
+        return out
+
+    monkeypatch.setattr(derive, "_joint_setup", spy)
+    P = np.array([[500.0, 500.0, -50.0], [500.0, 500.01, -50.0], [500.005, 500.0, -50.01]])
+    try:
+        derive.derive_faults(_stepped_ground(P))
+    except (DatasetError, ValueError):
+        pass        # what it says of such a fault is not the point; how long it takes is
+    assert seen and all(k <= 8 * (nu - 1) + 2 for k, nu in seen), seen
+
+
+def test_sticks_a_millimetre_apart_are_split_into_few_pieces():
+    """Regression (the fuzz of the v2 input: two sticks 160 m tall 1 cm
+    apart, 92 s of derivation; 1 mm apart, over 5 min): densified to the
+    median spacing of their points, the sticks' spacing, 16 000 points per
+    stick. A segment goes into at most STICK_SPLIT_MAX pieces."""
+    P = np.array([[x, 500.0 + dy, z] for dy in (0.0, 0.001) for x, z in ((450.0, 20.0), (500.0, -60.0),
+                                                                          (550.0, -140.0))])
+    sticks = np.repeat(["s0", "s1"], 3)
+    out = derive._densify_sticks(P, sticks)
+    assert len(P) < len(out) <= len(P) + 4 * (derive.STICK_SPLIT_MAX - 1)
+    # Sticks sampled evenly are left as they are.
+    even = np.array([[x, y, -x] for y in (0.0, 300.0) for x in (0.0, 100.0, 200.0)])
+    assert len(derive._densify_sticks(even, np.repeat(["a", "b"], 3))) == 6
+
+
+def test_a_spacing_that_asks_for_too_many_sections_is_refused_naming_the_fault():
+    """Regression (the fuzz of the v2 input: `faultmesh derive --spacing
+    1e-9` ended in a MemoryError of 7 TiB, --spacing 0.001 ran for
+    minutes)."""
+    P = np.array([[x, y, -100.0 - (x - 500.0) * 1.7] for x in (480.0, 520.0) for y in (-50.0, 500.0, 1050.0)])
+    with pytest.raises(ValueError, match=r"spacing 1e-09 m gives \d+ sections along fault 'F1' "
+                                         r"\(.* m along strike in the study area\); at most 10000"):
+        derive.derive_faults(_stepped_ground(P), spacing=1e-9)

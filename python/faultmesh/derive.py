@@ -858,6 +858,12 @@ def _best_plane(P: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
     return c, (n if key >= 0 else -n)
 
 
+#: At most this many pieces per stick segment in :func:`_densify_sticks`
+#: (sticks sampled evenly split into none; the TIN of a fault then has at
+#: most 64 points per given one).
+STICK_SPLIT_MAX = 64
+
+
 def _densify_sticks(P: np.ndarray, sticks: Optional[np.ndarray]) -> np.ndarray:
     """The points plus, along each stick (points of one label in their
     order), extra points so that no stick segment is longer than the
@@ -865,7 +871,6 @@ def _densify_sticks(P: np.ndarray, sticks: Optional[np.ndarray]) -> np.ndarray:
     points."""
     if sticks is None or len(P) < 3:
         return P
-    step = _median_spacing3(P)
     labels = np.asarray(sticks)
     # Consecutive points of one stick (in the given order): the segments.
     order = np.argsort(labels, kind="stable")
@@ -873,12 +878,18 @@ def _densify_sticks(P: np.ndarray, sticks: Optional[np.ndarray]) -> np.ndarray:
     same = labels[a] == labels[b]
     a, b = a[same], b[same]
     seg = P[b] - P[a]
+    # No segment split into more than STICK_SPLIT_MAX pieces: the median
+    # spacing is that of the nearest points, and two sticks 160 m tall 1 cm
+    # apart had it 1 cm: 16 000 points per stick, 92 s of derivation for
+    # six fault points (the fuzz of the v2 input; 1 mm: over 5 min).
+    length = np.linalg.norm(seg, axis=1)
+    step = max(_median_spacing3(P), float(length.max(initial=0.0)) / STICK_SPLIT_MAX)
     # A segment as long as the median spacing (sticks sampled evenly: most
     # of them) is left whole whatever its last bits: without the billionth
     # of slack, ceil() split about half of them at random (random ground
     # 32 as v2: fault points moved by 1e-9 m added or dropped 8-10 TIN
     # vertices, and an extra section moved 7.6 m along strike).
-    n = np.maximum(1, np.ceil(np.linalg.norm(seg, axis=1) / step - ON_GRID).astype(int))
+    n = np.maximum(1, np.ceil(length / step - ON_GRID).astype(int))
     k = n - 1  # extra points per segment
     if not k.sum():
         return P
@@ -1074,6 +1085,12 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
     # area (and the layers' elevations), its outer vertices on the best-fit
     # plane.
     loops = boundary_loops(T, n_vertices=len(P), strict=False)
+    if not loops:
+        # A surface given in memory (a file's is wound alike on load,
+        # fault_inputs._wound_alike): mixed winding or overlapping patches
+        # leave every edge inside.
+        raise GeometryError(f"derive: fault {fault.name!r}: its surface has no outline (its "
+                            "triangles are wound both ways, or edges are shared by three or more)")
     outline = max(loops, key=lambda l: len(l))
     uv = P[:, [iu, iv]]
     box_pts = []
@@ -1487,7 +1504,14 @@ def _joint_setup(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
         return None
     ell = SMOOTHING * _median_spacing(D)
     u_lo, u_hi = frame.u0, frame.u0 + frame.h * (frame.nu - 1)
-    nk = max(2, int(math.ceil((u_hi - u_lo) / (0.5 * spacing))) + 1)
+    # Knots every half section spacing, but no closer than an eighth of the
+    # frame's cell (S resolves nothing finer than a cell): the frame spans
+    # the layer's data, the spacing comes from the fault's length, and a
+    # fault 1 cm long asked for 1.1e7 knots on a grid of 6 x 6 nodes (20 s
+    # per solve, 13 solves per layer: the fuzz of the v2 input, three fault
+    # points 1 cm apart). On the random grounds half a spacing is at least
+    # 0.55 of a cell, so the bound never binds there.
+    nk = max(2, int(math.ceil((u_hi - u_lo) / max(0.5 * spacing, frame.h / 8.0))) + 1)
     return foot, hang, inside, hw, ell, np.linspace(u_lo, u_hi, nk)
 
 
@@ -2035,6 +2059,15 @@ END_SECTION_MIN_REACH = 0.1
 REFINE_SHARE = 0.05
 
 
+#: Sections per fault that a given ``spacing`` may ask for (derive_faults):
+#: each is a full side-surface evaluation per layer, about a second per
+#: hundred sections; 10 000 is far past any use (a 50 km fault every 5 m)
+#: and refuses a spacing typed in the wrong unit before it runs for hours
+#: or asks for terabytes (``faultmesh derive --spacing 1e-9``: a
+#: MemoryError of 7 TiB).
+MAX_SECTIONS = 10_000
+
+
 def _section_grid(fault: Fault, fs: FaultSurface, ring: np.ndarray,
                   opt: "_Options") -> Tuple[float, float, float, int]:
     """(u0, u1, spacing, n): where sections go along strike -- the part of
@@ -2088,7 +2121,12 @@ def _section_grid(fault: Fault, fs: FaultSurface, ring: np.ndarray,
     spacing = opt.spacing if opt.spacing is not None else length / 8.0
     if not spacing > 0:
         raise ValueError(f"derive_faults: spacing must be > 0, got {spacing}")
-    return u0, u1, spacing, max(2, int(round(length / spacing)))
+    n = max(2, int(round(length / spacing)))
+    if n > MAX_SECTIONS:
+        raise ValueError(f"derive_faults: spacing {spacing:g} m gives {n} sections along fault "
+                         f"{fault.name!r} ({length:.1f} m along strike in the study area); "
+                         f"at most {MAX_SECTIONS}")
+    return u0, u1, spacing, n
 
 
 def _trace_cutoffs(trace: Trace, layer: str) -> Tuple[np.ndarray, np.ndarray]:
