@@ -327,6 +327,15 @@ FILE_ERRORS = [
     ("f1.csv", "430,0,50,s1", "430,0,5e,s1", "f1.csv, row 3, field 'z'", "'5e' is not a number"),
     ("f1.csv", "430,0,50,s1", "430,0,50,s2", "f1.csv, row 4, field 'stick'", "stick 's1' resumes"),
     ("f2.ts", "TRGL 1 3 2", "TRGL 1 3 9", "f2.ts", "line"),
+    # Found by the fuzz of the v2 input: an unclosed quote swallowed the rest
+    # of the file and the field count's error named its last row; "9_00"
+    # and other scripts' digits were read as numbers (Python's float()).
+    ("collars.csv", "H2,900,150,100,", 'H2,"900,150,100,', "collars.csv, row 3",
+     "a quoted field runs over lines 3-"),
+    ("collars.csv", "H2,900,150,100,", "H2,9_00,150,100,", "collars.csv, row 3, field 'x'",
+     "'9_00' is not a number"),
+    ("collars.csv", "H2,900,150,100,", "H2,900,١٥٠,100,", "collars.csv, row 3, field 'y'",
+     "is not a number"),
 ]
 
 
@@ -341,6 +350,17 @@ def test_data_file_errors_name_file_row_and_field(v2_dir, file, old, new, where,
         load_dataset(v2_dir)
     msg = str(e.value)
     assert where in msg and words in msg, msg
+
+
+def test_a_fault_surface_with_a_byte_order_mark_loads_as_without(v2_dir):
+    # Found by the fuzz of the v2 input: refused with "line 1: expected
+    # 'GOCAD <type> 1'" although line 1 was exactly that after the BOM.
+    plain = load_dataset(v2_dir).faults[1].surface
+    p = v2_dir / "f2.ts"
+    p.write_bytes(b"\xef\xbb\xbf" + p.read_bytes())
+    bom = load_dataset(v2_dir).faults[1].surface
+    np.testing.assert_array_equal(bom[0], plain[0])
+    np.testing.assert_array_equal(bom[1], plain[1])
 
 
 def test_regression_surface_error_quotes_no_line_of_the_file(v2_dir):

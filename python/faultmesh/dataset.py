@@ -6,6 +6,7 @@ and v2 (docs/dataset.md) is added below them.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
@@ -1919,15 +1920,34 @@ def _read_csv(file: Path, label: str, ctx: _Ctx):
     text = _decode(data, file)
     rows, lines = [], []
     reader = csv.reader(io.StringIO(text, newline=""))
+    end = 0         # the line the previous record ended on
     try:
         for row in reader:
+            start, end = end + 1, reader.line_num
             if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
                 continue
+            if end > start and any("\n" in c or "\r" in c for c in row):
+                # A quoted field over several lines: no field of a dataset
+                # holds a line break, an unclosed quote swallows the rest of
+                # the file (the field count's error then named its last row).
+                raise DatasetError(f"{file}, row {start}: a quoted field runs over lines {start}-"
+                                   f"{end} (an unclosed '\"'?)")
             rows.append([c.strip() for c in row])
-            lines.append(reader.line_num)
+            lines.append(start)
     except csv.Error as e:
         raise DatasetError(f"{file}, row {reader.line_num + 1}: cannot read as CSV: {e}") from None
     return rows, lines
+
+
+#: A number as a CSV file of a dataset may write it: ASCII digits, a
+#: decimal point, an exponent (and nan/inf, refused below as not finite).
+#: Python's float() (and numpy's) also read "1_00" and other scripts'
+#: digits as 100, which no spreadsheet or GIS does: a typo read silently.
+_NUMBER_RE = r"(?:[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:nan|inf|infinity))"
+_NUMBER = re.compile(_NUMBER_RE, re.IGNORECASE | re.ASCII)
+# A whole column at once (joined by newlines, which no field holds): one
+# scan in C instead of one call per value.
+_NUMBERS = re.compile(rf"{_NUMBER_RE}(?:\n{_NUMBER_RE})*", re.IGNORECASE | re.ASCII)
 
 
 def _csv_numbers(file: Path, col: List[str], lines: List[int], field_name: str) -> np.ndarray:
@@ -1936,12 +1956,15 @@ def _csv_numbers(file: Path, col: List[str], lines: List[int], field_name: str) 
         a = np.array(col, dtype=np.float64)
     except (ValueError, OverflowError):
         a = None
-    if a is not None and np.all(np.abs(a) <= COORD_MAX):    # also False for NaN
+    if a is not None and np.all(np.abs(a) <= COORD_MAX) \
+            and (not col or _NUMBERS.fullmatch("\n".join(col))):    # the bound: False for NaN too
         return a
     for v, ln in zip(col, lines):
         if v == "":
             raise DatasetError(f"{file}, row {ln}, field {field_name!r}: missing value")
         try:
+            if not _NUMBER.fullmatch(v):
+                raise ValueError(v)
             f = float(v)
         except (ValueError, OverflowError):
             raise DatasetError(f"{file}, row {ln}, field {field_name!r}: {_short(v)} is not a "

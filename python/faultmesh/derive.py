@@ -1724,7 +1724,8 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
             _min_curvature(coarse, Di[:, :2], Di[:, 2], ell, None, None, wgt, knots, ell, energy=en)
         except SingularFit:
             continue        # this profile leaves the throw undetermined
-        energies.append((en[0], prof))
+        if math.isfinite(en[0]):
+            energies.append((en[0], prof))
     if not energies:
         return None
     # The first profile (in DECAY_PROFILES' order) of the least objective,
@@ -1737,7 +1738,7 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     # F3's L1 cutoffs by up to 11 m (another machine's libraries: the error
     # near the faults 0.83 or 0.99x the true cutoffs' model).
     least = min(e for e, _ in energies)
-    prof = next(p for e, p in energies if e <= least * (1.0 + PROFILE_TIE))
+    prof = next(p for e, p in energies if e <= least + abs(least) * PROFILE_TIE)
     try:
         nodes, T = _min_curvature(frame, Di[:, :2], Di[:, 2], ell, None, None,
                                   np.where(hw[inside], _decay_share(d, prof), 0.0), knots, ell)

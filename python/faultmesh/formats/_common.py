@@ -255,7 +255,7 @@ def read_text(path) -> str:
     except IsADirectoryError:
         raise ModelFileError(path, "is a directory, expected a file") from None
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8-sig")  # a byte-order mark (Windows editors) is no content
     except UnicodeDecodeError as e:
         # GOCAD files from Windows tools are often Latin-1; the geometry is ASCII.
         try:
