@@ -629,6 +629,18 @@ def test_fault_points_nearly_on_a_line_are_named_as_such():
     assert "nearly on one line" in out and "does not cross the study area" in out, out
 
 
+def test_a_fault_point_far_off_the_others_is_named():
+    """Regression (the fuzz of the v2 input: one of ten fault points with
+    z = 1e14, inside the accepted coordinate range): the error said the
+    points lie on one line, which is untrue of the nine; it names the far
+    one now."""
+    P = np.array([[480.0 + 20.0 * (i % 2), 100.0 * i, -100.0 - 30.0 * (i % 2)] for i in range(10)])
+    P[6, 2] = 1e14
+    with pytest.raises(faultmesh.GeometryError, match=r"lie on one line .*; the point \(480, 600, "
+                                                      r"1e\+14\) lies 1e\+14 m from the others' median"):
+        derive.derive_faults(_stepped_ground(P))
+
+
 def test_a_saved_derived_dataset_whose_faults_cut_no_layer_builds_the_same_model(tmp_path):
     # Case 47001: both faults' points miss the layers ("no layer is cut",
     # plane traces only); the build leaves them out. Saved, such a fault

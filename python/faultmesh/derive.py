@@ -982,8 +982,18 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
     # kilometre, below any survey's precision (and above the rounding of
     # doubles at UTM coordinates, 1e-9 m over a spread of kilometres).
     if not sv[1] > 1e-9 * sv[0]:
+        # One point far off the others (a typo in a coordinate) makes the
+        # spread all its own, and the others then lie "on one line" with it:
+        # name it (the fuzz of the v2 input: a z of 1e14 among ten points).
+        dist = np.linalg.norm(P - np.median(P, axis=0), axis=1)
+        k = int(np.argmax(dist))
+        typical = float(np.median(np.delete(dist, k)))
+        at = ", ".join(f"{v:.10g}" for v in P[k])
+        far = (f"; the point ({at}) lies {dist[k]:.3g} m from the others' median, "
+               f"over a thousand times their own distances from it (a typo?)"
+               if dist[k] > 1000.0 * typical else "")
         raise GeometryError(f"derive: fault {fault.name!r}: its {len(P)} points lie on one line "
-                            "(or one point); they do not define a fault surface")
+                            f"(or one point); they do not define a fault surface{far}")
     centre, normal = _best_plane(P)
     if not float(np.hypot(*normal[:2])) > 1e-9:
         raise GeometryError(f"derive: fault {fault.name!r}: its points lie in a horizontal plane; "
