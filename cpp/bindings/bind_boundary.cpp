@@ -1,6 +1,8 @@
 // Bindings for boundary contours: faultmesh.boundary_loops, boundary_contours,
-// boundary_edges, sort_segments and the BoundaryContours report.
+// boundary_edges, sort_segments and the BoundaryContours report; and the
+// library's one triangle adjacency, halfedge_twins (triangle_adjacency.hpp).
 #include <faultmesh/boundary.hpp>
+#include <faultmesh/triangle_adjacency.hpp>
 
 #include "common.hpp"
 
@@ -109,6 +111,35 @@ void bind_boundary(py::module_& m) {
         py::arg("triangles"), py::kw_only(), py::arg("n_vertices") = py::none(),
         "Directed boundary edges (k, 2) int64 (edges used by exactly one triangle, in that\n"
         "triangle's direction), in triangle order.");
+    m.def(
+        "halfedge_twins",
+        [](const py::handle& triangles, const py::object& n_vertices, const std::string& orientation) {
+            const std::size_t n = as_count(n_vertices, "halfedge_twins", "n_vertices");
+            auto T = as_indices(triangles, "halfedge_twins", "triangles", 3, n ? static_cast<std::int64_t>(n) : -1);
+            EdgeOrientation o;
+            if (orientation == "any") o = EdgeOrientation::any;
+            else if (orientation == "consistent") o = EdgeOrientation::consistent;
+            else throw py::value_error("halfedge_twins: orientation must be 'any' or 'consistent', got '" +
+                                       orientation + "'");
+            std::size_t nv = n;
+            if (!nv)
+                for (py::ssize_t i = 0; i < T.size(); ++i)
+                    nv = std::max<std::size_t>(nv, static_cast<std::size_t>(T.data()[i]) + 1);
+            std::vector<std::int64_t> tw;
+            {
+                py::gil_scoped_release release;
+                tw = halfedge_twins(T.data(), static_cast<std::size_t>(T.shape(0)), nv, o, "halfedge_twins");
+            }
+            return to_numpy(std::move(tw));
+        },
+        py::arg("triangles"), py::kw_only(), py::arg("n_vertices") = py::none(),
+        py::arg("orientation") = "any",
+        "Opposite half-edges (3 m,) int64 of a triangle list (m, 3): half-edge 3 t + k of\n"
+        "triangle t runs from its corner k to corner k+1; twins[e] is the other triangle's\n"
+        "half-edge on the same edge, or -1 on the mesh boundary. orientation='any' pairs the\n"
+        "two uses of an edge whatever their directions; 'consistent' raises GeometryError for\n"
+        "two in the same direction. An edge of three or more triangles raises GeometryError\n"
+        "naming it (triangle_adjacency.hpp).");
     m.def(
         "sort_segments",
         [](const py::handle& segments, const py::object& n_vertices) {

@@ -8,7 +8,7 @@ import enum
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'FaultSide', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TouchingRegion', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'incircle', 'insert_patch_data', 'join_holes', 'loft', 'loft_area', 'nearest_segment', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
+__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'FaultSide', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TouchingRegion', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'halfedge_twins', 'incircle', 'insert_patch_data', 'join_holes', 'loft', 'loft_area', 'nearest_segment', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
 class GeometryError(ValueError):
     pass
 class PatchOverlapError(GeometryError):
@@ -681,6 +681,15 @@ def flip_to_constrained_delaunay(xy: typing.Any, triangles: typing.Any, constrai
     """
     Lawson flips (exact incircle, CGAL's symbolic perturbation for ties) until every
     non-constrained interior edge is locally Delaunay. Returns the new (m, 3) triangles.
+    """
+def halfedge_twins(triangles: typing.Any, *, n_vertices: typing.Any = None, orientation: str = 'any') -> numpy.typing.NDArray[numpy.int64]:
+    """
+    Opposite half-edges (3 m,) int64 of a triangle list (m, 3): half-edge 3 t + k of
+    triangle t runs from its corner k to corner k+1; twins[e] is the other triangle's
+    half-edge on the same edge, or -1 on the mesh boundary. orientation='any' pairs the
+    two uses of an edge whatever their directions; 'consistent' raises GeometryError for
+    two in the same direction. An edge of three or more triangles raises GeometryError
+    naming it (triangle_adjacency.hpp).
     """
 def incircle(a: typing.Any, b: typing.Any, c: typing.Any, d: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
     """

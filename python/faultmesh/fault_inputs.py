@@ -225,27 +225,27 @@ def _wound_alike(T: np.ndarray, V: np.ndarray, file: Path) -> np.ndarray:
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components, dijkstra
 
+    from ._core import boundary_contours, halfedge_twins
+
     T = np.asarray(T, dtype=np.int64)
     _, first = np.unique(np.sort(T, axis=1), axis=0, return_index=True)
     T = T[np.sort(first)]
-    m = len(T)
-    a = T.reshape(-1)
-    b = T[:, [1, 2, 0]].reshape(-1)
-    tri = np.repeat(np.arange(m), 3)
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    key = lo * (int(V.shape[0]) + 1) + hi
-    order = np.argsort(key, kind="stable")
-    key_s = key[order]
-    start = np.r_[0, np.flatnonzero(np.diff(key_s)) + 1]
-    count = np.diff(np.r_[start, len(key_s)])
-    if (count > 2).any():
-        j = order[start[np.argmax(count > 2)]]
+    m, n = len(T), int(V.shape[0])
+    bad_edges = boundary_contours(T, n_vertices=n).nonmanifold_edges
+    if len(bad_edges):
+        lo, hi = (int(v) for v in bad_edges[0])
+        count = int(np.sum((T == lo).any(axis=1) & (T == hi).any(axis=1)))
         raise DatasetError(f"{file}: the fault's triangles are no surface: the edge between "
-                           f"{V[lo[j]].tolist()} and {V[hi[j]].tolist()} is shared by "
-                           f"{int(count.max(initial=0))} triangles (overlapping patches?)")
-    pair = start[count == 2]
-    e1, e2 = order[pair], order[pair + 1]
-    t1, t2 = tri[e1], tri[e2]
+                           f"{V[lo].tolist()} and {V[hi].tolist()} is shared by "
+                           f"{count} triangles (overlapping patches?)")
+    # The library's one adjacency, pairing the two uses of each edge
+    # whatever their directions.
+    twins = halfedge_twins(T, n_vertices=n, orientation="any")
+    e1 = np.flatnonzero(twins > np.arange(3 * m))
+    e2 = twins[e1]
+    t1, t2 = e1 // 3, e2 // 3
+    a = T.reshape(-1)                   # half-edge e runs from a[e] to b[e]
+    b = T[:, [1, 2, 0]].reshape(-1)
     same = a[e1] == a[e2]               # both use the edge in the same direction
     w = np.where(same, 3.0, 2.0)
     G = coo_matrix((np.r_[w, w], (np.r_[t1, t2], np.r_[t2, t1])), shape=(m, m)).tocsr()
@@ -257,7 +257,7 @@ def _wound_alike(T: np.ndarray, V: np.ndarray, file: Path) -> np.ndarray:
     bad = (flip[t1] ^ flip[t2]) != same
     if bad.any():
         j = e1[np.argmax(bad)]
+        p, q = sorted((int(a[j]), int(b[j])))
         raise DatasetError(f"{file}: the fault's triangles cannot all be wound alike (a one-sided "
-                           f"surface) at the edge between {V[lo[j]].tolist()} and "
-                           f"{V[hi[j]].tolist()}")
+                           f"surface) at the edge between {V[p].tolist()} and {V[q].tolist()}")
     return T
