@@ -38,68 +38,22 @@ std::string fmt_xy(const double* p) {
     return buf;
 }
 
-// Eigenvalues of a symmetric 3x3 matrix (cyclic Jacobi; converges in a few
-// sweeps for 3x3).
-std::array<double, 3> sym3_eigenvalues(std::array<double, 9> a) {
-    for (int sweep = 0; sweep < 50; ++sweep) {
-        const double off = a[1] * a[1] + a[2] * a[2] + a[5] * a[5];
-        const double diag = a[0] * a[0] + a[4] * a[4] + a[8] * a[8];
-        if (off <= 1e-30 * diag) break;
-        for (int p = 0; p < 2; ++p)
-            for (int q = p + 1; q < 3; ++q) {
-                const double apq = a[3 * p + q];
-                if (apq == 0.0) continue;
-                const double app = a[3 * p + p], aqq = a[3 * q + q];
-                const double theta = (aqq - app) / (2.0 * apq);
-                const double t = (theta >= 0 ? 1.0 : -1.0) / (std::fabs(theta) + std::sqrt(theta * theta + 1.0));
-                const double c = 1.0 / std::sqrt(t * t + 1.0), s = t * c;
-                for (int k = 0; k < 3; ++k) {
-                    const double akp = a[3 * k + p], akq = a[3 * k + q];
-                    a[3 * k + p] = c * akp - s * akq;
-                    a[3 * k + q] = s * akp + c * akq;
-                }
-                for (int k = 0; k < 3; ++k) {
-                    const double apk = a[3 * p + k], aqk = a[3 * q + k];
-                    a[3 * p + k] = c * apk - s * aqk;
-                    a[3 * q + k] = s * apk + c * aqk;
-                }
-            }
-    }
-    return {a[0], a[4], a[8]};
-}
-
-// Solves the 3x3 system m x = b by Gaussian elimination with partial pivoting.
-bool solve3(std::array<double, 9> m, std::array<double, 3> b, std::array<double, 3>& x) {
-    for (int c = 0; c < 3; ++c) {
-        int piv = c;
-        for (int r = c + 1; r < 3; ++r)
-            if (std::fabs(m[3 * r + c]) > std::fabs(m[3 * piv + c])) piv = r;
-        if (m[3 * piv + c] == 0.0) return false;
-        if (piv != c) {
-            for (int k = 0; k < 3; ++k) std::swap(m[3 * c + k], m[3 * piv + k]);
-            std::swap(b[c], b[piv]);
-        }
-        for (int r = c + 1; r < 3; ++r) {
-            const double f = m[3 * r + c] / m[3 * c + c];
-            for (int k = c; k < 3; ++k) m[3 * r + k] -= f * m[3 * c + k];
-            b[r] -= f * b[c];
-        }
-    }
-    for (int r = 2; r >= 0; --r) {
-        double v = b[r];
-        for (int k = r + 1; k < 3; ++k) v -= m[3 * r + k] * x[k];
-        x[r] = v / m[3 * r + r];
-    }
-    return std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2]);
-}
-
 }  // namespace
 
+// How many standard deviations of the neighbours' spread along one of its
+// principal axes the boundary plane fit's own slope along that axis is
+// followed before it gives way to the layer's regional slope. Three: about
+// the neighbours' whole extent (a uniform spread of half-width R has a
+// standard deviation R / sqrt(3)), so a boundary vertex among or beside
+// well-spread data keeps the local fit as it is.
+constexpr double PLANE_FIT_REACH = 3.0;
+
 // z at q from an inverse-distance weighted plane fit to the k nearest data
-// points (see layer_tin.hpp); data: 3 per point.
+// points (see layer_tin.hpp), its slope giving way to `regional` (the
+// layer's, or nullptr) far from them; clamped to [lo - pad, hi + pad].
 // data: 3 per grid point; known[i]: point i carries a data elevation.
 double plane_fit_z(const PointGrid& grid, const std::vector<double>& data, const std::vector<char>& known,
-                   const double* q, int k, double lo, double hi) {
+                   const double* q, int k, double lo, double hi, const double* regional) {
     const auto nb = grid.nearest(q, static_cast<std::size_t>(std::max(1, k)),
                                  [&](std::int64_t i) { return known[static_cast<std::size_t>(i)] != 0; });
     double exact_sum = 0.0;
@@ -114,34 +68,109 @@ double plane_fit_z(const PointGrid& grid, const std::vector<double>& data, const
     }
     if (exact_n) return exact_sum / exact_n;
     // Weights 1/d^2 with a floor that only matters for d ~ 0 (handled above).
-    std::array<double, 9> m{};
-    std::array<double, 3> rhs{};
-    double wsum = 0.0, wz = 0.0;
-    const double scale = dmax > 0.0 ? dmax : 1.0;
-    for (const auto& e : nb) {
-        const double* p = &data[3 * static_cast<std::size_t>(e.first)];
-        const double w = 1.0 / (e.second * e.second + 1e-12 * (1.0 + dmax * dmax));
-        wsum += w;
-        wz += w * p[2];
-        const double a[3] = {1.0, (p[0] - q[0]) / scale, (p[1] - q[1]) / scale};
-        for (int r = 0; r < 3; ++r) {
-            for (int c = 0; c < 3; ++c) m[3 * r + c] += w * a[r] * a[c];
-            rhs[r] += w * a[r] * p[2];
-        }
+    // Everything relative to q: UTM-sized coordinates cancel first.
+    std::vector<double> w(nb.size());
+    double wsum = 0.0, wz = 0.0, gx = 0.0, gy = 0.0;
+    for (std::size_t i = 0; i < nb.size(); ++i) {
+        const double* p = &data[3 * static_cast<std::size_t>(nb[i].first)];
+        w[i] = 1.0 / (nb[i].second * nb[i].second + 1e-12 * (1.0 + dmax * dmax));
+        wsum += w[i];
+        wz += w[i] * p[2];
+        gx += w[i] * (p[0] - q[0]);
+        gy += w[i] * (p[1] - q[1]);
     }
     const double idw = wz / wsum;
+    gx /= wsum;
+    gy /= wsum;  // the weighted centroid g, minus q
     const double pad = 0.5 * (hi - lo) + 1.0;
-    if (nb.size() >= 3) {
-        // Use the fit when the weighted design matrix is well conditioned:
-        // its singular values (square roots of m's eigenvalues) within a
-        // factor 1e6 of each other, i.e. the neighbours are not collinear.
-        const auto ev = sym3_eigenvalues(m);
-        const double emax = std::max(ev[0], std::max(ev[1], ev[2]));
-        const double emin = std::min(ev[0], std::min(ev[1], ev[2]));
-        std::array<double, 3> c{};
-        if (emin > 1e-12 * emax && solve3(m, rhs, c)) return std::min(std::max(c[0], lo - pad), hi + pad);
+    if (nb.size() < 3) return idw;
+    // The weighted least-squares plane passes through g at idw; its slope is
+    // C^-1 b with C the neighbours' weighted covariance in XY and b their
+    // XY-z covariance. In C's principal axes the slope along an axis is b_a /
+    // C_a: known over that axis's standard deviation sqrt(C_a); carried a
+    // distance t along it (from g to q), an error in it grows t / sd-fold.
+    double cxx = 0.0, cxy = 0.0, cyy = 0.0, bx = 0.0, by = 0.0;
+    for (std::size_t i = 0; i < nb.size(); ++i) {
+        const double* p = &data[3 * static_cast<std::size_t>(nb[i].first)];
+        const double x = p[0] - q[0] - gx, y = p[1] - q[1] - gy, z = p[2] - idw;
+        cxx += w[i] * x * x, cxy += w[i] * x * y, cyy += w[i] * y * y;
+        bx += w[i] * x * z, by += w[i] * y * z;
     }
-    return idw;
+    const double half = 0.5 * (cxx + cyy), root = std::hypot(0.5 * (cxx - cyy), cxy);
+    const double ev[2] = {half + root, std::max(half - root, 0.0)};
+    const double th = 0.5 * std::atan2(2.0 * cxy, cxx - cyy);
+    const double axis[2][2] = {{std::cos(th), std::sin(th)}, {-std::sin(th), std::cos(th)}};
+    // An axis whose variance is below 1e-12 of the other's (the neighbours
+    // on one line, to rounding) determines no slope across it.
+    const bool flat = !(ev[0] > 0.0) || !(ev[1] > 1e-12 * ev[0]);
+    if (flat && !regional) return idw;
+    // Past PLANE_FIT_REACH standard deviations along an axis, the local
+    // slope there gives way to the regional one in proportion: where the
+    // nearest data are spread out (wells, a grid of picks) nothing changes;
+    // where they are a clump along a line of picks far from q, the slope
+    // across the line (a fault's step over a few metres of spread) no longer
+    // runs a kilometre out, and the layer's regional dip still does. Without
+    // a regional slope (a layer's data on one line) the local fit is kept.
+    double z = idw;
+    for (int a = 0; a < 2; ++a) {
+        const double t = -(gx * axis[a][0] + gy * axis[a][1]);  // q - g along the axis
+        const bool known_axis = ev[a] > 0.0 && (a == 0 || !flat);
+        const double sl = known_axis ? (bx * axis[a][0] + by * axis[a][1]) / ev[a] : 0.0;
+        double f = known_axis ? 1.0 : 0.0;
+        if (regional && known_axis) {
+            const double reach = PLANE_FIT_REACH * std::sqrt(ev[a] / wsum);
+            if (std::fabs(t) > reach) f = reach / std::fabs(t);
+        }
+        const double sr = regional ? regional[0] * axis[a][0] + regional[1] * axis[a][1] : 0.0;
+        z += (f * sl + (1.0 - f) * sr) * t;
+    }
+    return std::min(std::max(z, lo - pad), hi + pad);
+}
+
+// The slope (dz/dx, dz/dy) of the least-squares plane through the known
+// points of data, each weighted by one over the number of known points in
+// its cell of a grid of side `cell` (cell declustering: a clump of picks
+// along a line weighs about as much as one well, so a fault's step within
+// it does not tilt the layer's regional plane); false when they are fewer
+// than three or nearly collinear.
+bool regional_slope(const std::vector<double>& data, const std::vector<char>& known, double cell, double out[2]) {
+    std::map<std::pair<std::int64_t, std::int64_t>, int> count;
+    auto key = [&](std::size_t i) {
+        return std::make_pair(static_cast<std::int64_t>(std::floor(data[3 * i] / cell)),
+                              static_cast<std::int64_t>(std::floor(data[3 * i + 1] / cell)));
+    };
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < known.size(); ++i)
+        if (known[i]) ++count[key(i)], ++n;
+    if (n < 3) return false;
+    std::vector<double> w(known.size(), 0.0);
+    double ws = 0.0, cx = 0.0, cy = 0.0, cz = 0.0;
+    for (std::size_t i = 0; i < known.size(); ++i)
+        if (known[i]) {
+            w[i] = 1.0 / count[key(i)];
+            ws += w[i];
+        }
+    // Centred on the first known point first: UTM-sized coordinates cancel
+    // before they are squared.
+    std::size_t first = 0;
+    while (!known[first]) ++first;
+    const double ox = data[3 * first], oy = data[3 * first + 1];
+    for (std::size_t i = 0; i < known.size(); ++i)
+        if (known[i]) cx += w[i] * (data[3 * i] - ox), cy += w[i] * (data[3 * i + 1] - oy), cz += w[i] * data[3 * i + 2];
+    cx /= ws, cy /= ws, cz /= ws;
+    double sxx = 0.0, sxy = 0.0, syy = 0.0, sxz = 0.0, syz = 0.0;
+    for (std::size_t i = 0; i < known.size(); ++i) {
+        if (!known[i]) continue;
+        const double x = data[3 * i] - ox - cx, y = data[3 * i + 1] - oy - cy, z = data[3 * i + 2] - cz;
+        sxx += w[i] * x * x, sxy += w[i] * x * y, syy += w[i] * y * y, sxz += w[i] * x * z, syz += w[i] * y * z;
+    }
+    const double det = sxx * syy - sxy * sxy;
+    // Nearly collinear (the 2x2 moment matrix's determinant below 1e-9 of
+    // its trace squared): the slope across the line is not determined.
+    if (!(det > 1e-9 * (sxx + syy) * (sxx + syy))) return false;
+    out[0] = (sxz * syy - syz * sxy) / det;
+    out[1] = (syz * sxx - sxz * sxy) / det;
+    return std::isfinite(out[0]) && std::isfinite(out[1]);
 }
 
 // Boundary vertex bookkeeping: per side, the boundary vertices by arc
@@ -545,8 +574,12 @@ Prepared prepare(LayerTinState& s, LayerData&& d) {
     // One grid over every vertex: the plane fits' neighbours (data only) and
     // the protection's disk tests.
     PointGrid grid(pts.data(), pts.size() / 3, 3);
+    double regional[2];
+    const bool has_regional = regional_slope(pts, known, spacing, regional);
     for (std::size_t i = 0; i < nb; ++i)
-        if (!known[i]) pts[3 * i + 2] = plane_fit_z(grid, pts, known, &pts[3 * i], options.plane_fit_neighbours, lo, hi);
+        if (!known[i])
+            pts[3 * i + 2] = plane_fit_z(grid, pts, known, &pts[3 * i], options.plane_fit_neighbours, lo, hi,
+                                         has_regional ? regional : nullptr);
 
     // Protection: split pieces whose closed diametral disk holds another vertex.
     s.by_side.assign(ns, {});

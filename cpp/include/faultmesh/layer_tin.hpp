@@ -12,9 +12,16 @@
 //    side by StudyArea::place). Their z comes from an inverse-distance
 //    weighted local plane fit to the nearest data points (the regional dip
 //    is carried to the boundary), clamped to the data range widened by half
-//    of it plus 1 m, so an extrapolation never runs away; where the fit is
-//    ill-conditioned (nearly collinear neighbours) from inverse-distance
-//    weighting.
+//    of it plus 1 m, so an extrapolation never runs away. Along each
+//    principal axis of the neighbours' spread, the fit's slope is followed
+//    for three standard deviations of that spread and past them gives way,
+//    in proportion to the distance, to the layer's regional slope (the
+//    least-squares plane of all its data, cell-declustered at the boundary
+//    spacing): a clump of picks along a line far from the boundary (a
+//    fault's step across it) does not set the slope across the line a
+//    kilometre out, nor do collinear neighbours. A layer whose data all lie
+//    on one line has no regional slope: collinear neighbours then give
+//    their inverse-distance weighted mean.
 //  * Protection: a boundary piece (two consecutive boundary vertices) whose
 //    closed diametral disk holds another vertex is split at its middle
 //    (placed on its side), until none does. A segment whose closed diametral
