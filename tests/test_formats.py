@@ -523,6 +523,41 @@ def test_corpus_details(tmp_path):
     assert a4.name == "modelA4" and len(a4.metadata["gocad_boundary_surfaces"]) == 6
 
 
+def _ts_with_units(units: str) -> str:
+    return ("GOCAD TSurf 1\nHEADER {\nname:f\n}\nGOCAD_ORIGINAL_COORDINATE_SYSTEM\nNAME Default\n"
+            f"AXIS_NAME \"X\" \"Y\" \"Z\"\nAXIS_UNIT {units}\nZPOSITIVE Depth\n"
+            "END_ORIGINAL_COORDINATE_SYSTEM\nTFACE\nVRTX 1 1000 2000 300\nVRTX 2 1100 2000 300\n"
+            "VRTX 3 1000 2100 400\nTRGL 1 2 3\nEND\n")
+
+
+@pytest.mark.parametrize("units, scale", [('"m" "m" "m"', (1.0, 1.0, 1.0)),
+                                          ('"ft" "ft" "ft"', (0.3048,) * 3),
+                                          ('"m" "m" "ft"', (1.0, 1.0, 0.3048)),
+                                          ('m m Feet', (1.0, 1.0, 0.3048)),
+                                          ('"ftUS" "ftUS" "ftUS"', (1200 / 3937,) * 3),
+                                          ('"km" "km" "m"', (1000.0, 1000.0, 1.0))])
+def test_gocad_axis_units_are_read_in_metres(tmp_path, units, scale):
+    """Regression: AXIS_UNIT was ignored, so a TSurf in feet (US data, or
+    elevations in feet under metre coordinates) came in 3.28x too large
+    along those axes. Each axis is now converted by its own unit."""
+    p = tmp_path / "f.ts"
+    p.write_text(_ts_with_units(units))
+    (s,) = load_model(p).surfaces.values()
+    want = np.array([[1000, 2000, -300], [1100, 2000, -300], [1000, 2100, -400]], float) * scale
+    assert np.allclose(s.vertices, want, rtol=1e-15, atol=0), s.vertices
+
+
+def test_an_unknown_gocad_axis_unit_is_refused_naming_its_line(tmp_path):
+    """A unit faultmesh cannot convert is no reason to guess metres."""
+    p = tmp_path / "f.ts"
+    p.write_text(_ts_with_units('"m" "m" "furlong"'))
+    with pytest.raises(ModelFileError, match=r"f\.ts, line 8: AXIS_UNIT: unknown unit 'furlong'"):
+        load_model(p)
+    p.write_text(_ts_with_units('"m" "m"'))
+    with pytest.raises(ModelFileError, match=r"line 8: AXIS_UNIT: expected three units"):
+        load_model(p)
+
+
 # --------------------------------------------------------------------------
 # no foreign file makes faultmesh exit
 # --------------------------------------------------------------------------

@@ -33,7 +33,9 @@ sized by ``ESIZES``, ``NO_DATA_VALUES`` read as NaN, trailing flags such as
 ``CNXYZ`` ignored; ``ATOM``/``PATOM`` (a new vertex id on the position of an
 existing one: copied by default so the file's topology is kept, or merged with
 ``atoms="merge"``); several ``TFACE`` parts (one surface); ``ZPOSITIVE
-Depth`` (z negated to elevations); ``GEOLOGICAL_TYPE`` containing ``fault``
+Depth`` (z negated to elevations); ``AXIS_UNIT`` other than metres (feet,
+US survey feet, kilometres: each axis converted to metres, an unknown unit
+refused naming its line); ``GEOLOGICAL_TYPE`` containing ``fault``
 gives a fault (``normal_fault``/``reverse_fault`` set ``metadata["kind"]``),
 ``boundary``/``lease`` surfaces (the box of a SKUA model) are not layers:
 they are listed in ``model.metadata["gocad_boundary_surfaces"]`` and left out;
@@ -57,6 +59,13 @@ _FAULT_RGBA = "0.55 0.1 0.1 1"
 # GOCAD's usual no-data value for vertex properties (NaN is written as this).
 _NO_DATA = -99999.0
 _BOUNDARY_TYPES = ("boundary", "lease")
+# Metres per unit of the AXIS_UNIT names GOCAD and the tools that write it
+# use (lower case). faultmesh's models are in metres (the writer says "m");
+# a file in feet is read in metres. The US survey foot is 1200/3937 m.
+_AXIS_UNITS = {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0,
+               "km": 1000.0, "ft": 0.3048, "feet": 0.3048, "foot": 0.3048,
+               "ftus": 1200.0 / 3937.0, "us_ft": 1200.0 / 3937.0, "us-ft": 1200.0 / 3937.0,
+               "usft": 1200.0 / 3937.0}
 
 
 # --------------------------------------------------------------------------
@@ -322,6 +331,7 @@ class _Object:
         self.header: Dict[str, str] = {}
         self.crs_name = ""
         self.z_sign = 1.0
+        self.axis_scale = (1.0, 1.0, 1.0)  # metres per unit of x, y, z (AXIS_UNIT)
         self.geological_type = ""
         self.prop_names: List[str] = []
         self.esizes: List[int] = []
@@ -426,6 +436,15 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
                     if v not in ("elevation", "depth"):
                         raise err(f"ZPOSITIVE must be Elevation or Depth, got {val.strip()!r}", no)
                     obj.z_sign = -1.0 if v == "depth" else 1.0
+                elif key == "AXIS_UNIT":
+                    units = split_quoted(val)
+                    if len(units) != 3:
+                        raise err(f"AXIS_UNIT: expected three units (x, y, z), got {val.strip()!r}", no)
+                    unknown = [u for u in units if u.lower() not in _AXIS_UNITS]
+                    if unknown:
+                        raise err(f"AXIS_UNIT: unknown unit {unknown[0]!r} (known: m, km, ft, "
+                                  "ftUS and their spelled-out names)", no)
+                    obj.axis_scale = tuple(_AXIS_UNITS[u.lower()] for u in units)
             continue
         key, _, rest = s.partition(" ")
         rest = rest.strip()
@@ -577,6 +596,8 @@ def _xyz(path: Path, obj: _Object) -> np.ndarray:
         raise ModelFileError(path, f"non-finite vertex coordinates {xyz[r].tolist()}",
                              obj.vlines[r])
     xyz[:, 2] *= obj.z_sign
+    if obj.axis_scale != (1.0, 1.0, 1.0):
+        xyz *= np.asarray(obj.axis_scale)
     return xyz
 
 
