@@ -272,6 +272,30 @@ def test_tops_reverse_fault_repeats_a_layer(tmp_path):
     np.testing.assert_array_equal(b.xy, [[100.0, 200.0]] * 5)
 
 
+def test_a_layer_list_given_bottom_to_top_is_named_as_the_cause(tmp_path):
+    """Regression (fuzz of the v2 input): holes logged A, B, C with 'layers'
+    given as [C, B, A] gave no tops at all (every contact against the order)
+    and the build stopped at "layer 'C' has 0 data points" without saying
+    why. Now the tops refuse it, naming the file, a row and the order; a
+    hole going up is judged by the way it goes. One reverse fault in one
+    hole (above) is no such case."""
+    intervals = ("hole_id,from,to,unit\nH1,0,10,A\nH1,10,30,B\nH1,30,40,C\n"
+                 "H2,0,12,A\nH2,12,25,B\nH2,25,40,C\n")
+    c, s, i = tables(tmp_path, "hole_id,x,y,z\nH1,0,0,50\nH2,100,0,50\n", None, intervals)
+    with pytest.raises(DatasetError, match=r"intervals\.csv: 4 of the 4 contacts between layers "
+                                           r".*row 3, hole 'H1': 'B' below 'A'.*bottom to top"):
+        load_drillholes(c, s, i, ["C", "B", "A"])
+    # Up-going holes drilled from inside C (as in the test below) with the
+    # list reversed: the same message, judged by the way the holes go.
+    c, s, i = tables(tmp_path, "hole_id,x,y,z\nU1,0,0,-100\nU2,50,0,-100\n",
+                     "hole_id,depth,azimuth,dip\nU1,0,0,30\nU2,0,0,30\n",
+                     "hole_id,from,to,unit\nU1,0,20,C\nU1,20,50,B\nU1,50,60,A\n"
+                     "U2,0,20,C\nU2,20,50,B\nU2,50,60,A\n")
+    assert load_drillholes(c, s, i, ["A", "B", "C"]).layer.tolist() == ["C", "B", "C", "B"]
+    with pytest.raises(DatasetError, match=r"4 of the 4 contacts.*hole 'U1': 'C' below 'B'"):
+        load_drillholes(c, s, i, ["C", "B", "A"])
+
+
 def test_tops_of_a_deviated_hole_have_their_own_xy(tmp_path):
     # Straight hole at az 90, dip -60: depth d is at (x0 + d/2, y0, z0 - d sqrt3/2).
     c, s, i = tables(tmp_path, "hole_id,x,y,z\nD1,300,200,40\n",

@@ -745,6 +745,25 @@ class Drillholes:
         # the shallower one's is.
         top_down = is_contact & down & (pr < cr)
         top_up = is_contact & up & (cr < pr)
+        # Contacts against the order: a reverse fault or an overturned limb
+        # gives a few; more of them than contacts with the order (at least
+        # three) is a layer list given bottom to top, or the intervals' units
+        # swapped, and would leave layers without tops and a build failing
+        # later for "too few data" with no word of why.
+        inverted = is_contact & ((down & (pr > cr)) | (up & (cr > pr)))
+        n_inv, n_ok = int(inverted.sum()), int((top_down | top_up).sum())
+        if n_inv >= 3 and n_inv > n_ok:
+            k = int(rows[cand[inverted]][np.argmin(it.lines[rows[cand[inverted]]])])
+            j = int(np.flatnonzero(rows[cand] == k)[0])
+            above, below = layers[int(pr[j])], layers[int(cr[j])]
+            if up[j]:
+                above, below = below, above
+            raise DatasetError(
+                f"{it.file}: {n_inv} of the {n_inv + n_ok} contacts between layers in the holes "
+                f"put a layer below one that 'layers' lists under it (e.g. row {it.lines[k]}, hole "
+                f"{_r(it.hole_id[k])}: {below!r} below {above!r}; 'layers' is {layers}); such "
+                "a contact gives no top. Is 'layers' listed bottom to top instead of top to "
+                "bottom?")
         top_collar = ~is_contact & down
         keep = top_down | top_up | top_collar
         unit_rank = np.where(top_up, pr, cr)[keep]
