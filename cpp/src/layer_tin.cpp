@@ -134,15 +134,20 @@ double plane_fit_z(const PointGrid& grid, const std::vector<double>& data, const
 // it does not tilt the layer's regional plane); false when they are fewer
 // than three or nearly collinear.
 bool regional_slope(const std::vector<double>& data, const std::vector<char>& known, double cell, double out[2]) {
-    std::map<std::pair<std::int64_t, std::int64_t>, int> count;
-    auto key = [&](std::size_t i) {
-        return std::make_pair(static_cast<std::int64_t>(std::floor(data[3 * i] / cell)),
-                              static_cast<std::int64_t>(std::floor(data[3 * i + 1] / cell)));
-    };
+    // The grid's corner is the known points' lower-left: a translation of
+    // the data moves the grid with them (the same cells, the same weights).
+    double x0 = std::numeric_limits<double>::infinity(), y0 = x0;
     std::size_t n = 0;
     for (std::size_t i = 0; i < known.size(); ++i)
-        if (known[i]) ++count[key(i)], ++n;
+        if (known[i]) x0 = std::min(x0, data[3 * i]), y0 = std::min(y0, data[3 * i + 1]), ++n;
     if (n < 3) return false;
+    std::map<std::pair<std::int64_t, std::int64_t>, int> count;
+    auto key = [&](std::size_t i) {
+        return std::make_pair(static_cast<std::int64_t>(std::floor((data[3 * i] - x0) / cell)),
+                              static_cast<std::int64_t>(std::floor((data[3 * i + 1] - y0) / cell)));
+    };
+    for (std::size_t i = 0; i < known.size(); ++i)
+        if (known[i]) ++count[key(i)];
     std::vector<double> w(known.size(), 0.0);
     double ws = 0.0, cx = 0.0, cy = 0.0, cz = 0.0;
     for (std::size_t i = 0; i < known.size(); ++i)
@@ -508,7 +513,12 @@ Prepared prepare(LayerTinState& s, LayerData&& d) {
     std::vector<std::vector<BPoint>> per_side(ns);
     for (std::size_t i = 0; i < ns; ++i) {
         const double L = area.side_length(i);
-        const std::size_t k = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(L / spacing)));
+        // Pieces of at most `spacing`; a side a whole number of spacings
+        // long (the spacing clamped to perimeter / 12 on a square) gets that
+        // number whatever the rounding of its length at UTM coordinates
+        // (1e-9 relative: far above it, far below a real difference).
+        const std::size_t k =
+            std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(L / spacing * (1.0 - 1e-9))));
         for (std::size_t j = 0; j < k; ++j) {
             const double sv = L * static_cast<double>(j) / static_cast<double>(k);
             double xy[2];

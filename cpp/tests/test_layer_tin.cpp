@@ -683,3 +683,49 @@ TEST(LayerTin, DataOnAPlaneGiveBoundaryElevationsOnItWhateverTheirLayout) {
         if (lines > 1 || wells > 0) EXPECT_LT(worst, 1e-6) << "seed " << seed;
     }
 }
+
+TEST(LayerTin, BoundaryVerticesMoveWithATranslationOfTheData) {
+    // Regressions (fuzz): the regional slope's declustering cells were
+    // anchored at the origin, so a translation regrouped a clump straddling
+    // a cell edge (boundary z 0.62 m apart); and a square side three
+    // clamped spacings long got 3 or 4 pieces by the rounding of its length
+    // at UTM coordinates (ceil of 3.0000000000001). Now the same vertices
+    // and elevations (within 1e-6 m: the rounding of coordinates of 6.6e6
+    // is about 1e-9 m) whatever the offset.
+    struct Case {
+        std::vector<double> ring, pts;
+    };
+    const double W = 450.31;
+    const std::vector<Case> cases = {
+        {{0.0, 0.0, 1000.0, 0.0, 1000.0, 1000.0, 0.0, 1000.0},
+         {295, 300, 10.0, 305, 300, 30.0, 305, 310, 20.0, 700, 250, 60.0, 500, 700, 45.0, 750, 750, 80.0}},
+        {{0.0, 0.0, W, 0.0, W, W, 0.0, W}, {360.84, 40.89, 1242.3, 143.51, 175.69, 1234.6, 109.83, 150.61, 1244.8}},
+    };
+    auto boundary = [](const std::vector<double>& ring, const std::vector<double>& pts, double dx, double dy) {
+        std::vector<double> r = ring, p = pts;
+        for (std::size_t i = 0; i < r.size(); i += 2) r[i] += dx, r[i + 1] += dy;
+        for (std::size_t i = 0; i < p.size(); i += 3) p[i] += dx, p[i + 1] += dy;
+        const fm::StudyArea area(r.data(), r.size() / 2);
+        const fm::LayerTin tin("L", p.data(), p.size() / 3, area);
+        const std::vector<double> V = tin.tin().vertices();
+        std::vector<std::array<double, 3>> out;
+        for (std::int64_t b : tin.boundary_vertices()) {
+            const double* v = &V[3 * static_cast<std::size_t>(b)];
+            out.push_back({v[0] - dx, v[1] - dy, v[2]});
+        }
+        std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
+            return std::round(a[0] * 1e3) != std::round(b[0] * 1e3) ? a[0] < b[0] : a[1] < b[1];
+        });
+        return out;
+    };
+    for (const Case& c : cases) {
+        const auto ref = boundary(c.ring, c.pts, 0.0, 0.0);
+        for (const auto& off : std::vector<std::array<double, 2>>{
+                 {50.0, 0.0}, {500000.0, 6600000.0}, {500050.0, 6600000.0}, {500766.61, 6600548.45}}) {
+            const auto got = boundary(c.ring, c.pts, off[0], off[1]);
+            ASSERT_EQ(got.size(), ref.size()) << off[0] << " " << off[1];
+            for (std::size_t i = 0; i < ref.size(); ++i)
+                for (int k = 0; k < 3; ++k) EXPECT_NEAR(got[i][static_cast<std::size_t>(k)], ref[i][static_cast<std::size_t>(k)], 1e-6);
+        }
+    }
+}
