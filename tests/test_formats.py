@@ -558,6 +558,60 @@ def test_an_unknown_gocad_axis_unit_is_refused_naming_its_line(tmp_path):
         load_model(p)
 
 
+_CRS_FT = ('GOCAD_ORIGINAL_COORDINATE_SYSTEM\nNAME Default\nAXIS_UNIT "ft" "ft" "ft"\n'
+           'ZPOSITIVE Elevation\nEND_ORIGINAL_COORDINATE_SYSTEM\n')
+_TS_FT = ("GOCAD TSurf 1\nHEADER {\nname:s\n}\n" + _CRS_FT
+          + "VRTX 1 0 0 -100\nVRTX 2 100 0 -100\nVRTX 3 0 100 -110\nTRGL 1 2 3\nEND\n")
+_PL_FT = ("GOCAD PLine 1\nHEADER {\nname:boundary\nfaultmesh_role:boundary\n}\n" + _CRS_FT
+          + "VRTX 1 0 0 0\nVRTX 2 100 0 0\nVRTX 3 100 100 0\nVRTX 4 0 100 0\n"
+          "SEG 1 2\nSEG 2 3\nSEG 3 4\nSEG 4 1\nEND\n")
+
+
+def test_gocad_units_reach_the_boundary_and_the_surfaces_of_a_model3d(tmp_path):
+    """Regressions (fuzz of the AXIS_UNIT reader): the study boundary's PLine
+    (in the same file, beside it, or read alone) stayed in feet while the
+    surfaces came in metres; a TSurf of a Model3d without a coordinate
+    system block of its own ignored the model's AXIS_UNIT (but took its
+    CRS name)."""
+    (tmp_path / "same.ts").write_text(_TS_FT + _PL_FT)
+    (tmp_path / "m.ts").write_text(_TS_FT)
+    (tmp_path / "m_boundary.pl").write_text(_PL_FT)
+    for name in ("same.ts", "m.ts"):
+        m = load_model(tmp_path / name)
+        assert np.max(m.surfaces["s"].vertices[:, 0]) == pytest.approx(30.48, rel=1e-15)
+        assert np.max(np.asarray(m.boundary)[:, 0]) == pytest.approx(30.48, rel=1e-15), name
+    from faultmesh.formats.gocad import read_pl
+    pl = read_pl(tmp_path / "m_boundary.pl")
+    assert np.max(np.asarray(pl.boundary)[:, 0]) == pytest.approx(30.48, rel=1e-15)
+    ml = ('GOCAD Model3d 1\nHEADER {\nname:mdl\n}\n' + _CRS_FT.replace("Default", "MyCRS")
+          + 'TSURF s\nTFACE 1 top s\nEND\n'
+          'GOCAD TSurf 1\nHEADER {\nname:s\n}\nGEOLOGICAL_TYPE top\nTFACE\n'
+          'VRTX 1 0 0 -100\nVRTX 2 100 0 -100\nVRTX 3 0 100 -110\nTRGL 1 2 3\nEND\n')
+    (tmp_path / "a.ml").write_text(ml)
+    m = load_model(tmp_path / "a.ml")
+    assert m.crs == "MyCRS"
+    assert np.max(m.surfaces["s"].vertices[:, 0]) == pytest.approx(30.48, rel=1e-15)
+
+
+def test_gocad_keywords_end_at_any_white_space_and_an_open_crs_block_is_named(tmp_path):
+    """Regressions (fuzz): a tab after AXIS_UNIT or ZPOSITIVE made the line
+    be ignored (feet read as metres, depths as elevations); a coordinate
+    system block never closed swallowed the geometry and the error named
+    the object's END; a Kelvin sign read as 'k' (km)."""
+    p = tmp_path / "t.ts"
+    p.write_text(_TS_FT.replace("AXIS_UNIT ", "AXIS_UNIT\t").replace("ZPOSITIVE Elevation", "ZPOSITIVE\tDepth")
+                 .replace("VRTX ", "VRTX\t"))
+    (s,) = load_model(p).surfaces.values()
+    assert s.vertices[0].tolist() == pytest.approx([0.0, 0.0, 30.48], rel=1e-15)
+    p.write_text(_TS_FT.replace("END_ORIGINAL_COORDINATE_SYSTEM\n", ""))
+    with pytest.raises(ModelFileError, match=r"line 9: the GOCAD_ORIGINAL_COORDINATE_SYSTEM block "
+                                             r"opened at line 5 has no END_ORIGINAL_COORDINATE_SYSTEM"):
+        load_model(p)
+    p.write_text(_TS_FT.replace('"ft" "ft" "ft"', '"m" "m" "\u212am"'))
+    with pytest.raises(ModelFileError, match=r"line 7: AXIS_UNIT: unknown unit"):
+        load_model(p)
+
+
 # --------------------------------------------------------------------------
 # no foreign file makes faultmesh exit
 # --------------------------------------------------------------------------

@@ -89,6 +89,21 @@ def _quoted(s: str, what: str) -> str:
     return f'" {s}"' if any(c.isspace() for c in s) else s
 
 
+# Keywords that end an object's coordinate system block by their presence:
+# geometry, a new part, the object's end or a new object.
+_NOT_IN_CRS = frozenset(("VRTX", "PVRTX", "ATOM", "PATOM", "TRGL", "SEG", "TFACE", "ILINE", "END",
+                         "GOCAD", "HEADER", "PROPERTIES"))
+
+
+def _keyword(s: str) -> Tuple[str, str, str]:
+    """(keyword, separator, the rest) of a stripped GOCAD line: the keyword
+    ends at the first white space of any kind (a tab, too)."""
+    parts = s.split(None, 1)
+    if not parts:
+        return "", "", ""
+    return parts[0], " ", parts[1] if len(parts) > 1 else ""
+
+
 def split_quoted(s: str) -> List[str]:
     """Tokens of a GOCAD line: white-space separated, a ``"..."`` group is one
     token (GOCAD writes ``" name"``; the quotes and the white space inside at
@@ -332,6 +347,7 @@ class _Object:
         self.crs_name = ""
         self.z_sign = 1.0
         self.axis_scale = (1.0, 1.0, 1.0)  # metres per unit of x, y, z (AXIS_UNIT)
+        self.crs_line = 0  # the line of its own GOCAD_ORIGINAL_COORDINATE_SYSTEM, 0: none
         self.geological_type = ""
         self.prop_names: List[str] = []
         self.esizes: List[int] = []
@@ -395,6 +411,25 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
         except ValueError:
             raise err(f"{key}: property values must be numbers, got {list(toks[:n])}", no) from None
 
+    def crs_field(key: str, val: str, no: int) -> None:
+        """ZPOSITIVE and AXIS_UNIT, in the coordinate system block or (as some
+        writers put them) outside it; other keys there are ignored."""
+        if key == "ZPOSITIVE":
+            v = val.strip().lower()
+            if v not in ("elevation", "depth"):
+                raise err(f"ZPOSITIVE must be Elevation or Depth, got {val.strip()!r}", no)
+            obj.z_sign = -1.0 if v == "depth" else 1.0
+        elif key == "AXIS_UNIT":
+            units = split_quoted(val)
+            if len(units) != 3:
+                raise err(f"AXIS_UNIT: expected three units (x, y, z), got {val.strip()!r}", no)
+            # ASCII only: str.lower() maps the Kelvin sign to "k".
+            unknown = [u for u in units if not u.isascii() or u.lower() not in _AXIS_UNITS]
+            if unknown:
+                raise err(f"AXIS_UNIT: unknown unit {unknown[0]!r} (known: m, km, ft, "
+                          "ftUS and their spelled-out names)", no)
+            obj.axis_scale = tuple(_AXIS_UNITS[u.lower()] for u in units)
+
     for no, raw in enumerate(lines, start=1):
         s = raw.strip()
         if not s or s.startswith("#"):
@@ -425,28 +460,20 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
                 block_end = None
             continue
         if in_crs:
-            if s.startswith("END_ORIGINAL_COORDINATE_SYSTEM"):
+            key, _, val = _keyword(s)
+            if key == "END_ORIGINAL_COORDINATE_SYSTEM":
                 in_crs = False
+            elif key in _NOT_IN_CRS:
+                # A block never closed would swallow the object's geometry.
+                raise err(f"the GOCAD_ORIGINAL_COORDINATE_SYSTEM block opened at line "
+                          f"{obj.crs_line} has no END_ORIGINAL_COORDINATE_SYSTEM before this "
+                          f"{key} line", no)
+            elif key == "NAME":
+                obj.crs_name = " ".join(split_quoted(val))
             else:
-                key, _, val = s.partition(" ")
-                if key == "NAME":
-                    obj.crs_name = " ".join(split_quoted(val))
-                elif key == "ZPOSITIVE":
-                    v = val.strip().lower()
-                    if v not in ("elevation", "depth"):
-                        raise err(f"ZPOSITIVE must be Elevation or Depth, got {val.strip()!r}", no)
-                    obj.z_sign = -1.0 if v == "depth" else 1.0
-                elif key == "AXIS_UNIT":
-                    units = split_quoted(val)
-                    if len(units) != 3:
-                        raise err(f"AXIS_UNIT: expected three units (x, y, z), got {val.strip()!r}", no)
-                    unknown = [u for u in units if u.lower() not in _AXIS_UNITS]
-                    if unknown:
-                        raise err(f"AXIS_UNIT: unknown unit {unknown[0]!r} (known: m, km, ft, "
-                                  "ftUS and their spelled-out names)", no)
-                    obj.axis_scale = tuple(_AXIS_UNITS[u.lower()] for u in units)
+                crs_field(key, val, no)
             continue
-        key, _, rest = s.partition(" ")
+        key, _, rest = _keyword(s)
         rest = rest.strip()
         if key in ("VRTX", "PVRTX"):
             tok = rest.split()
@@ -523,8 +550,11 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
                             obj.header[k.strip()] = _unquote(v)
                 if closes:
                     block_end = None
+        elif key in ("ZPOSITIVE", "AXIS_UNIT"):
+            crs_field(key, rest, no)
         elif key == "GOCAD_ORIGINAL_COORDINATE_SYSTEM":
             in_crs = True
+            obj.crs_line = no
         elif key == "GEOLOGICAL_TYPE":
             obj.geological_type = _unquote(rest).lower()
         elif key == "PROPERTIES":
@@ -625,8 +655,7 @@ def _properties(obj: _Object) -> Dict[str, np.ndarray]:
 def _boundary_from(path: Path, objects: List[_Object]) -> Optional[np.ndarray]:
     for obj in objects:
         if obj.kind == "PLine" and obj.header.get("faultmesh_role") == "boundary" and obj.xyz:
-            xyz = np.array(obj.xyz, dtype=np.float64).reshape(-1, 3)
-            return xyz[:, :2].copy()
+            return _xyz(path, obj)[:, :2].copy()   # in metres, as the surfaces
     return None
 
 
@@ -652,12 +681,20 @@ def read_gocad(path, atoms: str = "copy"):
     crs = ""
     used = set()
     ml_types: Dict[str, str] = {}
+    model3d: Optional[_Object] = None
     for obj in objects:
         if obj.kind == "Model3d":
             model_name = model_name or obj.header.get("name", "")
             crs = crs or _crs_of(obj)
+            model3d = model3d or obj
             for gtype, name in obj.tfaces:
                 ml_types.setdefault(name, gtype)
+    if model3d is not None and model3d.crs_line:
+        # A TSurf of a Model3d without a coordinate system block of its own
+        # is in the model's (its ZPOSITIVE and AXIS_UNIT).
+        for obj in objects:
+            if obj.kind.lower() == "tsurf" and not obj.crs_line:
+                obj.z_sign, obj.axis_scale = model3d.z_sign, model3d.axis_scale
     for k, obj in enumerate(objects):
         if obj.kind.lower() != "tsurf":
             continue
