@@ -47,6 +47,15 @@ std::string fmt_xy(const double* p) {
 // standard deviation R / sqrt(3)), so a boundary vertex among or beside
 // well-spread data keeps the local fit as it is.
 constexpr double PLANE_FIT_REACH = 3.0;
+// Points whose spread across their principal axis has a variance below this
+// share of the spread along it count as on one line, for the neighbours of
+// a plane fit and for a layer's regional slope alike (one threshold: with
+// two, neighbours between them took a slope across a line of picks from
+// their rounding, 1 cm over 1.9 km, and carried it kilometres out: 3 cm off
+// data exactly on a plane). 1e-9: a standard deviation 3e-5 of the extent,
+// 6 cm across a 2 km line; a slope across such a spread is the survey's
+// rounding, not the layer's.
+constexpr double PLANE_FIT_COLLINEAR = 1e-9;
 
 // z at q from an inverse-distance weighted plane fit to the k nearest data
 // points (see layer_tin.hpp), its slope giving way to `regional` (the
@@ -100,10 +109,11 @@ double plane_fit_z(const PointGrid& grid, const std::vector<double>& data, const
     const double ev[2] = {half + root, std::max(half - root, 0.0)};
     const double th = 0.5 * std::atan2(2.0 * cxy, cxx - cyy);
     const double axis[2][2] = {{std::cos(th), std::sin(th)}, {-std::sin(th), std::cos(th)}};
-    // An axis whose variance is below 1e-12 of the other's (the neighbours
-    // on one line, to rounding) determines no slope across it.
-    const bool flat = !(ev[0] > 0.0) || !(ev[1] > 1e-12 * ev[0]);
-    if (flat && !regional) return idw;
+    // An axis whose variance is below PLANE_FIT_COLLINEAR of the other's
+    // (the neighbours on one line, to rounding) determines no slope across
+    // it: there the regional slope is taken, or, without one, none (level
+    // across the line, the slope along it kept).
+    const bool flat = !(ev[0] > 0.0) || !(ev[1] > PLANE_FIT_COLLINEAR * ev[0]);
     // Past PLANE_FIT_REACH standard deviations along an axis, the local
     // slope there gives way to the regional one in proportion: where the
     // nearest data are spread out (wells, a grid of picks) nothing changes;
@@ -170,9 +180,11 @@ bool regional_slope(const std::vector<double>& data, const std::vector<char>& kn
         sxx += w[i] * x * x, sxy += w[i] * x * y, syy += w[i] * y * y, sxz += w[i] * x * z, syz += w[i] * y * z;
     }
     const double det = sxx * syy - sxy * sxy;
-    // Nearly collinear (the 2x2 moment matrix's determinant below 1e-9 of
-    // its trace squared): the slope across the line is not determined.
-    if (!(det > 1e-9 * (sxx + syy) * (sxx + syy))) return false;
+    // Nearly collinear: the smaller eigenvalue of the moment matrix below
+    // PLANE_FIT_COLLINEAR of the larger (det / trace^2 = ev1 ev0 / (ev0 +
+    // ev1)^2, about ev1 / ev0 when that is small): the slope across the
+    // line is not determined.
+    if (!(det > PLANE_FIT_COLLINEAR * (sxx + syy) * (sxx + syy))) return false;
     out[0] = (sxz * syy - syz * sxy) / det;
     out[1] = (syz * sxx - sxz * sxy) / det;
     return std::isfinite(out[0]) && std::isfinite(out[1]);
@@ -273,10 +285,19 @@ struct LayerData {
 LayerData sort_out(const std::string& fn, const double* data, std::size_t n, const StudyArea& area) {
     if (data == nullptr && n) throw std::invalid_argument(fn + ": null data array");
     for (std::size_t i = 0; i < n; ++i)
-        for (int k = 0; k < 3; ++k)
-            if (!std::isfinite(data[3 * i + k]))
+        for (int k = 0; k < 3; ++k) {
+            const double c = data[3 * i + k];
+            if (!std::isfinite(c))
                 throw std::invalid_argument(fn + ": data point " + std::to_string(i) +
                                             " has a non-finite coordinate");
+            // Beyond the kernels' coordinate range (predicates.hpp; x and y
+            // are refused there too): an elevation of 1e308 made the clamp's
+            // range and the plane fits' sums overflow to non-finite
+            // boundary elevations.
+            if (std::fabs(c) > kMaxCoordinate)
+                throw std::invalid_argument(fn + ": data point " + std::to_string(i) +
+                                            " has a coordinate beyond 1e60 in magnitude");
+        }
     const std::size_t ns = area.n_sides();
     LayerData d;
     d.interior.reserve(3 * n);

@@ -729,3 +729,48 @@ TEST(LayerTin, BoundaryVerticesMoveWithATranslationOfTheData) {
         }
     }
 }
+
+TEST(LayerTin, ALineOfRoundedPicksGivesNoSlopeAcrossIt) {
+    // Regression (fuzz): picks along one line, their XY rounded to 1 cm and
+    // their z to 1 mm (a few millimetres of spread across the line), took a
+    // slope across the line from that rounding and carried it kilometres
+    // out (boundary z up to 2.7 km off; then 3 cm on exact data, between
+    // two collinearity thresholds). Now such neighbours count as on one
+    // line: level across it, the slope along it kept.
+    std::mt19937_64 g(7);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    auto r2 = [](double v) { return std::round(v * 100.0) / 100.0; };
+    auto along = [](double x) { return 100.0 + 0.02 * x; };  // the layer along the line
+    std::vector<double> data;
+    for (int i = 0; i < 40; ++i) {
+        const double x = r2(500.0 + 1900.0 * u(g)), y = r2(1500.0 + 0.3 * (x - 500.0) / 1900.0);
+        // Dipping 5 % across the line: the picks cannot show it.
+        data.insert(data.end(), {x, y, std::round((along(x) + 0.05 * (y - 1500.0)) * 1000.0) / 1000.0});
+    }
+    const std::vector<double> ring = {0.0, 0.0, 3000.0, 0.0, 3000.0, 3000.0, 0.0, 3000.0};
+    const fm::StudyArea area(ring.data(), ring.size() / 2);
+    const fm::LayerTin tin("L", data.data(), data.size() / 3, area);
+    double lo = 1e300, hi = -1e300;
+    for (std::size_t i = 2; i < data.size(); i += 3) lo = std::min(lo, data[i]), hi = std::max(hi, data[i]);
+    const double pad = 0.5 * (hi - lo) + 1.0;
+    const auto [worst, n] = boundary_error(tin, data, 0.0, [&](double x, double) {
+        return std::min(std::max(along(x), lo - pad), hi + pad);
+    });
+    EXPECT_GT(n, 8);
+    EXPECT_LT(worst, 1.0);  // along() leaves out the line's 0.3 m rise in y: 1.5 cm of z
+}
+
+TEST(LayerTin, AnElevationBeyondTheKernelsRangeIsRefusedNamingThePoint) {
+    // Regression (fuzz): z = +-1e308 built, with 25 of 77 vertices at a
+    // non-finite z (the clamp's range and the fits' sums overflowed).
+    const std::vector<double> ring = {0.0, 0.0, 100.0, 0.0, 100.0, 100.0, 0.0, 100.0};
+    const fm::StudyArea area(ring.data(), ring.size() / 2);
+    const std::vector<double> data = {10, 10, 1.0, 50, 80, 2.0, 80, 20, -1e308, 40, 40, 3.0};
+    try {
+        fm::LayerTin("L", data.data(), data.size() / 3, area);
+        FAIL() << "no error";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("data point 2 has a coordinate beyond 1e60"), std::string::npos)
+            << e.what();
+    }
+}
