@@ -259,6 +259,43 @@ Piece piece_at(const LayerTinState& s, std::size_t side, std::map<double, std::i
     return p;
 }
 
+// Where the protection splits a piece (arc length on its side). At the
+// midpoint, except next to a corner where the two sides meet at less than
+// 90 degrees: there a vertex of one side can lie in the diametral disk of a
+// piece of the other (at >= 90 degrees it cannot), and halving the two
+// pieces at the corner in turn need not end -- their lengths a, b are both
+// clear only for cos(angle) < a / b < 1 / cos(angle), a window that halving
+// (a / b -> a / 2b) can step over forever (the 20-degree notch of
+// LayerTin.ANarrowNotchOfTheStudyAreaIsProtected: 1.31 <-> 0.65). Such a
+// piece, with exactly one end at such a corner, is split at a power of two
+// from that corner (Ruppert's concentric shells, as in Shewchuk's
+// Triangle): the pieces at the corner then have lengths that are powers of
+// two (absolute ones, so both sides share the scale), the longer is halved
+// at most until they are equal, and equal pieces at a corner are clear of
+// each other at any angle above 0. The power n has 1.5 n <= length < 3 n
+// (Triangle's choice): the split lies in the middle third of the piece,
+// and a piece of power-of-two length is halved. A right angle that rounding
+// of the dot product makes "acute" only moves a split within its piece.
+double split_arc(const StudyArea& area, const Piece& pc) {
+    const double mid = 0.5 * (pc.sa + pc.sb);
+    const std::size_t ns = area.n_sides();
+    auto acute = [&](std::size_t corner) {
+        const double* c = area.corner(corner);
+        const double* p = area.corner(corner + ns - 1);
+        const double* q = area.corner(corner + 1);
+        return (p[0] - c[0]) * (q[0] - c[0]) + (p[1] - c[1]) * (q[1] - c[1]) > 0.0;
+    };
+    const double L = area.side_length(pc.side);
+    const bool at_start = pc.sa == 0.0 && acute(pc.side);
+    const bool at_end = pc.sb == L && acute(pc.side + 1);
+    if (at_start == at_end) return mid;
+    const double len = pc.sb - pc.sa;
+    int e = 0;
+    std::frexp(len / 3.0, &e);            // len / 3 in [2^(e-1), 2^e)
+    const double n = std::ldexp(1.0, e);  // in (len / 3, 2 len / 3]
+    return at_start ? pc.sa + n : pc.sb - n;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------- set-up
@@ -616,8 +653,14 @@ Prepared prepare(LayerTinState& s, LayerData&& d) {
     s.by_side.assign(ns, {});
     for (std::size_t i = 0; i < nb; ++i) s.by_side[bpos[i].first].emplace(bpos[i].second, static_cast<std::int64_t>(i));
     std::vector<std::pair<std::size_t, double>> work;  // (side, sa) of pieces to check
+    double max_half = 0.0;  // half the longest piece: the widest disk's radius
     for (std::size_t i = 0; i < ns; ++i)
-        for (const auto& e : s.by_side[i]) work.emplace_back(i, e.first);
+        for (auto it = s.by_side[i].begin(); it != s.by_side[i].end(); ++it) {
+            work.emplace_back(i, it->first);
+            const Piece pc = piece_at(s, i, it);
+            max_half = std::max(max_half, 0.5 * (pc.sb - pc.sa));
+        }
+    std::vector<std::size_t> near;
     while (!work.empty()) {
         const auto w = work.back();
         work.pop_back();
@@ -639,7 +682,7 @@ Prepared prepare(LayerTinState& s, LayerData&& d) {
             throw GeometryError(fn + ": cannot protect the study-area boundary near " + fmt_xy(pa) +
                                 ": a data point lies on the boundary within rounding but was not snapped "
                                 "onto it");
-        const double sm = 0.5 * (pc.sa + pc.sb);
+        const double sm = split_arc(area, pc);
         double xy[2];
         area.place(pc.side, sm, xy);
         // Linear z along the piece: the surface along the boundary is unchanged.
@@ -653,6 +696,29 @@ Prepared prepare(LayerTinState& s, LayerData&& d) {
         s.by_side[pc.side].emplace(sm, id);
         work.emplace_back(pc.side, pc.sa);
         work.emplace_back(pc.side, sm);
+        // The split point may lie in the disk of a piece already found clear
+        // (another side near this one: across a narrow notch, the sides of a
+        // small angle), which would then not be a TIN edge: test again the
+        // pieces it may lie in. A disk holds only points whose projection on
+        // the piece's line falls on the piece, and no disk is wider than the
+        // longest piece at the start (splits only shorten pieces).
+        area.sides_near(xy, max_half, near);
+        for (std::size_t side : near) {
+            if (side == pc.side) continue;  // its two new halves are queued above
+            const double* ca = area.corner(side);
+            const double* cb = area.corner(side + 1);
+            const double L = area.side_length(side);
+            const double sp = ((xy[0] - ca[0]) * (cb[0] - ca[0]) + (xy[1] - ca[1]) * (cb[1] - ca[1])) / L;
+            const auto& m = s.by_side[side];
+            auto it = m.upper_bound(std::min(std::max(sp, 0.0), L));
+            if (it != m.begin()) --it;
+            // The piece there and its neighbours on the side: a projection
+            // within rounding of a piece's end (the disk test counts points
+            // 1e-9 outside the circle as in) is tested on both pieces.
+            if (it != m.begin()) work.emplace_back(side, std::prev(it)->first);
+            work.emplace_back(side, it->first);
+            if (std::next(it) != m.end()) work.emplace_back(side, std::next(it)->first);
+        }
     }
     Prepared out;
     known.resize(pts.size() / 3, 0);  // the protection's splits are not data
@@ -1065,7 +1131,7 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
                 if (pc.sb - pc.sa < min_piece)
                     throw GeometryError(fn + ": cannot keep the study-area boundary protected near " +
                                         detail::fmt_xy(p) + " (a point lies on the boundary within rounding)");
-                const double sm = 0.5 * (pc.sa + pc.sb);
+                const double sm = split_arc(s.area, pc);
                 bool dup = false;
                 for (const auto& q : add_pos)
                     if (q.first == side && q.second == sm) dup = true;

@@ -24,7 +24,10 @@
 //    their inverse-distance weighted mean.
 //  * Protection: a boundary piece (two consecutive boundary vertices) whose
 //    closed diametral disk holds another vertex is split at its middle
-//    (placed on its side), until none does. A segment whose closed diametral
+//    (placed on its side; a piece at a corner whose sides meet at less than
+//    90 degrees at a power of two from that corner, so that the splitting
+//    ends), until none does; each split point has the pieces it may lie in
+//    tested again. A segment whose closed diametral
 //    disk holds no other point is an edge of every Delaunay triangulation of
 //    the points, so every piece is a TIN edge, even for a non-convex area;
 //    the triangles outside the polygon (its notches) are then left out of
