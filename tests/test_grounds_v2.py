@@ -574,8 +574,8 @@ def test_halfway_sections_follow_the_fault_along_strike(seed, evaluated):
     assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
 
 
-@pytest.mark.parametrize("seed", [103, 143])
-def test_layers_crossing_near_a_derived_normal_fault_build_without_its_picks(seed, evaluated):
+@pytest.mark.parametrize("seed, retried", [(103, False), (143, True)])
+def test_layers_crossing_near_a_derived_normal_fault_build_without_its_picks(seed, retried, evaluated):
     """Regression (random grounds 103 and 143 as v2 with section picks: a
     normal fault, and an X pair of normal faults, with layers 3.4 and 2.4 m
     thick; each continuous TIN interpolated across a fault from other
@@ -583,13 +583,18 @@ def test_layers_crossing_near_a_derived_normal_fault_build_without_its_picks(see
     up: "repair_crossings('L3', 'L4'): ..."). build_model builds the TINs
     again with every pick under a derived patch left out of them (the
     patches take the picks back): 0.79x and 0.94x the true cutoffs' error
-    near the faults."""
+    near the faults. Since the layer TINs' boundary slope gives way to the
+    layer's regional one far from the data (layer_tin.cpp), 103's first
+    build no longer crosses and needs no retry; 143 still does."""
     out, built = evaluated(seed)
     assert out["stage"] == "ok", (out["stage"], out["error"])
     assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
     m = built["m2"]  # build_model(derive_faults(ds2), evaluate=False)
-    assert "repair_crossings('L3', 'L4')" in m.metadata["repair_retry"]
-    assert sum(t["points_in_fault_patches"] for t in m.metadata["tins"].values()) > 0
+    if retried:
+        assert "repair_crossings('L3', 'L4')" in m.metadata["repair_retry"]
+        assert sum(t["points_in_fault_patches"] for t in m.metadata["tins"].values()) > 0
+    else:
+        assert "repair_retry" not in m.metadata, m.metadata["repair_retry"]
 
 
 @pytest.mark.parametrize("seed, holds", [(4, True), (75, False)])
@@ -730,7 +735,7 @@ def test_data_only_behind_a_section_near_a_tip_do_not_hold_its_throw(evaluated):
     in, its hanging-wall cutoffs within 1.4 m of the truth (the ground
     still failed at 1.70x, past the tip: the layer TIN's boundary
     extrapolation, whose slope now gives way to the regional one far from
-    the data: 1.18x)."""
+    the data: 1.23x)."""
     out, built = evaluated(178)
     geo = built["geo"]
     fr = built["derived"].derivation.faults["F1"]
