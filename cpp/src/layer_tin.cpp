@@ -151,32 +151,36 @@ bool regional_slope(const std::vector<double>& data, const std::vector<char>& kn
     for (std::size_t i = 0; i < known.size(); ++i)
         if (known[i]) x0 = std::min(x0, data[3 * i]), y0 = std::min(y0, data[3 * i + 1]), ++n;
     if (n < 3) return false;
-    std::map<std::pair<std::int64_t, std::int64_t>, int> count;
-    auto key = [&](std::size_t i) {
-        return std::make_pair(static_cast<std::int64_t>(std::floor((data[3 * i] - x0) / cell)),
-                              static_cast<std::int64_t>(std::floor((data[3 * i + 1] - y0) / cell)));
-    };
+    // Each known point's cell, sorted: a cell's points are one run, each
+    // weighing one over the run's length (a sort, not a map: a layer of a
+    // million picks has about as many cells).
+    std::vector<std::pair<std::pair<std::int64_t, std::int64_t>, std::size_t>> cells;
+    cells.reserve(n);
     for (std::size_t i = 0; i < known.size(); ++i)
-        if (known[i]) ++count[key(i)];
+        if (known[i])
+            cells.push_back({{static_cast<std::int64_t>(std::floor((data[3 * i] - x0) / cell)),
+                              static_cast<std::int64_t>(std::floor((data[3 * i + 1] - y0) / cell))},
+                             i});
+    std::sort(cells.begin(), cells.end());
     std::vector<double> w(known.size(), 0.0);
+    for (std::size_t r = 0; r < cells.size();) {
+        std::size_t e = r;
+        while (e < cells.size() && cells[e].first == cells[r].first) ++e;
+        for (std::size_t k = r; k < e; ++k) w[cells[k].second] = 1.0 / static_cast<double>(e - r);
+        r = e;
+    }
+    // Centred on the lower-left first: UTM-sized coordinates cancel before
+    // they are squared.
     double ws = 0.0, cx = 0.0, cy = 0.0, cz = 0.0;
     for (std::size_t i = 0; i < known.size(); ++i)
-        if (known[i]) {
-            w[i] = 1.0 / count[key(i)];
-            ws += w[i];
-        }
-    // Centred on the first known point first: UTM-sized coordinates cancel
-    // before they are squared.
-    std::size_t first = 0;
-    while (!known[first]) ++first;
-    const double ox = data[3 * first], oy = data[3 * first + 1];
-    for (std::size_t i = 0; i < known.size(); ++i)
-        if (known[i]) cx += w[i] * (data[3 * i] - ox), cy += w[i] * (data[3 * i + 1] - oy), cz += w[i] * data[3 * i + 2];
+        if (known[i])
+            ws += w[i], cx += w[i] * (data[3 * i] - x0), cy += w[i] * (data[3 * i + 1] - y0),
+                cz += w[i] * data[3 * i + 2];
     cx /= ws, cy /= ws, cz /= ws;
     double sxx = 0.0, sxy = 0.0, syy = 0.0, sxz = 0.0, syz = 0.0;
     for (std::size_t i = 0; i < known.size(); ++i) {
         if (!known[i]) continue;
-        const double x = data[3 * i] - ox - cx, y = data[3 * i + 1] - oy - cy, z = data[3 * i + 2] - cz;
+        const double x = data[3 * i] - x0 - cx, y = data[3 * i + 1] - y0 - cy, z = data[3 * i + 2] - cz;
         sxx += w[i] * x * x, sxy += w[i] * x * y, syy += w[i] * y * y, sxz += w[i] * x * z, syz += w[i] * y * z;
     }
     const double det = sxx * syy - sxy * sxy;

@@ -95,13 +95,11 @@ _NOT_IN_CRS = frozenset(("VRTX", "PVRTX", "ATOM", "PATOM", "TRGL", "SEG", "TFACE
                          "GOCAD", "HEADER", "PROPERTIES"))
 
 
-def _keyword(s: str) -> Tuple[str, str, str]:
-    """(keyword, separator, the rest) of a stripped GOCAD line: the keyword
-    ends at the first white space of any kind (a tab, too)."""
+def _keyword(s: str) -> Tuple[str, str]:
+    """(keyword, the rest) of a stripped GOCAD line: the keyword ends at the
+    first white space of any kind (a tab, too)."""
     parts = s.split(None, 1)
-    if not parts:
-        return "", "", ""
-    return parts[0], " ", parts[1] if len(parts) > 1 else ""
+    return (parts[0], parts[1]) if len(parts) == 2 else (s, "")
 
 
 def split_quoted(s: str) -> List[str]:
@@ -460,7 +458,7 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
                 block_end = None
             continue
         if in_crs:
-            key, _, val = _keyword(s)
+            key, val = _keyword(s)
             if key == "END_ORIGINAL_COORDINATE_SYSTEM":
                 in_crs = False
             elif key in _NOT_IN_CRS:
@@ -473,7 +471,7 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
             else:
                 crs_field(key, val, no)
             continue
-        key, _, rest = _keyword(s)
+        key, rest = _keyword(s)
         rest = rest.strip()
         if key in ("VRTX", "PVRTX"):
             tok = rest.split()
