@@ -53,7 +53,8 @@ use_dev_build()
 QUICK_OUT = ROOT / "bench" / "results" / "quick"
 
 
-def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=False) -> None:
+def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=False,
+           fault_form: str = "sticks", fault_noise: float = 0.0) -> None:
     try:
         import resource
         lim = int(mem_gb * 2 ** 30)
@@ -68,7 +69,9 @@ def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=Fal
     warnings.simplefilter("ignore")
     from faultmesh.grounds import evaluate_ground, evaluate_ground_v2
     try:
-        out = (evaluate_ground_v2(seed, section_picks=(v2 != "holes")) if v2 else evaluate_ground(seed))
+        out = (evaluate_ground_v2(seed, section_picks=(v2 != "holes"), fault_form=fault_form,
+                                  fault_noise=fault_noise)
+               if v2 else evaluate_ground(seed))
     except BaseException as e:  # evaluate_ground records failures; this is its own defect
         out = {"seed": seed, "ok": False, "stage": "crash", "error_type": type(e).__name__,
                "error": str(e)[:2000], "pattern": str(e)[:160]}
@@ -77,9 +80,11 @@ def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=Fal
 
 
 def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl: Path = None,
-              v2=False) -> List[Dict]:
+              v2=False, fault_form: str = "sticks", fault_noise: float = 0.0) -> List[Dict]:
     """Outcomes of the seeds, each in its own forked process (``v2``: False,
-    True, or "holes" for v2 grounds without the trace picks)."""
+    True, or "holes" for v2 grounds without the trace picks; ``fault_form``:
+    how the v2 grounds give their faults, ``grounds.FAULT_FORMS``;
+    ``fault_noise``: their picking error, m)."""
     import tempfile
     ctx = mp.get_context("fork")
     tb_dir = tempfile.mkdtemp(prefix="sweep-tb-")
@@ -94,7 +99,8 @@ def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl:
                 s = pending.pop(0)
                 r, w = ctx.Pipe(duplex=False)
                 tb = os.path.join(tb_dir, f"seed{s}.txt")
-                p = ctx.Process(target=_child, args=(s, w, mem_gb, tb, 0.95 * timeout, v2),
+                p = ctx.Process(target=_child, args=(s, w, mem_gb, tb, 0.95 * timeout, v2, fault_form,
+                                                      fault_noise),
                                daemon=True)
                 p.start()
                 w.close()
@@ -362,11 +368,19 @@ def render_v2(outs: List[Dict], meta: Dict[str, Any]) -> str:
     the same grounds' v1 models."""
     from faultmesh.grounds import V2_RATIO
     holes = meta.get("v2") == "holes"
+    form = meta.get("fault_form", "sticks")
     title = "Random grounds as format 2 without cutoffs: derived against true cutoffs"
-    L = _header(title + (", layer data from the holes only" if holes else ""), outs, meta)
+    L = _header(title + (", layer data from the holes only" if holes else "")
+                + ("" if form == "sticks" else f", faults as {form}")
+                + (f", fault points with a {meta['fault_noise']:g} m picking error"
+                   if meta.get("fault_noise") else ""), outs, meta)
     L += ["Each seed's ground (`faultmesh.grounds.random_ground(seed)`) is written twice: as its v1 "
           "dataset (hand-drawn traces up to the true cutoffs) and by `faultmesh.grounds.write_v2` as "
-          "format 2 without cutoffs (each fault as fault sticks on the truth's surface, no traces, kind "
+          "format 2 without cutoffs (each fault as "
+          + {"sticks": "fault sticks on the truth's surface",
+             "points": "points on the truth's surface without their stick column",
+             "surface": "a triangulated surface (TSurf) of the truth's, cells of the sticks' spacing"}[form]
+          + ", no traces, kind "
           "or tips; the layer tops as collar/survey/interval tables of the same holes, about half of "
           "them deviated; "
           + ("no other layer data: nothing of what the v1 traces give within 20-180 m of the faults, "
@@ -439,9 +453,14 @@ def render_v2(outs: List[Dict], meta: Dict[str, Any]) -> str:
     return "\n".join(L).rstrip() + "\n"
 
 
-def _stem(v2) -> str:
+def _stem(v2, fault_form: str = "sticks", fault_noise: float = 0.0) -> str:
     """The file stem of a sweep's outputs."""
-    return {False: "sweep", None: "sweep", True: "sweep_v2", "holes": "sweep_v2_holes"}[v2]
+    stem = {False: "sweep", None: "sweep", True: "sweep_v2", "holes": "sweep_v2_holes"}[v2]
+    if v2 and fault_form != "sticks":
+        stem += f"_{fault_form}"
+    if v2 and fault_noise > 0.0:
+        stem += f"_noise{fault_noise:g}"
+    return stem
 
 
 def main(argv=None) -> int:
@@ -460,6 +479,14 @@ def main(argv=None) -> int:
     ap.add_argument("--holes-only", action="store_true",
                     help="with --v2: the v2 grounds' layer data from the holes only (no trace picks); "
                          "writes sweep_v2_holes.md / sweep_v2_holes.json")
+    ap.add_argument("--fault-form", choices=("sticks", "points", "surface"), default="sticks",
+                    help="with --v2: each fault as sticks (default), as points without sticks, or as a "
+                         "triangulated surface (GOCAD TSurf); a form other than sticks adds it to the "
+                         "file stem (sweep_v2_surface.md ...)")
+    ap.add_argument("--fault-noise", type=float, default=0.0, metavar="M",
+                    help="with --v2: each fault point moved across strike by a normal error of this "
+                         "standard deviation (m; an interpreter's picking error); adds _noiseM to the "
+                         "file stem")
     ap.add_argument("--render", type=Path, default=None, metavar="JSON",
                     help="no sweep: render the table again from a sweep.json (into --out or its folder)")
     args = ap.parse_args(argv)
@@ -474,12 +501,17 @@ def main(argv=None) -> int:
         text = render_v2(outs, doc["meta"]) if v2 else render(outs, doc["meta"])
         print(text)
         if not args.no_write:
-            out = (args.out or args.render.parent) / (_stem(v2) + ".md")
+            out = (args.out or args.render.parent) / (_stem(v2, doc["meta"].get("fault_form", "sticks"),
+                                                              doc["meta"].get("fault_noise", 0.0)) + ".md")
             out.write_text(text)
             print(f"wrote {out}", file=sys.stderr)
         return 0
     if args.holes_only and not args.v2:
         ap.error("--holes-only goes with --v2")
+    if (args.fault_form != "sticks" or args.fault_noise) and not args.v2:
+        ap.error("--fault-form and --fault-noise go with --v2")
+    if not args.fault_noise >= 0.0:
+        ap.error("--fault-noise must be at least 0")
     v2 = "holes" if args.holes_only else args.v2
     if args.quick:
         args.seeds = min(args.seeds, 8)
@@ -489,16 +521,18 @@ def main(argv=None) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     seeds = list(range(args.start, args.start + args.seeds))
     t0 = time.perf_counter()
-    stem = _stem(v2)
+    stem = _stem(v2, args.fault_form, args.fault_noise)
     outs = run_seeds(seeds, args.jobs, args.timeout, args.memory_gb,
-                     jsonl=None if args.no_write else out_dir / f"{stem}.jsonl", v2=v2)
+                     jsonl=None if args.no_write else out_dir / f"{stem}.jsonl", v2=v2,
+                     fault_form=args.fault_form, fault_noise=args.fault_noise)
     elapsed = time.perf_counter() - t0
     if not args.v2:
         fill_specs(outs)
         mark_rejects(outs)
     meta = {"command": command_line("sweep.py"), "date": today(),
             "machine": machine(numpy=True, faultmesh=True), "jobs": args.jobs, "timeout": args.timeout,
-            "memory_gb": args.memory_gb, "elapsed": elapsed, "v2": v2}
+            "memory_gb": args.memory_gb, "elapsed": elapsed, "v2": v2,
+            **({"fault_form": args.fault_form, "fault_noise": args.fault_noise} if args.v2 else {})}
     text = render_v2(outs, meta) if args.v2 else render(outs, meta)
     print(text)
     if not args.no_write:

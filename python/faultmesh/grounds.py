@@ -1868,15 +1868,17 @@ def _hole_contacts(geo: Geology, holes, length: np.ndarray):
     return collar_unit, ev_hole[o], ev_depth[o], ev_unit[o], ev_fault[o]
 
 
-def _fault_sticks(geo: Geology, fm: FaultModel, ring: np.ndarray, z_range: Tuple[float, float],
-                  rng: np.random.Generator, dec_xy: int, dec_z: int) -> Tuple[np.ndarray, np.ndarray]:
-    """Fault sticks on the truth's fault surface, as a seismic interpreter
-    picks them: one stick every 60-140 m along strike over the fault's
-    extent (its ``u_range``, cut to the study area's reach along strike plus
-    up to 100 m), points every 15-35 m down the stick over ``z_range``; a
-    fault that abuts another only on its side of it. Rounded to ``dec_xy``
-    (the traces' rounding) and ``dec_z`` decimals. Returns (points (m, 3),
-    stick labels (m,) 1, 2, ...)."""
+def _fault_grid(geo: Geology, fm: FaultModel, ring: np.ndarray, z_range: Tuple[float, float],
+                rng: np.random.Generator, noise: Optional[np.random.Generator] = None, sigma: float = 0.0):
+    """The interpreter's sampling of the truth's fault surface: one stick
+    every 60-140 m along strike over the fault's extent (its ``u_range``,
+    cut to the study area's reach along strike plus up to 100 m), points
+    every 15-35 m down the stick over ``z_range``; with ``sigma`` > 0, each
+    point then moved across strike (horizontally) by a normal error of that
+    standard deviation drawn from ``noise`` (an interpreter's picking error;
+    ``rng``'s draws stay the same). Returns (xy (n*k, 2) local, Z (n*k,),
+    n sticks, k levels, keep (n*k,) bool: on its side of the fault it abuts,
+    all True otherwise); stick by stick, top down."""
     uc = (ring - geo.origin - fm.anchor) @ fm.sdir
     m = float(rng.uniform(0.0, 100.0))
     lo, hi = max(fm.u_range[0], float(uc.min()) - m), min(fm.u_range[1], float(uc.max()) + m)
@@ -1884,18 +1886,52 @@ def _fault_sticks(geo: Geology, fm: FaultModel, ring: np.ndarray, z_range: Tuple
     u = np.linspace(lo, hi, n)
     step_z = float(rng.uniform(15.0, 35.0))
     z = np.arange(z_range[1] - float(rng.uniform(0.0, step_z)), z_range[0], -step_z)
-    U, Z = (a.ravel() for a in np.meshgrid(u, z, indexing="ij"))  # stick by stick, top down
+    U, Z = (a.ravel() for a in np.meshgrid(u, z, indexing="ij"))
     xy = fm.xy(U, (fm.z_ref - Z) / fm.tan_dip + fm.bend_offset(U))
-    stick = np.repeat(np.arange(1, n + 1), len(z))
     keep = np.ones(len(U), dtype=bool)
     if fm.abuts is not None:
         parent = geo.fault(fm.abuts[0])
         keep = (Z > parent.plane_z(xy[:, 0], xy[:, 1])) == (fm.abuts[1] == "hanging")
+    if sigma > 0.0:
+        xy = xy + noise.normal(0.0, sigma, len(U))[:, None] * fm.ndir[None, :]
+    return xy, Z, n, len(z), keep
+
+
+def _fault_sticks(geo: Geology, fm: FaultModel, ring: np.ndarray, z_range: Tuple[float, float],
+                  rng: np.random.Generator, dec_xy: int, dec_z: int, **noise) -> Tuple[np.ndarray, np.ndarray]:
+    """Fault sticks on the truth's fault surface, as a seismic interpreter
+    picks them (:func:`_fault_grid`, ``noise``: its noise and sigma); a
+    fault that abuts another only on its side of it. Rounded to ``dec_xy``
+    (the traces' rounding) and ``dec_z`` decimals. Returns (points (m, 3),
+    stick labels (m,) 1, 2, ...)."""
+    xy, Z, n, k, keep = _fault_grid(geo, fm, ring, z_range, rng, **noise)
+    stick = np.repeat(np.arange(1, n + 1), k)
     P = np.column_stack([np.round(xy + geo.origin, dec_xy), np.round(Z, dec_z)])[keep]
     stick = stick[keep]
     count = np.bincount(stick, minlength=n + 1)
     keep = count[stick] >= 2  # a stick has at least two points
     return P[keep], stick[keep]
+
+
+def _fault_surface(geo: Geology, fm: FaultModel, ring: np.ndarray, z_range: Tuple[float, float],
+                   rng: np.random.Generator, dec_xy: int, dec_z: int, **noise) -> Tuple[np.ndarray, np.ndarray]:
+    """The truth's fault surface as an interpreter's triangulated surface
+    (a GOCAD TSurf): the grid of :func:`_fault_grid`, two triangles per
+    cell, the diagonals alternating; a fault that abuts another keeps the
+    triangles whose corners all lie on its side of it (a ragged edge short
+    of the other fault by up to a cell, as a surface clipped by hand).
+    Rounded like the sticks. Returns (vertices (v, 3), triangles (t, 3))."""
+    xy, Z, n, k, keep = _fault_grid(geo, fm, ring, z_range, rng, **noise)
+    idx = np.arange(n * k).reshape(n, k)
+    a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
+    flip = ((np.arange(n - 1)[:, None] + np.arange(k - 1)[None, :]) % 2).astype(bool)
+    t1 = np.where(flip[..., None], np.stack([a, b, d], -1), np.stack([a, b, c], -1)).reshape(-1, 3)
+    t2 = np.where(flip[..., None], np.stack([b, c, d], -1), np.stack([a, c, d], -1)).reshape(-1, 3)
+    T = np.vstack([t1, t2])
+    T = T[keep[T].all(axis=1)]
+    used, T = np.unique(T, return_inverse=True)
+    V = np.column_stack([np.round(xy + geo.origin, dec_xy), np.round(Z, dec_z)])[used]
+    return V, T.reshape(-1, 3).astype(np.int64)
 
 
 def _v2_drillholes(geo: Geology, ds1: Dataset, spec: GroundSpec, rng: np.random.Generator):
@@ -2048,11 +2084,20 @@ def trace_picks(ds1: Dataset, seed: int) -> Tuple[Dict[str, np.ndarray], float]:
     return {lay: np.vstack(v) for lay, v in out.items() if sum(len(a) for a in v)}, shadow
 
 
-def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks: bool = False) -> Path:
+#: How :func:`write_v2` gives a fault's geometry: its sticks (points with a
+#: stick column), the same points without sticks, or a triangulated surface.
+FAULT_FORMS = ("sticks", "points", "surface")
+
+
+def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks: bool = False,
+             fault_form: str = "sticks", fault_noise: float = 0.0) -> Path:
     """Write ground ``spec.seed`` (its v1 dataset ``ds1`` as loaded, its truth
     ``geo``) as a format-2 dataset into ``folder`` without cutoffs: each fault
-    as fault sticks on the truth's surface (:func:`_fault_sticks`; no traces,
-    no kind, no tips: :func:`faultmesh.derive.derive_faults` derives them;
+    as fault sticks on the truth's surface (:func:`_fault_sticks`; with
+    ``fault_form`` "points" the same points without their stick column,
+    "surface" a TSurf (:func:`_fault_surface`); ``fault_noise`` (m): the
+    standard deviation of a picking error across strike, drawn from
+    ``default_rng([seed, 4])``; no traces, no kind, no tips: :func:`faultmesh.derive.derive_faults` derives them;
     the group kept), the layer tops as collar, survey and interval tables of
     the same holes with a share of them deviated (:func:`_v2_drillholes`),
     the v1 topography as points and, with ``section_picks``, the v1 traces'
@@ -2075,11 +2120,18 @@ def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks
     margin = float(rng.uniform(20.0, 80.0))
     z_range = (float(b.z.min()) - margin, float(b.z.max()) + margin)
     ring = np.asarray(ds1.boundary, dtype=np.float64)
+    if fault_form not in FAULT_FORMS:
+        raise ValueError(f"write_v2: fault_form must be one of {FAULT_FORMS}, got {fault_form!r}")
     faults = []
+    noise = {"noise": np.random.default_rng([int(spec.seed), 4]), "sigma": float(fault_noise)}
     for f in ds1.faults:
-        P, st = _fault_sticks(geo, geo.fault(f.name), ring, z_range, rng, int(spec.rounding["traces"]),
-                              int(spec.rounding["z"]))
-        faults.append(Fault(f.name, None, f.group, points=P, sticks=st))
+        dec = (int(spec.rounding["traces"]), int(spec.rounding["z"]))
+        if fault_form == "surface":
+            V, T = _fault_surface(geo, geo.fault(f.name), ring, z_range, rng, *dec, **noise)
+            faults.append(Fault(f.name, None, f.group, surface=(V, T)))
+            continue
+        P, st = _fault_sticks(geo, geo.fault(f.name), ring, z_range, rng, *dec, **noise)
+        faults.append(Fault(f.name, None, f.group, points=P, sticks=st if fault_form == "sticks" else None))
     tables, kinds = _v2_drillholes(geo, ds1, spec, rng)
     points = {lay: np.asarray(v, dtype=np.float64).reshape(-1, 3) for lay, v in ds1.points.items()}
     picks, shadow = trace_picks(ds1, spec.seed) if section_picks else ({}, None)
@@ -2093,7 +2145,8 @@ def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks
     ds2.boreholes = apply_boundary_policy(replace(ds2, points={}, faults=[], adjustments=[])).boreholes
     path = ds2.save(folder, version=2)
     info = {"holes": {k: int(np.sum(kinds == k)) for k in _HOLE_KINDS},
-            "fault_points": {f.name: int(len(f.points)) for f in faults},
+            "fault_points": {f.name: int(len(f.points) if f.points is not None else len(f.surface[0]))
+                             for f in faults},
             "section_picks": {lay: int(len(P)) for lay, P in picks.items()}, "shadow": shadow}
     (folder / "v2.json").write_text(json.dumps(info, indent=1) + "\n", encoding="utf-8")
     return path
@@ -2186,9 +2239,11 @@ def _derive_symptom(out: Dict[str, Any]) -> str:
 
 
 def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, section_picks: bool = True,
-                       built: Optional[Dict[str, Any]] = None, **overrides) -> Dict[str, Any]:
+                       built: Optional[Dict[str, Any]] = None, fault_form: str = "sticks",
+                       fault_noise: float = 0.0, **overrides) -> Dict[str, Any]:
     """Ground ``seed`` as v1 (true cutoffs) and as v2 without cutoffs
-    (:func:`write_v2`, with or without ``section_picks``), each loaded,
+    (:func:`write_v2`, with or without ``section_picks``, its faults in
+    ``fault_form``, picked with ``fault_noise``), each loaded,
     built and checked; never raises for a failure of faultmesh (it is
     recorded). Returns a JSON-serialisable dict:
     seed, spec, describe, tags, v2 (hole kinds, fault points), ok (v2 derived,
@@ -2237,7 +2292,8 @@ def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, se
             kept = built if built is not None else {}
             kept["geo"], kept["ds1"] = geo, ds1
             try:
-                path2 = write_v2(ds1, geo, spec, folder / "v2", section_picks=section_picks)
+                path2 = write_v2(ds1, geo, spec, folder / "v2", section_picks=section_picks,
+                                 fault_form=fault_form, fault_noise=fault_noise)
                 out["v2"] = json.loads((folder / "v2" / "v2.json").read_text())
             except Exception as e:
                 return fail("generate:v2", e)
