@@ -425,10 +425,13 @@ def test_derived_cutoffs_kind_and_accuracy(ground):
     fr = d.derivation.faults[ftrue.name]
     assert fr.kind == ftrue.kind, (name, fr.warnings)
     assert fr.warnings == [], fr.warnings
-    if name.endswith("steep"):
-        assert fr.surface.axis in (0, 1)  # 85 degrees: projected along a horizontal axis
-    else:
+    # Projected along the axis nearest to the fault's normal: z at 35
+    # degrees, x or y at 60 and 85.
+    assert fr.surface.axis == int(np.argmax(np.abs(fr.surface.normal)))
+    if name in ("normal-35",):
         assert fr.surface.axis == 2
+    elif name in ("reverse-60", "reverse-85-steep"):
+        assert fr.surface.axis in (0, 1)
     # Both ends are tips inside the study area (the truth's throw tapers to 0).
     assert fr.ends == ["tip", "tip"] and len(d.fault(ftrue.name).tips) == 2
     # Every layer is displaced, and cut on most sections.
@@ -1004,7 +1007,7 @@ def test_sticks_that_stop_short_of_the_boundary_end_in_a_tip():
     the boundary with the end section's 17-49 m of throw, up to 17 m off
     there, error near the fault 1.60x the true cutoffs' model. With sticks,
     an end is carried only when the boundary lies within one stick spacing
-    of its last stick (derive._stick_spacing): a tip, 1.20x."""
+    of its last stick (derive._strike_spacing): a tip, 1.20x."""
     from faultmesh import grounds
 
     out = grounds.evaluate_ground_v2(82, section_picks=False)
@@ -1019,7 +1022,7 @@ def test_sticks_that_stop_short_of_the_boundary_end_in_a_tip():
     assert fs0.ends[0] == "inside", fs0.ends  # the tip end
     P = np.asarray(f.points, dtype=np.float64)
     u = fs0.u(P[:, :2])
-    spc = derive._stick_spacing(f, fs0.strike)
+    spc = derive._strike_spacing(P, fs0.strike)
     assert 60.0 <= spc <= 140.0, spc  # the generator's stick spacing
     lo = u <= u.min() + 1e-6 * max(1.0, float(np.ptp(u)))
     t = derive._ray_to_ring(P[lo, :2], -fs0.strike, np.asarray(ds.boundary))
@@ -1238,3 +1241,217 @@ def test_contour_of_a_level_is_every_triangle_it_cuts(seed, at_vertex):
         got = derive._contour_xy(fs, float(z))
         assert np.array_equal(got, np.array(want).reshape(-1, 2, 2))
         assert len(got) == len(Tc)
+
+
+def _curved_sticks(rng, sigma: float, dip: float = 50.0, spacing: float = 100.0, step: float = 20.0,
+                   origin=(512_345.6, 7_012_345.6)):
+    """Fault sticks on a fault curved along strike (a bend of 50 m over its
+    2 km), each point moved across strike by N(0, sigma) m, at UTM-sized
+    coordinates; returns (points, stick labels, strike vector)."""
+    u = np.arange(-1000.0, 1000.0 + 1e-9, spacing)
+    z = np.arange(-50.0, -600.0, -step)
+    U, Z = (a.ravel() for a in np.meshgrid(u, z, indexing="ij"))
+    w = -Z / np.tan(np.radians(dip)) + 50.0 * (U / 1000.0) ** 2 + rng.normal(0.0, sigma, len(U))
+    a = np.radians(30.0)
+    s, n = np.array([np.sin(a), np.cos(a)]), np.array([np.cos(a), -np.sin(a)])
+    xy = np.asarray(origin) + U[:, None] * s + w[:, None] * n
+    return np.column_stack([xy, Z]), np.repeat(np.arange(len(u)), len(z)), s
+
+
+@pytest.mark.parametrize("sigma", [0.0, 1.0, 3.0, 10.0])
+def test_point_scatter_estimates_the_picking_error(sigma):
+    """derive._point_scatter: the scatter of fault picks about the fault
+    they sample (what FaultSurface.band widens the on-fault test by). A
+    horizontal error sigma across strike is sigma sin(dip) off the
+    surface; the estimate is within 20 % of it on 2,000 picks, and exact
+    picks of a fault curved along strike give millimetres (not the 1 m by
+    which they leave the plane of 30 neighbours)."""
+    rng = np.random.default_rng(7)
+    P, _, _ = _curved_sticks(rng, sigma)
+    est = derive._point_scatter(P)
+    want = sigma * np.sin(np.radians(50.0))
+    if sigma == 0.0:
+        assert est < 0.01, est
+    else:
+        assert abs(est - want) <= 0.2 * want, (est, want)
+    # Unlabelled and shuffled: the same points, the same estimate.
+    assert derive._point_scatter(P[rng.permutation(len(P))]) == pytest.approx(est, rel=1e-9)
+
+
+def test_strike_spacing_is_the_stick_spacing_with_or_without_labels():
+    """derive._strike_spacing, the default reach of fault_surface: for
+    sticks 100 m apart with points 20 m apart down each, 100 m, whether or
+    not the stick column is given (before, unlabelled points got a fifth of
+    the fault's length, 400 m here); one stick has none (0)."""
+    rng = np.random.default_rng(3)
+    P, st, s = _curved_sticks(rng, 0.0)
+    assert derive._strike_spacing(P, s) == pytest.approx(100.0, rel=0.02)
+    one = P[st == 3]
+    assert derive._strike_spacing(one, s) == 0.0
+    # Denser down the stick than the first neighbours reach (5 m: 40 of a
+    # stick's points are nearer than the next stick).
+    P5, _, _ = _curved_sticks(rng, 0.0, step=5.0)
+    assert derive._strike_spacing(P5, s) == pytest.approx(100.0, rel=0.02)
+    # A study area whose sides across strike lie 250 m past the last sticks:
+    # 2.5 spacings, a tip at both ends (a fifth of the length carried them).
+    n = np.array([s[1], -s[0]])
+    uw = np.array([[-1250.0, -2000.0], [1250.0, -2000.0], [1250.0, 2000.0], [-1250.0, 2000.0]])
+    ring = np.array([512_345.6, 7_012_345.6]) + uw[:, :1] * s + uw[:, 1:] * n
+    a, b = ring[1] - ring[0], ring[2] - ring[0]
+    if a[0] * b[1] - a[1] * b[0] < 0:
+        ring = ring[::-1]
+    for sticks in (st, None):
+        fs = derive.fault_surface(Fault("F", points=P, sticks=sticks), ring, (-700.0, 0.0))
+        assert fs.ends == ["inside", "inside"], (sticks is None, fs.ends)
+
+
+def test_noisy_fault_picks_leave_no_datum_by_the_fault_on_the_wrong_side():
+    """Random ground 27 as v2 with section picks, its fault sticks picked
+    with a 3 m error across strike (grounds.write_v2(fault_noise=3)): the
+    TIN through the picks had two footwall tops of L2 and L3, 4.5 and 7.3 m
+    under the true fault, above it; they went to the hanging wall, whose L2
+    and L3 cutoffs came out up to 10 m off, and the model's error near the
+    fault was 0.39x the true cutoffs' model's. Within the fault's band
+    (FaultSurface.band: 2.5 x the picks' scatter, here 2.5 x 2.5 m) a datum
+    now goes to the side whose surface passes nearer: none of the data
+    within 20 m of the true fault lies on the wrong side, 0.22x."""
+    from faultmesh import grounds
+
+    built = {}
+    out = grounds.evaluate_ground_v2(27, fault_noise=3.0, built=built)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    assert out["ratio"] <= 0.3, (out["error_v1"], out["error_v2"])
+    geo, ds = built["geo"], built["ds2"]
+    fs = built["derived"].derivation.faults["F1"].surface
+    sin_dip = np.sin(np.radians(geo.fault("F1").dip))
+    assert 0.8 * 3.0 * sin_dip <= fs.scatter <= 1.2 * 3.0 * sin_dip, fs.scatter
+    ring = np.asarray(ds.boundary)
+    frame = derive._side_frame(fs, ring, 2000.0, 20.0)
+    wrong = {}
+    for lay in ds.layers:
+        D = derive.layer_data(ds, lay)
+        gap, ext = derive._data_sides(fs, D, frame, 12)
+        hanging = geo.hanging(D[:, 0], D[:, 1], D[:, 2])[:, 0]
+        near = np.abs(D[:, 2] - geo.plane_z("F1", D[:, 0], D[:, 1])) < 20.0
+        wrong[lay] = int(np.sum(near & ~gap & (ext != 0) & ((ext > 0) != hanging)))
+    assert not any(wrong.values()), wrong
+
+
+def test_a_steep_faults_tin_is_projected_along_a_horizontal_axis():
+    """Random ground 27 as v2: F1 dips 77 degrees, its sticks 60-140 m
+    apart with picks every 15-35 m down each, 3.5-8 m apart horizontally.
+    Triangulated in the projection along z (the rule up to 80 degrees until
+    2026-12-04), Delaunay joined picks of different levels across sticks:
+    27 % of the TIN's area lay in triangles more than 45 degrees off the
+    fault's plane (a mean of 25 degrees). Along the axis nearest to the
+    normal (here y) 0.0002 % does, and the noisy picks of the same fault (3 m
+    across strike) stay under 1 %."""
+    from faultmesh import grounds
+
+    def folded(fs):
+        V, T = fs.own
+        n = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
+        a = np.linalg.norm(n, axis=1)
+        off = np.abs((n / a[:, None]) @ fs.normal) < np.cos(np.radians(45.0))
+        return float(np.average(off, weights=a))
+
+    import tempfile
+    from pathlib import Path
+
+    for noise, most in ((0.0, 1e-4), (3.0, 0.01)):
+        with tempfile.TemporaryDirectory() as tmp:
+            spec, geo, p1 = grounds.make_ground(27, Path(tmp))
+            ds1 = faultmesh.load_dataset(p1)
+            ds = faultmesh.load_dataset(grounds.write_v2(ds1, geo, spec, Path(tmp) / "v2",
+                                                         fault_noise=noise))
+        fs = derive.fault_surface(ds.faults[0], np.asarray(ds.boundary), (-1e3, 1e3))
+        assert fs.axis == int(np.argmax(np.abs(fs.normal))) != 2, fs.axis
+        assert folded(fs) <= most, (noise, folded(fs))
+        old = derive.fault_surface(ds.faults[0], np.asarray(ds.boundary), (-1e3, 1e3), max_z_dip=80.0)
+        assert old.axis == 2 and folded(old) > 0.2, folded(old)
+
+
+@pytest.mark.parametrize("sigma", [0.0, 3.0])
+def test_smoothed_picks_lie_nearer_the_fault_than_the_picks(sigma):
+    """derive._smoothed_points: noisy picks (3 m across strike) moved along
+    the projection axis onto the quadric of their neighbours lie at less
+    than half their error from the true fault (measured along the axis),
+    keeping their projected positions; exact picks (scatter below
+    ON_FAULT) stay as they are."""
+    rng = np.random.default_rng(11)
+    P, _, _ = _curved_sticks(rng, sigma)
+    exact, _, _ = _curved_sticks(np.random.default_rng(11), 0.0)
+    sc = derive._point_scatter(P)
+    c, n = derive._best_plane(P)
+    axis = int(np.argmax(np.abs(n)))
+    S = derive._smoothed_points(P, sc, axis)
+    others = [i for i in range(3) if i != axis]
+    assert np.array_equal(S[:, others], P[:, others])
+    if sigma == 0.0:
+        assert np.array_equal(S, P)
+        return
+    # The true fault along the axis at the picks' projected positions: the
+    # exact sticks' own points moved by the same error lie on it, so the
+    # error along the axis is the difference from the exact picks there.
+    def along_axis_error(Q):
+        from scipy.interpolate import LinearNDInterpolator
+        f = LinearNDInterpolator(exact[:, others], exact[:, axis])
+        t = f(Q[:, others])
+        ok = np.isfinite(t)
+        return float(np.sqrt(np.mean((Q[ok, axis] - t[ok]) ** 2)))
+
+    before, after = along_axis_error(P), along_axis_error(S)
+    assert after < 0.5 * before, (before, after)
+
+
+def test_noisy_picks_of_a_steep_normal_fault_keep_its_sections():
+    """Random ground 7 as v2, its fault sticks picked with a 3 m error across
+    strike: F2 dips 74 degrees, its cutoffs of L1 a heave of about 8 m
+    apart. Through the picks as they are (projected along x), the TIN and so
+    both cutoff lines zigzagged by the error and crossed: four sections
+    dropped ("cutoffs made the patch cross itself"), 1.76x the true
+    cutoffs' model. The picks smoothed (derive._smoothed_points), no section
+    is dropped and the model is within the issue's 1.25x (0.78x)."""
+    from faultmesh import grounds
+
+    built = {}
+    out = grounds.evaluate_ground_v2(7, fault_noise=3.0, built=built)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    fr = built["derived"].derivation.faults["F2"]
+    assert fr.surface.axis == 0 and fr.surface.scatter > 2.0
+    assert not [w for w in fr.warnings if "dropped from section" in w], fr.warnings
+    assert out["ratio"] <= 1.0, (out["error_v1"], out["error_v2"])
+
+
+def test_a_row_of_picks_nudged_off_its_line_closes_no_sliver_on_the_outline():
+    """Picks of one level lie on one line in a projection along x or y;
+    moved by 1e-9 m they closed thin triangles along the TIN's outline
+    whose orientation was rounding's, and a contour at that level zigzagged
+    through them (random ground 91 as v2: every L4 section of a steep
+    normal fault dropped under one such nudge;
+    test_grounds_v2.test_derivation_takes_the_same_decisions_whatever_the_last_bits_of_the_fault_points).
+    derive._peel_hull_slivers takes them off: the nudged picks' TIN has
+    the exact picks' triangle count and no outline triangle thinner than
+    a millimetre."""
+    y = np.arange(0.0, 1000.0 + 1e-9, 100.0)
+    z = np.arange(-100.0, -600.0, -25.0)
+    Y, Z = (a.ravel() for a in np.meshgrid(y, z))
+    P = np.column_stack([512_000.0 + 0.3 * Z, 7_000_000.0 + Y, Z])   # dipping west, along x
+    ring = np.array([[511_000.0, 6_999_000.0], [513_500.0, 6_999_000.0],
+                     [513_500.0, 7_002_000.0], [511_000.0, 7_002_000.0]])
+    exact = derive.fault_surface(Fault("F", points=P), ring, (-700.0, 0.0), reach=0.0)
+    assert exact.axis == 0
+    for draw in range(5):
+        Q = P + np.random.default_rng(draw).uniform(-1e-9, 1e-9, P.shape)
+        fs = derive.fault_surface(Fault("F", points=Q), ring, (-700.0, 0.0), reach=0.0)
+        V, T = fs.own
+        assert len(T) == len(exact.own[1]), (draw, len(T), len(exact.own[1]))
+        uv = V[:, 1:]
+        e = np.vstack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
+        opp = np.concatenate([T[:, 2], T[:, 0], T[:, 1]])
+        _, inv, cnt = np.unique(np.sort(e, axis=1), axis=0, return_inverse=True, return_counts=True)
+        outer = cnt[np.ravel(inv)] == 1
+        a, b, c = uv[e[outer, 0]], uv[e[outer, 1]], uv[opp[outer]]
+        ab = b - a
+        h = np.abs(ab[:, 0] * (c[:, 1] - a[:, 1]) - ab[:, 1] * (c[:, 0] - a[:, 0])) / np.hypot(*ab.T)
+        assert h.min() > 1e-3, (draw, h.min())

@@ -125,8 +125,11 @@ def test_derived_fault(full):
     _, _, _, derived, _ = full
     fr = derived.derivation.faults["claudius_fault"]
     s = fr.surface
-    # A steep, west-dipping, roughly N-S striking fault, triangulated along z.
-    assert 60.0 < s.dip < 78.0 and s.axis == 2
+    # A steep, west-dipping, roughly N-S striking fault, triangulated along
+    # x (the axis nearest to its normal); its 93 points scatter by about
+    # 6 m about a smooth surface (derive._point_scatter).
+    assert 60.0 < s.dip < 78.0 and s.axis == 0
+    assert 4.0 < s.scatter < 8.0, s.scatter
     assert 250.0 < float(np.degrees(np.arctan2(*s.dip_dir)) % 360.0) < 280.0
     assert fr.kind == "normal"
     # Only the deepest horizon is cut: the others pass above the fault's
@@ -155,9 +158,11 @@ def test_fading_throw_fit_of_the_other_sense_gives_way_to_the_own_surfaces(full)
     # 8 sections a spacing apart, the halfway sections worth keeping
     # (derive.REFINE_SHARE) and one a tenth of a spacing inside the end on
     # the boundary (derive.END_SECTION_INSET; the other end is a tip), where
-    # a cutoff of val_330 lies outside the study area (not cut).
+    # a cutoff of val_330 lies at the edge of the study area: not cut with
+    # the fault's TIN through its points as given, cut since the TIN
+    # follows their smoothed positions (derive._smoothed_points).
     assert fr.ends == ["tip", "boundary"]
-    assert 9 < len(p["u"]) < 16 and p["cut"][:-1].all() and not p["cut"][-1]
+    assert 9 < len(p["u"]) < 16 and p["cut"][:-1].all()
     # Every section keeps a throw of the normal sense (at least min_throw, 3 m).
     assert (p["throw"] >= 3.0).all(), p["throw"]
     assert not [w for w in fr.warnings if "has the sign of a reverse fault" in w], fr.warnings
