@@ -940,27 +940,26 @@ def _quadric_residuals(Q: np.ndarray, at: np.ndarray, tree) -> Tuple[np.ndarray,
         N = Q[idx[:, 1:]]                                  # (m, k, 3): the others
         c = N.mean(axis=1)
         A = N - c[:, None, :]
-        w, v = np.linalg.eigh(np.einsum("mki,mkj->mij", A, A))
+        w, v = np.linalg.eigh(np.matmul(A.transpose(0, 2, 1), A))
         # Neighbours along one line (a stick) leave the plane undetermined.
         ok = w[:, 1] > 1e-6 * w[:, 2]
-        e1, e2, nrm = v[ok, :, 2], v[ok, :, 1], v[ok, :, 0]
-        A, p = A[ok], Q[sel][ok] - c[ok]
-        a, b, h = (np.einsum("mki,mi->mk", A, e) for e in (e1, e2, nrm))
+        A, p, v = A[ok], Q[sel][ok] - c[ok], v[ok]
+        ab = np.matmul(A, v)                               # (m, k, 3): along n, e2, e1
+        pv = np.matmul(p[:, None, :], v)[:, 0, :]
         scale = np.sqrt(np.maximum(w[ok, 2], 1e-300) / k)[:, None]
-        a, b = a / scale, b / scale
+        a, b, h = ab[..., 2] / scale, ab[..., 1] / scale, ab[..., 0]
         G = np.stack([np.ones_like(a), a, b, a * a, a * b, b * b], axis=-1)     # (m, k, 6)
-        M = np.einsum("mki,mkj->mij", G, G)
-        good = np.zeros(len(M), dtype=bool)
-        cond = np.linalg.cond(M) if len(M) else np.zeros(0)
-        good = np.isfinite(cond) & (cond < 1e10)
-        coef = np.linalg.solve(M[good], np.einsum("mki,mk->mi", G[good], h[good])[..., None])[..., 0]
-        pa = np.einsum("mi,mi->m", p[good], e1[good]) / scale[good, 0]
-        pb = np.einsum("mi,mi->m", p[good], e2[good]) / scale[good, 0]
-        ph = np.einsum("mi,mi->m", p[good], nrm[good])
+        M = np.matmul(G.transpose(0, 2, 1), G)
+        ev = np.linalg.eigvalsh(M) if len(M) else np.zeros((0, 6))
+        # Condition number of the symmetric normal matrix: its eigenvalues.
+        good = (ev[:, 0] > 0) & (ev[:, -1] < 1e10 * np.maximum(ev[:, 0], 1e-300))
+        coef = np.linalg.solve(M[good], np.matmul(G[good].transpose(0, 2, 1), h[good][..., None]))[..., 0]
+        pa, pb, ph = pv[good, 2] / scale[good, 0], pv[good, 1] / scale[good, 0], pv[good, 0]
         g = np.stack([np.ones_like(pa), pa, pb, pa * pa, pa * pb, pb * pb], axis=-1)
+        nrm = v[good, :, 0]
         rows.append(c0 + np.flatnonzero(ok)[good])
         res.append(ph - np.einsum("mi,mi->m", g, coef))
-        nrms.append(nrm[good])
+        nrms.append(nrm)
     if not rows:
         return np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 3))
     return np.concatenate(rows), np.concatenate(res), np.vstack(nrms)
@@ -1340,9 +1339,9 @@ def _peel_hull_slivers(P: np.ndarray, T: np.ndarray, iu: int, iv: int) -> np.nda
     for _ in range(len(T)):
         e = np.vstack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
         opp = np.concatenate([T[:, 2], T[:, 0], T[:, 1]])
-        key = np.sort(e, axis=1)
-        _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-        outer = cnt[np.ravel(inv)] == 1
+        key = np.minimum(e[:, 0], e[:, 1]) * np.int64(len(P)) + np.maximum(e[:, 0], e[:, 1])
+        _, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
+        outer = cnt[inv] == 1
         a, b, c = uv[e[outer, 0]], uv[e[outer, 1]], uv[opp[outer]]
         ab = b - a
         L = np.hypot(ab[:, 0], ab[:, 1])
