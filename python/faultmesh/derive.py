@@ -926,9 +926,16 @@ SCATTER_NEIGHBOURS = 64
 #: give no scatter: twice the quadric's six terms.
 SCATTER_MIN_NEIGHBOURS = 12
 
-#: :func:`_point_scatter` estimates from at most this many points (evenly
-#: taken): a median of 2,000 residuals is within a few per cent.
-SCATTER_SAMPLE = 2000
+#: :func:`_point_scatter` and :func:`_strike_spacing` take their medians
+#: over at most this many points (evenly taken, :func:`_even_sample`): a
+#: median of 2,000 values is within a few per cent of all of them.
+MEDIAN_SAMPLE = 2000
+
+
+def _even_sample(n: int) -> np.ndarray:
+    """Indices of at most :data:`MEDIAN_SAMPLE` of ``n`` items, evenly
+    spread (all of them when there are no more)."""
+    return np.unique(np.linspace(0, n - 1, min(n, MEDIAN_SAMPLE)).round().astype(np.int64))
 
 
 def _quadric_residuals(Q: np.ndarray, at: np.ndarray, tree) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -989,7 +996,37 @@ def _quadric_residuals(Q: np.ndarray, at: np.ndarray, tree) -> Tuple[np.ndarray,
     return np.concatenate(rows), np.concatenate(res), np.vstack(nrms)
 
 
-def _point_scatter(P: np.ndarray) -> float:
+class _Picks:
+    """A fault's distinct picks, centred, with their tree and (once asked)
+    every pick's quadric residual (:func:`_quadric_residuals`): built once
+    per fault surface, for the scatter estimate and the smoothing both
+    (each of which set them up again before). Duplicates would be one
+    another's nearest neighbours: the fits are of the distinct picks,
+    ``inv`` maps every given pick to its own."""
+
+    def __init__(self, P: np.ndarray) -> None:
+        from scipy.spatial import cKDTree
+
+        self.U, inv = np.unique(np.asarray(P, dtype=np.float64), axis=0, return_inverse=True)
+        self.inv = np.ravel(inv)
+        self.k = min(SCATTER_NEIGHBOURS, len(self.U) - 2)
+        self.Q = self.U - self.U.mean(axis=0)
+        self.tree = cKDTree(self.Q) if self.k >= SCATTER_MIN_NEIGHBOURS else None
+        self._all = None
+
+    def residuals(self, at: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:func:`_quadric_residuals` of the picks ``at`` (all of them:
+        computed once and kept)."""
+        if self.tree is None:
+            return np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 3))
+        if len(at) == len(self.Q):
+            if self._all is None:
+                self._all = _quadric_residuals(self.Q, np.arange(len(self.Q)), self.tree)
+            return self._all
+        return _quadric_residuals(self.Q, at, self.tree)
+
+
+def _point_scatter(P: np.ndarray, picks: Optional[_Picks] = None) -> float:
     """Robust estimate (m) of the scatter of fault points ``P`` (n, 3)
     about the smooth surface they sample: each point's distance from the
     quadric fitted to its :data:`SCATTER_NEIGHBOURS` nearest other points
@@ -1001,22 +1038,17 @@ def _point_scatter(P: np.ndarray) -> float:
     rounding. 0 when fewer than ``SCATTER_MIN_NEIGHBOURS`` + 2 points, or
     none with neighbours that span a surface. (With the neighbours' weights the
     correction is approximate: a picking error of 1, 3 or 10 m across
-    strike on 2,000 picks of a curved fault is estimated 5-8 % low.)"""
-    from scipy.spatial import cKDTree
-
-    P = np.unique(np.asarray(P, dtype=np.float64), axis=0)
-    k = min(SCATTER_NEIGHBOURS, len(P) - 2)
-    if k < SCATTER_MIN_NEIGHBOURS:
-        return 0.0
-    Q = P - P.mean(axis=0)
-    pick = np.unique(np.linspace(0, len(Q) - 1, min(len(Q), SCATTER_SAMPLE)).round().astype(np.int64))
-    _, r, _ = _quadric_residuals(Q, pick, cKDTree(Q))
+    strike on 2,000 picks of a curved fault is estimated 5-8 % low.)
+    ``picks``: ``P``'s :class:`_Picks`, where the caller has them."""
+    picks = _Picks(P) if picks is None else picks
+    _, r, _ = picks.residuals(_even_sample(len(picks.Q)))
     if not len(r):
         return 0.0
-    return float(1.4826 * np.median(np.abs(r)) / math.sqrt(1.0 + 6.0 / k))
+    return float(1.4826 * np.median(np.abs(r)) / math.sqrt(1.0 + 6.0 / picks.k))
 
 
-def _smoothed_points(P: np.ndarray, scatter: float, axis: int) -> np.ndarray:
+def _smoothed_points(P: np.ndarray, scatter: float, axis: int,
+                     picks: Optional[_Picks] = None) -> np.ndarray:
     """Fault points ``P`` (n, 3) whose scatter (:func:`_point_scatter`)
     exceeds :data:`ON_FAULT`, each moved along the projection ``axis`` of
     the fault's TIN onto the quadric of its neighbours
@@ -1031,19 +1063,12 @@ def _smoothed_points(P: np.ndarray, scatter: float, axis: int) -> np.ndarray:
     apart, crossed where picks 3 m off across strike zigzagged them: random
     ground 7 as v2, four sections of F2 dropped). Exact picks (scatter of
     their rounding) are left as they are; a point without a fitted quadric
-    too."""
-    from scipy.spatial import cKDTree
-
+    too. ``picks``: ``P``'s :class:`_Picks`, where the caller has them."""
     P = np.asarray(P, dtype=np.float64)
     if not scatter > ON_FAULT:
         return P
-    # Duplicates would be one another's nearest neighbours: fitted on the
-    # distinct points, the result mapped back to every copy.
-    U, inv = np.unique(P, axis=0, return_inverse=True)
-    if len(U) < SCATTER_MIN_NEIGHBOURS + 2:
-        return P
-    Q = U - U.mean(axis=0)
-    rows, r, nrm = _quadric_residuals(Q, np.arange(len(Q)), cKDTree(Q))
+    picks = _Picks(P) if picks is None else picks
+    rows, r, nrm = picks.residuals(np.arange(len(picks.Q)))
     # The axis is the one nearest to the fault's normal, so |n_axis| is
     # about 1/sqrt(3) at least where the surface is smooth; a local normal
     # nearly across the axis (a fold the axis cannot show) moves nothing.
@@ -1051,10 +1076,10 @@ def _smoothed_points(P: np.ndarray, scatter: float, axis: int) -> np.ndarray:
     ok = np.abs(na) >= 0.5
     # The move applied to the given coordinate: the other two stay the
     # picks' to the bit (not centred and put back, which rounds them).
-    shift = np.zeros(len(U))
+    shift = np.zeros(len(picks.U))
     shift[rows[ok]] = r[ok] / na[ok]
     out = P.copy()
-    out[:, axis] -= shift[np.ravel(inv)]
+    out[:, axis] -= shift[picks.inv]
     return out
 
 
@@ -1108,8 +1133,7 @@ def _strike_spacing(P: np.ndarray, strike: np.ndarray) -> float:
     Q = np.column_stack([P[:, :2] @ np.asarray(strike, dtype=np.float64), P[:, 2]])
     Q -= Q.mean(axis=0)
     tree = cKDTree(Q)
-    # A median of 2,000 points' distances (evenly taken) stands for all.
-    pick = np.unique(np.linspace(0, len(Q) - 1, min(len(Q), SCATTER_SAMPLE)).round().astype(np.int64))
+    pick = _even_sample(len(Q))
     best = np.full(len(pick), np.nan)
     todo = np.arange(len(pick))
     k = 16
@@ -1229,10 +1253,11 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
                                 f"triangulated in the projection along {'xyz'[axis]}: {e}") from None
         return np.asarray(d, dtype=np.int64).reshape(-1, 3)
 
-    scatter = _point_scatter(P)
+    picks = _Picks(P)
+    scatter = _point_scatter(P, picks)
     given_points = P
     if given is None:
-        P = _smoothed_points(P, scatter, axis)
+        P = _smoothed_points(P, scatter, axis, picks)
         P = _densify_sticks(P, fault.sticks if source == "sticks" else
                             (np.concatenate([np.full(len(np.asarray(t.plane).reshape(-1, 3)), i)
                                              for i, t in enumerate(fault.traces)])
@@ -1368,23 +1393,24 @@ def _peel_hull_slivers(P: np.ndarray, T: np.ndarray, iu: int, iv: int) -> np.nda
     that level zigzags through them (random ground 91 as v2: a normal
     fault's L4 patch with 48 triangles turned over, every section of L4
     dropped, under one such nudge of the fault points and not without)."""
+    from ._core import halfedge_twins
+
     uv = P[:, [iu, iv]]
     spread = float(np.ptp(uv, axis=0).max()) if len(uv) else 0.0
     tol = SLIVER * max(spread, 1e-300)
     for _ in range(len(T)):
-        e = np.vstack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
-        opp = np.concatenate([T[:, 2], T[:, 0], T[:, 1]])
-        key = np.minimum(e[:, 0], e[:, 1]) * np.int64(len(P)) + np.maximum(e[:, 0], e[:, 1])
-        _, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
-        outer = cnt[inv] == 1
-        a, b, c = uv[e[outer, 0]], uv[e[outer, 1]], uv[opp[outer]]
+        # The library's one adjacency: half-edge 3 t + k runs from corner k
+        # to corner k + 1 of triangle t, -1 its twin on the outline.
+        outer = np.flatnonzero(halfedge_twins(T, n_vertices=len(P), orientation="any") < 0)
+        t, k = outer // 3, outer % 3
+        a, b, c = uv[T[t, k]], uv[T[t, (k + 1) % 3]], uv[T[t, (k + 2) % 3]]
         ab = b - a
         L = np.hypot(ab[:, 0], ab[:, 1])
         h = np.abs(ab[:, 0] * (c[:, 1] - a[:, 1]) - ab[:, 1] * (c[:, 0] - a[:, 0])) / np.maximum(L, 1e-300)
-        thin = np.flatnonzero(outer)[h <= tol] % len(T)
+        thin = np.unique(t[h <= tol])
         if not len(thin) or len(thin) >= len(T):
             return T
-        T = np.delete(T, np.unique(thin), axis=0)
+        T = np.delete(T, thin, axis=0)
     return T
 
 
