@@ -1288,6 +1288,161 @@ def test_point_scatter_estimates_the_picking_error(sigma):
         assert abs(est_few - want) <= 0.35 * want, (est_few, want)
 
 
+def _arc_fault(chord: float, sagitta: float, depth: float, dip: float = 90.0, turn: float = 0.0,
+               origin=(512_345.6, 4_123_456.7)):
+    """Sticks on a fault whose trace is a circular arc (``chord`` m long,
+    bowing by ``sagitta`` m), 11 sticks of 7 picks over ``depth`` m, dipping
+    ``dip`` degrees towards the arc's centre (a cone), the whole turned by
+    ``turn`` degrees, at UTM-sized coordinates. Returns (points, stick
+    labels, radius at elevation z, the arc's centre (2,), its half angle,
+    the unit vector across its chord)."""
+    R = (chord ** 2 / 4 + sagitta ** 2) / (2 * sagitta)
+    half = float(np.arcsin(chord / 2 / R))
+    a = np.radians(turn)
+    across = np.array([np.sin(a), np.cos(a)])
+    centre = np.asarray(origin) + np.array([1500.0, 1000.0]) - (R - sagitta) * across
+
+    def radius(z):
+        return R + (np.asarray(z) + depth / 2) / np.tan(np.radians(dip))
+
+    th, z = (v.ravel() for v in np.meshgrid(np.linspace(-half, half, 11), np.linspace(-depth, 0.0, 7)))
+    r = radius(z)
+    P = np.column_stack([centre[0] + r * np.sin(th + a), centre[1] + r * np.cos(th + a), z])
+    return P, np.tile(np.arange(11), 7), radius, centre, half, across
+
+
+@pytest.mark.parametrize("chord,sagitta,depth,dip,turn", [
+    (500.0, 200.0, 150.0, 90.0, 0.0), (800.0, 300.0, 100.0, 90.0, 10.0),
+    (800.0, 390.0, 100.0, 80.0, 0.0), (1200.0, 500.0, 150.0, 75.0, -10.0)])
+def test_a_fault_bent_along_strike_is_projected_across_its_chord(chord, sagitta, depth, dip, turn):
+    """derive._mean_orientation: a fault whose trace bends by 120-154
+    degrees along strike is triangulated in the projection across its
+    chord, where it is a function. Regression: a vertical fault bending by
+    200 m over 500 m of strike, picked over 150 m of depth, spans less in z
+    than across its bend; the normal of its least-squares plane was
+    vertical and the fault was refused as "horizontal plane" (the fuzz of
+    the nineteenth stop: near-vertical bent faults refused or projected
+    along z); the sign-free sum of the local normals alone led along the
+    chord of a 154-degree bend, where the surface folds. The TIN covers the
+    arc surface (area within 2 %; every triangle within the sagitta of a
+    chord between sticks of the arc) and splits data inside the arc from
+    data outside it."""
+    P, st_, radius, centre, half, across = _arc_fault(chord, sagitta, depth, dip, turn)
+    ring = np.array([[0.0, 0.0], [3000.0, 0.0], [3000.0, 2000.0], [0.0, 2000.0]]) + P[:, :2].min(axis=0) - 1000.0
+    warns = []
+    fs = derive.fault_surface(Fault("F", points=P, sticks=st_), ring, (-depth - 50.0, 50.0), warnings=warns)
+    assert not any("turns past square" in w for w in warns)
+    # Unlabelled and shuffled: the same orientation.
+    fs2 = derive.fault_surface(Fault("F", points=P[::-1]), ring, (-depth - 50.0, 50.0))
+    assert fs2.axis == fs.axis and np.allclose(fs2.normal, fs.normal, atol=1e-9)
+    h = fs.normal[:2] / np.hypot(*fs.normal[:2])
+    assert abs(h @ across) > 0.999 and fs.axis == int(np.argmax(np.abs(across)))
+    V, T = fs.own
+    area = 0.5 * np.linalg.norm(np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]]), axis=1).sum()
+    slant = depth / np.sin(np.radians(dip))
+    assert area == pytest.approx(2 * half * float(radius(-depth / 2)) * slant, rel=0.02)
+    C = V[T].mean(axis=1)
+    off = np.abs(np.hypot(*(C[:, :2] - centre).T) - radius(C[:, 2]))
+    step = 2 * half / 10 * float(radius(-depth))
+    assert off.max() < step ** 2 / (8 * float(radius(0.0))) + 1.0, off.max()
+    # Data 30 m inside and outside the arc, at mid-depth: opposite sides.
+    th = np.linspace(-0.8 * half, 0.8 * half, 9)
+    a = np.radians(turn)
+    r0 = float(radius(-depth / 2))
+    q = [np.column_stack([centre[0] + (r0 + d) * np.sin(th + a), centre[1] + (r0 + d) * np.cos(th + a),
+                          np.full(len(th), -depth / 2)]) for d in (-30.0, 30.0)]
+    inner, outer = (fs.side(x)[1] for x in q)    # with the skirt beyond the extent
+    assert len(set(inner)) == 1 and len(set(outer)) == 1 and inner[0] == -outer[0] != 0
+
+
+@pytest.mark.parametrize("chord,sagitta,depth,dip,turn", [
+    (500.0, 200.0, 150.0, 90.0, 40.0), (800.0, 390.0, 100.0, 80.0, -20.0)])
+def test_a_fault_bent_past_square_to_every_axis_is_a_warning(chord, sagitta, depth, dip, turn):
+    """A fault bent by 150 degrees and turned 20-40 degrees off the axes
+    has no coordinate axis along which it is a function: its TIN, in the
+    projection along the nearest one, joins picks across the fold (1.3-1.6
+    times the arc's area). The exact predicates need an axis projection, so
+    the fault is still triangulated, and the report says where and why
+    (before: nothing)."""
+    P, st_, *_ = _arc_fault(chord, sagitta, depth, dip, turn)
+    ring = np.array([[0.0, 0.0], [3000.0, 0.0], [3000.0, 2000.0], [0.0, 2000.0]]) + P[:, :2].min(axis=0) - 1000.0
+    warns = []
+    fs = derive.fault_surface(Fault("F", points=P, sticks=st_), ring, (-depth - 50.0, 50.0), warnings=warns)
+    assert any(w.startswith(f"fault 'F' turns past square to the {'xyz'[fs.axis]} axis in") for w in warns), warns
+
+
+@pytest.mark.parametrize("sigma", [0.0, 3.0, 10.0])
+def test_mean_orientation_of_picks_of_a_plane_is_its_normal(sigma):
+    """derive._mean_orientation on sticks of a plane dipping 50 degrees
+    (striking 30 degrees, UTM-sized coordinates) picked with an error of
+    0, 3 or 10 m across strike: within 0.5 degrees of the plane's normal
+    (as the least-squares plane is), upward; unchanged by the picks' order
+    and moved by less than 1e-7 (of a unit vector) by 1e-9 m nudges."""
+    rng = np.random.default_rng(11)
+    u = np.arange(-1000.0, 1000.0 + 1e-9, 100.0)
+    z = np.arange(-50.0, -600.0, -20.0)
+    U, Z = (a.ravel() for a in np.meshgrid(u, z, indexing="ij"))
+    w = -Z / np.tan(np.radians(50.0)) + rng.normal(0.0, sigma, len(U))
+    a = np.radians(30.0)
+    s_, n_ = np.array([np.sin(a), np.cos(a)]), np.array([np.cos(a), -np.sin(a)])
+    P = np.column_stack([np.array([512_345.6, 7_012_345.6]) + U[:, None] * s_ + w[:, None] * n_, Z])
+    want = np.r_[np.sin(np.radians(50.0)) * n_, np.cos(np.radians(50.0))]
+    _, got, local = derive._mean_orientation(P, derive._Picks(P))
+    assert got[2] > 0 and np.degrees(np.arccos(min(1.0, got @ want))) < 0.5
+    assert len(local) > 0.9 * len(P) and (local @ got > 0).all()
+    perm = rng.permutation(len(P))
+    _, got2, _ = derive._mean_orientation(P[perm], derive._Picks(P[perm]))
+    assert np.allclose(got2, got, atol=1e-12)
+    Pn = P + rng.uniform(-1e-9, 1e-9, P.shape)
+    _, got3, _ = derive._mean_orientation(Pn, derive._Picks(Pn))
+    assert np.linalg.norm(got3 - got) < 1e-7
+
+
+def test_a_dataset_with_a_vertical_fault_bent_along_strike_builds():
+    """A vertical fault bent by 200 m over 500 m of strike (picked over 150
+    m of depth) inside a 3 km x 2 km area, two layers dropped by up to 20 m
+    inside the arc (tapering to its ends), given as layer points: the fault
+    is derived with tips at both ends, the model builds and passes check(),
+    and its layers' mean |dz| within 200 m of the fault is under 1 m
+    (0.53 m measured; a model of the same data without the fault 2.9 m).
+    Regression: derive refused the fault ("its points lie in a horizontal
+    plane")."""
+    from faultmesh.build import surface_z
+
+    P, st_, radius, centre, half, across = _arc_fault(500.0, 200.0, 150.0)
+    off = P[:, :2].min(axis=0) - np.array([1000.0, 1000.0])
+    ring = np.array([[0.0, 0.0], [3000.0, 0.0], [3000.0, 2000.0], [0.0, 2000.0]]) + off
+    rng = np.random.default_rng(0)
+    g = np.stack(np.meshgrid(np.arange(50.0, 3000.0, 100.0), np.arange(50.0, 2000.0, 100.0)), -1)
+    g = g.reshape(-1, 2) + rng.uniform(-30.0, 30.0, (g.size // 2, 2)) + off
+    fine = np.stack(np.meshgrid(np.arange(0.0, 3000.0, 10.0), np.arange(0.0, 2000.0, 10.0)), -1)
+    fine = fine.reshape(-1, 2) + off
+
+    def truth(xy, z0):
+        d = xy - centre
+        ang = np.arctan2(d[:, 0], d[:, 1])
+        inside = (np.hypot(*d.T) < radius(0.0)) & (np.abs(ang) < half)
+        return z0 + 0.01 * (xy[:, 0] - off[0]) - np.where(inside, 20.0 * np.clip(1 - (ang / half) ** 2, 0, 1), 0.0), inside
+
+    layers = {"A": -60.0, "B": -100.0}
+    ds = Dataset(name="bent", layers=list(layers), boundary=ring,
+                 points={n: np.column_stack([g, truth(g, z0)[0]]) for n, z0 in layers.items()},
+                 faults=[Fault("F", None, points=P, sticks=st_)])
+    d = derive.derive_faults(ds)
+    assert d.derivation.faults["F"].as_dict()["ends"] == ["tip", "tip"]
+    m = faultmesh.build_model(d)
+    m.check()
+    errs = []
+    for n, z0 in layers.items():
+        near = np.abs(np.hypot(*(fine - centre).T) - radius(0.0))
+        sel = (near < 200.0) & (near > 5.0)
+        t, _ = truth(fine[sel], z0)
+        z = surface_z(m.surfaces[n].vertices, m.surfaces[n].triangles, fine[sel])[1]
+        assert np.isfinite(z).mean() > 0.99
+        errs.append(np.abs(z - t)[np.isfinite(z)])
+    assert np.concatenate(errs).mean() < 1.0
+
+
 def test_strike_spacing_is_the_stick_spacing_with_or_without_labels():
     """derive._strike_spacing, the default reach of fault_surface: for
     sticks 100 m apart with points 20 m apart down each, 100 m, whether or
