@@ -965,6 +965,25 @@ def _even_sample(n: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, min(n, MEDIAN_SAMPLE)).round().astype(np.int64))
 
 
+def _weighted_planes(Q: np.ndarray, dist: np.ndarray, idx: np.ndarray, k: int):
+    """The planes of points' ``k`` nearest others, from a k-d tree query of
+    ``k`` + 2 (``dist``, ``idx``: the point itself first, the (k+2)-th the
+    reach): each neighbour weighted by the tricube of its distance over the
+    reach (local regression, LOESS: the farthest weigh almost nothing, so
+    which of two equidistant points is the last neighbour moves the plane
+    by almost nothing). Returns (A (m, k, 3) the neighbours about their
+    weighted centroid c (m, 3), the weights (m, k), the eigenvalues (m, 3)
+    and eigenvectors (m, 3, 3) of the weighted covariance, ascending: the
+    first the plane's normal)."""
+    N = Q[idx[:, 1:k + 1]]                             # (m, k, 3): the others
+    reach = np.maximum(dist[:, k + 1:k + 2], 1e-300)
+    w8 = (1.0 - np.clip(dist[:, 1:k + 1] / reach, 0.0, 1.0) ** 3) ** 3     # (m, k)
+    c = np.einsum("mk,mki->mi", w8, N) / np.maximum(w8.sum(axis=1, keepdims=True), 1e-300)
+    A = N - c[:, None, :]
+    w, v = np.linalg.eigh(np.matmul((A * w8[..., None]).transpose(0, 2, 1), A))
+    return A, c, w8, w, v
+
+
 def _quadric_residuals(Q: np.ndarray, at: np.ndarray, tree) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For the points ``Q[at]`` (``Q`` (n, 3) centred, ``tree`` its
     cKDTree): each one's signed distance from the quadric (height over the
@@ -990,17 +1009,9 @@ def _quadric_residuals(Q: np.ndarray, at: np.ndarray, tree) -> Tuple[np.ndarray,
     for c0 in range(0, len(at), 4096):
         sel = at[c0:c0 + 4096]
         dist, idx = tree.query(Q[sel], k=k + 2)
-        N = Q[idx[:, 1:k + 1]]                             # (m, k, 3): the others
-        reach = np.maximum(dist[:, k + 1:k + 2], 1e-300)
-        w8 = (1.0 - np.clip(dist[:, 1:k + 1] / reach, 0.0, 1.0) ** 3) ** 3     # (m, k)
-        sw = w8.sum(axis=1, keepdims=True)
-        ok0 = sw[:, 0] > 0
-        c = np.einsum("mk,mki->mi", w8, N) / np.maximum(sw, 1e-300)
-        A = N - c[:, None, :]
-        Aw = A * w8[..., None]
-        w, v = np.linalg.eigh(np.matmul(Aw.transpose(0, 2, 1), A))
+        A, c, w8, w, v = _weighted_planes(Q, dist, idx, k)
         # Neighbours along one line (a stick) leave the plane undetermined.
-        ok = ok0 & (w[:, 1] > 1e-6 * w[:, 2])
+        ok = (w8.sum(axis=1) > 0) & (w[:, 1] > 1e-6 * w[:, 2])
         A, p, v, w8, w = A[ok], Q[sel][ok] - c[ok], v[ok], w8[ok], w[ok]
         ab = np.matmul(A, v)                               # (m, k, 3): along n, e2, e1
         pv = np.matmul(p[:, None, :], v)[:, 0, :]
@@ -1093,11 +1104,7 @@ def _mean_orientation(P: np.ndarray, picks: _Picks) -> Tuple[np.ndarray, np.ndar
     for k in ks:
         if k < 3:
             continue
-        N = Q[idx[:, 1:k + 1]]
-        w8 = (1.0 - np.clip(dist[:, 1:k + 1] / np.maximum(dist[:, k + 1:k + 2], 1e-300), 0.0, 1.0) ** 3) ** 3
-        c = np.einsum("mk,mki->mi", w8, N) / np.maximum(w8.sum(axis=1, keepdims=True), 1e-300)
-        A = N - c[:, None, :]
-        lam, vec = np.linalg.eigh(np.matmul((A * w8[..., None]).transpose(0, 2, 1), A))
+        _, _, _, lam, vec = _weighted_planes(Q, dist[:, :k + 2], idx[:, :k + 2], k)
         normals.append(vec[:, :, 0])
         planar.append((lam[:, 1] - lam[:, 0]) / np.maximum(lam[:, 2], 1e-300))
     # Per pick, the scales blended by their planarity squared, each turned
