@@ -866,14 +866,35 @@ class FaultSurface:
         return np.asarray(s), np.asarray(e)
 
 
+#: A fault normal whose z component is at most this is vertical: which way
+#: it points is then a convention (:func:`_upward`); components within this
+#: of each other tie (the projection axis, the vertical convention). A thousandth (0.06
+#: degrees from vertical, below what fault picks resolve): the mean of the
+#: local orientations of an exactly vertical fault bent along strike leans
+#: by 1e-5 to 1e-4 (its top and bottom rows' and its ends' neighbourhoods
+#: are one-sided), by a sign that 1e-9 m nudges of the picks changed, and
+#: with it the hanging wall, the kind and the sections (a threshold of
+#: 1e-12, and then 1e-9, flipped them).
+VERTICAL = 1e-3
+
+
+def _upward(n: np.ndarray) -> np.ndarray:
+    """The unit normal ``n`` pointing up; a vertical one (|n_z| <=
+    :data:`VERTICAL`) pointing to + along its larger horizontal component
+    (x at ties within :data:`VERTICAL` of each other, for the same reason)."""
+    if abs(n[2]) > VERTICAL:
+        key = n[2]
+    else:
+        key = n[0] if abs(n[0]) >= abs(n[1]) - VERTICAL else n[1]
+    return n if key >= 0 else -n
+
+
 def _best_plane(P: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-    """(centre, upward unit normal) of the least-squares plane (orthogonal
-    distances). A vertical plane's normal is made to point to +x (or +y)."""
+    """(centre, upward unit normal, :func:`_upward`) of the least-squares
+    plane (orthogonal distances)."""
     c = P.mean(axis=0)
     _, _, vt = np.linalg.svd(P - c, full_matrices=False)
-    n = vt[-1]
-    key = n[2] if abs(n[2]) > 1e-12 else (n[0] if abs(n[0]) > 1e-12 else n[1])
-    return c, (n if key >= 0 else -n)
+    return c, _upward(vt[-1])
 
 
 #: At most this many pieces per stick segment in :func:`_densify_sticks`
@@ -1163,8 +1184,7 @@ def _mean_orientation(P: np.ndarray, picks: _Picks) -> Tuple[np.ndarray, np.ndar
     o = o * flip[comp][:, None]
     n = planarity @ o
     n = n / max(float(np.linalg.norm(n)), 1e-300)
-    key = n[2] if abs(n[2]) > 1e-12 else (n[0] if abs(n[0]) > 1e-12 else n[1])
-    if key < 0:
+    if _upward(n) is not n:
         n, o = -n, -o
     return P.mean(axis=0), n, o[planarity > PLANAR]
 
@@ -1375,11 +1395,13 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
     # the axis only).
     if max_z_dip is None:
         # Ties (a vertical fault striking at 45 degrees: |n_x| = |n_y|) go
-        # to the first axis within a millionth of the largest component,
-        # so that rounding does not choose (the fuzz: picks nudged by
-        # 1e-9 m flipped such a fault between x and y).
+        # to the first axis within VERTICAL of the largest component, the
+        # accuracy of the mean normal, so that rounding does not choose
+        # (the fuzz: picks nudged by 1e-9 m flipped such a fault between x
+        # and y; a vertical fault bent along strike at 45 degrees, with a
+        # tie of a millionth, still did).
         an = np.abs(normal)
-        axis = int(np.flatnonzero(an >= an.max() * (1.0 - 1e-6))[0])
+        axis = int(np.flatnonzero(an >= an.max() - VERTICAL)[0])
     elif dip > max_z_dip:
         axis = 0 if abs(normal[0]) >= abs(normal[1]) else 1
     else:
@@ -1396,7 +1418,7 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
                     f"that axis): its surface, triangulated in the projection along "
                     f"{'xyz'[axis]}, folds over there and joins points across the fold; check "
                     "its sections, or give it as two faults")
-    if abs(normal[2]) < 1e-12:
+    if abs(normal[2]) <= VERTICAL:
         warn.append(f"fault {fault.name!r} is vertical: which side is the hanging wall (and so "
                     "the kind) is a convention here (the side its normal points to)")
     hanging_sign = 1 if normal[axis] > 0 else -1
