@@ -1387,14 +1387,14 @@ def test_mean_orientation_of_picks_of_a_plane_is_its_normal(sigma):
     s_, n_ = np.array([np.sin(a), np.cos(a)]), np.array([np.cos(a), -np.sin(a)])
     P = np.column_stack([np.array([512_345.6, 7_012_345.6]) + U[:, None] * s_ + w[:, None] * n_, Z])
     want = np.r_[np.sin(np.radians(50.0)) * n_, np.cos(np.radians(50.0))]
-    _, got, local = derive._mean_orientation(P, derive._Picks(P))
+    got, local = derive._mean_orientation(P, derive._Picks(P))
     assert got[2] > 0 and np.degrees(np.arccos(min(1.0, got @ want))) < 0.5
     assert len(local) > 0.9 * len(P) and (local @ got > 0).all()
     perm = rng.permutation(len(P))
-    _, got2, _ = derive._mean_orientation(P[perm], derive._Picks(P[perm]))
+    got2, _ = derive._mean_orientation(P[perm], derive._Picks(P[perm]))
     assert np.allclose(got2, got, atol=1e-12)
     Pn = P + rng.uniform(-1e-9, 1e-9, P.shape)
-    _, got3, _ = derive._mean_orientation(Pn, derive._Picks(Pn))
+    got3, _ = derive._mean_orientation(Pn, derive._Picks(Pn))
     assert np.linalg.norm(got3 - got) < 1e-7
 
 

@@ -12,8 +12,9 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
 1. **Fault surface** (:func:`fault_surface`): a TIN of the fault's points
    (fault sticks densified along each stick; trace planes taken as sticks),
    or the given TIN. It is triangulated in a projection along the
-   coordinate axis nearest to its normal, the mean of the points' local
-   orientations (:func:`_mean_orientation`; z for dips
+   coordinate axis nearest to its normal (the least-squares plane's, or
+   the mean of the points' local orientations where that has another
+   nearest axis, :func:`_mean_orientation`; z for dips
    up to 45-55 degrees, by strike; with ``max_z_dip``, z up to that dip,
    otherwise x or y, whichever is closer to the horizontal normal).
    Picks that scatter about a smooth surface by more than their rounding
@@ -760,8 +761,8 @@ class FaultSurface:
     the skirt; ``extent`` (t,) True for the fault's own triangles. ``axis``:
     the projection axis (0 x, 1 y, 2 z); ``hanging_sign``: +1 if the hanging
     wall is on the +axis side. ``normal``: upward unit normal of the
-    fault's plane through ``centre`` (the mean of its points' local
-    orientations, :func:`_mean_orientation`); ``dip_dir`` (2,) the horizontal unit
+    fault's plane through ``centre`` (:func:`fault_surface`: the
+    least-squares plane's or the mean orientation's); ``dip_dir`` (2,) the horizontal unit
     vector down dip (towards the hanging wall), ``strike`` (2,) the
     right-hand-rule strike vector, ``dip`` in degrees. ``ends``: per end
     along strike (decreasing, increasing strike coordinate) "boundary" if
@@ -954,8 +955,9 @@ SCATTER_NEIGHBOURS = 64
 #: every 20 m down dip and 100 m apart, two to three sticks).
 ORIENTATION_NEIGHBOURS = (12, 24, 48)
 
-#: A neighbourhood of :func:`_mean_orientation` whose planarity exceeds this
-#: share counts in the fold test of :func:`fault_surface`: a tenth, well
+#: A neighbourhood of :func:`_mean_orientation` weighs by how far its
+#: planarity exceeds this share, and counts in the fold test of
+#: :func:`fault_surface` where it does: a tenth, well
 #: above picks of one stick with their noise (a stick of 7 picks 20 m apart,
 #: 3 m off their line: planarity 0.002 median, 0.010 the largest of 1,000
 #: draws) and below picks of two sticks side by side (100 m apart: 0.80 the
@@ -1085,15 +1087,15 @@ class _Picks:
         return _quadric_residuals(self.Q, at, self.tree)
 
 
-def _mean_orientation(P: np.ndarray, picks: _Picks) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(centre, upward unit normal, local normals) of a fault's points ``P``: the mean
+def _mean_orientation(P: np.ndarray, picks: _Picks) -> Tuple[np.ndarray, np.ndarray]:
+    """(upward unit normal, local normals) of a fault's points ``P``: the mean
     of its local orientations. Each pick of :func:`_even_sample`'s has the
     normal of the planes of its nearest others at the scales of
     :data:`ORIENTATION_NEIGHBOURS` (tricube-weighted by distance, as
     :func:`_quadric_residuals`' fits: continuous under nudges), blended by
-    and weighted with their planarity ((l2 - l3) / l1 of the covariance's
-    eigenvalues: 0 for picks of one stick, whose plane is the picks'
-    noise). The normals are
+    their planarity ((l2 - l3) / l1 of the covariance's eigenvalues: 0 for
+    picks of one stick, whose plane is the picks' noise), and weighted by
+    how far that exceeds :data:`PLANAR`. The normals are
     oriented alike by propagation along the minimum spanning tree of the
     picks' neighbour graph, its edges weighted 1 - |n_i . n_j| (Hoppe et
     al. 1992, surface reconstruction from unorganized points): on a fault
@@ -1117,7 +1119,7 @@ def _mean_orientation(P: np.ndarray, picks: _Picks) -> Tuple[np.ndarray, np.ndar
     Q = picks.Q
     ks = sorted({min(k, len(Q) - 2) for k in ORIENTATION_NEIGHBOURS})
     if ks[-1] < 3:
-        return (*_best_plane(P), np.zeros((0, 3)))
+        return _best_plane(P)[1], np.zeros((0, 3))
     tree = picks.tree if picks.tree is not None else cKDTree(Q)
     at = _even_sample(len(Q))
     dist, idx = tree.query(Q[at], k=ks[-1] + 2)
@@ -1140,8 +1142,13 @@ def _mean_orientation(P: np.ndarray, picks: _Picks) -> Tuple[np.ndarray, np.ndar
     v = np.einsum("sm,smi->mi", Ps ** 2, Ns)
     nrm = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
     planarity = Ps.max(axis=0)
-    if not planarity.sum() > 0.0:
-        return (*_best_plane(P), np.zeros((0, 3)))
+    # Each pick weighs by how far its neighbourhood is planar past PLANAR:
+    # one of a stick (a fault given as one stick, picks nearly on a line)
+    # has a plane made by its noise and weighs nothing; where none is past
+    # it, the least-squares plane of all the points decides, as it did.
+    weight = np.maximum(planarity - PLANAR, 0.0)
+    if not weight.sum() > 0.0:
+        return _best_plane(P)[1], np.zeros((0, 3))
     # Orientation: the sampled picks' neighbour graph (their own nearest
     # others: the sample of a large fault is not the picks' neighbours),
     # its minimum spanning tree, and each normal's sign relative to its
@@ -1178,15 +1185,50 @@ def _mean_orientation(P: np.ndarray, picks: _Picks) -> Tuple[np.ndarray, np.ndar
     # sums against the largest one's.
     o = nrm * sign[:, None]
     sums = np.zeros((ncomp, 3))
-    np.add.at(sums, comp, planarity[:, None] * o)
-    big = int(np.argmax(np.bincount(comp, weights=planarity, minlength=ncomp)))
+    np.add.at(sums, comp, weight[:, None] * o)
+    big = int(np.argmax(np.bincount(comp, weights=weight, minlength=ncomp)))
     flip = np.where(sums @ sums[big] < 0.0, -1.0, 1.0)
     o = o * flip[comp][:, None]
-    n = planarity @ o
+    n = weight @ o
     n = n / max(float(np.linalg.norm(n)), 1e-300)
     if _upward(n) is not n:
         n, o = -n, -o
-    return P.mean(axis=0), n, o[planarity > PLANAR]
+    return n, o[weight > 0.0]
+
+
+def _projection_axis(normal: np.ndarray, max_z_dip: Optional[float]) -> int:
+    """The axis a fault surface of unit ``normal`` is triangulated along
+    (:func:`fault_surface`). The axis nearest to the normal: the projection
+    distorts the surface least, so picking errors fold its TIN least. Picks
+    3 m off across strike on a 76-degree fault lie 3.7-8.7 m apart
+    horizontally from one level (15-35 m) to the next: projected along z
+    they fold the TIN, whose triangles then join picks of different levels
+    and sticks (random ground 83 as v2, a datum 42 m from the fault within
+    6 m of such a triangle's plane; along x or y the error moves a pick
+    along the axis only). With ``max_z_dip``: z up to that dip, else x or
+    y."""
+    if max_z_dip is None:
+        # Ties (a vertical fault striking at 45 degrees: |n_x| = |n_y|) go
+        # to the first axis within VERTICAL of the largest component, so
+        # that rounding does not choose (the fuzz: picks nudged by 1e-9 m
+        # flipped such a fault between x and y; a vertical fault bent along
+        # strike at 45 degrees, with a tie of a millionth, still did).
+        an = np.abs(normal)
+        return int(np.flatnonzero(an >= an.max() - VERTICAL)[0])
+    if math.degrees(math.acos(min(1.0, abs(float(normal[2]))))) > max_z_dip:
+        return 0 if abs(normal[0]) >= abs(normal[1]) else 1
+    return 2
+
+
+def _folded_share(local: np.ndarray, normal: np.ndarray, axis: int) -> float:
+    """The share of a fault's local normals (:func:`_mean_orientation`'s,
+    oriented alike) that face against ``normal`` along ``axis``, the whole
+    set turned to agree with ``normal`` on average: where they do, the
+    surface folds over in the projection along that axis."""
+    if not len(local):
+        return 0.0
+    o = local if float(np.sum(local @ normal)) >= 0.0 else -local
+    return float(np.mean(o[:, axis] * np.sign(normal[axis]) < 0.0))
 
 
 def _point_scatter(P: np.ndarray, picks: Optional[_Picks] = None) -> float:
@@ -1379,39 +1421,31 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
         raise GeometryError(f"derive: fault {fault.name!r}: its {len(P)} points lie on one line "
                             f"(or one point); they do not define a fault surface{far}")
     picks = _Picks(P)
-    centre, normal, local = _mean_orientation(P, picks)
+    # The least-squares plane of all the points, unless the mean of the
+    # points' local orientations has another projection axis. The mean
+    # normal's nearest axis shows the surface with the largest projected
+    # area (the signed area of a projection along d is the sum of a_i n_i.d,
+    # largest for d along the area-weighted mean normal); the least-squares
+    # plane's need not: a vertical fault bent by 200 m over 500 m of strike
+    # and picked over 150 m of depth spans less in z than across its bend,
+    # and its plane is horizontal (refused as "flat") or nearly so (projected
+    # along z, where the surface is edge-on, and its TIN changed under
+    # 1e-9 m nudges). Where both give one axis, the plane is kept as it was.
+    centre, normal = _best_plane(P)
+    mean_normal, local = _mean_orientation(P, picks)
+    if len(local) and _projection_axis(mean_normal, max_z_dip) != _projection_axis(normal, max_z_dip):
+        normal = mean_normal
     if not float(np.hypot(*normal[:2])) > 1e-9:
-        raise GeometryError(f"derive: fault {fault.name!r}: its points lie in a horizontal plane, or "
-                            "their local planes average to a horizontal one; "
+        raise GeometryError(f"derive: fault {fault.name!r}: its points lie in a horizontal plane; "
                             "a fault surface must dip (a flat fault is not supported)")
     dip = math.degrees(math.acos(min(1.0, abs(float(normal[2])))))
-    # The axis nearest to the normal: the projection distorts the surface
-    # least, so picking errors fold its TIN least. Picks 3 m off across
-    # strike on a 76-degree fault lie 3.7-8.7 m apart horizontally from one
-    # level (15-35 m) to the next: projected along z they fold the TIN,
-    # whose triangles then join picks of different levels and sticks
-    # (random ground 83 as v2, a datum 42 m from the fault within 6 m of
-    # such a triangle's plane; along x or y the error moves a pick along
-    # the axis only).
-    if max_z_dip is None:
-        # Ties (a vertical fault striking at 45 degrees: |n_x| = |n_y|) go
-        # to the first axis within VERTICAL of the largest component, the
-        # accuracy of the mean normal, so that rounding does not choose
-        # (the fuzz: picks nudged by 1e-9 m flipped such a fault between x
-        # and y; a vertical fault bent along strike at 45 degrees, with a
-        # tie of a millionth, still did).
-        an = np.abs(normal)
-        axis = int(np.flatnonzero(an >= an.max() - VERTICAL)[0])
-    elif dip > max_z_dip:
-        axis = 0 if abs(normal[0]) >= abs(normal[1]) else 1
-    else:
-        axis = 2
+    axis = _projection_axis(normal, max_z_dip)
     # Where the surface turns past square to the axis, its projection
     # folds over and the TIN of the projected picks joins picks across the
     # fold (a vertical fault bent by 150 degrees, turned 40 degrees off the
     # axes: 1.6 times its area). Only a projection along an axis keeps the
     # exact predicates exact; the user is told.
-    folded = float(np.mean(local[:, axis] * np.sign(normal[axis]) < 0.0)) if len(local) else 0.0
+    folded = _folded_share(local, normal, axis)
     if folded > FOLDED_SHARE:
         warn.append(f"fault {fault.name!r} turns past square to the {'xyz'[axis]} axis in "
                     f"{100 * folded:.0f} % of its points (it bends by more than 90 degrees about "
