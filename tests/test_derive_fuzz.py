@@ -629,6 +629,18 @@ def test_fault_points_nearly_on_a_line_are_named_as_such():
     assert "nearly on one line" in out and "does not cross the study area" in out, out
 
 
+def test_a_short_thin_steep_curved_fault_is_not_refused_as_flat():
+    """Regression (fuzz case 61216, found comparing 1,250 new cases between
+    the nineteenth and twentieth stops' code; the other 1,249 gave the same
+    outcome): a steep fault curved along strike, short and thin (its sticks
+    span little depth), given as sticks with a vertical odd point, was
+    refused: "its points lie in a horizontal plane" (its least-squares
+    plane crossed its bend). The mean of its picks' local orientations
+    (derive._mean_orientation) has another projection axis and is its
+    normal now: it derives, builds and passes check()."""
+    assert check_case(make_case(seeded_params(61216))) == "ok"
+
+
 def test_a_fault_point_far_off_the_others_is_named():
     """Regression (the fuzz of the v2 input: one of ten fault points with
     z = 1e14, inside the accepted coordinate range): the error said the
