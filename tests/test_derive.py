@@ -1244,14 +1244,15 @@ def test_contour_of_a_level_is_every_triangle_it_cuts(seed, at_vertex):
 
 
 def _curved_sticks(rng, sigma: float, dip: float = 50.0, spacing: float = 100.0, step: float = 20.0,
-                   origin=(512_345.6, 7_012_345.6)):
-    """Fault sticks on a fault curved along strike (a bend of 50 m over its
-    2 km), each point moved across strike by N(0, sigma) m, at UTM-sized
-    coordinates; returns (points, stick labels, strike vector)."""
+                   origin=(512_345.6, 7_012_345.6), bend: float = 50.0):
+    """Fault sticks on a fault curved along strike (a bend of ``bend`` m
+    over its 2 km, striking 30 degrees), each point moved across strike by
+    N(0, sigma) m, at UTM-sized coordinates; returns (points, stick labels,
+    strike vector)."""
     u = np.arange(-1000.0, 1000.0 + 1e-9, spacing)
     z = np.arange(-50.0, -600.0, -step)
     U, Z = (a.ravel() for a in np.meshgrid(u, z, indexing="ij"))
-    w = -Z / np.tan(np.radians(dip)) + 50.0 * (U / 1000.0) ** 2 + rng.normal(0.0, sigma, len(U))
+    w = -Z / np.tan(np.radians(dip)) + bend * (U / 1000.0) ** 2 + rng.normal(0.0, sigma, len(U))
     a = np.radians(30.0)
     s, n = np.array([np.sin(a), np.cos(a)]), np.array([np.cos(a), -np.sin(a)])
     xy = np.asarray(origin) + U[:, None] * s + w[:, None] * n
@@ -1379,13 +1380,9 @@ def test_mean_orientation_of_picks_of_a_plane_is_its_normal(sigma):
     (as the least-squares plane is), upward; unchanged by the picks' order
     and moved by less than 1e-7 (of a unit vector) by 1e-9 m nudges."""
     rng = np.random.default_rng(11)
-    u = np.arange(-1000.0, 1000.0 + 1e-9, 100.0)
-    z = np.arange(-50.0, -600.0, -20.0)
-    U, Z = (a.ravel() for a in np.meshgrid(u, z, indexing="ij"))
-    w = -Z / np.tan(np.radians(50.0)) + rng.normal(0.0, sigma, len(U))
+    P, _, _ = _curved_sticks(rng, sigma, bend=0.0)
     a = np.radians(30.0)
-    s_, n_ = np.array([np.sin(a), np.cos(a)]), np.array([np.cos(a), -np.sin(a)])
-    P = np.column_stack([np.array([512_345.6, 7_012_345.6]) + U[:, None] * s_ + w[:, None] * n_, Z])
+    n_ = np.array([np.cos(a), -np.sin(a)])
     want = np.r_[np.sin(np.radians(50.0)) * n_, np.cos(np.radians(50.0))]
     got, local = derive._mean_orientation(P, derive._Picks(P))
     assert got[2] > 0 and np.degrees(np.arccos(min(1.0, got @ want))) < 0.5

@@ -879,23 +879,24 @@ class FaultSurface:
 VERTICAL = 1e-3
 
 
-def _upward(n: np.ndarray) -> np.ndarray:
-    """The unit normal ``n`` pointing up; a vertical one (|n_z| <=
-    :data:`VERTICAL`) pointing to + along its larger horizontal component
-    (x at ties within :data:`VERTICAL` of each other, for the same reason)."""
+def _upward(n: np.ndarray) -> float:
+    """+1 or -1: the sign that makes the unit normal ``n`` point up; for a
+    vertical one (|n_z| <= :data:`VERTICAL`) to + along its larger
+    horizontal component (x at ties within :data:`VERTICAL` of each other,
+    for the same reason)."""
     if abs(n[2]) > VERTICAL:
         key = n[2]
     else:
         key = n[0] if abs(n[0]) >= abs(n[1]) - VERTICAL else n[1]
-    return n if key >= 0 else -n
+    return 1.0 if key >= 0 else -1.0
 
 
 def _best_plane(P: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-    """(centre, upward unit normal, :func:`_upward`) of the least-squares
+    """(centre, upward unit normal (:func:`_upward`)) of the least-squares
     plane (orthogonal distances)."""
     c = P.mean(axis=0)
     _, _, vt = np.linalg.svd(P - c, full_matrices=False)
-    return c, _upward(vt[-1])
+    return c, _upward(vt[-1]) * vt[-1]
 
 
 #: At most this many pieces per stick segment in :func:`_densify_sticks`
@@ -1156,7 +1157,9 @@ def _mean_orientation(P: np.ndarray, picks: _Picks) -> Tuple[np.ndarray, np.ndar
     # jumping: log2 of the depth in array steps, no loop over picks).
     m = len(at)
     kk = min(ks[0], m - 1)
-    _, nb = cKDTree(Q[at]).query(Q[at], k=kk + 1)
+    # Of a fault of at most MEDIAN_SAMPLE picks the sample is every pick, and
+    # the query above already holds the neighbours (each pick first).
+    nb = idx[:, :kk + 1] if m == len(Q) else cKDTree(Q[at]).query(Q[at], k=kk + 1)[1]
     src, dst = np.repeat(np.arange(m), kk), nb[:, 1:].ravel()
     # 1 - |cos| plus a hair (a zero weight is no edge to csgraph).
     wgt = 1.0 + 1e-9 - np.abs(np.einsum("ij,ij->i", nrm[src], nrm[dst]))
@@ -1191,8 +1194,8 @@ def _mean_orientation(P: np.ndarray, picks: _Picks) -> Tuple[np.ndarray, np.ndar
     o = o * flip[comp][:, None]
     n = weight @ o
     n = n / max(float(np.linalg.norm(n)), 1e-300)
-    if _upward(n) is not n:
-        n, o = -n, -o
+    up = _upward(n)
+    n, o = up * n, up * o
     return n, o[weight > 0.0]
 
 
