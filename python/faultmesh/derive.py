@@ -62,7 +62,11 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
    (:func:`_decay_sides`, :func:`_decay_sections`): its own surface would
    extrapolate the fading bend. With crossing faults (a ``group``), a
    section's data are further restricted to its fault block: the same side
-   of every partner fault.
+   of every partner fault. A fault that abuts a partner from the partner's
+   hanging wall (a T) is derived after it, and its blocks there fit their
+   data with the partner's fading throw added back (the layer without the
+   partner's drag, :func:`_block_fades`, :func:`_restored`) and take it off
+   the surfaces again.
 4. **Cutoffs**: sections across strike every ``spacing`` where the fault's
    extent crosses the study area, plus one a tenth of a spacing inside each
    end on the study-area boundary (:data:`END_SECTION_INSET`; not for a
@@ -579,13 +583,15 @@ class SideSurface:
     weighted least-squares plane through the ``k`` nearest data (weights 1 /
     distance^2) at the query point, inverse-distance weighting where the
     neighbours are nearly collinear (:meth:`plane`; all queries at once,
-    one batched SVD)."""
+    one batched SVD). ``fades``: partner faults' fading throws
+    (:class:`_PartnerFade`) that the data were restored by
+    (:func:`_restored`); the surface has them taken off again."""
 
     def __init__(self, data: np.ndarray, k: int = 12, frame: Optional[GridFrame] = None,
                  ell: Optional[float] = None, tension: Optional[float] = None,
                  slope: Optional[np.ndarray] = None, nodes: Optional[np.ndarray] = None,
                  throw: Optional[Tuple[np.ndarray, np.ndarray]] = None,
-                 decay=None) -> None:
+                 decay=None, fades: Sequence["_PartnerFade"] = ()) -> None:
         data = np.asarray(data, dtype=np.float64).reshape(-1, 3)
         if len(data) == 0:
             raise ValueError("SideSurface: no data")
@@ -604,6 +610,7 @@ class SideSurface:
         self.ell = SMOOTHING * self.spacing if ell is None else float(ell)
         self.throw = throw
         self.decay = decay
+        self.fades = tuple(fades)
         self.nodes = nodes
         if nodes is None:
             inside = frame.inside(data[:, :2])
@@ -634,6 +641,11 @@ class SideSurface:
         out = ~self.frame.inside(q)
         if out.any():
             z[out] = self.plane(q[out])
+        # The data were restored by these partners' fading throws
+        # (_restored): the surface is the layer without their drag, put
+        # back here.
+        for fade in self.fades:
+            z = z - fade.at_surface(q, z)
         return z
 
     def _own_share(self, q: np.ndarray, s: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -1959,16 +1971,19 @@ def _side_frame(fs: "FaultSurface", ring: np.ndarray, pad: float, h: float) -> G
 
 
 def _side_surfaces(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame,
-                   k: int) -> Optional[Dict[str, "SideSurface"]]:
+                   k: int, fades: Optional[Dict[str, Sequence["_PartnerFade"]]] = None
+                   ) -> Optional[Dict[str, "SideSurface"]]:
     """Each side of a layer's data ``D`` (``split``: masks "foot",
     "hanging") on its own (:class:`SideSurface`), or None when a side has
-    fewer than 3 data."""
+    fewer than 3 data. ``fades``: per side, the partner faults' fading
+    throws that ``D`` was restored by (:func:`_restored`)."""
     foot, hang = D[split["foot"]], D[split["hanging"]]
     if len(foot) < 3 or len(hang) < 3:
         return None
+    fades = fades or {}
     slope = _regional_slope(D, frame, split["hanging"])
-    return {"foot": SideSurface(foot, k, frame, slope=slope),
-            "hanging": SideSurface(hang, k, frame, slope=slope)}
+    return {"foot": SideSurface(foot, k, frame, slope=slope, fades=fades.get("foot", ())),
+            "hanging": SideSurface(hang, k, frame, slope=slope, fades=fades.get("hanging", ()))}
 
 
 def _regional_slope(D: np.ndarray, frame: GridFrame, hanging: Optional[np.ndarray] = None) -> np.ndarray:
@@ -2187,8 +2202,9 @@ def _decay_share(d: np.ndarray, profile: Optional[Tuple[float, float]]) -> np.nd
 
 
 def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, k: int,
-                 spacing: float, fs: FaultSurface,
-                 ring: np.ndarray) -> Optional[Dict[str, "SideSurface"]]:
+                 spacing: float, fs: FaultSurface, ring: np.ndarray,
+                 fades: Optional[Dict[str, Sequence["_PartnerFade"]]] = None
+                 ) -> Optional[Dict[str, "SideSurface"]]:
     """Both sides of a layer from the data of both, with a throw that is
     whole at the fault and fades away from it into the hanging wall: one
     minimum-curvature surface S (the layer as it would be without the
@@ -2202,7 +2218,9 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     extrapolates the fading bend (random_ground(30) as v2: the hanging wall
     9-17 m too high on 4 of 8 sections). None when a side has fewer than 3
     data in the frame, or the hanging wall's data leave the throw
-    undetermined under every profile (:class:`SingularFit`)."""
+    undetermined under every profile (:class:`SingularFit`). ``fades``:
+    as :func:`_side_surfaces`."""
+    fades = fades or {}
     setup = _joint_setup(D, split, frame, spacing)
     if setup is None:
         return None
@@ -2259,10 +2277,107 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     if len(seen_u):
         T = np.interp(np.clip(knots, seen_u.min(), seen_u.max()), knots, T)
 
-    hs = SideSurface(hang, k, frame, ell, nodes=nodes, throw=(knots, T), decay=(dist, prof))
+    hs = SideSurface(hang, k, frame, ell, nodes=nodes, throw=(knots, T), decay=(dist, prof),
+                     fades=fades.get("hanging", ()))
     hs.profile = prof
     hs.seen_u = seen_u
-    return {"foot": SideSurface(foot, k, frame, ell, nodes=nodes), "hanging": hs}
+    return {"foot": SideSurface(foot, k, frame, ell, nodes=nodes, fades=fades.get("foot", ())),
+            "hanging": hs}
+
+
+class _PartnerFade:
+    """A partner fault's throw of one layer as it fades into that fault's
+    hanging wall, from the partner's fading-throw fit (:func:`_decay_sides`,
+    ``hanging``: its hanging-wall :class:`SideSurface`): the drag or
+    rollover that the blocks of a fault abutting it on its hanging wall
+    show near it. Along the partner's strike the fit's throw, held beyond
+    the data that show it (``seen_u``), tapers straight to zero at an end of
+    the partner's extent inside the study area (a tip, as the partner's own
+    cutoff throws do), and stays to an end on the boundary."""
+
+    def __init__(self, hanging: "SideSurface", fs: FaultSurface) -> None:
+        self.side, self.fs = hanging, fs
+
+    def throw(self, q: np.ndarray) -> np.ndarray:
+        """The throw T (m) at the partner's strike coordinate of XY ``q``."""
+        sd = self.side
+        t = np.interp(sd.frame.uw(q)[0], sd.throw[0], sd.throw[1])
+        u = self.fs.u(q)
+        (u0, u1), (lo, hi) = self.fs.u_range, (float(sd.seen_u.min()), float(sd.seen_u.max()))
+        w = np.ones(len(u))
+        if self.fs.ends[0] != "boundary" and lo > u0:
+            w = np.minimum(w, np.clip((u - u0) / (lo - u0), 0.0, 1.0))
+        if self.fs.ends[1] != "boundary" and hi < u1:
+            w = np.minimum(w, np.clip((u1 - u) / (u1 - hi), 0.0, 1.0))
+        return t * w
+
+    def at_data(self, D: np.ndarray) -> np.ndarray:
+        """The throw's share at the data ``D`` (n, 3), each at its own
+        elevation (as the partner's fit took it)."""
+        dist, prof = self.side.decay
+        return self.throw(D[:, :2]) * _decay_share(dist(D[:, :2], D[:, 2]), prof)
+
+    def at_surface(self, q: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """The throw's share at XY ``q`` on a surface that is ``s`` there
+        without it: taken at the surface's own elevation s - T g
+        (:meth:`SideSurface._own_share`)."""
+        t = self.throw(q)
+        return t * self.side._own_share(q, s, t)
+
+
+def _lies_on_hanging_wall(fs: FaultSurface, other: FaultSurface) -> bool:
+    """Whether the own part of ``fs`` lies on the hanging-wall side of
+    ``other``'s (continued) surface, none of it on the footwall side
+    (exact sides): a fault that abuts ``other`` from its hanging wall (a
+    T), not one that crosses it."""
+    s = np.asarray(other.side(fs.own[0])[1])
+    return bool(np.all(s >= 0) and np.any(s > 0))
+
+
+def _block_fades(fs: FaultSurface, layer: str, key: Tuple[int, ...],
+                 partners: Sequence[FaultSurface], derived: Dict[str, Tuple[Dict[str, Any], list]]
+                 ) -> Dict[str, List[_PartnerFade]]:
+    """Per side of ``fs`` ("foot", "hanging"), the fading throws of the
+    partners whose hanging wall the fault block ``key`` (its side of each
+    of ``partners``) lies in and that ``fs`` abuts from there
+    (:func:`_lies_on_hanging_wall`), from their fading-throw fits of
+    ``layer`` for the block on that side of ``fs`` (``derived``: partner
+    name -> (its fits per layer, its partners), of the partners derived
+    before ``fs``). A throw that does not fade (profile None: a block
+    offset, the same all through the block) is none to take out."""
+    out: Dict[str, List[_PartnerFade]] = {}
+    side_of = {p.name: int(v) for p, v in zip(partners, key)}
+    for pf in partners:
+        if side_of[pf.name] != 1 or pf.name not in derived or not _lies_on_hanging_wall(fs, pf):
+            continue
+        fits, theirs = derived[pf.name]
+        for nm, sg in (("foot", -1), ("hanging", 1)):
+            pkey = tuple(sg if q.name == fs.name else side_of.get(q.name, 0) for q in theirs)
+            fit = fits.get(layer, {}).get(("fit", pkey))
+            if fit is None:
+                continue
+            hs = fit["hanging"]
+            if hs.decay is None or hs.profile is None or not len(hs.seen_u):
+                continue
+            out.setdefault(nm, []).append(_PartnerFade(hs, pf))
+    return out
+
+
+def _restored(D: np.ndarray, split: Dict[str, np.ndarray],
+              fades: Dict[str, Sequence[_PartnerFade]]) -> np.ndarray:
+    """The layer data ``D`` (n, 3) with each side's partner fading throws
+    (:func:`_block_fades`) added back: the layer as it would lie without
+    the partners' drag. A minimum-curvature surface through a partner's
+    drag overshoots beside it (random_ground(90) as v2: F2, abutting F1
+    from its hanging wall, had its footwall cutoffs 8-16 m too high over
+    800 m along strike, where F1's hanging wall drops 48 m within 400 m of
+    F1)."""
+    out = np.array(D, dtype=np.float64, copy=True)
+    for nm in ("foot", "hanging"):
+        m = np.flatnonzero(split[nm] & ~split["hanging"]) if nm == "foot" else np.flatnonzero(split[nm])
+        for fade in fades.get(nm, ()):
+            out[m, 2] += fade.at_data(D[m])
+    return out
 
 
 def _decay_sections(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, k: int,
@@ -2302,8 +2417,9 @@ def _decay_sections(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFram
     for key, js in cand.items():
         if ("fit", key) not in memo:
             m = blocks.get(key, slice(None))
-            memo["fit", key] = _decay_sides(D[m], {nm: split[nm][m] for nm in split}, frame, k,
-                                            spacing, fs, ring)
+            Dm, fades = memo.get(("restored", key), (D, None))
+            memo["fit", key] = _decay_sides(Dm[m], {nm: split[nm][m] for nm in split}, frame, k,
+                                            spacing, fs, ring, fades)
         dj = memo["fit", key]
         if dj is None or not len(dj["hanging"].seen_u):
             continue
@@ -2712,12 +2828,17 @@ def _halfway_sections_to_keep(fault: Fault, fs: FaultSurface, halfway: np.ndarra
 def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float, float],
                   used_names: set, fs: FaultSurface, warn: List[str],
                   partners: Sequence[FaultSurface] = (),
-                  others: Sequence[FaultSurface] = ()) -> Tuple[Fault, Dict[str, Section],
-                                                                 FaultDerivation]:
+                  others: Sequence[FaultSurface] = (),
+                  memo: Optional[Dict[str, Dict[Any, Any]]] = None,
+                  derived: Optional[Dict[str, Tuple[Dict[str, Any], list]]] = None
+                  ) -> Tuple[Fault, Dict[str, Section], FaultDerivation]:
     """One fault's derivation (module doc): on the regular sections, and,
     with the default spacing, on the halfway sections worth keeping
     (:data:`REFINE_SHARE`; found by a first derivation with every halfway
-    section, whose warnings and names are dropped)."""
+    section, whose warnings and names are dropped). ``memo`` (filled):
+    its fits per layer (:func:`_derive_sections`); ``derived``: those of
+    the group partners derived before it."""
+    memo = {} if memo is None else memo
     ring = np.asarray(ds.boundary, dtype=np.float64)
     grid = _section_grid(fault, fs, ring, opt)
     u0, u1, spacing, n_sec = grid
@@ -2725,11 +2846,10 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
     us = u0 + (np.arange(n_sec) + 0.5) * step
     if opt.spacing is not None or n_sec < 2:
         return _derive_sections(ds, fault, opt, z_range, used_names, fs, warn, partners, others,
-                                grid, us)
+                                grid, us, memo, derived)
     halfway = 0.5 * (us[1:] + us[:-1])
-    memo: Dict[str, Dict[Any, Any]] = {}
     first, _, rep = _derive_sections(ds, fault, opt, z_range, set(used_names), fs, [], partners,
-                                     others, grid, np.sort(np.r_[us, halfway]), memo)
+                                     others, grid, np.sort(np.r_[us, halfway]), memo, derived)
     # A layer cut on no section has only NaN throws: its largest is NaN (no
     # deviation exceeds a share of it, so no halfway section is kept for it),
     # taken without numpy's all-NaN warning.
@@ -2740,21 +2860,24 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
         largest[lay] = float(t.max()) if len(t) else (math.nan if len(d["throw"]) else 0.0)
     keep = _halfway_sections_to_keep(first, fs, halfway, step, largest)
     return _derive_sections(ds, fault, opt, z_range, used_names, fs, warn, partners, others, grid,
-                            np.sort(np.r_[us, keep]), memo)
+                            np.sort(np.r_[us, keep]), memo, derived)
 
 
 def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float, float],
                      used_names: set, fs: FaultSurface, warn: List[str],
                      partners: Sequence[FaultSurface], others: Sequence[FaultSurface],
                      grid: Tuple[float, float, float, int], us: np.ndarray,
-                     memo: Optional[Dict[str, Dict[Any, Any]]] = None
+                     memo: Optional[Dict[str, Dict[Any, Any]]] = None,
+                     derived: Optional[Dict[str, Tuple[Dict[str, Any], list]]] = None
                      ) -> Tuple[Fault, Dict[str, Section], FaultDerivation]:
     """:func:`_derive_fault` on the sections at strike coordinates ``us``
     (``grid``: :func:`_section_grid`). ``memo``: per layer, its side
     surfaces (whole, per fault block, joint) and the fading-throw fit with
     its cutoffs per section position (:func:`_decay_sections`), shared by
-    derivations of the same fault on the same grid."""
+    derivations of the same fault on the same grid. ``derived``: the memos
+    and partners of the group partners derived before (:func:`_block_fades`)."""
     memo = {} if memo is None else memo
+    derived = derived or {}
     ring = np.asarray(ds.boundary, dtype=np.float64)
     u0, u1, spacing, n_sec = grid
     length = u1 - u0
@@ -2845,8 +2968,16 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                     blocks[key] = np.all((keys == np.array(key)[None, :]) | (keys == 0), axis=1)
                 if ("block", key) not in fits:
                     inblock = blocks[key]
-                    fits["block", key] = _side_surfaces(D[inblock], {nm: split[nm][inblock] for nm in split},
-                                                        frame, opt.k)
+                    # A block in the hanging wall of a partner that this
+                    # fault abuts: its data restored by the partner's drag
+                    # (_restored), for its own sides and its fading fit.
+                    fades = _block_fades(fs, lay, key, partners, derived)
+                    Db = D
+                    if fades:
+                        Db = _restored(D, split, fades)
+                        fits["restored", key] = (Db, fades)
+                    fits["block", key] = _side_surfaces(Db[inblock], {nm: split[nm][inblock] for nm in split},
+                                                        frame, opt.k, fades)
                 blk = fits["block", key]
                 if blk is None:
                     continue
@@ -4311,18 +4442,29 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
         # (_spoiled_vertices, through layer_points) is the built model's.
         dataset = replace(dataset, derived_points=_conformable_points(
             dataset, list(every.values()), report.layers))
-    for f in dataset.faults:
-        if id(f) not in todo:
-            faults.append(f)
-            continue
-        partners = [surfs[g.name] for g in dataset.faults
-                    if g is not f and f.group and g.group == f.group and g.name in surfs]
+    # A fault that abuts a group partner from its hanging wall is derived
+    # after it: its blocks there take the partner's drag out of their data
+    # (_block_fades). Otherwise the dataset's order.
+    group_of = {f.name: [surfs[g.name] for g in dataset.faults
+                         if g is not f and f.group and g.group == f.group and g.name in surfs]
+                for f in dataset.faults if id(f) in todo}
+    abutting = {n for n, ps in group_of.items()
+                if any(_lies_on_hanging_wall(surfs[n], p) for p in ps)}
+    order = [f for f in dataset.faults if id(f) in todo and f.name not in abutting] + \
+        [f for f in dataset.faults if id(f) in todo and f.name in abutting]
+    done: Dict[str, Fault] = {}
+    derived: Dict[str, Tuple[Dict[str, Any], list]] = {}
+    for f in order:
         others = [every[g.name] for g in dataset.faults
                   if g is not f and not (f.group and g.group == f.group) and g.name in every]
+        memo: Dict[str, Dict[Any, Any]] = {}
         nf, secs, rep = _derive_fault(dataset, f, opt, z_range, used, surfs[f.name],
-                                      warns[f.name], partners, others)
+                                      warns[f.name], group_of[f.name], others, memo, derived)
+        derived[f.name] = (memo, group_of[f.name])
         sections.update(secs)
-        faults.append(nf)
+        done[f.name] = nf
         report.faults[f.name] = rep
+    faults += [done.get(f.name, f) if id(f) in todo else f for f in dataset.faults]
+    report.faults = {f.name: report.faults[f.name] for f in dataset.faults if f.name in report.faults}
     return replace(dataset, sections=sections, faults=faults, derivation=report)
 
