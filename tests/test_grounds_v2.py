@@ -1050,6 +1050,47 @@ def test_a_fault_abutting_a_partner_from_its_hanging_wall_takes_the_partners_dra
     assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
 
 
+def test_a_partners_drag_is_taken_off_at_the_elevation_it_was_added_at(evaluated, monkeypatch):
+    """The partner's fading throw is added to each datum at the datum's own
+    elevation (derive._PartnerFade.at_data) and taken off a surface S at
+    the elevation z = S - T g(d(z)) it then has (at_surface): the two agree
+    where they meet, so a datum restored and put back lands where it was
+    (ground 90, F1's drag in F2's blocks, every layer), and the drag is
+    whole at F1 and none far into its hanging wall."""
+    from faultmesh import derive
+
+    _, built = evaluated(90)
+    got = []
+    real = derive._block_fades
+
+    def recorded(*a, **k):
+        out = real(*a, **k)
+        got.extend(f for fs in out.values() for f in fs)
+        return out
+
+    monkeypatch.setattr(derive, "_block_fades", recorded)
+    derive.derive_faults(built["ds2"])
+    assert got and all(f.fs.name == "F1" for f in got)
+    rng = np.random.default_rng(5)
+    partial = 0
+    for fade in got:
+        D = fade.side.data
+        q = D[rng.integers(0, len(D), 64), :2] + rng.normal(0.0, 30.0, (64, 2))
+        s = rng.uniform(-80.0, 80.0, 64)
+        z = s - fade.at_surface(q, s)
+        back = fade.at_data(np.column_stack([q, z]))
+        # 5 cm: at_surface takes the distance from F1 as linear in z over
+        # the throw's height (SideSurface._own_share, one line for F1's
+        # trace there), at_data reads it off the trace at z: measured up to
+        # 1.1 cm apart on these draws. Taken at S instead of z, the share
+        # moves by metres.
+        np.testing.assert_allclose(back, s - z, atol=0.05)
+        partial += int(np.sum((back > 1.0) & (back < np.abs(fade.throw(q)) - 1.0)))
+    assert partial > 0        # some points lie where the throw fades
+    share = derive._decay_share(np.array([0.0, 5000.0]), got[0].side.profile)
+    assert share[0] == 1.0 and share[1] == 0.0
+
+
 def test_the_partners_drag_comes_out_whatever_the_faults_order(evaluated):
     """The fault that abuts a partner from its hanging wall is derived
     after it, whichever comes first in the dataset: ground 90 with its
