@@ -941,8 +941,8 @@ def test_derivation_takes_the_same_decisions_whatever_the_last_bits_of_the_fault
     profiles = []
     decay = derive._decay_sides
 
-    def recorded(D, split, frame, k, spacing, fs, ring, fades=None):
-        got = decay(D, split, frame, k, spacing, fs, ring, fades)
+    def recorded(D, split, frame, k, spacing, fs, ring, *rest):
+        got = decay(D, split, frame, k, spacing, fs, ring, *rest)
         profiles.append((fs.name, len(D), None if got is None else got["hanging"].profile))
         return got
 

@@ -124,8 +124,8 @@ kind derived and given, warnings, throw profile, tips, cutoff lines).
 Accuracy and limitations (docs/derive.md, "Accuracy"): on the random
 grounds of :mod:`faultmesh.grounds` written as v2 with seismic-like section
 picks (seeds 0-99), the error near the faults is within 1.25x of the model
-built from the true cutoffs on 78 of 91 grounds (ratio median 0.75); with
-the drillholes' tops alone, 22 of 91 (median 2.57): a side whose data stop
+built from the true cutoffs on 85 of 91 grounds (ratio median 0.68); with
+the drillholes' tops alone, 28 of 91 (median 2.27): a side whose data stop
 far from the fault cannot show drag, rollover or a fading throw there. On
 block faults through plane layers (tests/test_derive_blocks.py) the
 cutoffs are exact to the picks' noise; layers known from holes only under
