@@ -1649,3 +1649,62 @@ def test_a_row_of_picks_nudged_off_its_line_closes_no_sliver_on_the_outline():
         ab = b - a
         h = np.abs(ab[:, 0] * (c[:, 1] - a[:, 1]) - ab[:, 1] * (c[:, 0] - a[:, 0])) / np.hypot(*ab.T)
         assert h.min() > 1e-3, (draw, h.min())
+
+
+def _t_pair(a: float, gap: float, cross: float = 0.0, origin=(512_345.6, 7_012_345.6)):
+    """Two fault surfaces in a T, turned by ``a`` radians at UTM-sized
+    coordinates: F1 (dip 60) across a 4 km square; F2 (dip 70), square to
+    it, on F1's hanging-wall side, its sticks 100 m apart along strike and
+    its end ``gap`` m short of F1 at every depth (``cross`` m past it
+    instead: an X); both as fault sticks."""
+    R = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+    o = np.asarray(origin)
+    z = np.arange(-50.0, -650.0, -25.0)
+    # F1: strike along local x, dipping towards local +y (its hanging wall).
+    xs = np.arange(-1800.0, 1800.1, 100.0)
+    X1, Z1 = (v.ravel() for v in np.meshgrid(xs, z, indexing="ij"))
+    Y1 = -Z1 / np.tan(np.radians(60.0))
+    # F2: strike along local y from F1 (at each depth) into F1's hanging
+    # wall, dipping towards local +x.
+    P2, s2 = [], []
+    for k, zz in enumerate(z):
+        y_f1 = -zz / np.tan(np.radians(60.0))
+        ys = y_f1 + gap - cross + np.arange(0.0, 1500.0, 100.0)
+        x2 = -zz / np.tan(np.radians(70.0)) + 100.0
+        P2.append(np.column_stack([np.full(len(ys), x2), ys, np.full(len(ys), zz)]))
+        s2.append(np.arange(len(ys)))
+    P2 = np.vstack(P2)
+    s2 = np.concatenate(s2)
+    def world(x, y):
+        return o + np.column_stack([x, y]) @ R.T
+    P1 = np.column_stack([world(X1, Y1), Z1])
+    P2 = np.column_stack([world(P2[:, 0], P2[:, 1]), P2[:, 2]])
+    ring = world(np.array([-2000.0, 2000.0, 2000.0, -2000.0]), np.array([-2000.0, -2000.0, 2000.0, 2000.0]))
+    f1 = derive.fault_surface(Fault("F1", points=P1, sticks=np.repeat(np.arange(len(xs)), len(z))),
+                              ring, (-700.0, 0.0))
+    f2 = derive.fault_surface(Fault("F2", points=P2, sticks=s2), ring, (-700.0, 0.0))
+    return f1, f2
+
+
+@pytest.mark.parametrize("draw", range(6))
+def test_an_end_on_a_group_partner_is_found_whatever_the_geometry(draw):
+    """derive._abutted_partners on generated T's (random turn, UTM-sized
+    coordinates): F2's end within its sticks' spacing (100 m) of F1 abuts
+    F1, at that end only; 3-5 spacings short of F1 it does not; crossing
+    F1 by 300 m (an X) it does not either; F1 abuts nothing (F2 is not on
+    one side of F1's ends)."""
+    rng = np.random.default_rng(700 + draw)
+    a = rng.uniform(0.0, 2.0 * np.pi)
+    f1, f2 = _t_pair(a, gap=rng.uniform(0.0, 60.0))
+    got = derive._abutted_partners(f2, [f1])
+    # The end that abuts is the one nearer F1, the other abuts nothing.
+    V = f2.own[0]
+    u = f2.u(V[:, :2])
+    ends = [V[u <= u.min() + 1.0], V[u >= u.max() - 1.0]]
+    near = int(np.argmin([np.min(derive._fault_distance(f1, E)) for E in ends]))
+    assert got[near] == "F1" and got[1 - near] is None, (got, near)
+    assert derive._abutted_partners(f1, [f2]) == [None, None]
+    far = _t_pair(a, gap=rng.uniform(300.0, 500.0))[1]
+    assert derive._abutted_partners(far, [f1]) == [None, None]
+    crossing = _t_pair(a, gap=0.0, cross=300.0)[1]
+    assert derive._abutted_partners(crossing, [f1]) == [None, None]
