@@ -3553,7 +3553,8 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         surf_h = hinted[1] if hinted and hinted[0] == "hanging" else _sides_of(r, i)["hanging"]
         poly = _wall_polylines(tr, f, h, surf_f, surf_h, *fars[lay], r["spacing"],
                                _room_between_faults(tr, f, h, fs, others, *fars[lay],
-                                                    carry=carry, ring=ring), partners)
+                                                    carry=carry, ring=ring, surfs=(surf_f, surf_h)),
+                               partners)
         if poly is not None and lines[i].get("end"):
             # An end section whose polylines the boundary cuts to almost
             # nothing (END_SECTION_MIN_REACH): its patch, carried onto the
@@ -3971,7 +3972,8 @@ def _within_extent(fs: FaultSurface, z: float) -> float:
 def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: FaultSurface,
                          others: Sequence[FaultSurface], far_f: float,
                          far_h: float, carry: Optional[np.ndarray] = None,
-                         ring: Optional[np.ndarray] = None) -> Tuple[float, float]:
+                         ring: Optional[np.ndarray] = None,
+                         surfs: Optional[Tuple[Any, Any]] = None) -> Tuple[float, float]:
     """(lo, hi) along the section: how far the footwall polyline may reach
     back (s >= lo, at most ``far_f`` from its cutoff) and the hanging-wall
     polyline forward (s <= hi, at most ``far_h``) while it stays in this
@@ -3993,7 +3995,16 @@ def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: F
     280 m past its last data, random_ground(411) as v2's F2 ended 80 m from
     F3's trace at the boundary, its end section's footwall polyline
     (limited by the room at the section only) carried onto F3's ("faults
-    too close")."""
+    too close").
+
+    ``surfs`` (footwall, hanging wall): each side's surface. Another fault
+    meets the layer where the layer is, not at this cutoff's elevation: its
+    traces at the lowest and highest elevation the side's surface has along
+    the candidate polyline bound the room too (the nearest of the three).
+    A fault dipping 39 degrees moves its trace 1.2 m per metre of
+    elevation: random_ground(206) as v2 put F1's L1 hanging-wall far end
+    2 m from F3's footwall far end, each measured at its own cutoff's
+    elevation, tens of metres apart ("faults too close")."""
     sf = float((f[:2] - tr.origin) @ tr.direction)
     sh = float((h[:2] - tr.origin) @ tr.direction)
     lo, hi = sf - far_f, sh + far_h
@@ -4002,14 +4013,23 @@ def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: F
     from ._core import nearest_segment
 
     ratio = ROOM_SHARE / (1.0 - ROOM_SHARE)
-    for cut, sc, far, sgn in ((f, sf, far_f, -1.0), (h, sh, far_h, 1.0)):
-        theirs = [c for c in (_contour_xy(o, _within_extent(o, float(cut[2]))) for o in others)
-                  if len(c)]
-        if not theirs or not far > 0:
+    for cut, sc, far, sgn, surf in ((f, sf, far_f, -1.0, surfs[0] if surfs else None),
+                                    (h, sh, far_h, 1.0, surfs[1] if surfs else None)):
+        if not far > 0:
             continue
         # 64 steps: the far end is placed to within 1/64 of its reach.
         ss = sc + sgn * far * np.linspace(0.0, 1.0, 65)
         P = tr.origin + ss[:, None] * tr.direction
+        levels = [float(cut[2])]
+        if surf is not None:
+            zP = np.asarray(surf(P), dtype=np.float64)
+            zP = zP[np.isfinite(zP)]
+            if len(zP):
+                levels += [float(zP.min()), float(zP.max())]
+        theirs = [c for o in others for c in (_contour_xy(o, _within_extent(o, zl)) for zl in levels)
+                  if len(c)]
+        if not theirs:
+            continue
         n_way = 1
         if carry is not None:
             # Each point on its way along `carry` onto the boundary, in 16
