@@ -634,9 +634,7 @@ class SideSurface:
             return self.plane(q)
         z = self.frame.interpolate(self.nodes, q)
         if self.throw is not None:
-            # The hat functions' sum (_hat): linear between the knots,
-            # clamped outside them, as np.interp.
-            t = np.interp(self.frame.uw(q)[0], self.throw[0], self.throw[1])
+            t = self.throw_at(q)
             if self.decay is not None:
                 t = t * self._own_share(q, z, t)
             z = z - t
@@ -649,6 +647,12 @@ class SideSurface:
         for fade in self.fades:
             z = z - fade.at_surface(q, z)
         return z
+
+    def throw_at(self, q: np.ndarray) -> np.ndarray:
+        """The fitted throw T at XY ``q``: the hat functions' sum (_hat),
+        linear between the knots along strike, clamped outside them, as
+        np.interp."""
+        return np.interp(self.frame.uw(q)[0], self.throw[0], self.throw[1])
 
     def _own_share(self, q: np.ndarray, s: np.ndarray, t: np.ndarray) -> np.ndarray:
         """The share g of the throw ``t`` at the points ``q`` (S = ``s``
@@ -812,6 +816,10 @@ class FaultSurface:
     #: per end along strike: the group partner that end abuts (a T), else
     #: None (set by :func:`derive_faults`)
     abuts: List[Optional[str]] = field(default_factory=lambda: [None, None])
+    #: the group partners whose hanging wall its own part lies in, none of it
+    #: in their footwall (:func:`_lies_on_hanging_wall`; set by
+    #: :func:`derive_faults`, once per pair: the block fits of every layer ask)
+    hanging_wall_of: Tuple[str, ...] = ()
 
     def tipped(self, end: int) -> bool:
         """Whether the fault may die out towards ``end`` (0, 1): that end
@@ -2345,12 +2353,13 @@ def _abutted_partners(fs: FaultSurface, partners: Sequence[FaultSurface]) -> Lis
     band = 0.1 * float(np.ptp(u))
     out: List[Optional[str]] = [None, None]
     for p in partners:
-        s = np.asarray(p.side(V)[1])
+        located = p.sides(V)
+        s = np.asarray(located[1])
         if not (np.all(s >= 0) or np.all(s <= 0)):
             continue
         for e in (0, 1):
             sel = (u <= u.min() + band) if e == 0 else (u >= u.max() - band)
-            d = float(np.min(_fault_distance(p, V[sel])))
+            d = float(np.min(_fault_distance(p, V[sel], tuple(np.asarray(x)[sel] for x in located))))
             if out[e] is None and d <= max(fs.reach, ON_FAULT):
                 out[e] = p.name
     return out
@@ -2370,10 +2379,9 @@ class _PartnerFade:
         self.side, self.fs = hanging, fs
 
     def throw(self, q: np.ndarray) -> np.ndarray:
-        """The throw T (m) at the partner's strike coordinate of XY ``q``
-        (the fit's knots, tapered to a tip already, :func:`_tip_taper`)."""
-        sd = self.side
-        return np.interp(sd.frame.uw(q)[0], sd.throw[0], sd.throw[1])
+        """The throw T (m) at XY ``q`` (the fit's, tapered to a tip
+        already, :func:`_tip_taper`)."""
+        return self.side.throw_at(q)
 
     def at_data(self, D: np.ndarray) -> np.ndarray:
         """The throw's share at the data ``D`` (n, 3), each at its own
@@ -2404,7 +2412,7 @@ def _block_fades(fs: FaultSurface, layer: str, key: Tuple[int, ...],
     """Per side of ``fs`` ("foot", "hanging"), the fading throws of the
     partners whose hanging wall the fault block ``key`` (its side of each
     of ``partners``) lies in and that ``fs`` abuts from there
-    (:func:`_lies_on_hanging_wall`), from their fading-throw fits of
+    (``fs.hanging_wall_of``), from their fading-throw fits of
     ``layer`` for the block on that side of ``fs`` (``derived``: partner
     name -> (its fits per layer, its partners), of the partners derived
     before ``fs``). A throw that does not fade (profile None: a block
@@ -2412,7 +2420,7 @@ def _block_fades(fs: FaultSurface, layer: str, key: Tuple[int, ...],
     out: Dict[str, List[_PartnerFade]] = {}
     side_of = {p.name: int(v) for p, v in zip(partners, key)}
     for pf in partners:
-        if side_of[pf.name] != 1 or pf.name not in derived or not _lies_on_hanging_wall(fs, pf):
+        if side_of[pf.name] != 1 or pf.name not in derived or pf.name not in fs.hanging_wall_of:
             continue
         fits, theirs = derived[pf.name]
         for nm, sg in (("foot", -1), ("hanging", 1)):
@@ -2437,8 +2445,9 @@ def _restored(D: np.ndarray, split: Dict[str, np.ndarray],
     800 m along strike, where F1's hanging wall drops 48 m within 400 m of
     F1)."""
     out = np.array(D, dtype=np.float64, copy=True)
-    for nm in ("foot", "hanging"):
-        m = np.flatnonzero(split[nm] & ~split["hanging"]) if nm == "foot" else np.flatnonzero(split[nm])
+    # A datum on the fault (in both splits) takes the hanging wall's.
+    for nm, mask in (("foot", split["foot"] & ~split["hanging"]), ("hanging", split["hanging"])):
+        m = np.flatnonzero(mask)
         for fade in fades.get(nm, ()):
             out[m, 2] += fade.at_data(D[m])
     return out
@@ -2479,8 +2488,8 @@ def _decay_sections(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFram
             cand.setdefault(sec_block.get(i, ()), []).append(j)
     memo = {} if memo is None else memo
     # Which blocks hold the fault's outermost sections (reach its ends).
-    by_u = sorted(range(len(idx)), key=lambda j: trs[j].u)
-    end_keys = [sec_block.get(idx[by_u[0]], ()), sec_block.get(idx[by_u[-1]], ())] if by_u else [(), ()]
+    end_keys = [sec_block.get(idx[pick(range(len(idx)), key=lambda j: trs[j].u)], ())
+                for pick in (min, max)] if len(idx) else [(), ()]
     for key, js in cand.items():
         if ("fit", key) not in memo:
             m = blocks.get(key, slice(None))
@@ -4540,10 +4549,9 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
                 for f in dataset.faults if id(f) in todo}
     for name, ps in group_of.items():
         surfs[name].abuts = _abutted_partners(surfs[name], ps)
-    abutting = {n for n, ps in group_of.items()
-                if any(_lies_on_hanging_wall(surfs[n], p) for p in ps)}
-    order = [f for f in dataset.faults if id(f) in todo and f.name not in abutting] + \
-        [f for f in dataset.faults if id(f) in todo and f.name in abutting]
+        surfs[name].hanging_wall_of = tuple(p.name for p in ps if _lies_on_hanging_wall(surfs[name], p))
+    order = sorted((f for f in dataset.faults if id(f) in todo),
+                   key=lambda f: bool(surfs[f.name].hanging_wall_of))
     done: Dict[str, Fault] = {}
     derived: Dict[str, Tuple[Dict[str, Any], list]] = {}
     for f in order:
@@ -4556,7 +4564,7 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
         sections.update(secs)
         done[f.name] = nf
         report.faults[f.name] = rep
-    faults += [done.get(f.name, f) if id(f) in todo else f for f in dataset.faults]
+    faults += [done[f.name] if id(f) in todo else f for f in dataset.faults]
     report.faults = {f.name: report.faults[f.name] for f in dataset.faults if f.name in report.faults}
     return replace(dataset, sections=sections, faults=faults, derivation=report)
 
