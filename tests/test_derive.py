@@ -1708,3 +1708,30 @@ def test_an_end_on_a_group_partner_is_found_whatever_the_geometry(draw):
     assert derive._abutted_partners(far, [f1]) == [None, None]
     crossing = _t_pair(a, gap=0.0, cross=300.0)[1]
     assert derive._abutted_partners(crossing, [f1]) == [None, None]
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), scale=st.floats(0.01, 1e4))
+def test_a_throw_of_one_sense_is_told_from_one_that_swings(seed, scale):
+    """derive._one_sense, the test that sets a block offset whose throw
+    changes sense along strike aside: a throw of one sign (either) has one
+    sense at any scale; one whose lesser-sense excursion passes both the
+    floor and the share of the other's does not, and the answer is the same
+    for -T and for T in any order along strike."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 40))
+    T = np.abs(rng.normal(0.0, 1.0, n)) * scale
+    assert derive._one_sense(T) and derive._one_sense(-T)
+    big = float(T.max())
+    # An excursion of the other sense just past the larger of the two bounds.
+    lim = max(derive.OFFSET_SENSE_FLOOR, derive.OFFSET_SENSE_SHARE * big)
+    for dip, want in ((1.01 * lim, False), (0.99 * lim, True)):
+        if dip > big and not want:
+            # The excursion is the larger sense then: the bound is its share.
+            continue
+        S = T.copy()
+        S[rng.integers(0, n)] = -dip
+        if S.max() < big:
+            continue                 # the largest excursion was replaced
+        assert derive._one_sense(S) is want, (S, lim)
+        assert derive._one_sense(-S[::-1]) is want

@@ -1047,6 +1047,24 @@ def test_a_fault_of_a_crossing_pair_gets_the_fading_throw_fit_in_each_block(seed
     assert out["ratio"] <= ratio, (out["error_v1"], out["error_v2"])
 
 
+def test_a_block_offset_whose_throw_changes_sense_gives_way_to_a_fading_throw(evaluated):
+    """Regression (random ground 61 as v2 with section picks: F1, normal,
+    12 m, crosses F2, reverse, X). F1's L2 in F2's hanging-wall block had a
+    few hanging-wall data, most of them hundreds of metres from F1; its
+    fading-throw fit took the block offset (profile None), whose throw swung
+    from -25 to +38 m along strike and was held at 86 m past its data. Two
+    hanging-wall cutoffs came out 32 m from the truth, the model 2.03x the
+    true cutoffs' error near the faults. Such a fit now gives way to the
+    fading profile of next least objective (derive._one_sense): every L2
+    hanging-wall cutoff of F1 within 16 m (14.6 measured), 6.8 -> 3.8 m on
+    average; the ground fails for F3 still (1.54x)."""
+    out, _ = evaluated(61)
+    assert out["ratio"] is not None, (out["stage"], out["error"])
+    d = np.asarray(out["cutoffs"]["F1"]["L2"]["hanging"], dtype=np.float64)
+    assert np.nanmax(d) <= 16.0 and np.nanmean(d) <= 5.0, d
+    assert out["ratio"] <= 1.6, (out["error_v1"], out["error_v2"])
+
+
 def test_a_fault_abutting_a_partner_from_its_hanging_wall_takes_the_partners_drag_out(evaluated):
     """Regression (random ground 90 as v2 with section picks: F2, reverse,
     abuts F1, normal, from F1's hanging wall, a T): F1's hanging wall drops
