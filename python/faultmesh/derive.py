@@ -2515,7 +2515,8 @@ def _decay_sections(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFram
     cutoff lies more than :data:`DECAY_GAP` data spacings (0: any) from the
     hanging wall's data get the hanging wall of the fading-throw fit
     (:func:`_decay_sides`) where a datum that shows the throw lies within
-    :data:`DECAY_NEAR` section spacings along strike: ``sec_sides`` and
+    :data:`DECAY_NEAR` section spacings along strike, or such data lie on
+    both sides of the section along strike: ``sec_sides`` and
     ``roots`` (per side, one per section) updated in place; ``own`` (line
     index -> the replaced roots of the own surfaces, foot and hanging)
     filled for :func:`_own_sense_back`. A section of a fault block of
