@@ -124,8 +124,8 @@ kind derived and given, warnings, throw profile, tips, cutoff lines).
 Accuracy and limitations (docs/derive.md, "Accuracy"): on the random
 grounds of :mod:`faultmesh.grounds` written as v2 with seismic-like section
 picks (seeds 0-99), the error near the faults is within 1.25x of the model
-built from the true cutoffs on 85 of 91 grounds (ratio median 0.68); with
-the drillholes' tops alone, 28 of 91 (median 2.27): a side whose data stop
+built from the true cutoffs on 87 of 91 grounds (ratio median 0.68); with
+the drillholes' tops alone, 29 of 91 (median 2.27): a side whose data stop
 far from the fault cannot show drag, rollover or a fading throw there. On
 block faults through plane layers (tests/test_derive_blocks.py) the
 cutoffs are exact to the picks' noise; layers known from holes only under
@@ -3106,8 +3106,9 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             # footwall it bent F2's L4 throws to -10..-35 m where every
             # other layer has -22..-25 m, hanging-wall cutoffs up to 24 m
             # off, 1.25x the true cutoffs' error; now 0.93x).
-            keys = _block_keys(partners, D)
-            unsure = _in_bands(partners, D)
+            located = [p.sides(D) for p in partners]
+            keys = _block_keys(partners, D, located)
+            unsure = _in_bands(partners, D, located)
             for j, i in enumerate(good):
                 f, h = roots["foot"][j], roots["hanging"][j]
                 if f is None or h is None:
@@ -4281,17 +4282,20 @@ CONFORMABLE_STEP_MAX = 10.0
 CONFORMABLE_GAIN = 0.8
 
 
-def _block_keys(surfs: Sequence[FaultSurface], P: np.ndarray) -> np.ndarray:
+def _block_keys(surfs: Sequence[FaultSurface], P: np.ndarray, located=None) -> np.ndarray:
     """(n, f) side of each point (n, 3) of every fault's surface continued
     past its extent (the split's sides, :func:`split_by_side`; +1, -1, 0 on
     it): two points lie in one fault block when no fault separates them,
     i.e. their keys agree wherever both are on a side. Past a fault's tip
     this parts points the fault does not (fewer pairs, none wrong): the
     fault points' extent in depth is seldom the fault's, and a layer above
-    the topmost fault point may well be offset."""
+    the topmost fault point may well be offset. ``located``: the surfaces'
+    :meth:`FaultSurface.sides` answers for ``P``, where the caller has them."""
     if not len(surfs):
         return np.zeros((len(P), 0), dtype=np.int8)
-    return np.column_stack([f.side(P)[1] for f in surfs])
+    if located is None:
+        located = [f.sides(P) for f in surfs]
+    return np.column_stack([np.asarray(loc[1]) for loc in located])
 
 
 def _same_block(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -4375,8 +4379,7 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
     for lay, D in data.items():
         located = [fs.sides(D) for fs in surfs]
         on = _in_bands(surfs, D, located)
-        K = np.column_stack([np.asarray(loc[1]) for loc in located]) if surfs \
-            else np.zeros((len(D), 0), dtype=np.int8)
+        K = _block_keys(surfs, D, located)
         data[lay], keys[lay] = D[~on], K[~on]
     order = list(ds.layers)
     out: Dict[str, np.ndarray] = {}
