@@ -1735,3 +1735,37 @@ def test_a_throw_of_one_sense_is_told_from_one_that_swings(seed, scale):
             continue                 # the largest excursion was replaced
         assert derive._one_sense(S) is want, (S, lim)
         assert derive._one_sense(-S[::-1]) is want
+
+
+@pytest.mark.parametrize("draw", range(4))
+def test_data_within_a_partners_band_are_told_whatever_the_turn(draw):
+    """derive._in_bands, which keeps a datum out of every fault block of a
+    partner whose TIN cannot tell its side (noisy fault picks): on F1 of a
+    generated T (random turn, UTM-sized coordinates; dip 60), with a
+    picking scatter that makes its band 2.5 x 2 = 5 m, data 0.5-4.5 m from
+    the plane along its normal are in the band on either side and data
+    5.5-50 m away are not; beyond the fault's extent none is. The block
+    keys from the located answers are those of a fresh side test."""
+    rng = np.random.default_rng(900 + draw)
+    a = rng.uniform(0.0, 2.0 * np.pi)
+    f1, f2 = _t_pair(a, gap=30.0)
+    f1.scatter = 2.0
+    assert f1.band == pytest.approx(5.0)
+    R = np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+    o = np.array([512_345.6, 7_012_345.6])
+    n_loc = np.array([0.0, np.sin(np.radians(60.0)), np.cos(np.radians(60.0))])   # unit normal, local
+    n = np.r_[R @ n_loc[:2], n_loc[2]]
+    k = 40
+    x = rng.uniform(-1500.0, 1500.0, k)
+    z = rng.uniform(-600.0, -100.0, k)
+    on = np.column_stack([o + np.column_stack([x, -z / np.tan(np.radians(60.0))]) @ R.T, z])
+    near = rng.uniform(0.5, 4.5, k) * rng.choice([-1.0, 1.0], k)
+    far = rng.uniform(5.5, 50.0, k) * rng.choice([-1.0, 1.0], k)
+    D = np.vstack([on + near[:, None] * n, on + far[:, None] * n])
+    got = derive._in_bands([f1], D)
+    assert got[:k].all() and not got[k:].any(), (near[~got[:k]], far[got[k:]])
+    # Past the extent (5 km along strike beyond the 3.6 km fault): never.
+    past = D + np.r_[R @ np.array([5000.0, 0.0]), 0.0]
+    assert not derive._in_bands([f1], past).any()
+    located = [f.sides(D) for f in (f1, f2)]
+    assert np.array_equal(derive._block_keys([f1, f2], D, located), derive._block_keys([f1, f2], D))
