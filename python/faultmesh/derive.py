@@ -2391,25 +2391,29 @@ def _tip_taper(fs: FaultSurface, u: np.ndarray, seen_u: np.ndarray,
     return w
 
 
-def _abutted_partners(fs: FaultSurface, partners: Sequence[FaultSurface]) -> List[Optional[str]]:
+def _abutted_partners(fs: FaultSurface, partners: Sequence[FaultSurface],
+                      located: Optional[Sequence[Any]] = None) -> List[Optional[str]]:
     """Per end of ``fs`` along strike, the partner it abuts, else None: one
     whose surface the fault's own part lies on one side of (exact sides;
     not one it crosses) and comes within its points' spacing along strike
     (``fs.reach``, the boundary's rule in :func:`fault_surface`) of, at the
     end's tenth of the fault's length. On random ground 90 as v2, F2 ends
-    0.7 m from F1; on 36, 38 and 177, 1.8-11 m."""
+    0.7 m from F1; on 36, 38 and 177, 1.8-11 m. ``located``: per partner,
+    its side test of the own part's vertices (:func:`_own_part_sides`),
+    where the caller has it."""
     V = fs.own[0]
     u = fs.u(V[:, :2])
     band = 0.1 * float(np.ptp(u))
     out: List[Optional[str]] = [None, None]
-    for p in partners:
-        located = p.sides(V)
-        s = np.asarray(located[1])
+    if located is None:
+        located = _own_part_sides(fs, partners)
+    for p, loc in zip(partners, located):
+        s = np.asarray(loc[1])
         if not (np.all(s >= 0) or np.all(s <= 0)):
             continue
         for e in (0, 1):
             sel = (u <= u.min() + band) if e == 0 else (u >= u.max() - band)
-            d = float(np.min(_fault_distance(p, V[sel], tuple(np.asarray(x)[sel] for x in located))))
+            d = float(np.min(_fault_distance(p, V[sel], tuple(np.asarray(x)[sel] for x in loc))))
             if out[e] is None and d <= max(fs.reach, ON_FAULT):
                 out[e] = p.name
     return out
@@ -2447,12 +2451,23 @@ class _PartnerFade:
         return t * self.side._own_share(q, s, t)
 
 
-def _lies_on_hanging_wall(fs: FaultSurface, other: FaultSurface) -> bool:
+def _own_part_sides(fs: FaultSurface, partners: Sequence[FaultSurface]) -> List[Any]:
+    """Per partner, its exact side test (:meth:`FaultSurface.sides`) of the
+    vertices of ``fs``'s own part: what :func:`_abutted_partners` and
+    :func:`_lies_on_hanging_wall` read, asked once per pair."""
+    V = fs.own[0]
+    return [p.sides(V) for p in partners]
+
+
+def _lies_on_hanging_wall(fs: FaultSurface, other: FaultSurface, located=None) -> bool:
     """Whether the own part of ``fs`` lies on the hanging-wall side of
     ``other``'s (continued) surface, none of it on the footwall side
     (exact sides): a fault that abuts ``other`` from its hanging wall (a
-    T), not one that crosses it."""
-    s = np.asarray(other.side(fs.own[0])[1])
+    T), not one that crosses it. ``located``: ``other``'s side test of the
+    own part (:func:`_own_part_sides`), where the caller has it."""
+    if located is None:
+        located = _own_part_sides(fs, [other])[0]
+    s = np.asarray(located[1])
     return bool(np.all(s >= 0) and np.any(s > 0))
 
 
@@ -4055,8 +4070,8 @@ def _within_extent(fs: FaultSurface, z: float) -> float:
 def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: FaultSurface,
                          others: Sequence[FaultSurface], far_f: float,
                          far_h: float, carry: Optional[np.ndarray] = None,
-                         ring: Optional[np.ndarray] = None,
-                         surfs: Optional[Tuple[Any, Any]] = None) -> Tuple[float, float]:
+                         ring: Optional[np.ndarray] = None, *,
+                         surfs: Tuple[Any, Any]) -> Tuple[float, float]:
     """(lo, hi) along the section: how far the footwall polyline may reach
     back (s >= lo, at most ``far_f`` from its cutoff) and the hanging-wall
     polyline forward (s <= hi, at most ``far_h``) while it stays in this
@@ -4096,19 +4111,17 @@ def _room_between_faults(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, own: F
     from ._core import nearest_segment
 
     ratio = ROOM_SHARE / (1.0 - ROOM_SHARE)
-    for cut, sc, far, sgn, surf in ((f, sf, far_f, -1.0, surfs[0] if surfs else None),
-                                    (h, sh, far_h, 1.0, surfs[1] if surfs else None)):
+    for cut, sc, far, sgn, surf in ((f, sf, far_f, -1.0, surfs[0]), (h, sh, far_h, 1.0, surfs[1])):
         if not far > 0:
             continue
         # 64 steps: the far end is placed to within 1/64 of its reach.
         ss = sc + sgn * far * np.linspace(0.0, 1.0, 65)
         P = tr.origin + ss[:, None] * tr.direction
         levels = [float(cut[2])]
-        if surf is not None:
-            zP = np.asarray(surf(P), dtype=np.float64)
-            zP = zP[np.isfinite(zP)]
-            if len(zP):
-                levels += [float(zP.min()), float(zP.max())]
+        zP = np.asarray(surf(P), dtype=np.float64)
+        zP = zP[np.isfinite(zP)]
+        if len(zP):
+            levels += [float(zP.min()), float(zP.max())]
         theirs = [c for o in others for c in (_contour_xy(o, _within_extent(o, zl)) for zl in levels)
                   if len(c)]
         if not theirs:
@@ -4622,8 +4635,10 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
                          if g is not f and f.group and g.group == f.group and g.name in surfs]
                 for f in dataset.faults if id(f) in todo}
     for name, ps in group_of.items():
-        surfs[name].abuts = _abutted_partners(surfs[name], ps)
-        surfs[name].hanging_wall_of = tuple(p.name for p in ps if _lies_on_hanging_wall(surfs[name], p))
+        located = _own_part_sides(surfs[name], ps)
+        surfs[name].abuts = _abutted_partners(surfs[name], ps, located)
+        surfs[name].hanging_wall_of = tuple(p.name for p, loc in zip(ps, located)
+                                            if _lies_on_hanging_wall(surfs[name], p, loc))
     order = sorted((f for f in dataset.faults if id(f) in todo),
                    key=lambda f: bool(surfs[f.name].hanging_wall_of))
     done: Dict[str, Fault] = {}
