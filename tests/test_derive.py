@@ -1769,3 +1769,38 @@ def test_data_within_a_partners_band_are_told_whatever_the_turn(draw):
     assert not derive._in_bands([f1], past).any()
     located = [f.sides(D) for f in (f1, f2)]
     assert np.array_equal(derive._block_keys([f1, f2], D, located), derive._block_keys([f1, f2], D))
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2 ** 32 - 1), scale=st.floats(0.01, 1e3), reach=st.floats(0.1, 1e4))
+def test_the_kind_weighs_a_layer_by_how_far_its_data_lie(seed, scale, reach):
+    """derive._sense_offset, whose sign is the fault's kind: the same at
+    any scale of throws and of distances (gaps and floor together); a layer
+    whose data lie at the fault outweighs layers of the other sense whose
+    weighted sum is smaller, however large their throws; a gap under the
+    floor counts as the floor; without local evidence the regional offsets
+    decide, unweighted; without any, None."""
+    rng = np.random.default_rng(seed)
+    floor = 0.25 * reach
+    near = rng.uniform(0.0, 2.0) * floor
+    n_far = int(rng.integers(1, 5))
+    far_gaps = rng.uniform(2.0, 10.0, n_far) * floor
+    t_near = rng.uniform(1.0, 40.0) * scale
+    # The far layers' throws of the other sense, just short of (or just
+    # past) outweighing the near one.
+    share = rng.dirichlet(np.ones(n_far))
+    bound = t_near / max(near, floor)
+    for k, want in ((0.98, 1.0), (1.02, -1.0)):
+        local = {"near": [(t_near, near)] * 3}
+        for j in range(n_far):
+            t = k * share[j] * bound * far_gaps[j]
+            local[f"far{j}"] = [(-t, far_gaps[j])] * int(rng.integers(1, 4))
+        off = derive._sense_offset(local, {"far0": [1e6]}, floor)
+        assert np.sign(off) == want, (local, off)
+        for sign in (1.0, -1.0):
+            flipped = {lay: [(sign * t * 7.0, g * 3.0) for t, g in v] for lay, v in local.items()}
+            assert np.sign(derive._sense_offset(flipped, {}, 3.0 * floor)) == sign * want
+    assert derive._sense_offset({"a": [(5.0, 0.0)]}, {}, floor) == \
+        derive._sense_offset({"a": [(5.0, floor)]}, {}, floor)
+    assert derive._sense_offset({}, {"a": [-2.0, -1.0, 9.0], "b": [3.0]}, floor) == 2.0
+    assert derive._sense_offset({}, {}, floor) is None

@@ -1241,3 +1241,24 @@ def test_a_fault_as_unlabelled_points_or_a_tsurf_derives_like_its_sticks(form, t
     assert other["ratio"] == pytest.approx(sticks["ratio"], rel=0.02), (sticks["ratio"], other["ratio"])
     if form == "surface":
         assert sorted(p.name for p in (tmp_path / form / "v2").rglob("*.ts")), "no TSurf file written"
+
+
+def test_the_kind_weighs_each_layers_throw_by_how_far_its_data_lie(tmp_path):
+    """Regression (random ground 290 as v2 with section picks, one of the
+    unseen seeds 200-399: F2, normal, 32 m, cuts L3 only). L3 showed the
+    normal throw (median +28.7 m) with data a median 180 m from its
+    cutoffs; L5, which F2 does not cut, showed -32.3 m, each side's slope
+    extrapolated over 620 m. The unweighted sum of the layers' medians said
+    reverse, L3 was set to zero as of the wrong sense and L5 kept its
+    spurious throw (1.29x the true cutoffs' error near the faults). Each
+    layer now counts by how far its data lie (derive._sense_offset): F2 is
+    normal, L3's cutoffs lie within 3.9 m of the truth (20.5 / 22.5 m
+    before), L5's throws are set to zero as of the wrong sense, 0.80x
+    (measured)."""
+    out = gr.evaluate_ground_v2(290, tmp_path)
+    assert out["ratio"] is not None, (out["stage"], out["error"])
+    assert out["kinds"]["F2"] == ["normal", "normal"], out["kinds"]
+    for side in ("foot", "hanging"):
+        d = np.asarray(out["cutoffs"]["F2"]["L3"][side], dtype=np.float64)
+        assert np.nanmax(d) <= 6.0, (side, d)
+    assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
