@@ -1262,3 +1262,23 @@ def test_the_kind_weighs_each_layers_throw_by_how_far_its_data_lie(tmp_path):
         d = np.asarray(out["cutoffs"]["F2"]["L3"][side], dtype=np.float64)
         assert np.nanmax(d) <= 6.0, (side, d)
     assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
+
+
+def test_a_datum_on_the_fault_where_the_tin_bulges_lies_on_it(tmp_path):
+    """Regression (random ground 251 as v2 with section picks, one of the
+    unseen seeds 200-399: F1, normal, 36 m, a bend of 22 m along strike,
+    sticks 60-140 m apart). Between the sticks the fault's TIN lies 0.29 m
+    off the true fault; an L1 top picked on the fault (the hanging wall's
+    cutoff) lay 0.059 m from the TIN on its footwall side, over the 0.05 m
+    within which a datum lies on the fault, went to the footwall and pulled
+    its cutoffs down by up to 25 m (cutoffs up to 34 m off, 2.00x the true
+    cutoffs' error near the fault). A datum within the TIN's chord error
+    (FaultSurface.chord, estimated 0.29 m) now lies on the fault and goes
+    to the side whose surface passes nearer: every cutoff within 2.5 m
+    (measured), 1.03x."""
+    out = gr.evaluate_ground_v2(251, tmp_path)
+    assert out["ratio"] is not None, (out["stage"], out["error"])
+    for side in ("foot", "hanging"):
+        d = np.asarray(out["cutoffs"]["F1"]["L1"][side], dtype=np.float64)
+        assert np.nanmax(d) <= 5.0, (side, d)
+    assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
