@@ -1282,3 +1282,21 @@ def test_a_datum_on_the_fault_where_the_tin_bulges_lies_on_it(tmp_path):
         d = np.asarray(out["cutoffs"]["F1"]["L1"][side], dtype=np.float64)
         assert np.nanmax(d) <= 5.0, (side, d)
     assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
+
+
+def test_a_fading_throw_beyond_what_the_data_span_is_no_fit(tmp_path):
+    """Regression (random ground 207 as v2 with section picks, one of the
+    unseen seeds 200-399: F1, normal, 9 m, with F2, reverse, abutting it
+    from its hanging wall, a T). In F2's hanging-wall block, F2's drag
+    restored, F1's L1 fading-throw fit traded S against T where the data
+    leave them undetermined: T from -181 to 1,396 m along strike over data
+    spanning 47-75 m, and three hanging-wall cutoffs 144-190 m too deep
+    (1.51x the true cutoffs' error near the faults). A throw over
+    derive.THROW_RANGE times the data's elevation range is no fit now, and
+    the sections keep their own sides: L1's hanging-wall cutoffs within
+    0.7 m but for the last two (16 and 18 m), 1.14x (measured)."""
+    out = gr.evaluate_ground_v2(207, tmp_path)
+    assert out["ratio"] is not None, (out["stage"], out["error"])
+    d = np.asarray(out["cutoffs"]["F1"]["L1"]["hanging"], dtype=np.float64)
+    assert np.nanmax(d[:-2]) <= 2.0 and np.nanmean(d) <= 5.0, d
+    assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])

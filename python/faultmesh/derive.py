@@ -3594,6 +3594,12 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # is missed by the straight line (random_ground(40): F1's L2 got -16 to
     # -30 m where its own surfaces gave -24 to -40 m, the truth's; 0.74x ->
     # 1.01x without the bound). Towards a tip the taper below decides.
+    # A cutoff throw over THROW_RANGE times the elevation range of the
+    # layer's data is no support either: a datum near in map view beside a
+    # steep fault can lie far above a cutoff its side's surface carried
+    # down (random ground 207 as v2: F1's L5, 9 m, 158 m on its section at
+    # u=2187 beside a hanging-wall datum 150 m above that cutoff, and the
+    # three sections before it took 44, 82 and 120 m from it along strike).
     def derived_along(lay: str) -> List[int]:
         """The layer's cut sections derived here (not given, not an extra
         end section), in order along strike."""
@@ -3603,7 +3609,8 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     if kind is not None:
         for lay, r in res.items():
             along = [i for i in derived_along(lay) if i not in r.get("hinted", {})]
-            seen = [i for i in along if sgn * throw[lay][i] >= opt.min_throw and
+            most = THROW_RANGE * float(np.ptp(r["data"][:, 2]))
+            seen = [i for i in along if opt.min_throw <= sgn * throw[lay][i] <= most and
                     _sides_of(r, i)["hanging"].nearest(cutpts[lay][i][1][None, :2])[0]
                     <= HANGING_SUPPORT * spacing_u]
             if len(seen) < 2:
