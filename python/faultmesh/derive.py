@@ -2806,11 +2806,13 @@ def _regional_throw(tr: _SectionTrace, f: np.ndarray, h: np.ndarray, data: np.nd
 
 #: A layer datum closer than this (m) to the fault surface lies on it
 #: (:func:`_on_fault`), or closer than the TIN's chord error where that is
-#: larger (:attr:`FaultSurface.on_tolerance`). On the generated grounds the data on the fault (a
-#: normal fault's gap, where the layer's top is the fault itself) lie within
-#: 0.044 m of the fault TIN (coordinates rounded to 1 mm - 1 cm, and the
-#: chord between fault sticks 60-140 m apart of a fault curved along
-#: strike); the nearest datum off the fault 0.07 m (seeds 0-99).
+#: larger (:attr:`FaultSurface.on_tolerance`). On the generated grounds
+#: of seeds 0-99 the data on the fault (a normal fault's gap, where the
+#: layer's top is the fault itself) lie within 0.044 m of the fault TIN
+#: (coordinates rounded to 1 mm - 1 cm, and the chord between fault
+#: sticks 60-140 m apart of a fault curved along strike); the nearest
+#: datum off the fault 0.07 m. Ground 251 has one 0.059 m off, where the
+#: chord is 0.29 m: hence the chord.
 ON_FAULT = 0.05
 
 
@@ -3392,10 +3394,10 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # cutoffs (_sense_offset): a layer offset along the whole fault
     # outweighs a layer the fault does not displace whose sides show a few
     # metres of spurious offset either way near another fault
-    # (paper_like(0): 4F2, normal,
-    # displaces coal 8 by 20 m, median +10.5 m; coal 10, displaced only by
-    # 2F1, shows -5.5 m at the T-junction; the median over all sections and
-    # layers was -0.05 m, reverse).
+    # (paper_like(0): 4F2, normal, displaces coal 8 by 20 m, median
+    # +10.5 m; coal 10, displaced only by 2F1, shows -5.5 m at the
+    # T-junction; the median over all sections and layers was -0.05 m,
+    # reverse).
     # The extra sections at ends on the boundary do not vote: the regular
     # ones sample the fault evenly along strike, and an end section's
     # cutoffs extrapolate to the boundary (holes-only random_ground(41) as
