@@ -860,11 +860,18 @@ class FaultSurface:
         0.059 m from the TIN on its footwall side, went to the footwall and
         pulled its cutoffs 10-25 m down (2.0x the true cutoffs' error near
         the fault). 0 where the vertices are too few for the fit."""
+        from ._core import halfedge_twins
+
         V, T = self.own
         if len(T) == 0:
             return 0.0
-        E = np.unique(np.sort(np.vstack([T[:, [0, 1]], T[:, [1, 2]], T[:, [0, 2]]]), axis=1), axis=0)
-        E = E[_even_sample(len(E), CHORD_SAMPLE)]
+        # Each edge once, from the library's one adjacency: half-edge 3 t + k
+        # runs from corner k to corner k + 1 of triangle t; an edge is its
+        # half-edge of the lower index (or its only one, on the outline).
+        twins = halfedge_twins(T, n_vertices=len(V), orientation="any")
+        e = np.flatnonzero((twins < 0) | (twins > np.arange(len(twins))))
+        E = np.sort(np.column_stack([T.reshape(-1)[e], T[:, [1, 2, 0]].reshape(-1)[e]]), axis=1)
+        E = E[np.lexsort((E[:, 1], E[:, 0]))][_even_sample(len(E), CHORD_SAMPLE)]
         picks = _Picks(V)
         if picks.tree is None:
             return 0.0
@@ -2367,6 +2374,7 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     #
     # A block offset (profile None) whose throw changes sense along strike
     # is set aside for the next profile (_one_sense).
+    most = THROW_RANGE * float(np.ptp(Di[:, 2]))
     while True:
         least = min(e for e, _ in energies)
         prof = next(p for e, p in energies if e <= least + abs(least) * PROFILE_TIE)
@@ -2388,12 +2396,13 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
             T = np.interp(np.clip(knots, seen_u.min(), seen_u.max()), knots, T) * \
                 _tip_taper(fs, knots, seen_u, ends)
             shown = (knots >= seen_u.min()) & (knots <= seen_u.max())
+        T_shown = T[shown] if shown.any() else T
         # A throw beyond THROW_RANGE times the elevation range of the
         # layer's data in the fit is no fit (THROW_RANGE): the layer's
         # sections keep their own sides.
-        if float(np.abs(T[shown] if shown.any() else T).max()) > THROW_RANGE * float(np.ptp(Di[:, 2])):
+        if float(np.abs(T_shown).max()) > most:
             return None
-        if prof is not None or _one_sense(T[shown] if shown.any() else T):
+        if prof is not None or _one_sense(T_shown):
             break
         energies = [(e, p) for e, p in energies if p is not None]
         if not energies:
@@ -2693,6 +2702,13 @@ def _tip_side_datum(side: "SideSurface", fs: FaultSurface, cut: np.ndarray, u: f
 SENSE_GAP_FLOOR = 0.25
 
 
+def _layer_medians(local: Dict[str, List[Tuple[float, float]]]) -> Dict[str, Tuple[float, float]]:
+    """Per layer of ``local`` (:func:`_sense_offset`), the median cutoff
+    throw and the median gap over its sections."""
+    return {lay: (float(np.median([t for t, _ in v])), float(np.median([g for _, g in v])))
+            for lay, v in local.items()}
+
+
 def _sense_offset(local: Dict[str, List[Tuple[float, float]]],
                   regional: Dict[str, List[float]], floor: float) -> Optional[float]:
     """The fault's offset whose sign is its kind (> 0 normal), or None
@@ -2719,9 +2735,7 @@ def _sense_offset(local: Dict[str, List[Tuple[float, float]]],
     sections the cutoff is interpolated between the sections' data, not
     extrapolated."""
     if local:
-        return float(sum(np.median([t for t, _ in v])
-                         / max(float(np.median([g for _, g in v])), floor)
-                         for v in local.values()))
+        return float(sum(t / max(g, floor) for t, g in _layer_medians(local).values()))
     if regional:
         return float(sum(np.median(v) for v in regional.values()))
     return None
@@ -3440,8 +3454,8 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     kind = None if offset is None else ("normal" if offset > 0 else "reverse")
     if fault.kind is not None and kind is not None and kind != fault.kind:
         if local:
-            shown = ", ".join(f"{lay} {np.median([t for t, _ in v]):+.1f} m with data "
-                              f"{np.median([g for _, g in v]):.0f} m off" for lay, v in local.items())
+            shown = ", ".join(f"{lay} {t:+.1f} m with data {g:.0f} m off"
+                              for lay, (t, g) in _layer_medians(local).items())
             why = "each layer's median cutoff throw over its sections, weighed by how far " \
                   f"its data lie from the cutoffs: {shown}"
         else:
