@@ -1975,6 +1975,11 @@ class FaultDerivation:
     #: layer -> {"foot": (k, 3), "hanging": (k, 3)}: the cutoff lines (one
     #: point per section where the layer is cut, along strike).
     cutoffs: Dict[str, Dict[str, np.ndarray]]
+    #: layer -> (n, 3): the side surfaces' points where the builder carries
+    #: the layer's end section onto the study-area boundary
+    #: (:func:`_carried_points`); the derived dataset's ``derived_points``
+    #: have them.
+    carried: Dict[str, np.ndarray] = field(default_factory=dict)
 
     def as_dict(self) -> Dict[str, Any]:
         return {"kind": self.kind, "given_kind": self.given_kind, "warnings": list(self.warnings),
@@ -3846,6 +3851,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # Traces.
     new_secs: Dict[str, Section] = {}
     out_traces: List[Tuple[float, Trace]] = []
+    section_of: Dict[int, int] = {}   # id(trace) -> its line
     sec_names: List[str] = []
     cut_lines: Dict[str, Dict[str, list]] = {lay: {"foot": [], "hanging": []} for lay in res}
     for i in order:
@@ -3883,6 +3889,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             sec_names.append(name)
             trace = Trace(name, plane, layers)
         out_traces.append((ln["u"], trace))
+        section_of[id(trace)] = i
     out_traces.sort(key=lambda t: t[0])
     final_kind = fault.kind if fault.kind is not None else (kind or "normal")
     # What the builder consumes: the points, surface and hint were used up
@@ -3895,7 +3902,9 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     cl = {lay: {k: np.array(v).reshape(-1, 3) for k, v in d.items()}
           for lay, d in cut_lines.items() if d["foot"]}
     rep = FaultDerivation(fault.name, kind, fault.kind, warn, fs, sec_names, prof,
-                          np.array(tips).reshape(-1, 2), end_kind, cl)
+                          np.array(tips).reshape(-1, 2), end_kind, cl,
+                          _carried_points(new_fault, fs, res, section_of, ring, others, partners,
+                                          end_kind, spacing))
     return new_fault, new_secs, rep
 
 
@@ -4016,6 +4025,117 @@ def _fill_boundary_ends(fs: FaultSurface, ring: np.ndarray, lines: List[Dict[str
                 if sd2 is not res[l2]["sides"]:
                     res[l2]["sec_sides"][i2] = sd2
     return len(lines)
+
+#: Step (in section spacings) of the points that :func:`_carried_points`
+#: puts where the builder carries a layer's end section onto the boundary:
+#: along the polylines and along strike. A quarter: the side surfaces bend
+#: over a tension length of data spacings, which is a section spacing or
+#: more; the continuous TIN is linear between the points.
+CARRY_STEP = 0.25
+
+
+def _carried_points(fault: Fault, fs: FaultSurface, res: Dict[str, Dict[str, Any]],
+                    section_of: Dict[int, int], ring: np.ndarray, others: Sequence[FaultSurface],
+                    partners: Sequence[FaultSurface], end_kind: Sequence[str],
+                    spacing: float) -> Dict[str, np.ndarray]:
+    """Per layer, points (n, 3) of the side surfaces between the layer's end
+    section and the study-area boundary at an end of the fault on the
+    boundary: in the parallelogram that each side's polyline sweeps when
+    carried along strike onto the boundary.
+
+    There the builder either carries the end section along strike onto the
+    boundary, its z changed by the continuous TIN's change
+    (:func:`faultmesh.faults._shift_z`), or, where that is too far, closes
+    the patch short of it and leaves the continuous TIN. Either way the
+    layer there is the TIN's, and the TIN interpolates across the fault,
+    between data of both walls: where the boundary runs obliquely across
+    the fault the wedge is a kilometre long (held-out random_ground(164):
+    the hanging wall 10 m high over a 400 m x 1 km parallelogram, 85 % of
+    the excess error near the faults). These points, in the layer's
+    continuous TIN (``Dataset.derived_points``), give it each wall's own
+    trend there, and a patch takes them as its data too
+    (build._honour_layer_data). Each point's z is its polyline point's plus
+    the side surface's change from there, so that the points continue the
+    polyline as the builder would carry it (a picked polyline, or one whose
+    throw was capped, keeps its own z at the section).
+
+    Steps of :data:`CARRY_STEP` section spacings; a polyline's first points
+    up to a step beyond both cutoffs (a reverse fault's overlap) are left
+    out, and so are points not on that side of the fault (its surface
+    continued), across another fault or a group partner (within its extent)
+    from the polyline point they come from, within half a step of one of
+    the layer's data (the TIN has the datum), or farther than the tension
+    length (:data:`TENSION` data spacings) from them: beyond it a side
+    surface is the layer's regional slope, no better than the TIN. On the
+    random grounds with picks (seeds 0-199, 10,686 points), the points' mean
+    error against the truth vs the plain TIN's at the same places: 1.75 vs
+    3.01 m within half a data spacing of a datum, 3.12 vs 4.60 m at 0.5-1,
+    6.15 vs 7.15 m at 1.5-2, 8.55 vs 10.82 m at 2-3, and 20.9 vs 15.4 m
+    beyond 3."""
+    from scipy.spatial import cKDTree
+
+    from . import faults as fm
+    if "boundary" not in end_kind or not fault.traces:
+        return {}
+    try:
+        ends = fm.fault_ends(fault)
+    except GeometryError:
+        return {}
+    area = fm.as_study_area(ring)
+    h = CARRY_STEP * spacing
+    apart = list(others) + list(partners)
+    out: Dict[str, List[np.ndarray]] = {}
+    for e in (0, 1):
+        if end_kind[e] != "boundary" or ends.tips[e] is not None:
+            continue
+        d = np.asarray(ends.directions[e], dtype=np.float64)
+        for lay, r in res.items():
+            with_layer = [tr for tr in fault.traces if lay in tr.layers]
+            if not with_layer:
+                continue
+            tr = with_layer[0] if e == 0 else with_layer[-1]
+            i = section_of.get(id(tr))
+            if i is None or i in r.get("hinted", {}) or i in r["joint_secs"]:
+                continue
+            polys = tr.layers[lay]
+            f_xy = np.asarray(polys["foot"], dtype=np.float64)[-1, :2]
+            h_xy = np.asarray(polys["hanging"], dtype=np.float64)[0, :2]
+            skip = float(np.hypot(*(h_xy - f_xy))) + h
+            for side, label in (("foot", -1), ("hanging", 1)):
+                surf = _sides_of(r, i)[side]
+                P = np.asarray(polys[side], dtype=np.float64)
+                if side == "foot":
+                    P = P[::-1]   # from the cutoff outwards
+                arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(P[:, :2], axis=0).T))]
+                a = np.arange(skip, arc[-1] + 1e-9 * h, h)
+                if not len(a):
+                    continue
+                p = np.column_stack([np.interp(a, arc, P[:, k]) for k in range(3)])
+                t = area.ray_hit(p[:, :2], d[None, :])[0]
+                t = np.where(np.isfinite(t), t, 0.0)
+                # Steps of h along d, the last a quarter step or more short
+                # of the boundary: k = 1..steps per polyline point.
+                steps = np.maximum(np.floor((t - 0.25 * h) / h).astype(np.int64), 0)
+                rows = np.repeat(np.arange(len(p)), steps)
+                if not len(rows):
+                    continue
+                k = np.arange(len(rows)) - np.repeat(np.cumsum(steps) - steps, steps) + 1
+                q = p[rows, :2] + (k * h)[:, None] * d[None, :]
+                z = p[rows, 2] + surf(q) - surf(p[rows, :2])
+                Q = np.column_stack([q, z])
+                ok = np.isfinite(z)
+                ok &= fs.side(np.where(ok[:, None], Q, 0.0))[1] == label   # past its extent too
+                for o in apart:
+                    # Not across another fault from the polyline point it
+                    # comes from: the ray stays in the section's block.
+                    at = o.side(np.where(ok[:, None], Q, 0.0))[0]
+                    ok &= ~np.isin(at, (-1, 1)) | (at == o.side(p)[1][rows])
+                ok &= cKDTree(r["data"][:, :2]).query(q)[0] > 0.5 * h
+                ok &= surf.nearest(q) <= TENSION * r["spacing"]
+                if ok.any():
+                    out.setdefault(lay, []).append(Q[ok])
+    return {lay: np.vstack(v) for lay, v in out.items()}
+
 
 def _patch_problem(fault: Fault, layer: str, ring: np.ndarray) -> Optional[np.ndarray]:
     """None if the builder's patch of ``layer`` (faults.layer_patch, XY only)
@@ -4812,6 +4932,18 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
         done[f.name] = nf
         report.faults[f.name] = rep
     faults += [done[f.name] if id(f) in todo else f for f in dataset.faults]
+    # The derived faults' carried points (_carried_points) join the derived
+    # points after every fault is derived: they are no data for another
+    # fault's side surfaces, only for the built model's TINs and patches.
+    extra: Dict[str, List[np.ndarray]] = {}
+    for name in done:
+        for lay, q in report.faults[name].carried.items():
+            extra.setdefault(lay, []).append(q)
+    if extra:
+        dp = dict(dataset.derived_points)
+        for lay, qs in extra.items():
+            dp[lay] = np.vstack(([dp[lay]] if lay in dp else []) + qs)
+        dataset = replace(dataset, derived_points=dp)
     report.faults = {f.name: report.faults[f.name] for f in dataset.faults if f.name in report.faults}
     return replace(dataset, sections=sections, faults=faults, derivation=report)
 
