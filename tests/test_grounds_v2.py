@@ -1350,3 +1350,20 @@ def test_a_long_wedge_at_an_oblique_boundary_takes_the_hanging_walls_trend(tmp_p
     assert out["ratio"] is not None, (out["stage"], out["error"])
     assert "L6" in built["derived"].derivation.faults["F1"].carried
     assert out["ratio"] <= 1.8, (out["error_v1"], out["error_v2"])
+
+
+def test_the_carried_points_are_bounded_however_fine_the_step(tmp_path, monkeypatch):
+    """derive.CARRY_MAX bounds the points per polyline: with a step of a
+    millionth of the section spacing (as a fault a few centimetres long
+    would have), unbounded, ground 245's wedges would ask for about 1e14
+    points; bounded, each polyline side gives at most CARRY_MAX."""
+    from faultmesh import derive as dv
+    from faultmesh.dataset import load_dataset
+
+    spec, geo, p1 = gr.make_ground(245, tmp_path)
+    ds2 = load_dataset(gr.write_v2(load_dataset(p1), geo, spec, tmp_path / "v2", section_picks=True))
+    monkeypatch.setattr(dv, "CARRY_STEP", 1e-6)
+    fr = dv.derive_faults(ds2).derivation.faults["F1"]
+    n = {lay: len(q) for lay, q in fr.carried.items()}
+    # Two ends, two sides: at most 4 polylines per layer.
+    assert n and all(0 < v <= 4 * dv.CARRY_MAX for v in n.values()), n

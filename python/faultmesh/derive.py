@@ -4032,6 +4032,11 @@ def _fill_boundary_ends(fs: FaultSurface, ring: np.ndarray, lines: List[Dict[str
 #: over a tension length of data spacings, which is a section spacing or
 #: more; the continuous TIN is linear between the points.
 CARRY_STEP = 0.25
+#: At most this many points per polyline (its step made larger where it
+#: would give more): a fault a few centimetres long (fuzz cases) has a
+#: section spacing of millimetres, and its polylines, carried a kilometre,
+#: would ask for billions. The random grounds' polylines give a few hundred.
+CARRY_MAX = 10_000
 
 
 def _carried_points(fault: Fault, fs: FaultSurface, res: Dict[str, Dict[str, Any]],
@@ -4059,7 +4064,8 @@ def _carried_points(fault: Fault, fs: FaultSurface, res: Dict[str, Dict[str, Any
     polyline as the builder would carry it (a picked polyline, or one whose
     throw was capped, keeps its own z at the section).
 
-    Steps of :data:`CARRY_STEP` section spacings; a polyline's first points
+    Steps of :data:`CARRY_STEP` section spacings (larger where a polyline
+    would get over :data:`CARRY_MAX` points); a polyline's first points
     up to a step beyond both cutoffs (a reverse fault's overlap) are left
     out, and so are points not on that side of the fault (its surface
     continued), across another fault or a group partner (within its extent)
@@ -4087,7 +4093,6 @@ def _carried_points(fault: Fault, fs: FaultSurface, res: Dict[str, Dict[str, Any
     except GeometryError:
         return {}
     area = fm.as_study_area(ring)
-    h = CARRY_STEP * spacing
     apart = list(others) + list(partners)
     out: Dict[str, List[np.ndarray]] = {}
     for e in (0, 1):
@@ -4105,13 +4110,19 @@ def _carried_points(fault: Fault, fs: FaultSurface, res: Dict[str, Dict[str, Any
             polys = tr.layers[lay]
             f_xy = np.asarray(polys["foot"], dtype=np.float64)[-1, :2]
             h_xy = np.asarray(polys["hanging"], dtype=np.float64)[0, :2]
-            skip = float(np.hypot(*(h_xy - f_xy))) + h
+            near_datum = cKDTree(r["data"][:, :2])
             for side, label in (("foot", -1), ("hanging", 1)):
                 surf = _sides_of(r, i)[side]
                 P = np.asarray(polys[side], dtype=np.float64)
                 if side == "foot":
                     P = P[::-1]   # from the cutoff outwards
                 arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(P[:, :2], axis=0).T))]
+                reach = area.ray_hit(P[:, :2], d[None, :])[0]
+                reach = float(np.max(np.where(np.isfinite(reach), reach, 0.0)))
+                h = max(CARRY_STEP * spacing, math.sqrt(arc[-1] * reach / CARRY_MAX))
+                if not h > 0.0:
+                    continue
+                skip = float(np.hypot(*(h_xy - f_xy))) + h
                 a = np.arange(skip, arc[-1] + 1e-9 * h, h)
                 if not len(a):
                     continue
@@ -4135,7 +4146,7 @@ def _carried_points(fault: Fault, fs: FaultSurface, res: Dict[str, Dict[str, Any
                     # comes from: the ray stays in the section's block.
                     at = o.side(np.where(ok[:, None], Q, 0.0))[0]
                     ok &= ~np.isin(at, (-1, 1)) | (at == o.side(p)[1][rows])
-                ok &= cKDTree(r["data"][:, :2]).query(q)[0] > 0.5 * h
+                ok &= near_datum.query(q)[0] > 0.5 * h
                 ok &= surf.nearest(q) <= TENSION * r["spacing"]
                 if ok.any():
                     out.setdefault(lay, []).append(Q[ok])
