@@ -1367,3 +1367,26 @@ def test_the_carried_points_are_bounded_however_fine_the_step(tmp_path, monkeypa
     n = {lay: len(q) for lay, q in fr.carried.items()}
     # Two ends, two sides: at most 4 polylines per layer.
     assert n and all(0 < v <= 4 * dv.CARRY_MAX for v in n.values()), n
+
+
+def test_a_second_derivation_keeps_the_carried_points_of_the_faults_derived_before(tmp_path):
+    """derive_faults on a dataset whose F1 an earlier derivation derived
+    (ground 164 as v2: F1 and F2 both end on the boundary) and whose F2
+    has its points again: the conformable points are made anew, and F1's
+    carried points (FaultDerivation.carried) stay in ``derived_points``
+    with F2's new ones."""
+    from faultmesh.dataset import load_dataset
+    from faultmesh.derive import derive_faults
+
+    spec, geo, p1 = gr.make_ground(164, tmp_path)
+    ds2 = load_dataset(gr.write_v2(load_dataset(p1), geo, spec, tmp_path / "v2", section_picks=True))
+    d = derive_faults(ds2)
+    first = d.derivation.faults
+    assert first["F1"].carried and first["F2"].carried
+    mixed = dataclasses.replace(d, faults=[d.fault("F1"), ds2.fault("F2")])
+    again = derive_faults(mixed)
+    assert again.fault("F2").derived and again.derivation.faults["F1"] is first["F1"]
+    for name in ("F1", "F2"):
+        for lay, q in again.derivation.faults[name].carried.items():
+            have = {tuple(r) for r in again.derived_points[lay].tolist()}
+            assert all(tuple(r) in have for r in q.tolist()), (name, lay)

@@ -1975,8 +1975,8 @@ class FaultDerivation:
     #: layer -> {"foot": (k, 3), "hanging": (k, 3)}: the cutoff lines (one
     #: point per section where the layer is cut, along strike).
     cutoffs: Dict[str, Dict[str, np.ndarray]]
-    #: layer -> (n, 3): the side surfaces' points where the builder carries
-    #: the layer's end section onto the study-area boundary
+    #: layer -> (n, 3): the side surfaces' points between the layer's last
+    #: cut section and the study-area boundary, at an end on the boundary
     #: (:func:`_carried_points`); the derived dataset's ``derived_points``
     #: have them.
     carried: Dict[str, np.ndarray] = field(default_factory=dict)
@@ -4026,16 +4026,17 @@ def _fill_boundary_ends(fs: FaultSurface, ring: np.ndarray, lines: List[Dict[str
                     res[l2]["sec_sides"][i2] = sd2
     return len(lines)
 
+
 #: Step (in section spacings) of the points that :func:`_carried_points`
-#: puts where the builder carries a layer's end section onto the boundary:
-#: along the polylines and along strike. A quarter: the side surfaces bend
+#: puts between a layer's last cut section and the boundary: along the
+#: polylines and along strike. A quarter: the side surfaces bend
 #: over a tension length of data spacings, which is a section spacing or
 #: more; the continuous TIN is linear between the points.
 CARRY_STEP = 0.25
 #: At most this many points per polyline (its step made larger where it
 #: would give more): a fault a few centimetres long (fuzz cases) has a
 #: section spacing of millimetres, and its polylines, carried a kilometre,
-#: would ask for billions. The random grounds' polylines give a few hundred.
+#: would ask for billions. The random grounds' give tens to hundreds.
 CARRY_MAX = 10_000
 
 
@@ -4948,11 +4949,14 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
         done[f.name] = nf
         report.faults[f.name] = rep
     faults += [done[f.name] if id(f) in todo else f for f in dataset.faults]
-    # The derived faults' carried points (_carried_points) join the derived
-    # points after every fault is derived: they are no data for another
-    # fault's side surfaces, only for the built model's TINs and patches.
+    # The faults' carried points (_carried_points) join the derived points
+    # after every fault is derived: they are no data for another fault's
+    # side surfaces, only for the built model's TINs and patches. Those of
+    # faults an earlier derive_faults derived too: the conformable points
+    # above were made anew, without them.
     extra: Dict[str, List[np.ndarray]] = {}
-    for name in done:
+    kept = [f.name for f in dataset.faults if f.name not in done and f.name in report.faults]
+    for name in (list(done) + kept) if todo else ():
         for lay, q in report.faults[name].carried.items():
             extra.setdefault(lay, []).append(q)
     if extra:
