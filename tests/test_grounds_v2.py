@@ -1358,10 +1358,8 @@ def test_the_carried_points_are_bounded_however_fine_the_step(tmp_path, monkeypa
     would have), unbounded, ground 245's wedges would ask for about 1e14
     points; bounded, each polyline side gives at most CARRY_MAX."""
     from faultmesh import derive as dv
-    from faultmesh.dataset import load_dataset
 
-    spec, geo, p1 = gr.make_ground(245, tmp_path)
-    ds2 = load_dataset(gr.write_v2(load_dataset(p1), geo, spec, tmp_path / "v2", section_picks=True))
+    _, _, ds2 = _v1_and_v2_with_picks(245, tmp_path)
     monkeypatch.setattr(dv, "CARRY_STEP", 1e-6)
     fr = dv.derive_faults(ds2).derivation.faults["F1"]
     n = {lay: len(q) for lay, q in fr.carried.items()}
@@ -1375,11 +1373,9 @@ def test_a_second_derivation_keeps_the_carried_points_of_the_faults_derived_befo
     has its points again: the conformable points are made anew, and F1's
     carried points (FaultDerivation.carried) stay in ``derived_points``
     with F2's new ones."""
-    from faultmesh.dataset import load_dataset
     from faultmesh.derive import derive_faults
 
-    spec, geo, p1 = gr.make_ground(164, tmp_path)
-    ds2 = load_dataset(gr.write_v2(load_dataset(p1), geo, spec, tmp_path / "v2", section_picks=True))
+    _, _, ds2 = _v1_and_v2_with_picks(164, tmp_path)
     d = derive_faults(ds2)
     first = d.derivation.faults
     assert first["F1"].carried and first["F2"].carried

@@ -4138,17 +4138,17 @@ def _carried_points(fault: Fault, fs: FaultSurface, res: Dict[str, Dict[str, Any
                     continue
                 k = np.arange(len(rows)) - np.repeat(np.cumsum(steps) - steps, steps) + 1
                 q = p[rows, :2] + (k * h)[:, None] * d[None, :]
-                z = p[rows, 2] + surf(q) - surf(p[rows, :2])
-                Q = np.column_stack([q, z])
-                ok = np.isfinite(z)
-                ok &= fs.side(np.where(ok[:, None], Q, 0.0))[1] == label   # past its extent too
+                Q = np.column_stack([q, p[rows, 2] + surf(q) - surf(p[rows, :2])])
+                ok = np.isfinite(Q[:, 2])
+                Q, rows = Q[ok], rows[ok]
+                ok = fs.side(Q)[1] == label   # past its extent too
                 for o in apart:
                     # Not across another fault from the polyline point it
                     # comes from: the ray stays in the section's block.
-                    at = o.side(np.where(ok[:, None], Q, 0.0))[0]
+                    at = o.side(Q)[0]
                     ok &= ~np.isin(at, (-1, 1)) | (at == o.side(p)[1][rows])
-                ok &= near_datum.query(q)[0] > 0.5 * h
-                ok &= surf.nearest(q) <= TENSION * r["spacing"]
+                ok &= near_datum.query(Q[:, :2])[0] > 0.5 * h
+                ok &= surf.nearest(Q[:, :2]) <= TENSION * r["spacing"]
                 if ok.any():
                     out.setdefault(lay, []).append(Q[ok])
     return {lay: np.vstack(v) for lay, v in out.items()}
@@ -4954,15 +4954,12 @@ def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_thro
     # side surfaces, only for the built model's TINs and patches. Those of
     # faults an earlier derive_faults derived too: the conformable points
     # above were made anew, without them.
-    extra: Dict[str, List[np.ndarray]] = {}
-    kept = [f.name for f in dataset.faults if f.name not in done and f.name in report.faults]
-    for name in (list(done) + kept) if todo else ():
-        for lay, q in report.faults[name].carried.items():
-            extra.setdefault(lay, []).append(q)
-    if extra:
+    if todo:
         dp = dict(dataset.derived_points)
-        for lay, qs in extra.items():
-            dp[lay] = np.vstack(([dp[lay]] if lay in dp else []) + qs)
+        earlier_names = [f.name for f in dataset.faults if f.name not in done and f.name in report.faults]
+        for name in list(done) + earlier_names:
+            for lay, q in report.faults[name].carried.items():
+                dp[lay] = np.vstack([dp[lay], q]) if lay in dp else q
         dataset = replace(dataset, derived_points=dp)
     report.faults = {f.name: report.faults[f.name] for f in dataset.faults if f.name in report.faults}
     return replace(dataset, sections=sections, faults=faults, derivation=report)
