@@ -981,6 +981,54 @@ def test_layer_data_in_a_normal_faults_gap_belong_to_neither_side():
     assert not gap.any() and ext[derive._on_fault(fs, D)].tolist() == [1]
 
 
+def test_a_side_surface_on_cells_coarser_than_its_picks_does_not_lever_past_them():
+    """Regression (random ground 399 as v2 with section picks): a layer's
+    frame has cells of half the layer's data spacing (105 m there: lines of
+    picks 120-350 m apart), and a fault block's side with four such lines,
+    a pick every 8 m, got its smoothing length from its own spacing (30 m):
+    1.5 m, a seventieth of a cell. With next to no roughness the nodes
+    beside the picks levered off: F2's L2 footwall 26 m below picks 50 m
+    away, its cutoffs 15-38 m off. Here: a curved layer picked on four
+    lines across coarse cells, in 40 random turns; the surface 40 m past
+    the first line, beside its picks, within 5 m of the layer (before: 13 m
+    off at worst)."""
+    rng = np.random.default_rng(0)
+
+    def layer(x, y):
+        return -60.0 - 1e-4 * (x - 200.0) ** 2 + 0.02 * y + 5.0 * np.sin(x / 150.0)
+
+    frame = derive.GridFrame.around(np.zeros(2), (1.0, 0.0), (-600.0, 400.0), (-600.0, 400.0), 105.0)
+    errors = []
+    for _ in range(40):
+        a = rng.uniform(0.0, np.pi)
+        d = np.array([np.cos(a), np.sin(a)])
+        n = np.array([-d[1], d[0]])
+        P = np.array([-k * rng.uniform(100.0, 130.0) * n + t * d
+                      for k in range(4) for t in np.arange(0.0, 60.0, 8.0) + rng.uniform(-20.0, 0.0)])
+        side = derive.SideSurface(np.column_stack([P, layer(P[:, 0], P[:, 1])]), 12, frame)
+        q = (40.0 * n + 30.0 * d)[None, :]
+        errors.append(abs(float(side(q)[0]) - float(layer(q[:, 0], q[:, 1])[0])))
+    assert max(errors) <= 5.0, np.round(sorted(errors)[-5:], 1)
+
+
+def test_the_footwall_of_a_fault_abutting_another_keeps_to_its_picks():
+    """Regression (random ground 399 as v2 with section picks: F2, normal,
+    abuts F1, reverse, from F1's hanging wall; see the test above): F2's L2
+    cutoffs on its four sections next to F1 came out 15-38 m off (the throw
+    set to zero, of the wrong sense), L4's hanging-wall ones 82-84 m;
+    1.76x the true cutoffs' error near the faults. With the smoothing
+    length at least a tenth of the frame's cell: every L2 cutoff within
+    8 m, 0.94x."""
+    from faultmesh import grounds
+
+    out = grounds.evaluate_ground_v2(399)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    assert out["kind_ok"], out["kinds"]
+    far = {side: max(out["cutoffs"]["F2"]["L2"][side]) for side in ("foot", "hanging")}
+    assert max(far.values()) <= 8.0, far
+    assert out["ratio"] <= grounds.V2_RATIO, (out["error_v1"], out["error_v2"])
+
+
 def test_fading_throw_fit_also_where_the_hanging_walls_data_come_near():
     """Regression (random_ground(46) as v2: a reverse fault at 47 degrees
     across the area, 100 holes about 430 m apart, the throw whole 98 m into
