@@ -1029,6 +1029,30 @@ def test_the_footwall_of_a_fault_abutting_another_keeps_to_its_picks():
     assert out["ratio"] <= grounds.V2_RATIO, (out["error_v1"], out["error_v2"])
 
 
+def test_a_bridged_throw_is_held_past_the_hanging_walls_data():
+    """Regression (random ground 340 as v2 with section picks: F1, normal,
+    crosses F2 near its end on the boundary; in the block beyond F2 neither
+    side of F1 has data within two data spacings of its last sections, so
+    both come from one surface through both sides' data with a throw T(u)
+    along strike, derive._joint_sides): T continued its trend past the
+    last hanging-wall datum of the block (346 and 492 m on the last
+    sections, bridged from 57 m by the sections along strike, yet L4's
+    throw on the last two cut sections 105 and 192 m, the truth's 29-32 m),
+    cutoffs 83-353 m off, 1.38x the true cutoffs' error near the faults.
+    Held at its value at the outermost hanging-wall datum (as the
+    fading-throw fit's): every cut L4 throw under twice the truth's
+    largest (43 m), 1.13x."""
+    from faultmesh import grounds
+
+    built = {}
+    out = grounds.evaluate_ground_v2(340, built=built)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    assert out["kind_ok"], out["kinds"]
+    t = built["derived"].derivation.faults["F1"].throw["L4"]
+    assert np.max(np.abs(t["throw"][t["cut"]])) < 2 * 42.6, t
+    assert out["ratio"] <= grounds.V2_RATIO, (out["error_v1"], out["error_v2"])
+
+
 def test_fading_throw_fit_also_where_the_hanging_walls_data_come_near():
     """Regression (random_ground(46) as v2: a reverse fault at 47 degrees
     across the area, 100 holes about 430 m apart, the throw whole 98 m into

@@ -2163,7 +2163,8 @@ def _joint_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     the footwall data and the hanging-wall data raised by a throw T(u) that
     varies smoothly along strike (knots every half section ``spacing``,
     smoothing length one section spacing), fitted together
-    (:func:`_min_curvature`); footwall = S, hanging wall = S - T(u). Across
+    (:func:`_min_curvature`), held beyond the hanging wall's data along
+    strike; footwall = S, hanging wall = S - T(u). Across
     a data gap at the fault this bridges the two sides (the throw is what
     their data farther out say, not the difference of two extrapolations);
     it assumes the offset does not die out away from the fault within the
@@ -2179,6 +2180,13 @@ def _joint_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
                                   knots, spacing)
     except SingularFit:
         return None
+    # Past the outermost hanging-wall datum along strike T is held at its
+    # value there, as the fading-throw fit's (_decay_sides): its second
+    # differences continue the trend they end with (random ground 340 as
+    # v2: F1's last sections in the block beyond its partner F2, 346 and 492
+    # m where the truth has 29-32 m, cutoffs up to 353 m off).
+    hu = frame.uw(D[inside & hw, :2])[0]
+    T = np.interp(np.clip(knots, hu.min(), hu.max()), knots, T)
     return {"foot": SideSurface(foot, k, frame, ell, nodes=nodes),
             "hanging": SideSurface(hang, k, frame, ell, nodes=nodes, throw=(knots, T))}
 
