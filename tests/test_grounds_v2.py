@@ -848,8 +848,13 @@ def test_a_hanging_wall_without_data_near_its_cutoff_takes_the_throw_along_strik
     pick, 60.4 m. Now a section with no hanging-wall datum within half a
     section spacing of its cutoff takes the throw of the sections that have
     one, along strike: within 8 m there (the ground fails for other
-    reasons, 2.03x -> 1.75x). 69: F1's cutoff throws 11-30 m between its
-    pick lines where the truth has 40-45 m, 1.42x; now 1.00x."""
+    reasons, 2.03x -> 1.75x); 9.9 m since the side surfaces' smoothing
+    length is at least a tenth of a cell (2026-12-05: the section at u =
+    47 m, with data of both sides within 70 m, shows 45 m of throw where
+    the truth has 34 m, and the end sections take it; the ground 1.52 ->
+    1.42x), so the bound is 12 m, far under the 60 m of the defect. 69:
+    F1's cutoff throws 11-30 m between its pick lines where the truth has
+    40-45 m, 1.42x; now 1.00x."""
     out, built = evaluated(61)
     geo, f3 = built["geo"], next(f for f in built["derived"].faults if f.name == "F3")
     off = []
@@ -859,7 +864,7 @@ def test_a_hanging_wall_without_data_near_its_cutoff_takes_the_throw_along_strik
             continue
         h = np.asarray(walls["hanging"])[0]
         off.append(abs(h[2] - geo.side_value("L1", "F3", "hanging", h[None, 0], h[None, 1])[0]))
-    assert len(off) >= 8 and off[0] < 8.0, off       # the end on the boundary
+    assert len(off) >= 8 and off[0] < 12.0, off      # the end on the boundary
     assert any("F3" in w and "no hanging-wall data near it" in w for w in out["warnings"])
     out = gr.evaluate_ground_v2(69, tmp_path)
     assert out["stage"] == "ok" and out["ratio"] <= gr.V2_RATIO, (out["stage"], out["ratio"])
