@@ -2156,6 +2156,14 @@ def _joint_setup(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     return foot, hang, inside, hw, ell, np.linspace(u_lo, u_hi, nk)
 
 
+def _held_past(knots: np.ndarray, T: np.ndarray, seen_u: np.ndarray) -> np.ndarray:
+    """A throw T on ``knots`` (strike coordinates) held, beyond the strike
+    coordinates ``seen_u`` of the data that show it, at its value at the
+    outermost of them: a fit's T continues there only the trend its
+    smoothing ends with."""
+    return np.interp(np.clip(knots, np.min(seen_u), np.max(seen_u)), knots, T)
+
+
 def _joint_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, k: int,
                  spacing: float) -> Optional[Dict[str, "SideSurface"]]:
     """Both sides of a layer from the data of both (used where neither
@@ -2185,8 +2193,7 @@ def _joint_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     # differences continue the trend they end with (random ground 340 as
     # v2: F1's last sections in the block beyond its partner F2, 346 and 492
     # m where the truth has 29-32 m, cutoffs up to 353 m off).
-    hu = frame.uw(D[inside & hw, :2])[0]
-    T = np.interp(np.clip(knots, hu.min(), hu.max()), knots, T)
+    T = _held_past(knots, T, frame.uw(D[inside & hw, :2])[0])
     return {"foot": SideSurface(foot, k, frame, ell, nodes=nodes),
             "hanging": SideSurface(hang, k, frame, ell, nodes=nodes, throw=(knots, T))}
 
@@ -2420,7 +2427,7 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
         seen_u = frame.uw(Di[seen, :2])[0]
         shown = np.ones(len(knots), dtype=bool)
         if len(seen_u):
-            T = np.interp(np.clip(knots, seen_u.min(), seen_u.max()), knots, T) * \
+            T = _held_past(knots, T, seen_u) * \
                 _tip_taper(fs, knots, seen_u, ends)
             shown = (knots >= seen_u.min()) & (knots <= seen_u.max())
         T_shown = T[shown] if shown.any() else T
