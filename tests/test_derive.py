@@ -1053,6 +1053,32 @@ def test_a_bridged_throw_is_held_past_the_hanging_walls_data():
     assert out["ratio"] <= grounds.V2_RATIO, (out["error_v1"], out["error_v2"])
 
 
+def test_a_block_short_of_one_sides_data_keeps_its_own_other_side():
+    """Regression (held-out random ground 130 as v2 with section picks: F2,
+    reverse, abuts F1, normal; F1's sections next to the junction lie in
+    the block on F2's far side, which has 9-11 footwall data of L2 and L3
+    and 2 hanging-wall ones): with too few data for both sides the block
+    had no side surfaces, and those sections kept the whole layer's, whose
+    footwall mixes both blocks across F2. L3's footwall cutoff at u = -763
+    m lay at z = 221 m where the layer is at 1 m, L2's on the last three
+    sections 35-76 m off. The block's own footwall now stays; only its
+    hanging wall comes from the whole layer: within 5 m, the ground's error
+    near the faults 1.16 -> 0.72x the true cutoffs'."""
+    from faultmesh import grounds
+
+    built = {}
+    out = grounds.evaluate_ground_v2(130, built=built)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    fr, geo = built["derived"].derivation.faults["F1"], built["geo"]
+    for lay in ("L2", "L3"):
+        C = np.asarray(fr.cutoffs[lay]["foot"])
+        near = C[fr.surface.u(C[:, :2]) < -700.0]
+        off = near[:, 2] - geo.side_value(lay, "F1", "foot", near[:, 0], near[:, 1])
+        far = off if lay == "L2" else off[np.argmin(np.abs(fr.surface.u(near[:, :2]) + 763.0))][None]
+        assert len(near) and np.max(np.abs(far)) < 6.0, (lay, off)
+    assert out["ratio"] <= grounds.V2_RATIO, (out["error_v1"], out["error_v2"])
+
+
 def test_fading_throw_fit_also_where_the_hanging_walls_data_come_near():
     """Regression (random_ground(46) as v2: a reverse fault at 47 degrees
     across the area, 100 holes about 430 m apart, the throw whole 98 m into

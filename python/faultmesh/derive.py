@@ -3324,6 +3324,21 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                         fits["restored", key] = (Db, fades)
                     fits["block", key] = _side_surfaces(Db[inblock], {nm: split[nm][inblock] for nm in split},
                                                         frame, opt.k, fades)
+                    # A block with fewer than 3 data on one side still has
+                    # its own surface on the other: only the side it lacks
+                    # comes from the whole layer. The whole layer's surfaces
+                    # mix the blocks across the partner (held-out ground 130
+                    # as v2: F1's L3 footwall cutoff beside F2's junction at
+                    # z = 221 m where the layer lies at 1 m, its block
+                    # having 9 footwall data and 2 hanging-wall ones).
+                    if fits["block", key] is None:
+                        enough = {nm: int((inblock & split[nm]).sum()) >= 3 for nm in split}
+                        if any(enough.values()):
+                            slope = _regional_slope(Db[inblock], frame, split["hanging"][inblock])
+                            fits["block", key] = {
+                                nm: SideSurface(Db[inblock & split[nm]], opt.k, frame, slope=slope,
+                                                fades=(fades or {}).get(nm, ()))
+                                if enough[nm] else sides[nm] for nm in ("foot", "hanging")}
                 blk = fits["block", key]
                 if blk is None:
                     continue
