@@ -2090,19 +2090,22 @@ def _side_frame(fs: "FaultSurface", ring: np.ndarray, pad: float, h: float) -> G
 
 
 def _side_surfaces(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame,
-                   k: int, fades: Optional[Dict[str, Sequence["_PartnerFade"]]] = None
+                   k: int, fades: Optional[Dict[str, Sequence["_PartnerFade"]]] = None,
+                   fallback: Optional[Dict[str, "SideSurface"]] = None
                    ) -> Optional[Dict[str, "SideSurface"]]:
     """Each side of a layer's data ``D`` (``split``: masks "foot",
     "hanging") on its own (:class:`SideSurface`), or None when a side has
-    fewer than 3 data. ``fades``: per side, the partner faults' fading
-    throws that ``D`` was restored by (:func:`_restored`)."""
-    foot, hang = D[split["foot"]], D[split["hanging"]]
-    if len(foot) < 3 or len(hang) < 3:
+    fewer than 3 data; with ``fallback`` (per side), that side's surface
+    where it has fewer, None only when both have. ``fades``: per side, the
+    partner faults' fading throws that ``D`` was restored by
+    (:func:`_restored`)."""
+    enough = {nm: int(np.count_nonzero(split[nm])) >= 3 for nm in ("foot", "hanging")}
+    if not all(enough.values()) and (fallback is None or not any(enough.values())):
         return None
     fades = fades or {}
     slope = _regional_slope(D, frame, split["hanging"])
-    return {"foot": SideSurface(foot, k, frame, slope=slope, fades=fades.get("foot", ())),
-            "hanging": SideSurface(hang, k, frame, slope=slope, fades=fades.get("hanging", ()))}
+    return {nm: SideSurface(D[split[nm]], k, frame, slope=slope, fades=fades.get(nm, ()))
+            if enough[nm] else fallback[nm] for nm in ("foot", "hanging")}
 
 
 def _regional_slope(D: np.ndarray, frame: GridFrame, hanging: Optional[np.ndarray] = None) -> np.ndarray:
@@ -3322,8 +3325,6 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                     if fades:
                         Db = _restored(D, split, fades)
                         fits["restored", key] = (Db, fades)
-                    fits["block", key] = _side_surfaces(Db[inblock], {nm: split[nm][inblock] for nm in split},
-                                                        frame, opt.k, fades)
                     # A block with fewer than 3 data on one side still has
                     # its own surface on the other: only the side it lacks
                     # comes from the whole layer. The whole layer's surfaces
@@ -3331,14 +3332,8 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                     # as v2: F1's L3 footwall cutoff beside F2's junction at
                     # z = 221 m where the layer lies at 1 m, its block
                     # having 9 footwall data and 2 hanging-wall ones).
-                    if fits["block", key] is None:
-                        enough = {nm: int((inblock & split[nm]).sum()) >= 3 for nm in split}
-                        if any(enough.values()):
-                            slope = _regional_slope(Db[inblock], frame, split["hanging"][inblock])
-                            fits["block", key] = {
-                                nm: SideSurface(Db[inblock & split[nm]], opt.k, frame, slope=slope,
-                                                fades=(fades or {}).get(nm, ()))
-                                if enough[nm] else sides[nm] for nm in ("foot", "hanging")}
+                    fits["block", key] = _side_surfaces(Db[inblock], {nm: split[nm][inblock] for nm in split},
+                                                        frame, opt.k, fades, fallback=sides)
                 blk = fits["block", key]
                 if blk is None:
                     continue
