@@ -297,6 +297,13 @@ SMOOTHING = 0.05
 TENSION: Optional[float] = 3.0
 
 
+def _smoothing_length(spacing: float, frame: "GridFrame") -> float:
+    """The side surfaces' smoothing length on ``frame`` for data ``spacing``
+    apart: :data:`SMOOTHING` of the spacing, but of no less than two of the
+    frame's cells (:class:`SideSurface`, where the reason is)."""
+    return SMOOTHING * max(float(spacing), 2.0 * frame.h)
+
+
 @dataclass
 class GridFrame:
     """A regular grid of ``nu`` x ``nw`` nodes in a rotated frame: node
@@ -624,7 +631,7 @@ class SideSurface:
         # m off, 1.76x the true cutoffs' error. Never shorter than SMOOTHING
         # of two cells: the proportion of a layer's own frame, in which the
         # cells resolve what that length lets the surface follow.
-        self.ell = SMOOTHING * max(self.spacing, 2.0 * frame.h) if ell is None else float(ell)
+        self.ell = _smoothing_length(self.spacing, frame) if ell is None else float(ell)
         self.throw = throw
         self.decay = decay
         self.fades = tuple(fades)
@@ -2144,8 +2151,7 @@ def _joint_setup(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     hw = split["hanging"] & ~split["foot"]
     if (inside & hw).sum() < 3 or (inside & ~hw).sum() < 3:
         return None
-    # At least SMOOTHING of two of the frame's cells, as SideSurface's.
-    ell = SMOOTHING * max(_median_spacing(D), 2.0 * frame.h)
+    ell = _smoothing_length(_median_spacing(D), frame)
     u_lo, u_hi = frame.u0, frame.u0 + frame.h * (frame.nu - 1)
     # Knots every half section spacing, but no closer than an eighth of the
     # frame's cell (S resolves nothing finer than a cell): the frame spans
@@ -3188,7 +3194,8 @@ def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float
                                 grid, us, memo, derived)
     halfway = 0.5 * (us[1:] + us[:-1])
     first, _, rep = _derive_sections(ds, fault, opt, z_range, set(used_names), fs, [], partners,
-                                     others, grid, np.sort(np.r_[us, halfway]), memo, derived)
+                                     others, grid, np.sort(np.r_[us, halfway]), memo, derived,
+                                     with_carried=False)
     # A layer cut on no section has only NaN throws: its largest is NaN (no
     # deviation exceeds a share of it, so no halfway section is kept for it),
     # taken without numpy's all-NaN warning.
@@ -3207,14 +3214,18 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                      partners: Sequence[FaultSurface], others: Sequence[FaultSurface],
                      grid: Tuple[float, float, float, int], us: np.ndarray,
                      memo: Optional[Dict[str, Dict[Any, Any]]] = None,
-                     derived: Optional[Dict[str, Tuple[Dict[str, Any], list]]] = None
+                     derived: Optional[Dict[str, Tuple[Dict[str, Any], list]]] = None,
+                     with_carried: bool = True
                      ) -> Tuple[Fault, Dict[str, Section], FaultDerivation]:
     """:func:`_derive_fault` on the sections at strike coordinates ``us``
     (``grid``: :func:`_section_grid`). ``memo``: per layer, its side
     surfaces (whole, per fault block, joint) and the fading-throw fit with
     its cutoffs per section position (:func:`_decay_sections`), shared by
     derivations of the same fault on the same grid. ``derived``: the memos
-    and partners of the group partners derived before (:func:`_block_fades`)."""
+    and partners of the group partners derived before (:func:`_block_fades`).
+    ``with_carried``: whether the report gets the carried points
+    (:func:`_carried_points`; not for a first pass whose sections are only
+    compared)."""
     memo = {} if memo is None else memo
     derived = derived or {}
     ring = np.asarray(ds.boundary, dtype=np.float64)
@@ -3943,7 +3954,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     rep = FaultDerivation(fault.name, kind, fault.kind, warn, fs, sec_names, prof,
                           np.array(tips).reshape(-1, 2), end_kind, cl,
                           _carried_points(new_fault, fs, res, section_of, ring, others, partners,
-                                          end_kind, spacing))
+                                          end_kind, spacing) if with_carried else {})
     return new_fault, new_secs, rep
 
 
@@ -4135,14 +4146,14 @@ def _carried_points(fault: Fault, fs: FaultSurface, res: Dict[str, Dict[str, Any
     area = fm.as_study_area(ring)
     apart = list(others) + list(partners)
     out: Dict[str, List[np.ndarray]] = {}
-    for e in (0, 1):
-        if end_kind[e] != "boundary" or ends.tips[e] is not None:
+    boundary_ends = [e for e in (0, 1) if end_kind[e] == "boundary" and ends.tips[e] is None]
+    for lay, r in res.items():
+        with_layer = [tr for tr in fault.traces if lay in tr.layers]
+        if not with_layer or not boundary_ends:
             continue
-        d = np.asarray(ends.directions[e], dtype=np.float64)
-        for lay, r in res.items():
-            with_layer = [tr for tr in fault.traces if lay in tr.layers]
-            if not with_layer:
-                continue
+        near_datum = cKDTree(r["data"][:, :2])
+        for e in boundary_ends:
+            d = np.asarray(ends.directions[e], dtype=np.float64)
             tr = with_layer[0] if e == 0 else with_layer[-1]
             i = section_of.get(id(tr))
             if i is None or i in r.get("hinted", {}) or i in r["joint_secs"]:
@@ -4150,7 +4161,6 @@ def _carried_points(fault: Fault, fs: FaultSurface, res: Dict[str, Dict[str, Any
             polys = tr.layers[lay]
             f_xy = np.asarray(polys["foot"], dtype=np.float64)[-1, :2]
             h_xy = np.asarray(polys["hanging"], dtype=np.float64)[0, :2]
-            near_datum = cKDTree(r["data"][:, :2])
             for side, label in (("foot", -1), ("hanging", 1)):
                 surf = _sides_of(r, i)[side]
                 P = np.asarray(polys[side], dtype=np.float64)
