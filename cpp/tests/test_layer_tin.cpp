@@ -868,3 +868,54 @@ TEST(LayerTin, ANarrowNotchOfTheStudyAreaIsProtected) {
         expect_covers(r, data, "seed " + std::to_string(seed));
     }
 }
+
+// Points inserted near a side of a non-convex study area (vertices across
+// the notch, outside the side's half-plane, rule out the empty circles
+// beyond the side): a point in the diametral disk of a piece splits it,
+// and it was not tested again against the halves, though a point closer to
+// the side than a quarter of the piece lies in the disk of the half it
+// projects onto (random ground 45 as v2: a repair point 1.3 m inside a
+// 240 m piece of an L-shaped area; "the boundary piece from (353905.3573,
+// 6500185.146) to (353990.1802, 6500268.89) is not an edge of the TIN").
+// Random insertions 1 mm to 20 m inside random sides, alone and in batches.
+TEST(LayerTin, PointsInsertedNearASideKeepEveryPieceAnEdge) {
+    const double x0 = 551200.0, y0 = 7016300.0;
+    const std::vector<double> ring = {x0, y0, x0 + 1000.0, y0, x0 + 1000.0, y0 + 400.0,
+                                      x0 + 400.0, y0 + 400.0, x0 + 400.0, y0 + 1000.0, x0, y0 + 1000.0};
+    const fm::StudyArea area(ring.data(), ring.size() / 2);
+    const double want = ring_area(ring);
+    const std::size_t ns = ring.size() / 2;
+    for (unsigned seed = 1; seed <= 40; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        std::mt19937_64 g(seed);
+        std::uniform_real_distribution<double> u(0.0, 1.0);
+        std::vector<double> data;
+        while (data.size() < 3 * 30) {
+            const double p[3] = {x0 + 1000.0 * u(g), y0 + 1000.0 * u(g), 100.0 + 10.0 * u(g)};
+            if (area.contains(p) && !area.on_boundary(p)) data.insert(data.end(), p, p + 3);
+        }
+        fm::LayerTin t("L", data.data(), data.size() / 3, area);
+        for (int batch = 0; batch < 4; ++batch) {
+            std::vector<double> add;
+            const std::size_t n = 1 + static_cast<std::size_t>(u(g) * 4.0);
+            while (add.size() < 3 * n) {
+                const std::size_t side = static_cast<std::size_t>(u(g) * static_cast<double>(ns)) % ns;
+                const double* a = &ring[2 * side];
+                const double* b = &ring[2 * ((side + 1) % ns)];
+                const double L = std::hypot(b[0] - a[0], b[1] - a[1]);
+                const double s = u(g), off = std::pow(10.0, -3.0 + 4.3 * u(g));  // 1 mm to 20 m
+                // Inward normal of a counter-clockwise ring: the left of a -> b.
+                const double p[3] = {a[0] + s * (b[0] - a[0]) - off * (b[1] - a[1]) / L,
+                                     a[1] + s * (b[1] - a[1]) + off * (b[0] - a[0]) / L, 100.0 + u(g)};
+                if (area.contains(p) && !area.on_boundary(p)) add.insert(add.end(), p, p + 3);
+            }
+            try {
+                t.insert(add.data(), add.size() / 3);
+                EXPECT_NEAR(mesh_area(t), want, 1e-9 * want);
+            } catch (const std::exception& e) {
+                ADD_FAILURE() << "batch " << batch << ": " << e.what();
+                break;
+            }
+        }
+    }
+}
