@@ -475,7 +475,6 @@ class _CurvatureFit:
 
     def __init__(self, frame: GridFrame, xy: np.ndarray, z: np.ndarray, ell: float,
                  tension: Optional[float] = None, slope: Optional[np.ndarray] = None) -> None:
-        import scipy.sparse as sp
         N = len(z)
         if N == 0:
             raise ValueError("_min_curvature: no data in the frame")
