@@ -5,6 +5,7 @@ Every model built here passes Model.check() (the DESIGN.md invariants).
 from __future__ import annotations
 
 import copy
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -1462,3 +1463,31 @@ def test_bent_closures_from_both_sides_of_a_dropped_trace_do_not_overlap():
     assert max(p[:, 0].max() for p in a) < 300.0 < min(p[:, 0].min() for p in b)
     # Bent over the partner, up to it, on the footwall cutoff's side.
     assert max(p[:, 0].max() for p in a) > 290.0 and min(p[:, 0].min() for p in b) < 310.0
+
+
+def test_a_datum_that_would_put_a_centroid_into_a_fold_of_its_patch_is_left_out():
+    """Regression (fuzz case 51074 of tests/test_derive_fuzz.py, a nearly
+    vertical reverse fault, with the fading-throw fit trying flat parts
+    every 25 m): the L1 patch's triangles 43 and 44 share an edge and fold
+    over it (opposite orientation: net cover 0 where they overlap, outside
+    the outline), and a third sheet covers each of their centroids once, so
+    the stitcher's test at the centroids passes. Two data placed in
+    triangle 43 made a triangle whose centroid lies in the overlap, and the
+    stitcher refused the patch ("does not cover its XY image once"). Those
+    data are left out; the other 50 are placed and the patch passes."""
+    from faultmesh import build, faults as fm
+    from faultmesh._core import insert_patch_data
+
+    z = np.load(Path(__file__).parent / "data" / "patches" / "folded_patch_51074.npz")
+    V, T, D = z["vertices"], z["triangles"], z["data"]
+    area = fm.as_study_area(z["ring"])
+    D = D[np.argsort(D[:, 0], kind="stable")]
+    assert not len(fm._unfit_triangles(V, T, area))
+    V_all, T_all, placed_all, _ = insert_patch_data(V, T, D)
+    assert len(fm._unfit_triangles(V_all, T_all, area))      # all placed: refused
+    V2, T2, n = build._honour_layer_data(V, T, D, area)
+    assert not len(fm._unfit_triangles(V2, T2, area))
+    assert n == len(placed_all) - 2
+    # Every placed datum is a vertex at its own elevation.
+    got = {tuple(v) for v in V2[len(V):]}
+    assert len(got) == n and got <= {tuple(d) for d in D}

@@ -384,11 +384,23 @@ class _Inline:
         return (fn(x) for x in items)
 
 
-def _honour_layer_data(V: np.ndarray, T: np.ndarray, data: np.ndarray) -> Tuple[np.ndarray, np.ndarray, int]:
+def _honour_layer_data(V: np.ndarray, T: np.ndarray, data: np.ndarray,
+                       area: Optional[StudyArea] = None) -> Tuple[np.ndarray, np.ndarray, int]:
     """The patch (V, T) with the layer's data under it as vertices at their
     own elevation (:func:`faultmesh._core.insert_patch_data`, each in the
     sheet nearest to it), and how many were placed. ``data`` (n, 3) sorted
     by x.
+
+    A datum whose new triangles the stitcher would refuse (faults._unfit_triangles
+    with ``area``: its XY image not covered once at their centroids) is left
+    out, and the rest placed again. The stitcher tests a patch at its
+    triangles' centroids; where two sheets of a folded patch overlap with
+    opposite orientation (net cover 0, outside its outline) and a third
+    sheet covers each centroid once, the patch passes, and a datum placed
+    in one of those sheets puts a centroid into the overlap (fuzz case
+    51074 of tests/test_derive_fuzz.py with a finer fading-profile grid:
+    "the patch does not cover its XY image once"). The placement itself
+    keeps each triangle's XY image (patch_data.hpp).
 
     Why: the patch replaces the continuous TIN around the fault, and with it
     every datum there; between two sections the loft is straight and the
@@ -406,7 +418,23 @@ def _honour_layer_data(V: np.ndarray, T: np.ndarray, data: np.ndarray) -> Tuple[
     D = D[(D[:, 1] >= lo[1]) & (D[:, 1] <= hi[1])]
     if not len(D):
         return V, T, 0
-    V2, T2, placed, _ = insert_patch_data(V, T, D)
+    from . import faults as fm
+    keep = np.ones(len(D), dtype=bool)
+    for _ in range(8):
+        V2, T2, placed, _ = insert_patch_data(V, T, D[keep])
+        if area is None or not len(placed):
+            break
+        bad = fm._unfit_triangles(V2, T2, area)
+        if not len(bad) or len(fm._unfit_triangles(V, T, area)):
+            break
+        # The data among the unfit triangles' vertices are left out.
+        new = np.unique(T2[bad].ravel())
+        rows = np.flatnonzero(keep)[placed[new[new >= len(V)] - len(V)]]
+        if not len(rows):
+            return V, T, 0
+        keep[rows] = False
+    else:
+        return V, T, 0
     return V2, T2, int(len(placed))
 
 
@@ -663,7 +691,7 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                 V, T, info = fm.group_patch(plist, area)
                 meta.setdefault("groups", {}).setdefault(gname, {})[lay] = info
             if len(T):
-                V, T, n_placed = _honour_layer_data(V, T, data_of(lay))
+                V, T, n_placed = _honour_layer_data(V, T, data_of(lay), area)
                 if n_placed:
                     meta.setdefault("patch_data", {}).setdefault(lay, {})[gname] = n_placed
                 patches[lay].append((gname, [p.fault for p in plist], V, T))
