@@ -1029,6 +1029,34 @@ def test_the_footwall_of_a_fault_abutting_another_keeps_to_its_picks():
     assert out["ratio"] <= grounds.V2_RATIO, (out["error_v1"], out["error_v2"])
 
 
+def test_a_throw_fading_between_the_coarse_profiles_is_fitted():
+    """Regression (unseen random ground 378 as v2 with section picks: F1,
+    reverse, crosses the area; its throw stays whole for about 90 m into
+    the hanging wall and fades over the next 100 m: hanging-wall data show
+    96 % of it 112 m from the fault, 22-37 % at 155 m, none at 268 m). On
+    the fading-throw fit's former grid of profiles (flat 0, 50, 150 m, fade
+    100, 200, 350, 600 m) none fitted: the least objective's (50, 350) took
+    the data at 155 m for 79 % of the throw and bent the layer 16 m below
+    the footwall at the fault; L3's hanging-wall cutoffs on the sections
+    between the data 16-32 m off, 3.09x the true cutoffs' error near the
+    faults. With flat every 25 m and fades 1.35x apart it takes (100, 100):
+    those sections within 10 m, 1.70x (the rest of the excess on sections
+    whose data lie 300 m off)."""
+    from faultmesh import grounds
+
+    built = {}
+    out = grounds.evaluate_ground_v2(378, built=built)
+    assert out["stage"] in ("ok", "ratio"), (out["stage"], out["error"])
+    assert out["kind_ok"], out["kinds"]
+    fr = built["derived"].derivation.faults["F1"]
+    u = fr.surface.u(np.asarray(fr.cutoffs["L3"]["hanging"])[:, :2])
+    off = np.asarray(out["cutoffs"]["F1"]["L3"]["hanging"])
+    assert len(u) == len(off)
+    assert np.max(off[u < 100.0]) <= 10.0, list(zip(u.round(), off.round(1)))
+    assert np.max(off) <= 20.0, off
+    assert out["ratio"] <= 2.0, (out["error_v1"], out["error_v2"])
+
+
 def test_a_bridged_throw_is_held_past_the_hanging_walls_data():
     """Regression (random ground 340 as v2 with section picks: F1, normal,
     crosses F2 near its end on the boundary; in the block beyond F2 neither

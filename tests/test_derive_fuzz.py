@@ -746,15 +746,21 @@ def test_stick_rules_in_memory_follow_each_stick_through_interleaved_points():
         (2, None, "stick '2' has one point; a stick is a polyline of at least 2 points")
 
 
-def test_folded_patch_reaching_past_its_outline_loses_sections_in_derive_not_the_build():
+def test_folded_patch_reaching_past_its_outline_loses_sections_in_derive_not_the_build(monkeypatch):
     # Fuzz case 51074: a nearly vertical (89.4 degrees) reverse fault given
     # as one stick, throw several layer thicknesses; derive replaced two
     # sections' wrong-sense throws and handed over an L1 patch whose outline
     # was simple but whose sheets did not cover their XY image once, which
     # the stitcher refuses ("does not cover its XY image once"). derive's
     # patch check now asks the stitcher's third question too, and drops the
-    # sections that make it so: the model builds and passes check().
+    # sections that make it so: the model builds and passes check(). The
+    # case was found with the fading-throw fit's former grid of profiles,
+    # with which its cutoffs still make such a patch; on today's grid they
+    # do not (tests/test_build.py has what they make there instead).
     ds = make_case(seeded_params(51074))
+    assert check_case(ds) == "ok"
+    former = tuple((a, b) for a in (0.0, 50.0, 150.0) for b in (100.0, 200.0, 350.0, 600.0)) + (None,)
+    monkeypatch.setattr(derive, "DECAY_PROFILES", former)
     assert check_case(ds) == "ok"
     d = derive.derive_faults(ds)
     assert any("reach past its outline" in w for w in d.derivation.warnings)
