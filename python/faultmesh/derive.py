@@ -126,8 +126,8 @@ kind derived and given, warnings, throw profile, tips, cutoff lines).
 Accuracy and limitations (docs/derive.md, "Accuracy"): on the random
 grounds of :mod:`faultmesh.grounds` written as v2 with seismic-like section
 picks (seeds 0-99), the error near the faults is within 1.25x of the model
-built from the true cutoffs on 87 of 91 grounds (ratio median 0.68); with
-the drillholes' tops alone, 29 of 91 (median 2.27): a side whose data stop
+built from the true cutoffs on 88 of 91 grounds (ratio median 0.66); with
+the drillholes' tops alone, 29 of 91 (median 2.21): a side whose data stop
 far from the fault cannot show drag, rollover or a fading throw there. On
 block faults through plane layers (tests/test_derive_blocks.py) the
 cutoffs are exact to the picks' noise; layers known from holes only under
@@ -2293,8 +2293,9 @@ def _hanging_distance(fs: FaultSurface, frame: GridFrame, ring: np.ndarray):
 #: bent S 16 m below the footwall at the fault (hanging-wall cutoffs
 #: 16-32 m off, 3.09x the true cutoffs' error; 1.70x on this grid).
 #: Measured on the five v2 sweeps against the coarser grid (within 1.25x,
-#: ratio median): section picks 87 -> 87, 0.681 -> 0.658 (45 grounds
-#: better, 23 worse); held out 84 -> 83, 0.700 -> 0.661 (47 better, 21
+#: ratio median): section picks 87 -> 88, 0.681 -> 0.660 (45 grounds
+#: better, 23 worse; 61 passes; 45 builds only with the layer TIN's
+#: boundary kept protected against repair points, LayerTin::insert); held out 84 -> 83, 0.700 -> 0.661 (47 better, 21
 #: worse; 171 passes, 120 and 185 fail); holes only 29 -> 29, 2.26 ->
 #: 2.21; sticks with a 3 m picking error 84 -> 87, 0.719 -> 0.677; unseen
 #: seeds 200-399 165 -> 170, 0.687 -> 0.661 (101 better, 28 worse). With
