@@ -1978,3 +1978,39 @@ def test_the_tins_chord_error_is_how_far_a_curved_fault_bulges_between_sticks(dr
         off = mid.copy()
         off[0, 2] -= 1.0 / np.cos(dip)            # a metre off along the normal, about
         assert derive._on_fault(fs, off).tolist() == [False]
+
+
+def test_tied_fading_profiles_put_the_fade_in_the_middle_of_the_open_stretch():
+    """Profiles that give every hanging-wall datum the same share fit the
+    same system and tie; the data then leave open where the throw goes
+    between the farthest datum that shows all of it and the nearest that
+    shows none. The first in order (the shortest) took it away as near the
+    fault as the data allow (held-out random ground 185 as v2: the whole
+    throw up to 98 m from F1, none from 553 m; (100, 100) m, hanging-wall
+    far ends 25-29 m low, 1.37x). The one whose throw is half gone nearest
+    the middle of that stretch is taken; without such a stretch, or with
+    the block offset first, the first."""
+    d = np.array([10.0, 50.0, 98.0, 553.0, 900.0])
+    tied = [(100.0, 100.0), (100.0, 150.0), (150.0, 100.0), (200.0, 200.0), (150.0, 350.0)]
+    # Middle of (98, 553): 325.5; flat + fade / 2: 150, 175, 200, 300, 325.
+    assert derive._middle_profile(tied, d) == (150.0, 350.0)
+    assert derive._middle_profile(tied, d[:3]) == (100.0, 100.0)      # nothing shows none
+    assert derive._middle_profile([None] + tied, d) is None
+    assert derive._middle_profile(tied[:1], d) == (100.0, 100.0)
+    # The shares of the tied profiles agree at the data: the choice keeps them.
+    got = derive._middle_profile(tied, d)
+    np.testing.assert_array_equal(derive._decay_share(d, got), derive._decay_share(d, tied[0]))
+
+
+def test_a_throw_whose_fade_the_data_leave_open_fades_in_the_middle():
+    """Regression (held-out random ground 185 as v2 with section picks; see
+    the test above): F1's L3 hanging-wall far ends 25-29 m below the truth,
+    every cutoff within 2 m, 1.37x the true cutoffs' error near the faults
+    (1.09x on the former grid of profiles, whose first tie was (150, 100));
+    with the fade in the middle of the open stretch 0.39x."""
+    from faultmesh import grounds
+
+    out = grounds.evaluate_ground_v2(185)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    assert out["kind_ok"], out["kinds"]
+    assert out["ratio"] <= 1.0, (out["error_v1"], out["error_v2"])

@@ -2384,11 +2384,37 @@ DECAY_NEAR = 1.0
 
 
 #: Objectives of the fading-throw fit (:func:`_decay_sides`) within this
-#: share of the least tie (the first such profile is taken): the same
+#: share of the least tie (:func:`_middle_profile` takes one): the same
 #: system solved again differs by rounding (1e-16 relative); distinct
 #: profiles' objectives differed by 5e-5 relative or more where they were
 #: closest (random ground 91 as v2).
 PROFILE_TIE = 1e-9
+
+
+def _middle_profile(tied: Sequence[Optional[Tuple[float, float]]],
+                    d: np.ndarray) -> Optional[Tuple[float, float]]:
+    """Of the profiles whose fits tie (``tied``, in :data:`DECAY_PROFILES`'
+    order; they give every hanging-wall datum, at distances ``d`` from the
+    fault, the same share), the one whose throw is half gone (flat + fade
+    / 2) nearest the middle of the stretch the data leave open: from the
+    farthest datum that shows the whole throw to the nearest that shows
+    none of it. Nothing there tells the profiles apart, and the first in
+    order, the shortest, took the throw away as near the fault as the data
+    allow (held-out random ground 185 as v2: data showing the whole throw
+    up to 98 m from F1 and none from 553 m; (100, 100) m put the hanging
+    wall's far ends 25-29 m below the truth, 1.37x the true cutoffs'
+    error near the faults, its cutoffs all within 2 m). Where no datum
+    shows none of it, or the block offset (None) is the first, the first."""
+    first = tied[0]
+    rest = [p for p in tied if p is not None]
+    if first is None or len(rest) < 2 or not len(d):
+        return first
+    g = _decay_share(d, first)
+    if not (g <= 0.0).any():
+        return first
+    whole = d[g >= 1.0]
+    mid = 0.5 * ((float(whole.max()) if len(whole) else 0.0) + float(d[g <= 0.0].min()))
+    return min(rest, key=lambda p: abs(p[0] + 0.5 * p[1] - mid))
 
 
 def _decay_share(d: np.ndarray, profile: Optional[Tuple[float, float]]) -> np.ndarray:
@@ -2456,8 +2482,10 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
             energies.append((en[0], prof))
     if not energies:
         return None
-    # The first profile (in DECAY_PROFILES' order) of the least objective,
-    # profiles within PROFILE_TIE of it tying: where the hanging wall's data
+    # Of the least objective, profiles within PROFILE_TIE of it tying, the
+    # one _middle_profile takes (the first in DECAY_PROFILES' order unless
+    # the data leave a stretch open between the whole throw and none of
+    # it): where the hanging wall's data
     # all lie where several profiles give them the same share (all within
     # the flat part, or all past the fade), those fits are the same system
     # and their objectives differ in the last bits only (1e-16 relative on
@@ -2472,7 +2500,8 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     on_frame = _CurvatureFit(frame, Di[:, :2], Di[:, 2], ell)
     while True:
         least = min(e for e, _ in energies)
-        prof = next(p for e, p in energies if e <= least + abs(least) * PROFILE_TIE)
+        prof = _middle_profile([p for e, p in energies if e <= least + abs(least) * PROFILE_TIE],
+                               d[hw[inside]])
         try:
             nodes, T = on_frame.solve(np.where(hw[inside], _decay_share(d, prof), 0.0), knots, ell)
         except SingularFit:
