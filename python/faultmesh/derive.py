@@ -126,7 +126,7 @@ kind derived and given, warnings, throw profile, tips, cutoff lines).
 Accuracy and limitations (docs/derive.md, "Accuracy"): on the random
 grounds of :mod:`faultmesh.grounds` written as v2 with seismic-like section
 picks (seeds 0-99), the error near the faults is within 1.25x of the model
-built from the true cutoffs on 88 of 91 grounds (ratio median 0.66); with
+built from the true cutoffs on 88 of 91 grounds (ratio median 0.64); with
 the drillholes' tops alone, 29 of 91 (median 2.21): a side whose data stop
 far from the fault cannot show drag, rollover or a fading throw there. On
 block faults through plane layers (tests/test_derive_blocks.py) the
