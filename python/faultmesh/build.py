@@ -419,10 +419,15 @@ def _honour_layer_data(V: np.ndarray, T: np.ndarray, data: np.ndarray,
     if not len(D):
         return V, T, 0
     from . import faults as fm
+    from ._core import orient2d
+    # Only a patch with a triangle turned over in XY (a fold) has sheets of
+    # opposite orientation that can overlap; placing data inside the
+    # triangles of one turned none over keeps its cover as it was.
+    folded = bool(len(T)) and not (orient2d(V[T[:, 0], :2], V[T[:, 1], :2], V[T[:, 2], :2]) > 0).all()
     keep = np.ones(len(D), dtype=bool)
     for _ in range(8):
         V2, T2, placed, _ = insert_patch_data(V, T, D[keep])
-        if area is None or not len(placed):
+        if area is None or not folded or not len(placed):
             break
         bad = fm._unfit_triangles(V2, T2, area)
         if not len(bad) or len(fm._unfit_triangles(V, T, area)):
