@@ -263,6 +263,20 @@ Piece piece_at(const LayerTinState& s, std::size_t side, std::map<double, std::i
     return p;
 }
 
+// The boundary vertices of `side` (arc length -> vertex) that start the
+// piece at arc length `sp` and its neighbours on the side, in order: a
+// projection within rounding of a piece's end may lie in both pieces'
+// disks, which count points 1e-9 outside the circle as in. `sp` at or
+// past the side's first vertex (arc 0, its corner).
+template <class F>
+void pieces_around(const std::map<double, std::int64_t>& m, double sp, F&& f) {
+    auto it = m.upper_bound(sp);
+    if (it != m.begin()) --it;
+    if (it != m.begin()) f(std::prev(it));
+    f(it);
+    if (std::next(it) != m.end()) f(std::next(it));
+}
+
 // Where the protection splits a piece (arc length on its side). At the
 // midpoint, except next to a corner where the two sides meet at less than
 // 90 degrees: there a vertex of one side can lie in the diametral disk of a
@@ -713,15 +727,8 @@ Prepared prepare(LayerTinState& s, LayerData&& d) {
             const double* cb = area.corner(side + 1);
             const double L = area.side_length(side);
             const double sp = ((xy[0] - ca[0]) * (cb[0] - ca[0]) + (xy[1] - ca[1]) * (cb[1] - ca[1])) / L;
-            const auto& m = s.by_side[side];
-            auto it = m.upper_bound(std::min(std::max(sp, 0.0), L));
-            if (it != m.begin()) --it;
-            // The piece there and its neighbours on the side: a projection
-            // within rounding of a piece's end (the disk test counts points
-            // 1e-9 outside the circle as in) is tested on both pieces.
-            if (it != m.begin()) work.emplace_back(side, std::prev(it)->first);
-            work.emplace_back(side, it->first);
-            if (std::next(it) != m.end()) work.emplace_back(side, std::next(it)->first);
+            pieces_around(s.by_side[side], std::min(std::max(sp, 0.0), L),
+                          [&](auto it) { work.emplace_back(side, it->first); });
         }
     }
     Prepared out;
@@ -1095,10 +1102,8 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
         if (static_cast<std::size_t>(ids[i]) >= n0) fresh.push_back(ids[i]);
     }
     // Protection against the new vertices: a piece's disk can only hold a
-    // point whose projection falls on the piece, so test the piece of each
-    // nearby side at the point's projection (and its neighbours on the
-    // side: a projection within rounding of a piece's end may lie in both
-    // disks, which count points 1e-9 outside the circle as in). A vertex
+    // point whose projection falls on the piece, so test the pieces around
+    // the point's projection on each nearby side (pieces_around). A vertex
     // that made a piece split is tested again in the next round, against
     // the halves: a point near the side is in the disk of the half it
     // projects onto unless it lies farther from the side than that half's
@@ -1116,7 +1121,7 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
         }
     }
     std::vector<std::size_t> near;
-    std::vector<std::map<double, std::int64_t>::const_iterator> at_proj;
+    std::vector<std::pair<std::size_t, std::map<double, std::int64_t>::const_iterator>> at_proj;
     for (std::size_t round = 0; !fresh.empty(); ++round) {
         std::vector<double> add;
         std::vector<std::pair<std::size_t, double>> add_pos;
@@ -1126,31 +1131,16 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
             bool split_one = false;
             s.area.sides_near(p, max_half, near);
             at_proj.clear();
-            std::vector<std::size_t> at_side;
             for (std::size_t side : near) {
                 const double* a = s.area.corner(side);
                 const double* b = s.area.corner(side + 1);
                 const double L = s.area.side_length(side);
                 const double sp = ((p[0] - a[0]) * (b[0] - a[0]) + (p[1] - a[1]) * (b[1] - a[1])) / L;
                 if (sp < 0.0 || sp > L) continue;
-                const auto& m = s.by_side[side];
-                auto it = m.upper_bound(sp);
-                if (it == m.begin()) continue;
-                --it;
-                if (it != m.begin()) {
-                    at_proj.push_back(std::prev(it));
-                    at_side.push_back(side);
-                }
-                at_proj.push_back(it);
-                at_side.push_back(side);
-                if (std::next(it) != m.end()) {
-                    at_proj.push_back(std::next(it));
-                    at_side.push_back(side);
-                }
+                pieces_around(s.by_side[side], sp, [&](auto it) { at_proj.emplace_back(side, it); });
             }
-            for (std::size_t t = 0; t < at_proj.size(); ++t) {
-                const std::size_t side = at_side[t];
-                const Piece pc = piece_at(s, side, at_proj[t]);
+            for (const auto& [side, it] : at_proj) {
+                const Piece pc = piece_at(s, side, it);
                 if (v == pc.a || v == pc.b) continue;
                 const double* qa = vx(pc.a);
                 const double* qb = vx(pc.b);

@@ -419,28 +419,28 @@ def _honour_layer_data(V: np.ndarray, T: np.ndarray, data: np.ndarray,
     if not len(D):
         return V, T, 0
     from . import faults as fm
-    from ._core import orient2d
-    # Only a patch with a triangle turned over in XY (a fold) has sheets of
+    V2, T2, placed, _ = insert_patch_data(V, T, D)
+    # Only a folded patch (triangles both ways up in XY) has sheets of
     # opposite orientation that can overlap; placing data inside the
-    # triangles of one turned none over keeps its cover as it was.
-    folded = bool(len(T)) and not (orient2d(V[T[:, 0], :2], V[T[:, 1], :2], V[T[:, 2], :2]) > 0).all()
+    # triangles of one that is not keeps its cover as it was. A patch the
+    # stitcher refuses already is left to it.
+    if area is None or not len(placed) or not fm.folds(V, T) or len(fm._unfit_triangles(V, T, area)):
+        return V2, T2, int(len(placed))
     keep = np.ones(len(D), dtype=bool)
-    for _ in range(8):
-        V2, T2, placed, _ = insert_patch_data(V, T, D[keep])
-        if area is None or not folded or not len(placed):
-            break
+    for attempt in range(8):
         bad = fm._unfit_triangles(V2, T2, area)
-        if not len(bad) or len(fm._unfit_triangles(V, T, area)):
-            break
+        if not len(bad):
+            return V2, T2, int(len(placed))
         # The data among the unfit triangles' vertices are left out.
         new = np.unique(T2[bad].ravel())
         rows = np.flatnonzero(keep)[placed[new[new >= len(V)] - len(V)]]
-        if not len(rows):
-            return V, T, 0
+        if not len(rows) or attempt == 7:
+            break
         keep[rows] = False
-    else:
-        return V, T, 0
-    return V2, T2, int(len(placed))
+        V2, T2, placed, _ = insert_patch_data(V, T, D[keep])
+        if not len(placed):
+            return V2, T2, 0
+    return V, T, 0
 
 
 def _stitch_layer(lay: str, tin: LayerTin, patches: List[Tuple[str, List[str], np.ndarray, np.ndarray]],

@@ -497,7 +497,7 @@ class _CurvatureFit:
                 rhs = rhs + G.T @ (G @ P)
         self.frame, self.xy, self.z, self.z0, self.N = frame, xy, z, z0, N
         self.ell, self.B, self.R, self.M, self.rhs = ell, B, R, M, rhs
-        self._hats: Dict[bytes, Any] = {}
+        self._throw_terms: Dict[Tuple[bytes, float], Tuple[Any, Any]] = {}
 
     def solve(self, hanging: Optional[np.ndarray] = None, knots: Optional[np.ndarray] = None,
               ell_t: Optional[float] = None,
@@ -512,24 +512,12 @@ class _CurvatureFit:
             # (symmetric, banded) systems.
             return np.asarray(spsolve(M.tocsc(), rhs, permc_spec="MMD_ATA"), dtype=np.float64) + z0, None
         knots = np.asarray(knots, dtype=np.float64)
-        m = len(knots)
-        key = knots.tobytes()
-        if key not in self._hats:
-            self._hats[key] = _hat(knots, frame.uw(xy)[0])
-        H = self._hats[key].multiply(np.asarray(hanging, dtype=np.float64)[:, None]).tocsr() \
-            * (-1.0 / math.sqrt(N))
-        lu = float(knots[-1] - knots[0])
-        dk = lu / (m - 1)
         lt = ell if ell_t is None else float(ell_t)
-        if m >= 3:
-            r = np.tile(np.arange(m - 2), 3)
-            c = np.r_[np.arange(m - 2), np.arange(1, m - 1), np.arange(2, m)]
-            v = np.r_[np.ones(m - 2), -2.0 * np.ones(m - 2), np.ones(m - 2)]
-            # Second differences / dk^2, each weighted by its length dk: the
-            # integral of T''^2 (lt^4 / lu of it, as for S).
-            D2 = sp.csr_matrix((v, (r, c)), shape=(m - 2, m)) * (lt ** 2 / math.sqrt(lu) / dk ** 1.5)
-        else:
-            D2 = sp.csr_matrix((0, m))
+        key = (knots.tobytes(), lt)
+        if key not in self._throw_terms:
+            self._throw_terms[key] = (_hat(knots, frame.uw(xy)[0]), _second_differences(knots, lt))
+        hat, D2 = self._throw_terms[key]
+        H = hat.multiply(np.asarray(hanging, dtype=np.float64)[:, None]).tocsr() * (-1.0 / math.sqrt(N))
         K = sp.bmat([[M, B.T @ H], [H.T @ B, H.T @ H + D2.T @ D2]]).tocsc()
         rhs2 = np.r_[rhs, H.T @ ((z - z0) / math.sqrt(N))]
         # Throw knots that too few hanging-wall data weigh leave T undetermined
@@ -551,6 +539,24 @@ class _CurvatureFit:
             res = B @ xs + H @ xt - (z - z0) / math.sqrt(N)
             energy.append(float(res @ res + np.sum((R @ xs) ** 2) + np.sum((D2 @ xt) ** 2)))
         return x[:frame.n] + z0, x[frame.n:]
+
+
+def _second_differences(knots: np.ndarray, lt: float):
+    """Sparse rows whose sum of squares is (lt^4 / the knots' span) times
+    the integral of T''^2 of a piecewise-linear T on the evenly spaced
+    ``knots``: second differences / dk^2, each weighted by its length dk,
+    as the roughness of S (:func:`_min_curvature`). No rows for fewer
+    than 3 knots."""
+    import scipy.sparse as sp
+    m = len(knots)
+    if m < 3:
+        return sp.csr_matrix((0, m))
+    lu = float(knots[-1] - knots[0])
+    dk = lu / (m - 1)
+    r = np.tile(np.arange(m - 2), 3)
+    c = np.r_[np.arange(m - 2), np.arange(1, m - 1), np.arange(2, m)]
+    v = np.r_[np.ones(m - 2), -2.0 * np.ones(m - 2), np.ones(m - 2)]
+    return sp.csr_matrix((v, (r, c)), shape=(m - 2, m)) * (lt ** 2 / math.sqrt(lu) / dk ** 1.5)
 
 
 def _sign_change(f, lo: np.ndarray, hi: np.ndarray, f_lo: np.ndarray, f_hi: np.ndarray,

@@ -2413,7 +2413,11 @@ def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
 def is_folded(p: LayerPatch) -> bool:
     """The patch has triangles both ways up in XY (exact orient2d): a fold,
     a reverse fault repeating the layer."""
-    V, T = p.vertices, p.triangles
+    return folds(p.vertices, p.triangles)
+
+
+def folds(V: np.ndarray, T: np.ndarray) -> bool:
+    """:func:`is_folded` of the triangles ``T`` on the vertices ``V``."""
     if len(T) == 0:
         return False
     xy = np.ascontiguousarray(V[:, :2])
