@@ -1051,7 +1051,7 @@ def test_a_thickness_wave_is_no_step_across_a_fault_that_cuts_neither_layer(eval
     assert out["ratio"] < 1.9, (out["error_v1"], out["error_v2"])
 
 
-@pytest.mark.parametrize("seed, fault, bound, ratio", [(56, "F1", 8.0, 1.3), (78, "F2", 15.0, gr.V2_RATIO)])
+@pytest.mark.parametrize("seed, fault, bound, ratio", [(56, "F1", 9.0, 1.3), (78, "F2", 15.0, gr.V2_RATIO)])
 def test_a_fault_of_a_crossing_pair_gets_the_fading_throw_fit_in_each_block(seed, fault, bound, ratio, evaluated):
     """Regression (random grounds as v2 with section picks, a normal fault
     crossing another, X: 56 F1 with F2, 78 F2 with F1): each section of
@@ -1063,7 +1063,9 @@ def test_a_fault_of_a_crossing_pair_gets_the_fading_throw_fit_in_each_block(seed
     and 1.40x the true cutoffs' model). The fit now runs once per block on
     the block's data (derive._decay_sections). Bounds: every hanging-wall
     cutoff of that fault within ``bound`` m of the truth (measured at most
-    5.4 and 13.2 m; before 33.5 and 17.3 m), the model within 1.25x (0.75x)
+    5.4 and 13.2 m; before 33.5 and 17.3 m; 56's 8.3 m since the fading
+    fit's smoothing length is a quarter of the data spacing,
+    derive.DECAY_SMOOTHING, its ratio 1.13 -> 0.95x), the model within 1.25x (0.75x)
     for 78 and 1.3x for 56: 1.30x before, then 1.23x, and 1.25x since the
     layer TIN's boundary extrapolation changed (both of its models got
     better, the true cutoffs' more: 2.13 -> 2.08 m and 2.63 -> 2.61 m; its
@@ -1269,14 +1271,15 @@ def test_the_kind_weighs_each_layers_throw_by_how_far_its_data_lie(tmp_path):
     spurious throw (1.29x the true cutoffs' error near the faults). Each
     layer now counts by how far its data lie (derive._sense_offset): F2 is
     normal, L3's cutoffs lie within 3.9 m of the truth (20.5 / 22.5 m
-    before), L5's throws are set to zero as of the wrong sense, 0.80x
-    (measured)."""
+    before; 6.5 m since the fading fit's smoothing length is a quarter of
+    the data spacing, derive.DECAY_SMOOTHING, the ratio 0.81 -> 0.60x),
+    L5's throws are set to zero as of the wrong sense, 0.80x (measured)."""
     out = gr.evaluate_ground_v2(290, tmp_path)
     assert out["ratio"] is not None, (out["stage"], out["error"])
     assert out["kinds"]["F2"] == ["normal", "normal"], out["kinds"]
     for side in ("foot", "hanging"):
         d = np.asarray(out["cutoffs"]["F2"]["L3"][side], dtype=np.float64)
-        assert np.nanmax(d) <= 6.0, (side, d)
+        assert np.nanmax(d) <= 7.5, (side, d)
     assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
 
 
