@@ -1057,6 +1057,30 @@ def test_a_throw_fading_between_the_coarse_profiles_is_fitted():
     assert out["ratio"] <= 2.0, (out["error_v1"], out["error_v2"])
 
 
+def test_a_fault_that_cuts_only_the_sparse_layer_is_a_barrier_to_its_offset():
+    """Regression (unseen random ground 264 as v2 with section picks: L1
+    picked on sections, L2-L6 from 60 holes; F1 cuts every layer, F2,
+    reverse at 35 degrees, only the bottom layer L6). L6's offset from L1
+    steps by F2's whole throw (16 m measured) across F2: over
+    derive.CONFORMABLE_STEP_MAX, so L6 took no shape from L1 and its
+    surfaces came from its own 53 holes: F1's L6 hanging-wall cutoffs 5-10
+    m off on 5 of 11 sections, 1.27x the true cutoffs' error near the
+    faults. With F2 (and F1, whose step the fading throw confounds) a
+    barrier to the offset, L6 takes L1's shape per block: every one within
+    5 m, 0.86x."""
+    from faultmesh import grounds
+
+    built = {}
+    out = grounds.evaluate_ground_v2(264, built=built)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    assert out["kind_ok"], out["kinds"]
+    layers = built["derived"].derivation.layers
+    assert "F2" in layers["L6"].get("barriers", []), layers["L6"]
+    off = np.asarray(out["cutoffs"]["F1"]["L6"]["hanging"])
+    assert len(off) >= 8 and off.max() <= 5.0, off.round(1)
+    assert out["ratio"] <= grounds.V2_RATIO, (out["error_v1"], out["error_v2"])
+
+
 def test_a_bridged_throw_is_held_past_the_hanging_walls_data():
     """Regression (random ground 340 as v2 with section picks: F1, normal,
     crosses F2 near its end on the boundary; in the block beyond F2 neither

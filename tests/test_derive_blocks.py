@@ -314,25 +314,40 @@ def test_the_built_model_of_a_sparse_layer_follows_the_picked_horizon(tmp_path):
         assert np.array_equal(n1, n2) and np.allclose(a1[n1 > 0], a2[n2 > 0], rtol=0.0, atol=1e-6), lay
 
 
-def test_a_layer_the_fault_does_not_displace_takes_no_shape_from_one_it_does():
-    """The fault offsets the picked top layer but dies out above the
-    sparse layers (their data unfaulted): conformable to the top layer they
-    would take its throw, so they take none of its shape (the offset's step
-    across the fault, here the whole throw of 31 m, is measured and refused:
-    more than :data:`faultmesh.derive.CONFORMABLE_STEP_MAX`) -- while the
-    same ground with every layer displaced does use it."""
+def test_a_layer_the_fault_does_not_displace_takes_the_shape_not_the_throw_of_one_it_does():
+    """The fault offsets the picked top layer (31 m) but dies out above the
+    sparse layers (their data unfaulted). Their offsets from the top layer
+    step by the whole throw across the fault: more than
+    :data:`faultmesh.derive.CONFORMABLE_STEP_MAX`, so the fault is a
+    barrier and the offset is interpolated in each of its blocks apart.
+    The extra points then carry the top layer's shape and none of its
+    throw: within 2.5 m of the unfaulted truth (measured 1.3 m; the
+    throw carried would put them 31 m off; with one step per fault, a
+    throw that fades misplaced them by up to its size, which is why such a
+    step refused the reference before barriers). The same ground with
+    every layer displaced uses the reference without a barrier."""
+    from dataclasses import replace
+
     from faultmesh.derive import _conformable_points
     g = block_ground(5, sparse_every=4)
     ds = g.dataset
     fs = fault_surfaces(ds)
-    assert set(_conformable_points(ds, fs)) == set(ds.layers[1:])
+    log: dict = {}
+    assert set(_conformable_points(ds, fs, log)) == set(ds.layers[1:])
+    assert not any("barriers" in r for r in log.values())
     pts = dict(ds.points)
     for i, lay in enumerate(ds.layers[1:], start=1):
         P = np.array(pts[lay])
         P[:, 2] = g.layer_z(i, P[:, 0], P[:, 1])   # no throw
         pts[lay] = P
-    from dataclasses import replace
-    assert _conformable_points(replace(ds, points=pts), fs) == {}
+    log = {}
+    extra = _conformable_points(replace(ds, points=pts), fs, log)
+    assert set(extra) == set(ds.layers[1:])
+    for lay, E in extra.items():
+        assert log[lay]["barriers"] == ["F1"]
+        i = ds.layers.index(lay)
+        err = np.abs(E[:, 2] - g.layer_z(i, E[:, 0], E[:, 1]))
+        assert err.max() <= 2.5, (lay, err.max())
 
 
 def with_gap_picks(g: BlockGround, every: float = 30.0) -> BlockGround:
