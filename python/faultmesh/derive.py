@@ -4914,6 +4914,10 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
         def stepped(K):
             return (K[:, kept_j] > 0).astype(np.float64) @ kept_v
 
+        # A point's block of the barrier faults, one bit per fault (its
+        # hanging wall set; a point exactly on a fault's surface, key 0,
+        # counts with the footwall: the side tests are exact, and the data
+        # within a fault's band are left out above).
         def block_id(K):
             return (K[:, barrier] > 0).astype(np.int64) @ (1 << np.arange(len(barrier), dtype=np.int64))
 
