@@ -478,3 +478,27 @@ def test_a_block_fault_whose_hanging_wall_data_stand_off_keeps_its_throw():
     err = np.abs(H[:, 2] - (z0 + gx * H[:, 0] + gy * H[:, 1] - float(f["throw"])))
     assert len(err) >= 10
     assert err.max() <= 10.0 and np.median(err) <= 2.0, np.round(err, 1)
+
+
+@pytest.mark.xfail(strict=True, raises=fm.GeometryError,
+                   reason="open: the layers' continuous TINs cross across the fault's data gap "
+                          "under a throw of many layer thicknesses, and the crossing repair gives up")
+def test_thin_layers_under_a_throw_of_many_layer_thicknesses_build():
+    """Open reproducer (tests/data/derive/thin_layers_large_throw.npz, a
+    stress generator's ground): eight plane layers, five of them under 8 m
+    thick, cut by one normal fault of 111 m. The derived cutoffs are
+    accurate (0.8 m on the footwall, 2.4 m on the hanging wall where the
+    picks are dense), yet the build fails: "repair_crossings('L4', 'L5'):
+    the layers still cross after 10003 inserted points". Each layer's
+    continuous TIN ramps across its own data gap at the fault, and where
+    the gaps of layers a few metres apart lie in different places the TINs
+    cross by tens of metres (L2 up to 32.7 m above L1 before the repair),
+    in the zone the fault patches replace. When it builds, the model must
+    pass check()."""
+    f = np.load(Path(__file__).parent / "data" / "derive" / "thin_layers_large_throw.npz")
+    layers = [str(x) for x in f["layers"]]
+    ds = Dataset(name="thin-layers-large-throw", layers=layers, boundary=f["boundary"],
+                 points={lay: f["points_" + lay] for lay in layers},
+                 faults=[Fault("F1", points=f["fault_points"], sticks=f["sticks"])])
+    model = fm.build_model(ds, evaluate=False)
+    model.check()
