@@ -816,8 +816,8 @@ def test_a_fault_a_centimetre_long_gets_no_more_throw_knots_than_its_frame_resol
     seen = []
     real = derive._joint_setup
 
-    def spy(D, split, frame, spacing):
-        out = real(D, split, frame, spacing)
+    def spy(D, split, frame, spacing, *rest):
+        out = real(D, split, frame, spacing, *rest)
         if out is not None:
             seen.append((len(out[-1]), frame.nu))
         return out

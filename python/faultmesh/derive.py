@@ -2173,12 +2173,14 @@ def _regional_slope(D: np.ndarray, frame: GridFrame, hanging: Optional[np.ndarra
     return coef[1:3]
 
 
-def _joint_setup(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, spacing: float):
+def _joint_setup(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, spacing: float,
+                 smoothing: float = 0.0):
     """What a fit of both sides together (:func:`_joint_sides`,
     :func:`_decay_sides`) starts from: (footwall data, hanging-wall data,
     inside (n,) the data in the frame, hw (n,) the hanging-wall ones, the
-    smoothing length, the throw's knots along strike every half section
-    ``spacing``); None when a side has fewer than 3 data, or fewer than 3 in
+    smoothing length -- the side surfaces' (:func:`_smoothing_length`), at
+    least ``smoothing`` times the data spacing --, the throw's knots along
+    strike every half section ``spacing``); None when a side has fewer than 3 data, or fewer than 3 in
     the frame (random_ground(75): none at all, a division by zero in the
     fit)."""
     foot, hang = D[split["foot"]], D[split["hanging"]]
@@ -2188,7 +2190,8 @@ def _joint_setup(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     hw = split["hanging"] & ~split["foot"]
     if (inside & hw).sum() < 3 or (inside & ~hw).sum() < 3:
         return None
-    ell = _smoothing_length(_median_spacing(D), frame)
+    sp = _median_spacing(D)
+    ell = max(_smoothing_length(sp, frame), smoothing * sp)
     u_lo, u_hi = frame.u0, frame.u0 + frame.h * (frame.nu - 1)
     # Knots every half section spacing, but no closer than an eighth of the
     # frame's cell (S resolves nothing finer than a cell): the frame spans
@@ -2479,11 +2482,10 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     (:data:`THROW_RANGE`). ``fades``:
     as :func:`_side_surfaces`; ``ends``: as :func:`_tip_taper`."""
     fades = fades or {}
-    setup = _joint_setup(D, split, frame, spacing)
+    setup = _joint_setup(D, split, frame, spacing, DECAY_SMOOTHING)
     if setup is None:
         return None
     foot, hang, inside, hw, ell, knots = setup
-    ell = max(ell, DECAY_SMOOTHING * _median_spacing(D))
     dist = _hanging_distance(fs, frame, ring)
     if dist is None:
         return None
@@ -4926,19 +4928,15 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
         # each query takes its 64 nearest (a global solve is cubic in the
         # samples: milliseconds at 200, seconds per fold at thousands).
         # Queried at (x - c, y - c, block): one spline per block of the
-        # barrier faults, NaN in a block with too few samples.
+        # barrier faults (without any, one block: 0), NaN in a block with
+        # too few samples.
         def spline(sel, v):
-            def one(m):
-                return RBFInterpolator(xy[m] - c, v[m], kernel="thin_plate_spline", degree=1,
-                                       neighbors=None if m.sum() <= 200 else 64)
-            if not barrier:
-                s1 = one(sel)
-                return lambda Q: s1(Q[:, :2])
             parts = {}
             for b in np.unique(bx):
                 m = sel & (bx == b)
-                if m.sum() >= 3:
-                    parts[int(b)] = one(m)
+                if m.sum() >= 3 or not barrier:
+                    parts[int(b)] = RBFInterpolator(xy[m] - c, v[m], kernel="thin_plate_spline", degree=1,
+                                                    neighbors=None if m.sum() <= 200 else 64)
 
             def f(Q):
                 out = np.full(len(Q), np.nan)
@@ -4949,7 +4947,7 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
                 return out
             return f
 
-        bx = np.zeros(len(off), dtype=np.int64)
+        bx = block_id(kx)
         Q = np.column_stack([xy - c, bx])
         fold = np.random.default_rng(0).permutation(len(off)) % 5
         if steps:
@@ -5026,7 +5024,7 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
         Rf = R[far]
         if not len(Rf):
             continue
-        bR = block_id(kR[far]) if barrier else np.zeros(len(Rf), dtype=np.int64)
+        bR = block_id(kR[far])
         lo = np.full(len(Rf), np.nan)
         hi = np.full(len(Rf), np.nan)
         for b in np.unique(bx):
