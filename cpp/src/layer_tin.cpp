@@ -1057,10 +1057,36 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
     };
     std::vector<std::pair<std::size_t, double>> keep_pos;
     std::vector<StudyArea::Hit> hits;
+    std::vector<std::size_t> sides;
     for (std::size_t i = 0; i < n; ++i) {
         const double* p = xyz + 3 * i;
         s.area.locate(p, hits);
         double q[3] = {p[0], p[1], p[2]};
+        if (hits.empty() && s.area.contains(p)) {
+            // A point inside within min_piece of a side lies on it, at its
+            // projection: the protection would otherwise halve the pieces
+            // round it until one was shorter than min_piece (a point is in
+            // the diametral disk of a piece only when its distance to the
+            // side is at most half the piece). The repair's points near a
+            // side come nearer it round after round (stress ground 27).
+            s.area.sides_near(p, min_piece, sides);
+            double best = min_piece;
+            for (std::size_t side : sides) {
+                const double* a = s.area.corner(side);
+                const double* b = s.area.corner(side + 1);
+                const double L = s.area.side_length(side);
+                const double sp = std::clamp(((p[0] - a[0]) * (b[0] - a[0]) + (p[1] - a[1]) * (b[1] - a[1])) / L,
+                                             0.0, L);
+                double c[2];
+                s.area.place(side, sp, c);
+                const double d = std::hypot(p[0] - c[0], p[1] - c[1]);
+                if (d > best) continue;
+                best = d;
+                hits.assign(1, {side, sp <= s.area.tolerance() ? 0.0 : sp});
+                q[0] = c[0];
+                q[1] = c[1];
+            }
+        }
         if (!hits.empty()) {
             StudyArea::Hit h = hits[0];
             for (const auto& x : hits)

@@ -919,3 +919,54 @@ TEST(LayerTin, PointsInsertedNearASideKeepEveryPieceAnEdge) {
         }
     }
 }
+
+// Points closer to a side than the shortest piece the protection splits
+// (1e-9 of the perimeter) but beyond the study area's on-boundary tolerance:
+// the protection halved the pieces round such a point until one was shorter
+// than that and gave up ("cannot keep the study-area boundary protected
+// near ... (a point lies on the boundary within rounding)"). The repair's
+// points near a side come nearer it round after round (stress ground 27: a
+// normal fault of 114 m under layers 5-39 m thick, its L4/L5 repair). Such
+// a point is on the side, at its projection. Offsets from just over the
+// tolerance to 1 mm.
+TEST(LayerTin, PointsInsertedWithinTheShortestPieceOfASideLieOnIt) {
+    const double x0 = 551200.0, y0 = 7016300.0;
+    const std::vector<double> ring = {x0, y0, x0 + 1000.0, y0, x0 + 1000.0, y0 + 400.0,
+                                      x0 + 400.0, y0 + 400.0, x0 + 400.0, y0 + 1000.0, x0, y0 + 1000.0};
+    const fm::StudyArea area(ring.data(), ring.size() / 2);
+    const double want = ring_area(ring);
+    const std::size_t ns = ring.size() / 2;
+    const double lo = std::log10(2.0 * area.tolerance());
+    for (unsigned seed = 1; seed <= 40; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        std::mt19937_64 g(seed);
+        std::uniform_real_distribution<double> u(0.0, 1.0);
+        std::vector<double> data;
+        while (data.size() < 3 * 30) {
+            const double p[3] = {x0 + 1000.0 * u(g), y0 + 1000.0 * u(g), 100.0 + 10.0 * u(g)};
+            if (area.contains(p) && !area.on_boundary(p)) data.insert(data.end(), p, p + 3);
+        }
+        fm::LayerTin t("L", data.data(), data.size() / 3, area);
+        for (int batch = 0; batch < 6; ++batch) {
+            std::vector<double> add;
+            const std::size_t n = 1 + static_cast<std::size_t>(u(g) * 4.0);
+            while (add.size() < 3 * n) {
+                const std::size_t side = static_cast<std::size_t>(u(g) * static_cast<double>(ns)) % ns;
+                const double* a = &ring[2 * side];
+                const double* b = &ring[2 * ((side + 1) % ns)];
+                const double L = std::hypot(b[0] - a[0], b[1] - a[1]);
+                const double s = u(g), off = std::pow(10.0, lo + (-3.0 - lo) * u(g));
+                const double p[3] = {a[0] + s * (b[0] - a[0]) - off * (b[1] - a[1]) / L,
+                                     a[1] + s * (b[1] - a[1]) + off * (b[0] - a[0]) / L, 100.0 + u(g)};
+                if (area.contains(p) && !area.on_boundary(p)) add.insert(add.end(), p, p + 3);
+            }
+            try {
+                t.insert(add.data(), add.size() / 3);
+                EXPECT_NEAR(mesh_area(t), want, 1e-9 * want);
+            } catch (const std::exception& e) {
+                ADD_FAILURE() << "batch " << batch << ": " << e.what();
+                break;
+            }
+        }
+    }
+}
