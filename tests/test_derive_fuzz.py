@@ -530,7 +530,13 @@ def test_crossing_layers_name_where_and_the_faults_that_cut_nothing(monkeypatch)
     Since the derived points go into the built model, this case builds: L1
     (holes 457 m apart) takes the shape of L2 (281 m), offsets included, and
     no longer crosses it. The message is tested on the case as it was, with
-    no layer taken as sparse."""
+    no layer taken as sparse, and with the repair's former insertion budget
+    (here its floor, 10,000 points: the layers have a few hundred vertices
+    each): with the present one (32 per
+    vertex of both layers; layer_tin.hpp, RepairOptions) the repair ends on
+    that case as well, with each layer under the one above where they
+    crossed (L2 lies above L1 at fewer than half its data, so the layer
+    order stands)."""
     p = {"utm": True, "rounding": 0.01, "ring": "rect", "size": (8000.0, 3000.0), "n_layers": 4,
          "thickness": 120.0, "holes": "dense", "holes_where": "gap", "n_faults": 2, "second": "close",
          "seed": 1841981165, "tiny": False, "layer_data": "both", "odd_holes": None,
@@ -546,6 +552,10 @@ def test_crossing_layers_name_where_and_the_faults_that_cut_nothing(monkeypatch)
                      "profile": "const"}]}
     assert check_case(make_case(p)) == "ok"
     monkeypatch.setattr(derive, "CONFORMABLE_SPARSE", math.inf)
+    assert check_case(make_case(p)) == "ok"
+    former = faultmesh.build.repair_stack
+    monkeypatch.setattr(faultmesh.build, "repair_stack",
+                        lambda *a, **k: former(*a, max_inserted_per_vertex=0.0, **k))
     msg = check_case(make_case(p))
     assert msg.startswith("error: repair_crossings('L3', 'L4')"), msg
     assert "before the repair 'L2' lies up to 356.3 m above 'L1', most at (516476.7, 7013831.3)" in msg

@@ -25,12 +25,15 @@ StudyArea as_area(const py::handle& boundary, const char* fn) {
 }
 
 RepairOptions repair_options(const std::string& fn, int max_rounds, const py::object& tol, int midpoint_rounds,
-                             double max_inserted_per_vertex) {
+                             double max_inserted_per_vertex, double max_above_fraction) {
     RepairOptions opt;
     opt.max_rounds = max_rounds;
     opt.midpoint_rounds = midpoint_rounds;
     opt.max_inserted_per_vertex = max_inserted_per_vertex;
+    opt.max_above_fraction = max_above_fraction;
     if (max_rounds < 1) throw std::invalid_argument(fn + ": max_rounds must be >= 1");
+    if (!(max_above_fraction >= 0.0 && max_above_fraction <= 1.0))
+        throw std::invalid_argument(fn + ": max_above_fraction must be in [0, 1]");
     if (!tol.is_none()) {
         opt.tolerance = tol.cast<double>();
         if (!(opt.tolerance >= 0.0)) throw std::invalid_argument(fn + ": tol must be >= 0");
@@ -199,9 +202,9 @@ void bind_layer_tin(py::module_& m) {
     m.def(
         "repair_stack",
         [](const py::typing::List<PyLayerTin>& layers, int max_rounds, py::object tol, int midpoint_rounds,
-           double max_inserted_per_vertex, int threads) -> py::typing::List<py::dict> {
+           double max_inserted_per_vertex, double max_above_fraction, int threads) -> py::typing::List<py::dict> {
             RepairOptions opt = repair_options("repair_stack", max_rounds, tol, midpoint_rounds,
-                                               max_inserted_per_vertex);
+                                               max_inserted_per_vertex, max_above_fraction);
             if (threads < 1) throw std::invalid_argument("repair_stack: threads must be >= 1, got " + std::to_string(threads));
             std::vector<PyLayerTin*> shared;
             for (std::size_t i = 0; i < layers.size(); ++i) {
@@ -229,7 +232,8 @@ void bind_layer_tin(py::module_& m) {
             return out;
         },
         py::arg("layers"), py::arg("max_rounds") = 50, py::arg("tol") = py::none(), py::arg("midpoint_rounds") = 8,
-        py::arg("max_inserted_per_vertex") = 4.0, py::arg("threads") = 1,
+        py::arg("max_inserted_per_vertex") = 32.0, py::arg("max_above_fraction") = 0.5,
+        py::arg("threads") = 1,
         "repair_crossings down a stack, layers[i] over layers[i + 1], with the same result as pair\n"
         "after pair: every pair's first test (are they apart everywhere?) at once on up to `threads`\n"
         "threads, the full repair top down only where needed. Returns the counts of each pair.");
@@ -237,9 +241,9 @@ void bind_layer_tin(py::module_& m) {
     m.def(
         "repair_crossings",
         [](const PyLayerTin& upper, PyLayerTin& lower, int max_rounds, py::object tol, int midpoint_rounds,
-           double max_inserted_per_vertex) {
+           double max_inserted_per_vertex, double max_above_fraction) {
             RepairOptions opt = repair_options("repair_crossings", max_rounds, tol, midpoint_rounds,
-                                               max_inserted_per_vertex);
+                                               max_inserted_per_vertex, max_above_fraction);
             RepairCounts c;
             {
                 // lower changes (exclusive lock), upper is read (shared, unless it is lower);
@@ -262,11 +266,14 @@ void bind_layer_tin(py::module_& m) {
             return counts_dict(c);
         },
         py::arg("upper"), py::arg("lower"), py::arg("max_rounds") = 50, py::arg("tol") = py::none(),
-        py::arg("midpoint_rounds") = 8, py::arg("max_inserted_per_vertex") = 4.0,
+        py::arg("midpoint_rounds") = 8, py::arg("max_inserted_per_vertex") = 32.0,
+        py::arg("max_above_fraction") = 0.5,
         "Make `lower` lie nowhere above `upper` (paper 3.2, Figure 6; layer_tin.hpp): rule 1,\n"
         "rule 1b and rule 2. Returns the counts {rule1, rule1b, rule2, rule2_crossing, rounds}.\n"
-        "Raises GeometryError if crossings remain after max_rounds rounds or the lower layer\n"
-        "needed more than max_inserted_per_vertex new points per vertex (a wrong layer order).");
+        "Raises GeometryError if, before the repair, lower lies above upper at more than\n"
+        "max_above_fraction of its TIN vertices (a wrong layer order), if crossings remain after\n"
+        "max_rounds rounds, or if the lower layer needed more than max_inserted_per_vertex new\n"
+        "points per vertex of the two layers (a runaway refinement).");
 }
 
 }  // namespace faultmesh::bindings

@@ -466,6 +466,65 @@ TEST(RepairCrossings, LayersWithTheirOwnBoundaryVerticesEnd) {
     }
 }
 
+// A wrong layer order is refused before the repair changes anything: the
+// lower layer's data lie above the upper surface at more than half of them
+// (RepairOptions::max_above_fraction). Two layers 50 m apart the wrong way
+// round, 20 to 2000 data each.
+TEST(RepairCrossings, AWrongLayerOrderIsRefusedBeforeAnythingChanges) {
+    const fm::StudyArea area = slanted_area();
+    for (std::size_t n : {20u, 200u, 2000u}) {
+        const std::vector<double> up_pts = plane_points(7, n, -650.0, area);
+        const std::vector<double> lo_pts = plane_points(8, n, -600.0, area);
+        const fm::LayerTin up("up", up_pts.data(), up_pts.size() / 3, area);
+        fm::LayerTin lo("lo", lo_pts.data(), lo_pts.size() / 3, area);
+        const std::vector<double> before = lo.z();
+        try {
+            fm::repair_crossings(up, lo);
+            ADD_FAILURE() << n << " data: no error";
+        } catch (const fm::GeometryError& e) {
+            EXPECT_NE(std::string(e.what()).find("'lo' lies above 'up' at " + std::to_string(n) + " of its " +
+                                                 std::to_string(n) + " data points; is the layer order right?"),
+                      std::string::npos)
+                << e.what();
+        }
+        EXPECT_EQ(lo.z(), before) << n << " data";
+    }
+}
+
+// A lower layer that lies above the upper over a quarter of its data -- where
+// it carries a fault's offset of 40 m that the upper, folded by 4 m, does
+// not -- is repaired: it ends under the upper everywhere. The lower layer
+// follows the folds there with far more points than it has (the budget
+// counts the upper layer's vertices too, 32 per vertex of both).
+TEST(RepairCrossings, ALowerLayerAboveTheUpperOverAThirdOfItsDataIsRepaired) {
+    const fm::StudyArea area = slanted_area();
+    for (unsigned seed = 0; seed < 6; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        std::vector<double> up_pts = plane_points(100 + 2 * seed, 600, -600.0, area);
+        for (std::size_t i = 0; i < up_pts.size(); i += 3)  // folds of 4 m, 300-400 m long
+            up_pts[i + 2] += 4.0 * std::sin(up_pts[i] / 50.0) * std::cos(up_pts[i + 1] / 60.0);
+        std::vector<double> lo_pts = plane_points(101 + 2 * seed, 600, -605.0, area);
+        std::size_t raised = 0;
+        for (std::size_t i = 0; i < lo_pts.size(); i += 3)
+            if (lo_pts[i] < 552120.0) {
+                lo_pts[i + 2] += 40.0;
+                ++raised;
+            }
+        ASSERT_GT(raised, 120u);
+        ASSERT_LT(raised, 300u);
+        const fm::LayerTin up("up", up_pts.data(), up_pts.size() / 3, area);
+        fm::LayerTin lo("lo", lo_pts.data(), lo_pts.size() / 3, area);
+        const std::size_t n0 = lo.n_vertices();
+        ASSERT_NO_THROW(fm::repair_crossings(up, lo));
+        // 28k-38k points (19-25 per vertex of the two): over the former
+        // budget of the lower layer's own vertices (at least 10,000).
+        EXPECT_GT(lo.n_vertices() - n0, 10000u);
+        const fm::LayerTinMesh m = lo.mesh();
+        for (std::size_t v = 0; v < m.vertices.size() / 3; ++v)
+            ASSERT_LE(m.vertices[3 * v + 2], up.interpolate(&m.vertices[3 * v], 1)[0] + 1e-6);
+    }
+}
+
 TEST(LayerTinInterpolate, PointsOnTheBoundaryGetTheirPiecesElevation) {
     // A curved layer from sparse data: the TIN's hull along a slanted side
     // joins boundary vertices rounded onto it, and Delaunay fills the
