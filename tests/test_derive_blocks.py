@@ -13,6 +13,7 @@ is the data's noise carried across the gap, nothing else.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -556,3 +557,26 @@ def test_thin_layers_under_two_low_angle_faults_build_through_a_cascade_of_repai
     err = _error_near_faults(model, ds, truth)
     assert len(err) > 1000 and np.all(np.isfinite(err))
     assert err.mean() <= 0.5 and np.percentile(err, 95) <= 2.0, (err.mean(), np.percentile(err, 95))
+
+
+def test_derived_faults_too_close_say_where_their_cutoffs_are_extrapolated():
+    """tests/data/derive/two_faults_sparse_lines.npz (a stress generator's
+    ground, seed 3): two faults that do not meet, 950 m apart, with the
+    layers picked on four seismic lines. Where no hanging-wall pick lies
+    within 562 m, both faults' L1 cutoffs are extrapolated 450-770 m from
+    the true ones and their patches overlap at the study area's edge. The
+    error named the pair and the layer and said "give them one 'group' if
+    they cross (T or X), or check their traces" -- traces a derived fault
+    does not have. It now says which derived fault has how many sections in
+    that layer without data of which side within how far, and that data
+    nearer the fault or a throw hint place those cutoffs."""
+    ds, _ = _stress_fixture("two_faults_sparse_lines.npz")
+    with pytest.raises(fm.DatasetError) as err:
+        fm.build_model(ds, evaluate=False)
+    msg = str(err.value)
+    assert msg.startswith("faults too close: fault 'F1' and fault 'F2' overlap in layer 'L1'"), msg
+    assert "check their traces" not in msg
+    for name in ("F1", "F2"):
+        assert re.search(rf"fault '{name}' is derived, and on \d+ of its sections in layer 'L1' no "
+                         r"hanging-wall data lie within \d+ m of its cutoffs", msg), msg
+    assert "a 'throw' hint" in msg
