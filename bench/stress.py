@@ -115,6 +115,9 @@ def one(seed: int, force=None) -> dict:
         t2 = time.time()
         m = fm.build_model(d, evaluate=False)
         rec["t_build"] = round(time.time() - t2, 2)
+        # what the layer crossing repair changed, per lower layer of a pair
+        rec["repair"] = {lay: {k: c.get(k) for k in ("data_above", "max_lowered")}
+                         for lay, c in m.metadata.get("repair", {}).items() if c.get("max_lowered")}
         rec["stage"] = "check"
         m.check()
         rec["stage"] = "ok"

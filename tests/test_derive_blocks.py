@@ -533,6 +533,12 @@ def test_thin_layers_under_a_throw_of_many_layer_thicknesses_build():
     ds, truth = _stress_fixture("thin_layers_large_throw.npz")
     model = fm.build_model(ds, evaluate=False)
     model.check()
+    # The report says what the repair changed: L2 lowered by the 32.7 m it
+    # lay above L1 (its TIN vertices, not its data: at most 5 data of a
+    # layer lay above the one over it).
+    rep = model.metadata["repair"]
+    assert 30.0 < rep["L2"]["max_lowered"] < 35.0, rep["L2"]
+    assert all(c["data_above"] <= 5 for c in rep.values()), rep
     err = _error_near_faults(model, ds, truth)
     assert len(err) > 300 and np.all(np.isfinite(err))
     assert err.mean() <= 0.5 and err.max() <= 3.0, (err.mean(), err.max())

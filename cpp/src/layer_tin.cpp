@@ -1735,11 +1735,15 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
                 std::size_t n_data = 0, n_above = 0;
                 for (std::int64_t v : lt->tin_vertex) n_data += is_data(v) ? 1 : 0;
                 for (std::int64_t v : ids) n_above += is_data(v) ? 1 : 0;
+                counts.data_above = static_cast<std::int64_t>(n_above);
                 if (static_cast<double>(n_above) > opt.max_above_fraction * static_cast<double>(n_data))
                     throw GeometryError(fn + ": '" + lower.name() + "' lies above '" + upper.name() + "' at " +
                                         std::to_string(n_above) + " of its " + std::to_string(n_data) +
                                         " data points; is the layer order right?");
             }
+            for (std::size_t k = 0; k < ids.size(); ++k)
+                counts.max_lowered =
+                    std::max(counts.max_lowered, LV[3 * static_cast<std::size_t>(ids[k]) + 2] - zs[k]);
             if (!ids.empty()) {
                 lower.set_z(ids.data(), zs.data(), ids.size());
                 counts.rule1 += static_cast<std::int64_t>(ids.size());

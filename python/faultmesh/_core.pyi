@@ -774,7 +774,9 @@ def overlapping_triangles(vertices: typing.Any, triangles: typing.Any, rings: ty
 def repair_crossings(upper: LayerTin, lower: LayerTin, max_rounds: typing.SupportsInt | typing.SupportsIndex = 50, tol: typing.Any = None, midpoint_rounds: typing.SupportsInt | typing.SupportsIndex = 8, max_inserted_per_vertex: typing.SupportsFloat | typing.SupportsIndex = 32.0, max_above_fraction: typing.SupportsFloat | typing.SupportsIndex = 0.5) -> dict:
     """
     Make `lower` lie nowhere above `upper` (paper 3.2, Figure 6; layer_tin.hpp): rule 1,
-    rule 1b and rule 2. Returns the counts {rule1, rule1b, rule2, rule2_crossing, rounds}.
+    rule 1b and rule 2. Returns the counts {rule1, rule1b, rule2, rule2_crossing, rounds},
+    data_above (the lower layer's data points above the upper surface before the repair) and
+    max_lowered (m, the largest lowering of a lower vertex by rule 1).
     Raises GeometryError if, before the repair, lower lies above upper at more than
     max_above_fraction of its TIN vertices (a wrong layer order), if crossings remain after
     max_rounds rounds, or if the lower layer needed more than max_inserted_per_vertex new

@@ -201,6 +201,8 @@ struct RepairCounts {
     std::int64_t rule2 = 0;           // edge midpoints inserted
     std::int64_t rule2_crossing = 0;  // crossing points inserted
     std::int64_t rounds = 0;
+    std::int64_t data_above = 0;      // lower data points above the upper surface before the repair
+    double max_lowered = 0.0;         // the largest lowering of a lower vertex by rule 1 (m)
 };
 
 // Make `lower` lie nowhere above `upper` (see the file comment). Throws
