@@ -1082,7 +1082,8 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
                 const double d = std::hypot(p[0] - c[0], p[1] - c[1]);
                 if (d > best) continue;
                 best = d;
-                hits.assign(1, {side, sp <= s.area.tolerance() ? 0.0 : sp});
+                // Within the tolerance of a corner it is the corner (as locate() has it).
+                hits.assign(1, {side, sp <= s.area.tolerance() ? 0.0 : sp >= L - s.area.tolerance() ? L : sp});
                 q[0] = c[0];
                 q[1] = c[1];
             }

@@ -247,10 +247,10 @@ def _zones_overlap(e: PatchOverlapError, members: Dict[str, List[str]], derivati
     (model them together, as one group, or move them apart). Of a derived
     fault whose cutoffs in that layer derive placed with no data of one side
     near them (its warnings), the error says so: there the cutoffs are an
-    extrapolation, and data or a throw hint move them (two non-crossing
-    thrusts of a stress ground, seed 3, with picks on four seismic lines:
-    both faults' L1 cutoffs 450-770 m off where no hanging-wall pick lay
-    within 562 m)."""
+    extrapolation, and data or a throw hint move them (a stress ground's
+    two faults that do not meet, 950 m apart, seed 3, with picks on four
+    seismic lines: both faults' L1 cutoffs 450-770 m off where no
+    hanging-wall pick lay within 562 m)."""
     def names(patch: str) -> str:
         fs = members.get(patch, [patch])
         return f"fault {fs[0]!r}" if len(fs) == 1 else "faults " + " and ".join(repr(f) for f in fs)
@@ -263,9 +263,9 @@ def _zones_overlap(e: PatchOverlapError, members: Dict[str, List[str]], derivati
                    if f"layer {e.layer!r}, section" in w]
             far = [m for m in far if m]
             if far:
+                sides = " or ".join(f"{side}-wall" for side in sorted({m.group(1) for m in far}))
                 notes.append(f"fault {name!r} is derived, and on {len(far)} of its sections in layer {e.layer!r} "
-                             f"no {far[0].group(1)}-wall data lie within {max(int(m.group(2)) for m in far)} m "
-                             "of its cutoffs")
+                             f"no {sides} data lie within {max(int(m.group(2)) for m in far)} m of its cutoffs")
     if notes:
         advice = ("; ".join(notes) + ": there its cutoffs are extrapolated (data nearer the fault or a "
                   "'throw' hint place them); give the faults one 'group' if they cross (T or X)")
