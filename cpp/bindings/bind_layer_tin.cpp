@@ -233,7 +233,7 @@ void bind_layer_tin(py::module_& m) {
             for (const auto& c : counts) out.append(counts_dict(c));
             return out;
         },
-        py::arg("layers"), py::arg("max_rounds") = 50, py::arg("tol") = py::none(), py::arg("midpoint_rounds") = 8,
+        py::arg("layers"), py::arg("max_rounds") = 200, py::arg("tol") = py::none(), py::arg("midpoint_rounds") = 8,
         py::arg("max_inserted_per_vertex") = 32.0, py::arg("max_above_fraction") = 0.5,
         py::arg("threads") = 1,
         "repair_crossings down a stack, layers[i] over layers[i + 1], with the same result as pair\n"
@@ -267,7 +267,7 @@ void bind_layer_tin(py::module_& m) {
             }
             return counts_dict(c);
         },
-        py::arg("upper"), py::arg("lower"), py::arg("max_rounds") = 50, py::arg("tol") = py::none(),
+        py::arg("upper"), py::arg("lower"), py::arg("max_rounds") = 200, py::arg("tol") = py::none(),
         py::arg("midpoint_rounds") = 8, py::arg("max_inserted_per_vertex") = 32.0,
         py::arg("max_above_fraction") = 0.5,
         "Make `lower` lie nowhere above `upper` (paper 3.2, Figure 6; layer_tin.hpp): rule 1,\n"

@@ -771,7 +771,7 @@ def overlapping_triangles(vertices: typing.Any, triangles: typing.Any, rings: ty
     allow_mesh_boundary=True (a fault at the study-area boundary): then the kept triangles
     stay one pinch-free piece.
     """
-def repair_crossings(upper: LayerTin, lower: LayerTin, max_rounds: typing.SupportsInt | typing.SupportsIndex = 50, tol: typing.Any = None, midpoint_rounds: typing.SupportsInt | typing.SupportsIndex = 8, max_inserted_per_vertex: typing.SupportsFloat | typing.SupportsIndex = 32.0, max_above_fraction: typing.SupportsFloat | typing.SupportsIndex = 0.5) -> dict:
+def repair_crossings(upper: LayerTin, lower: LayerTin, max_rounds: typing.SupportsInt | typing.SupportsIndex = 200, tol: typing.Any = None, midpoint_rounds: typing.SupportsInt | typing.SupportsIndex = 8, max_inserted_per_vertex: typing.SupportsFloat | typing.SupportsIndex = 32.0, max_above_fraction: typing.SupportsFloat | typing.SupportsIndex = 0.5) -> dict:
     """
     Make `lower` lie nowhere above `upper` (paper 3.2, Figure 6; layer_tin.hpp): rule 1,
     rule 1b and rule 2. Returns the counts {rule1, rule1b, rule2, rule2_crossing, rounds},
@@ -782,7 +782,7 @@ def repair_crossings(upper: LayerTin, lower: LayerTin, max_rounds: typing.Suppor
     max_rounds rounds, or if the lower layer needed more than max_inserted_per_vertex new
     points per vertex of the two layers (a runaway refinement).
     """
-def repair_stack(layers: list[LayerTin], max_rounds: typing.SupportsInt | typing.SupportsIndex = 50, tol: typing.Any = None, midpoint_rounds: typing.SupportsInt | typing.SupportsIndex = 8, max_inserted_per_vertex: typing.SupportsFloat | typing.SupportsIndex = 32.0, max_above_fraction: typing.SupportsFloat | typing.SupportsIndex = 0.5, threads: typing.SupportsInt | typing.SupportsIndex = 1) -> list[dict]:
+def repair_stack(layers: list[LayerTin], max_rounds: typing.SupportsInt | typing.SupportsIndex = 200, tol: typing.Any = None, midpoint_rounds: typing.SupportsInt | typing.SupportsIndex = 8, max_inserted_per_vertex: typing.SupportsFloat | typing.SupportsIndex = 32.0, max_above_fraction: typing.SupportsFloat | typing.SupportsIndex = 0.5, threads: typing.SupportsInt | typing.SupportsIndex = 1) -> list[dict]:
     """
     repair_crossings down a stack, layers[i] over layers[i + 1], with the same result as pair
     after pair: every pair's first test (are they apart everywhere?) at once on up to `threads`

@@ -36,11 +36,18 @@ def _ccw_ring(ring: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(StudyArea(np.asarray(ring, dtype=np.float64).reshape(-1, 2)).ring)
 
 
+#: Rounds of the layer-crossing repair before it gives up: the C++
+#: default (``RepairOptions::max_rounds``, layer_tin.hpp, where it is
+#: justified); ``build_model(max_repair_rounds=...)`` and the CLI's
+#: ``--max-repair-rounds`` change it.
+MAX_REPAIR_ROUNDS = 200
+
+
 # ---------------------------------------------------------------------------
 # Steps 2 and 3: stratum TINs and the layer-crossing repair
 # ---------------------------------------------------------------------------
 def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repair: bool = True,
-                 max_repair_rounds: int = 50, progress=None,
+                 max_repair_rounds: int = MAX_REPAIR_ROUNDS, progress=None,
                  threads: Optional[int] = None,
                  fill_holes: bool = False,
                  every_derived_patch: bool = False) -> Tuple[Dict[str, LayerTin], Dict[str, Any]]:
@@ -207,7 +214,7 @@ def _in_fault_zones(dataset, layer: str, area: StudyArea, points: np.ndarray,
 
 
 def continuous_layers(dataset, *, spacing: Optional[float] = None, repair: bool = True,
-                      max_repair_rounds: int = 50, threads: Optional[int] = None,
+                      max_repair_rounds: int = MAX_REPAIR_ROUNDS, threads: Optional[int] = None,
                       fill_holes: bool = False) -> Dict[str, Surface]:
     """The continuous layer surfaces of ``dataset`` before any fault (steps 2
     and 3 of :func:`build_model`, same code and defaults)."""
@@ -519,7 +526,7 @@ def _stitch_layer(lay: str, tin: LayerTin, patches: List[Tuple[str, List[str], n
 
 def build_model(dataset, progress=None, loft_method: str = "min_area", refine: bool = True,
                 stitch_order: str = "quality", bridge: str = "extreme", repair: bool = True,
-                max_repair_rounds: int = 50, spacing: Optional[float] = None,
+                max_repair_rounds: int = MAX_REPAIR_ROUNDS, spacing: Optional[float] = None,
                 evaluate: bool = True, clearance: Optional[float] = None,
                 threads: Optional[int] = None, fill_holes: bool = False) -> Model:
     """Build the faulted multi-layer model of ``dataset`` (docs/design.md §4).

@@ -719,7 +719,7 @@ def _add_build_options(p: argparse.ArgumentParser) -> None:
                         "spacings) from a minimum-curvature surface instead of the TIN's "
                         "linear bridge (docs/derive.md)")
     g.add_argument("--max-repair-rounds", type=_positive_int, metavar="N",
-                   help="rounds of the layer-crossing repair before it gives up (default 50)")
+                   help="rounds of the layer-crossing repair before it gives up (default 200)")
     g.add_argument("--no-evaluate", action="store_true",
                    help="do not compare the model with the ground truth of a built-in dataset")
     g.add_argument("--threads", type=_positive_int, metavar="N",
