@@ -1057,7 +1057,6 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
     };
     std::vector<std::pair<std::size_t, double>> keep_pos;
     std::vector<StudyArea::Hit> hits;
-    std::vector<std::size_t> sides;
     for (std::size_t i = 0; i < n; ++i) {
         const double* p = xyz + 3 * i;
         s.area.locate(p, hits);
@@ -1069,23 +1068,12 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
             // the diametral disk of a piece only when its distance to the
             // side is at most half the piece). The repair's points near a
             // side come nearer it round after round (stress ground 27).
-            s.area.sides_near(p, min_piece, sides);
-            double best = min_piece;
-            for (std::size_t side : sides) {
-                const double* a = s.area.corner(side);
-                const double* b = s.area.corner(side + 1);
-                const double L = s.area.side_length(side);
-                const double sp = std::clamp(((p[0] - a[0]) * (b[0] - a[0]) + (p[1] - a[1]) * (b[1] - a[1])) / L,
-                                             0.0, L);
-                double c[2];
-                s.area.place(side, sp, c);
-                const double d = std::hypot(p[0] - c[0], p[1] - c[1]);
-                if (d > best) continue;
-                best = d;
+            const StudyArea::Nearest near = s.area.nearest(p, min_piece);
+            if (near.found) {
+                const double L = s.area.side_length(near.side), tol = s.area.tolerance();
                 // Within the tolerance of a corner it is the corner (as locate() has it).
-                hits.assign(1, {side, sp <= s.area.tolerance() ? 0.0 : sp >= L - s.area.tolerance() ? L : sp});
-                q[0] = c[0];
-                q[1] = c[1];
+                hits.assign(1, {near.side, near.s <= tol ? 0.0 : near.s >= L - tol ? L : near.s});
+                s.area.place(near.side, near.s, q);
             }
         }
         if (!hits.empty()) {

@@ -266,13 +266,11 @@ def _zones_overlap(e: PatchOverlapError, members: Dict[str, List[str]], derivati
     for patch in (e.other, e.patch):
         for name in members.get(patch, [patch]):
             fd = derivation.faults.get(name) if derivation is not None else None
-            far = [re.search(r"no (\w+)-wall data within (\d+) m", w) for w in (fd.warnings if fd else ())
-                   if f"layer {e.layer!r}, section" in w]
-            far = [m for m in far if m]
+            far = fd.far_from_data.get(e.layer, []) if fd is not None else []
             if far:
-                sides = " or ".join(f"{side}-wall" for side in sorted({m.group(1) for m in far}))
+                sides = " or ".join(f"{side}-wall" for side in sorted({side for _, side, _ in far}))
                 notes.append(f"fault {name!r} is derived, and on {len(far)} of its sections in layer {e.layer!r} "
-                             f"no {sides} data lie within {max(int(m.group(2)) for m in far)} m of its cutoffs")
+                             f"no {sides} data lie within {max(m for _, _, m in far):.0f} m of its cutoffs")
     if notes:
         advice = ("; ".join(notes) + ": there its cutoffs are extrapolated (data nearer the fault or a "
                   "'throw' hint place them); give the faults one 'group' if they cross (T or X)")

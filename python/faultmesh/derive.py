@@ -2035,6 +2035,11 @@ class FaultDerivation:
     #: (:func:`_carried_points`); the derived dataset's ``derived_points``
     #: have them.
     carried: Dict[str, np.ndarray] = field(default_factory=dict)
+    #: layer -> [(u, side, m)]: the sections whose cutoffs have no data of
+    #: ``side`` within m of them and no throw hint to place them (the
+    #: warnings "no ...-wall data within m of the cutoff"): there the
+    #: cutoffs are extrapolated or bridged.
+    far_from_data: Dict[str, List[Tuple[float, str, float]]] = field(default_factory=dict)
 
     def as_dict(self) -> Dict[str, Any]:
         return {"kind": self.kind, "given_kind": self.given_kind, "warnings": list(self.warnings),
@@ -3677,12 +3682,14 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         return True
 
     # Throw hint where a side has no data near the fault.
+    far_from_data: Dict[str, List[Tuple[float, str, float]]] = {}
     for lay, r in res.items():
         for i in good:
             side = nodata[lay][i]
             if side is None or not cut[lay][i]:
                 continue
             if hint is None:
+                far_from_data.setdefault(lay, []).append((float(lines[i]["u"]), side, float(r["near"])))
                 warn.append(f"fault {fault.name!r}, layer {lay!r}, section at u={lines[i]['u']:.0f}: "
                             f"no {side}-wall data within {r['near']:.0f} m of the cutoff; "
                             + ("bridged by one surface through both sides' data and a throw "
@@ -4066,7 +4073,8 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     rep = FaultDerivation(fault.name, kind, fault.kind, warn, fs, sec_names, prof,
                           np.array(tips).reshape(-1, 2), end_kind, cl,
                           _carried_points(new_fault, fs, res, section_of, ring, others, partners,
-                                          end_kind, spacing) if with_carried else {})
+                                          end_kind, spacing) if with_carried else {},
+                          far_from_data)
     return new_fault, new_secs, rep
 
 
