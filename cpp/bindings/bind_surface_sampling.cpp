@@ -1,4 +1,4 @@
-// Bindings for sampling a surface: faultmesh.sample_surface, sample_surface_grid.
+// Bindings for sampling a surface: faultmesh.sample_surface, nearest_sheet, sample_surface_grid.
 #include <faultmesh/surface_sampling.hpp>
 
 #include "common.hpp"
@@ -34,6 +34,26 @@ void bind_surface_sampling(py::module_& m) {
         "1e60). Containment and weights come from the exact orient2d (surface_sampling.hpp).\n"
         "Vertices: x, y finite within |c| <= 1e60, z finite; triangles: non-negative integer\n"
         "indices below n (ValueError naming the argument and row otherwise).");
+    m.def(
+        "nearest_sheet",
+        [](const py::handle& vertices, const py::handle& triangles, const py::handle& points) {
+            auto V = as_coordinates(vertices, "nearest_sheet", "vertices", 3, 3, 2);
+            auto T = as_indices(triangles, "nearest_sheet", "triangles", 3, V.shape(0));
+            auto P = as_points(points, "nearest_sheet", "points", 3, 3);
+            NearestSheet r;
+            {
+                py::gil_scoped_release release;
+                r = nearest_sheet(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
+                                  static_cast<std::size_t>(T.shape(0)), P.data(), static_cast<std::size_t>(P.shape(0)));
+            }
+            return py::make_tuple(to_numpy(std::move(r.z)), to_numpy(std::move(r.triangle)));
+        },
+        py::arg("vertices"), py::arg("triangles"), py::arg("points"),
+        "The sheet of a TIN nearest to each of points (k, 3): (z, triangle). Of the triangles\n"
+        "whose XY projection holds the point (exact orient2d, as sample_surface), the one whose\n"
+        "z there is closest to the point's, and that z; -1 and NaN where none does. Where a\n"
+        "reverse fault folds the surface, each of a hole's two tops of the layer is compared\n"
+        "with its own sheet.");
     m.def(
         "sample_surface_grid",
         [](const py::handle& vertices, const py::handle& triangles, std::pair<double, double> origin,

@@ -54,17 +54,23 @@ void add(SurfaceSamples& s, std::size_t i, double z) {
 
 }  // namespace
 
-SurfaceSamples sample_surface(const double* V, std::size_t nv, const std::int64_t* T, std::size_t m,
-                              const double* xy, std::size_t n) {
-    check_mesh("sample_surface", V, nv, T, m);
-    SurfaceSamples s{std::vector<double>(n, kNaN), std::vector<double>(n, kNaN), std::vector<std::int32_t>(n, 0)};
-    if (m == 0 || n == 0) return s;
+namespace {
+
+// f(i, t, z) for every triangle t whose closed XY projection holds point i
+// (x, y at pts + stride * i), with its z there.
+template <class F>
+void for_each_cover(const double* V, std::size_t nv, const std::int64_t* T, std::size_t m, const double* pts,
+                    std::size_t stride, std::size_t n, F&& f) {
+    if (m == 0 || n == 0) return;
     const AabbTree tree = AabbTree::from_triangles(V, nv, 3, T, m);
     std::vector<Box2> q(n);
-    for (std::size_t i = 0; i < n; ++i) q[i] = {xy[2 * i], xy[2 * i + 1], xy[2 * i], xy[2 * i + 1]};
+    for (std::size_t i = 0; i < n; ++i) {
+        const double* p = pts + stride * i;
+        q[i] = {p[0], p[1], p[0], p[1]};
+    }
     const Csr hits = tree.query(q.data(), n, /*sorted=*/false);
     for (std::size_t i = 0; i < n; ++i) {
-        const double* p = xy + 2 * i;
+        const double* p = pts + stride * i;
         // A query beyond the coordinate limit (or NaN / inf) lies outside
         // every triangle (as for Tin.interpolate): NaN, 0 hits.
         if (!coordinate_in_range(p[0]) || !coordinate_in_range(p[1])) continue;
@@ -73,12 +79,34 @@ SurfaceSamples sample_surface(const double* V, std::size_t nv, const std::int64_
             const double* a = V + 3 * T[3 * t];
             const double* b = V + 3 * T[3 * t + 1];
             const double* c = V + 3 * T[3 * t + 2];
-            const double o = orient2d(a, b, c);
             double z;
-            if (o != 0.0 && z_in_triangle(p, a, b, c, z)) add(s, i, z);
+            if (orient2d(a, b, c) != 0.0 && z_in_triangle(p, a, b, c, z)) f(i, t, z);
         }
     }
+}
+
+}  // namespace
+
+SurfaceSamples sample_surface(const double* V, std::size_t nv, const std::int64_t* T, std::size_t m,
+                              const double* xy, std::size_t n) {
+    check_mesh("sample_surface", V, nv, T, m);
+    SurfaceSamples s{std::vector<double>(n, kNaN), std::vector<double>(n, kNaN), std::vector<std::int32_t>(n, 0)};
+    for_each_cover(V, nv, T, m, xy, 2, n, [&](std::size_t i, std::size_t, double z) { add(s, i, z); });
     return s;
+}
+
+NearestSheet nearest_sheet(const double* V, std::size_t nv, const std::int64_t* T, std::size_t m, const double* xyz,
+                           std::size_t n) {
+    check_mesh("nearest_sheet", V, nv, T, m);
+    NearestSheet out{std::vector<double>(n, kNaN), std::vector<std::int64_t>(n, -1)};
+    for_each_cover(V, nv, T, m, xyz, 3, n, [&](std::size_t i, std::size_t t, double z) {
+        const double zi = xyz[3 * i + 2];
+        if (out.triangle[i] < 0 || std::abs(z - zi) < std::abs(out.z[i] - zi)) {
+            out.z[i] = z;
+            out.triangle[i] = static_cast<std::int64_t>(t);
+        }
+    });
+    return out;
 }
 
 SurfaceSamples sample_surface_grid(const double* V, std::size_t nv, const std::int64_t* T, std::size_t m,

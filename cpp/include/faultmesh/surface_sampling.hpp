@@ -1,6 +1,7 @@
 // faultmesh/surface_sampling.hpp -- a triangulated surface's elevations at
 // points in XY: the evaluation of a model against data or a ground truth
-// (accuracy grids, held-out picks, ensemble samples).
+// (accuracy grids, held-out picks, ensemble samples, a model's fit to its
+// own data).
 //
 // A point is covered by every triangle whose closed XY projection holds it
 // (exact orient2d); a triangle with zero XY area (a vertical piece of a fault
@@ -32,6 +33,19 @@ struct SurfaceSamples {
 // of range or a non-finite coordinate of a used vertex.
 SurfaceSamples sample_surface(const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
                               std::size_t n_triangles, const double* xy, std::size_t n);
+
+// The sheet nearest to each of n points (x, y, z interleaved): of the
+// triangles that cover the point's XY, the one whose z there is closest to
+// its z, and that z (-1 and NaN where none does; the first of equals). A
+// datum's distance to a folded layer: a hole's two tops of a layer that a
+// reverse fault repeats lie each on its own sheet, and the fault strip
+// between them is a third.
+struct NearestSheet {
+    std::vector<double> z;
+    std::vector<std::int64_t> triangle;
+};
+NearestSheet nearest_sheet(const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
+                           std::size_t n_triangles, const double* xyz, std::size_t n);
 
 // On the regular grid of nx x ny points (x0 + i hx, y0 + j hy), i fastest:
 // each triangle visits the grid points of its box, so the cost is about the
