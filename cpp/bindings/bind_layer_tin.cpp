@@ -50,6 +50,7 @@ py::dict counts_dict(const RepairCounts& c) {
     d["rounds"] = c.rounds;
     d["data_above"] = c.data_above;
     d["max_lowered"] = c.max_lowered;
+    d["max_data_lowered"] = c.max_data_lowered;
     return d;
 }
 
@@ -272,10 +273,11 @@ void bind_layer_tin(py::module_& m) {
         py::arg("max_above_fraction") = 0.5,
         "Make `lower` lie nowhere above `upper` (paper 3.2, Figure 6; layer_tin.hpp): rule 1,\n"
         "rule 1b and rule 2. Returns the counts {rule1, rule1b, rule2, rule2_crossing, rounds},\n"
-        "data_above (the lower layer's data points above the upper surface before the repair) and\n"
-        "max_lowered (m, the largest lowering of a lower vertex by rule 1).\n"
+        "data_above (the lower layer's data points above the upper surface before the repair),\n"
+        "max_lowered (m, the largest lowering of a lower vertex by rule 1) and max_data_lowered\n"
+        "(m, the largest lowering of one of those data points: the most the layer misses a datum by).\n"
         "Raises GeometryError if, before the repair, lower lies above upper at more than\n"
-        "max_above_fraction of its TIN vertices (a wrong layer order), if crossings remain after\n"
+        "max_above_fraction of its data points (a wrong layer order), if crossings remain after\n"
         "max_rounds rounds, or if the lower layer needed more than max_inserted_per_vertex new\n"
         "points per vertex of the two layers (a runaway refinement).");
 }

@@ -1723,7 +1723,12 @@ RepairCounts repair_crossings(const LayerTin& upper, LayerTin& lower, const Repa
                 };
                 std::size_t n_data = 0, n_above = 0;
                 for (std::int64_t v : lt->tin_vertex) n_data += is_data(v) ? 1 : 0;
-                for (std::int64_t v : ids) n_above += is_data(v) ? 1 : 0;
+                for (std::size_t k = 0; k < ids.size(); ++k) {
+                    if (!is_data(ids[k])) continue;
+                    ++n_above;
+                    counts.max_data_lowered = std::max(
+                        counts.max_data_lowered, LV[3 * static_cast<std::size_t>(ids[k]) + 2] - zs[k]);
+                }
                 counts.data_above = static_cast<std::int64_t>(n_above);
                 if (static_cast<double>(n_above) > opt.max_above_fraction * static_cast<double>(n_data))
                     throw GeometryError(fn + ": '" + lower.name() + "' lies above '" + upper.name() + "' at " +

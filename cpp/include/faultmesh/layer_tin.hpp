@@ -210,6 +210,10 @@ struct RepairCounts {
     std::int64_t rounds = 0;
     std::int64_t data_above = 0;      // lower data points above the upper surface before the repair
     double max_lowered = 0.0;         // the largest lowering of a lower vertex by rule 1 (m)
+    // The largest lowering of a lower data point (m): the most by which the
+    // repaired layer misses one of its data (each of the data_above is moved
+    // down onto the upper surface).
+    double max_data_lowered = 0.0;
 };
 
 // Make `lower` lie nowhere above `upper` (see the file comment). Throws
