@@ -454,6 +454,61 @@ def test_dataset_without_faults():
     assert "accuracy" not in m.metadata
 
 
+def test_a_model_that_honours_its_data_reports_no_miss():
+    ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], float)
+    bh = _grid_boreholes({"A": lambda x, y: -0.01 * x, "B": lambda x, y: -50 - 0.01 * y})
+    m = build(Dataset("nofault", ["A", "B"], ring, bh))
+    fit = m.metadata["data_fit"]
+    assert {lay: (r["data"], r["off"], r["worst"]) for lay, r in fit.items()} == \
+        {"A": (81, 0, None), "B": (81, 0, None)}
+    assert max(r["max_m"] for r in fit.values()) < 1e-9
+    assert "warnings" not in m.metadata
+
+
+@pytest.mark.parametrize("bump", [8.0, 30.0])
+def test_data_the_crossing_repair_lowers_are_named_in_a_warning(bump):
+    """Where the lower layer's data lie above the upper layer (an offset
+    only the lower layer shows, or a wrong pick), the repair lowers them
+    onto it and the model misses them: metadata["data_fit"] says by how
+    much, and past DATA_MISS_WARNING (5 m) a warning names the layers,
+    the worst datum and the repair."""
+    from faultmesh.build import DATA_MISS_WARNING
+
+    ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], float)
+    # B lies 10 m under A but for three holes in a corner, bump + 10 m
+    # higher: bump m above A.
+    raised = lambda x, y: (x < 300) & (y < 300)  # noqa: E731
+    bh = _grid_boreholes({"A": lambda x, y: 0.0 * x, "B": lambda x, y: -10.0 + (bump + 10.0) * raised(x, y)},
+                         n=9)
+    m = build(Dataset("bump", ["A", "B"], ring, bh))
+    n_raised = int(raised(bh.xy[:, 0], bh.xy[:, 1]).sum() // 2)
+    fit = m.metadata["data_fit"]["B"]
+    assert fit["off"] == fit["lowered"] == n_raised == 9
+    assert fit["max_m"] == pytest.approx(bump, abs=1e-9)
+    assert fit["max_lowered_m"] == pytest.approx(bump, abs=1e-9)
+    assert m.metadata["data_fit"]["A"]["off"] == 0
+    assert m.metadata["repair"]["B"]["max_data_lowered"] == pytest.approx(bump, abs=1e-9)
+    w = fit["worst"]
+    assert raised(w["x"], w["y"]) and w["z"] == pytest.approx(bump) and w["model_z"] == pytest.approx(0.0)
+    warnings = m.metadata.get("warnings", [])
+    assert bump > DATA_MISS_WARNING
+    assert len(warnings) == 1, warnings
+    assert warnings[0].startswith(f"layer 'B': the model misses 9 of its 81 data points, by up to {bump:.1f} m")
+    assert "9 by over 5 m, 9 on the layer's own surface;" in warnings[0]
+    assert f"the layer-crossing repair lowered 9 of the data missed, by up to {bump:.1f} m, under 'A'" in warnings[0]
+    assert fit["in_patch"] == fit["in_gap"] == 0
+
+
+def test_a_miss_under_the_warning_threshold_is_reported_without_a_warning():
+    ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], float)
+    bh = _grid_boreholes({"A": lambda x, y: 0.0 * x, "B": lambda x, y: -10.0 + 12.0 * (x < 100) * (y < 100)})
+    m = build(Dataset("small", ["A", "B"], ring, bh))
+    fit = m.metadata["data_fit"]["B"]
+    assert fit["off"] == fit["lowered"] == 1
+    assert fit["max_m"] == pytest.approx(2.0, abs=1e-9)
+    assert "warnings" not in m.metadata
+
+
 def _xtrace(c, along, kind="normal"):
     """A section across a fault line at coordinate c (the other axis = along)."""
     s = [400.0, 440.0, 480.0, 490.0, 530.0, 570.0]

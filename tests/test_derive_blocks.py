@@ -542,6 +542,11 @@ def test_thin_layers_under_a_throw_of_many_layer_thicknesses_build():
     err = _error_near_faults(model, ds, truth)
     assert len(err) > 300 and np.all(np.isfinite(err))
     assert err.mean() <= 0.5 and err.max() <= 3.0, (err.mean(), err.max())
+    # The model passes within 0.86 m of every datum (57 of 3.3k missed by
+    # over 1 mm, the picks' noise where thin layers' data cross): no warning.
+    fit = model.metadata["data_fit"]
+    assert max(r["max_m"] for r in fit.values()) < 1.0, fit
+    assert "warnings" not in model.metadata
 
 
 def test_thin_layers_under_two_low_angle_faults_build_through_a_cascade_of_repairs():

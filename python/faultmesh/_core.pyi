@@ -8,7 +8,7 @@ import enum
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'FaultSide', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TouchingRegion', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'halfedge_twins', 'incircle', 'insert_patch_data', 'join_holes', 'loft', 'loft_area', 'nearest_segment', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
+__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'FaultSide', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TouchingRegion', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'halfedge_twins', 'incircle', 'insert_patch_data', 'join_holes', 'loft', 'loft_area', 'nearest_segment', 'nearest_sheet', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
 class GeometryError(ValueError):
     pass
 class PatchOverlapError(GeometryError):
@@ -741,6 +741,14 @@ def nearest_segment(points: typing.Any, starts: typing.Any, ends: typing.Any) ->
     the lowest index wins. Coordinates must be finite with |c| <= 1e60 (ValueError
     naming the argument and row otherwise).
     """
+def nearest_sheet(vertices: typing.Any, triangles: typing.Any, points: typing.Any) -> tuple[numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.int64]]:
+    """
+    The sheet of a TIN nearest to each of points (k, 3): (z, triangle). Of the triangles
+    whose XY projection holds the point (exact orient2d, as sample_surface), the one whose
+    z there is closest to the point's, and that z; -1 and NaN where none does. Where a
+    reverse fault folds the surface, each of a hole's two tops of the layer is compared
+    with its own sheet.
+    """
 def orient2d(a: typing.Any, b: typing.Any, c: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
     """
     Exact orientation of each row triple (a, b, c), arrays (n, 2): > 0 counter-clockwise,
@@ -775,10 +783,11 @@ def repair_crossings(upper: LayerTin, lower: LayerTin, max_rounds: typing.Suppor
     """
     Make `lower` lie nowhere above `upper` (paper 3.2, Figure 6; layer_tin.hpp): rule 1,
     rule 1b and rule 2. Returns the counts {rule1, rule1b, rule2, rule2_crossing, rounds},
-    data_above (the lower layer's data points above the upper surface before the repair) and
-    max_lowered (m, the largest lowering of a lower vertex by rule 1).
+    data_above (the lower layer's data points above the upper surface before the repair),
+    max_lowered (m, the largest lowering of a lower vertex by rule 1) and max_data_lowered
+    (m, the largest lowering of one of those data points: the most the layer misses a datum by).
     Raises GeometryError if, before the repair, lower lies above upper at more than
-    max_above_fraction of its TIN vertices (a wrong layer order), if crossings remain after
+    max_above_fraction of its data points (a wrong layer order), if crossings remain after
     max_rounds rounds, or if the lower layer needed more than max_inserted_per_vertex new
     points per vertex of the two layers (a runaway refinement).
     """

@@ -38,14 +38,70 @@ import csv
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Dict, List, Tuple
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
 __all__ = ["QualityReport", "quality", "triangle_angles", "min_angles", "evaluate_surface",
-           "vertical_errors", "accuracy_near_faults", "gap_quality"]
+           "vertical_errors", "accuracy_near_faults", "gap_quality", "data_fit", "data_misses"]
 
 THRESHOLDS = (10.0, 20.0)
+
+#: A datum counts as honoured when the model passes within this vertical
+#: distance (m) of it: a millimetre, below any survey's or pick's
+#: precision and far above the rounding of the TIN's interpolation at a
+#: vertex (ulps of the elevation: 1e-10 m at 1 km).
+DATA_FIT_TOLERANCE = 1e-3
+
+
+def data_misses(surface, D: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per point of ``D`` (n, 3): the vertical distance to the sheet of
+    ``surface`` nearest to it (0 where no triangle covers it in map view),
+    that sheet's z (NaN there) and its triangle (-1 there)
+    (:func:`faultmesh.nearest_sheet`: where a reverse fault folds the layer,
+    each datum is compared with its own sheet)."""
+    from ._core import nearest_sheet
+
+    D = np.ascontiguousarray(np.asarray(D, dtype=np.float64).reshape(-1, 3))
+    near, tri = nearest_sheet(surface.vertices, surface.triangles, D)
+    near, tri = np.asarray(near, dtype=np.float64), np.asarray(tri, dtype=np.int64)
+    cov = tri >= 0
+    return np.where(cov, np.abs(D[:, 2] - np.where(cov, near, 0.0)), 0.0), near, tri
+
+
+def data_fit(surfaces, data, tolerance: float = DATA_FIT_TOLERANCE,
+             misses: Optional[Dict[str, Tuple[np.ndarray, np.ndarray]]] = None) -> Dict[str, Dict[str, Any]]:
+    """How closely each layer surface passes through its own data.
+
+    ``surfaces``: layer -> surface (``vertices``, ``triangles``); ``data``:
+    layer -> (n, 3) points. Per layer with data: ``data`` (the points some
+    triangle covers in map view; ``outside``: those none does, outside the
+    study area), ``off`` (how many lie farther than ``tolerance`` above or
+    below every sheet of the surface), ``max_m`` (the largest such distance)
+    and ``worst`` (that datum: x, y, z and the model's nearest sheet's z).
+    Where a reverse fault folds the layer the datum is compared with the
+    sheet nearest to it (:func:`data_misses`).
+    ``misses``: a dict that gets each layer's per-datum distances and
+    nearest triangles."""
+    out: Dict[str, Dict[str, Any]] = {}
+    for lay, D in data.items():
+        s = surfaces.get(lay)
+        D = np.asarray(D, dtype=np.float64).reshape(-1, 3)
+        if s is None or not len(D):
+            continue
+        dz, near, tri = data_misses(s, D)
+        cov = tri >= 0
+        if misses is not None:
+            misses[lay] = (dz, tri)
+        off = dz > tolerance
+        row: Dict[str, Any] = {"data": int(cov.sum()), "outside": int((~cov).sum()), "off": int(off.sum()),
+                               "max_m": float(dz.max()), "worst": None}
+        if off.any():
+            k = int(np.argmax(dz))
+            row["worst"] = {"x": float(D[k, 0]), "y": float(D[k, 1]), "z": float(D[k, 2]),
+                            "model_z": float(near[k])}
+        out[lay] = row
+    return out
 
 
 def triangle_angles(points, triangles) -> np.ndarray:
@@ -268,7 +324,10 @@ class QualityReport:
 
     ``gaps``: one row per stitched gap; ``surfaces``: one row per layer and
     fault surface; ``errors``: vertical error per layer and region (empty
-    without ground truth); ``settings``: how the numbers were made.
+    without ground truth); ``data_fit``: per layer, how closely the model
+    passes through its data (:func:`data_fit`; from the build's metadata,
+    empty for a model read from a file); ``settings``: how the numbers
+    were made.
     """
 
     model_name: str
@@ -277,6 +336,7 @@ class QualityReport:
     errors: List[Dict[str, Any]] = field(default_factory=list)
     settings: Dict[str, Any] = field(default_factory=dict)
     notes: List[str] = field(default_factory=list)
+    data_fit: List[Dict[str, Any]] = field(default_factory=list)
 
     # -- the paper's tables ---------------------------------------------------
     def _pairs(self) -> Dict[Tuple[str, str], Dict[str, Any]]:
@@ -319,7 +379,7 @@ class QualityReport:
     def to_dict(self) -> Dict[str, Any]:
         return {"model": self.model_name, "settings": self.settings, "notes": self.notes,
                 "tables": self.tables(), "gaps": self.gaps, "surfaces": self.surfaces,
-                "errors": self.errors}
+                "errors": self.errors, "data_fit": self.data_fit}
 
     def to_json(self, path=None) -> str:
         """JSON text of :meth:`to_dict` (NaN written as null); written to ``path`` if given."""
@@ -434,6 +494,15 @@ class QualityReport:
                 L.append(f"| {e['layer']} | {e['region']} | {e['samples']} | "
                          f"{num(e['mean_abs_dz'], 3)} | {num(e['max_abs_dz'], 3)} | "
                          f"{num(e['rmse'], 3)} |")
+        if self.data_fit:
+            L += ["", "## Fit to the data", "",
+                  f"How far the layer surfaces pass from their own data points (boreholes and picks); "
+                  f"*missed*: farther than {1000 * DATA_FIT_TOLERANCE:g} mm.", "",
+                  "| layer | data | missed | largest miss (m) | of them lowered by the crossing repair |",
+                  "|---|---:|---:|---:|---:|"]
+            for r in self.data_fit:
+                L.append(f"| {r['layer']} | {r['data']} | {r['off']} | {num(r['max_m'], 3)} | "
+                         f"{r.get('lowered', 0)} |")
         if self.notes:
             L += ["", "## Notes", ""] + [f"- {n}" for n in self.notes]
         return "\n".join(L) + "\n"
@@ -511,6 +580,8 @@ def quality(model, *, near: float = 150.0, samples: int = 200, truth=None) -> Qu
             row = {"name": name, "kind": kind, "vertices": s.n_vertices, "triangles": s.n_triangles}
             row.update(_angle_row(s.vertices, s.triangles))
             rep.surfaces.append(row)
+    fit = (model.metadata or {}).get("data_fit") or {}
+    rep.data_fit = [{"layer": lay, **{k: v for k, v in r.items() if k != "worst"}} for lay, r in fit.items()]
     truth = truth if truth is not None else model.truth
     rep.settings = {"angles": "3D headline; XY also given", "thresholds_deg": list(THRESHOLDS)}
     if truth is not None:
