@@ -118,6 +118,10 @@ def one(seed: int, force=None) -> dict:
         # what the layer crossing repair changed, per lower layer of a pair
         rec["repair"] = {lay: {k: c.get(k) for k in ("data_above", "max_lowered")}
                          for lay, c in m.metadata.get("repair", {}).items() if c.get("max_lowered")}
+        # the model's largest miss of a datum per layer, and the build's warnings
+        rec["data_miss"] = {lay: round(r["max_m"], 3) for lay, r in m.metadata["data_fit"].items()
+                            if r["off"]}
+        rec["build_warnings"] = [w[:300] for w in m.metadata.get("warnings", [])]
         rec["stage"] = "check"
         m.check()
         rec["stage"] = "ok"

@@ -2360,6 +2360,11 @@ def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, se
             except Exception as e:
                 return fail("check:v2", e)
             out["seconds"]["v2"] = time.perf_counter() - t0
+            # The models' largest miss of a datum (build._data_fit) and the
+            # derived model's build warnings.
+            out["data_miss"] = [max((r["max_m"] for r in m.metadata["data_fit"].values()), default=0.0)
+                                for m in (m1, m2)]
+            out["build_warnings"] = [str(w)[:300] for w in m2.metadata.get("warnings", [])]
             e1, e2 = near_fault_errors([m1, m2], geo, np.asarray(ds1.boundary))
             out["error_v1"], out["error_v2"] = e1, e2
             out["ratio"] = e2 / e1 if e1 > 0 else float("nan")
