@@ -10,24 +10,112 @@
 #include <map>
 #include <stdexcept>
 #include <string>
+#include <tuple>
+#include <utility>
 
 namespace faultmesh {
 
 namespace {
 
-// A datum is placed only where each of its barycentric coordinates in the
-// triangle is at least this share (it lies at least this share of the
+// A datum is placed inside a triangle only where each of its barycentric
+// coordinates is at least this share (it lies at least this share of the
 // triangle's height from every edge), and at least this share of the
-// triangle's shortest height from every datum placed in it before. Nearer,
-// it would make a sliver: data on the study-area boundary lie a rounding
-// (1e-10 m) inside a patch triangle whose edge runs along it, and the
-// stitcher's coverage test, at the sliver's rounded centroid, then finds it
-// outside its own patch (random grounds as v2 with section picks, seeds 0
-// and 4: "the patch does not cover its XY image once"). A share of a
-// hundredth loses only data within a hundredth of a loft triangle's height
-// (metres at most) of the polylines or of another datum, where the patch
-// already passes within that distance.
+// triangle's shortest height from every datum placed in it before; within
+// this share of one edge it goes onto the edge (place_on_edges), at least
+// this share of the edge's length from its ends and from the edge's other
+// data. Nearer, it would make a sliver: data on the study-area boundary lie
+// a rounding (1e-10 m) inside a patch triangle whose edge runs along it, and
+// the stitcher's coverage test, at the sliver's rounded centroid, then
+// finds it outside its own patch (random grounds as v2 with section picks,
+// seeds 0 and 4: "the patch does not cover its XY image once"); on the edge
+// there is no sliver. The data left out lie within a hundredth of a
+// triangle's size of a corner or of another datum.
 constexpr double kMinShare = 0.01;
+
+struct EdgeDatumRef {
+    std::int64_t datum, triangle;
+    int edge;
+};
+
+// The data that lie on or within kMinShare of an edge of their triangle
+// (and of no other) are placed on that edge, after the data inside
+// triangles (whose new triangles keep every old edge): each at its
+// projection on the edge -- at most kMinShare of the triangle's height from
+// its XY -- with its own z, and every triangle that has the edge (a
+// neighbour of the same sheet, or of another where the edge is a fold of
+// the patch) is fanned from its third corner through the new points, each
+// new triangle with the orientation of the one it replaces. Picks on a
+// seismic line lie on the edges of a patch whose sections a derivation put
+// on that line. A datum within kMinShare of the edge's length from either
+// end or from a datum already placed on the edge is left out (a sliver).
+void place_on_edges(PatchDataResult& out, const double* vertices, const std::int64_t* triangles,
+                    const double* points, const std::vector<EdgeDatumRef>& on_edge) {
+    if (on_edge.empty()) return;
+    // Per undirected edge (lower index first): (parameter from that end, datum, triangle).
+    std::map<std::pair<std::int64_t, std::int64_t>, std::vector<std::tuple<double, std::int64_t, std::int64_t>>> split;
+    for (const EdgeDatumRef& e : on_edge) {
+        const std::int64_t* r = triangles + 3 * e.triangle;
+        std::int64_t u = r[e.edge], v = r[(e.edge + 1) % 3];
+        if (u > v) std::swap(u, v);
+        const double* a = vertices + 3 * u;
+        const double* b = vertices + 3 * v;
+        const double* q = points + 3 * e.datum;
+        const double dx = b[0] - a[0], dy = b[1] - a[1];
+        const double len2 = dx * dx + dy * dy;
+        if (!(len2 > 0.0)) continue;
+        const double s = ((q[0] - a[0]) * dx + (q[1] - a[1]) * dy) / len2;
+        if (s < kMinShare || s > 1.0 - kMinShare) continue;
+        split[{u, v}].emplace_back(s, e.datum, e.triangle);
+    }
+    // The new vertices, per edge in order from its lower-index end.
+    std::map<std::pair<std::int64_t, std::int64_t>, std::vector<std::int64_t>> chain;
+    for (auto& [key, list] : split) {
+        std::sort(list.begin(), list.end());
+        const double* a = vertices + 3 * key.first;
+        const double* b = vertices + 3 * key.second;
+        double last = -1.0;
+        for (const auto& [s, d, t] : list) {
+            if (last >= 0.0 && s - last < kMinShare) continue;
+            last = s;
+            const double* q = points + 3 * d;
+            chain[key].push_back(static_cast<std::int64_t>(out.vertices.size() / 3));
+            out.vertices.insert(out.vertices.end(), {a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]), q[2]});
+            out.placed.push_back(d);
+            out.triangle[static_cast<std::size_t>(d)] = t;
+        }
+    }
+    // Fan every triangle that has a split edge (the interior data's
+    // triangles keep the old edges), pass after pass: a triangle with two
+    // split edges hands the second to one of its fan's triangles.
+    for (bool changed = true; changed;) {
+        changed = false;
+        const std::size_t m = out.triangles.size() / 3;
+        for (std::size_t t = 0; t < m; ++t) {
+        for (int k = 0; k < 3; ++k) {
+            const std::int64_t p = out.triangles[3 * t + static_cast<std::size_t>(k)];
+            const std::int64_t q = out.triangles[3 * t + static_cast<std::size_t>((k + 1) % 3)];
+            const auto it = chain.find({std::min(p, q), std::max(p, q)});
+            if (it == chain.end()) continue;
+            const std::int64_t c = out.triangles[3 * t + static_cast<std::size_t>((k + 2) % 3)];
+            std::vector<std::int64_t> along{p};
+            if (p < q)
+                along.insert(along.end(), it->second.begin(), it->second.end());
+            else
+                along.insert(along.end(), it->second.rbegin(), it->second.rend());
+            along.push_back(q);
+            for (std::size_t j = 0; j + 1 < along.size(); ++j) {
+                const std::int64_t tri[3] = {along[j], along[j + 1], c};
+                if (j == 0)
+                    std::copy(tri, tri + 3, &out.triangles[3 * t]);
+                else
+                    out.triangles.insert(out.triangles.end(), tri, tri + 3);
+            }
+            changed = true;
+            break;  // the triangle is replaced; its other split edges in the next pass
+        }
+        }
+    }
+}
 
 }  // namespace
 
@@ -61,32 +149,46 @@ PatchDataResult insert_patch_data(const double* vertices, std::size_t n_vertices
     }
     const AabbTree tree = AabbTree::from_triangles(vertices, n_vertices, 3, triangles, n_triangles);
 
-    // Each datum's triangle: strictly inside in XY, nearest in z.
+    // Each datum's triangle: among those whose closed XY projection holds
+    // it, the nearest in z. Inside it by kMinShare of its height from every
+    // edge, the datum goes into the triangle; within that of one edge only
+    // (on it, too), onto that edge; near a corner, nowhere.
     std::map<std::int64_t, std::vector<std::int64_t>> by_triangle;  // ascending rows: deterministic
+    std::vector<EdgeDatumRef> on_edge;  // edge: the triangle's edge (r[edge], r[edge + 1])
     for (std::size_t i = 0; i < n_points; ++i) {
         const double* q = points + 3 * i;
         const Box2 box{q[0], q[1], q[0], q[1]};
         std::int64_t best = -1;
+        int best_edge = -1;  // -1: inside; 0-2: that edge; 3: near a corner
         double best_dz = std::numeric_limits<double>::infinity();
         tree.visit(box, [&](std::int64_t t) {
             const double o = orient[static_cast<std::size_t>(t)];
             if (o == 0.0) return;
             const std::int64_t* r = triangles + 3 * t;
             double w[3];
+            int near_edges = 0, edge = -1;
             for (int k = 0; k < 3; ++k) {
                 w[k] = orient2d(P(r[(k + 1) % 3]), P(r[(k + 2) % 3]), q);
-                if (w[k] == 0.0 || (w[k] > 0.0) != (o > 0.0)) return;  // outside or on an edge
-                if (w[k] / o < kMinShare) return;                       // too near an edge
+                if (w[k] != 0.0 && (w[k] > 0.0) != (o > 0.0)) return;  // outside
+                if (w[k] / o < kMinShare) {                             // on or near the edge opposite corner k
+                    ++near_edges;
+                    edge = (k + 1) % 3;
+                }
             }
-            // The decision above is exact; z is the plane's value (rounded).
+            // The decisions above are exact; z is the plane's value (rounded).
             const double z = (w[0] * P(r[0])[2] + w[1] * P(r[1])[2] + w[2] * P(r[2])[2]) / (w[0] + w[1] + w[2]);
             const double dz = std::fabs(z - q[2]);
             if (dz < best_dz || (dz == best_dz && t < best)) {
                 best_dz = dz;
                 best = t;
+                best_edge = near_edges == 0 ? -1 : near_edges == 1 ? edge : 3;
             }
         });
-        if (best >= 0 && best_dz <= max_dz) by_triangle[best].push_back(static_cast<std::int64_t>(i));
+        if (best < 0 || best_dz > max_dz) continue;
+        if (best_edge < 0)
+            by_triangle[best].push_back(static_cast<std::int64_t>(i));
+        else if (best_edge < 3)
+            on_edge.push_back({static_cast<std::int64_t>(i), best, best_edge});
     }
 
     for (const auto& [t, data] : by_triangle) {
@@ -146,6 +248,7 @@ PatchDataResult insert_patch_data(const double* vertices, std::size_t n_vertices
             }
         }
     }
+    place_on_edges(out, vertices, triangles, points, on_edge);
     return out;
 }
 

@@ -52,17 +52,72 @@ TEST(PatchData, DataInsideBecomeVerticesAtTheirElevation) {
     const std::vector<double> V{0, 0, 0, 10, 0, 0, 10, 10, 0, 0, 10, 0};
     const std::vector<std::int64_t> T{0, 1, 2, 0, 2, 3};
     // Inside triangle 0, inside triangle 1, on the shared edge, on a vertex,
-    // outside, a rounding inside an edge (a sliver), near the first datum.
+    // outside, a rounding inside an edge, near the first datum.
     const std::vector<double> P{7, 2, 1.5, 2, 7, -0.5, 5, 5, 3, 10, 10, 4, 12, 5, 0, 5, 1e-10, 1,
                                 7.01, 2, 0};
     const auto r = fm::insert_patch_data(V.data(), 4, T.data(), 2, P.data(), 7,
                                          std::numeric_limits<double>::infinity());
-    ASSERT_EQ(r.placed, (std::vector<std::int64_t>{0, 1}));
-    EXPECT_EQ(r.triangle, (std::vector<std::int64_t>{0, 1, -1, -1, -1, -1, -1}));
-    ASSERT_EQ(r.vertices.size(), 3u * 6);
+    // The data inside first, then those on edges (edge 0-1, then 0-2).
+    ASSERT_EQ(r.placed, (std::vector<std::int64_t>{0, 1, 5, 2}));
+    EXPECT_EQ(r.triangle, (std::vector<std::int64_t>{0, 1, 0, -1, -1, 0, -1}));
+    ASSERT_EQ(r.vertices.size(), 3u * 8);
     EXPECT_EQ(r.vertices[3 * 4 + 2], 1.5);
     EXPECT_EQ(r.vertices[3 * 5 + 2], -0.5);
-    EXPECT_EQ(r.triangles.size(), 3u * 6);  // each datum adds two triangles
+    // The datum a rounding inside the bottom edge lies on it, with its z;
+    // the one on the diagonal where it was.
+    EXPECT_EQ(r.vertices[3 * 6 + 0], 5.0);
+    EXPECT_EQ(r.vertices[3 * 6 + 1], 0.0);
+    EXPECT_EQ(r.vertices[3 * 6 + 2], 1.0);
+    EXPECT_EQ(r.vertices[3 * 7 + 0], 5.0);
+    EXPECT_EQ(r.vertices[3 * 7 + 1], 5.0);
+    EXPECT_EQ(r.vertices[3 * 7 + 2], 3.0);
+    // Each datum inside adds two triangles, one on an edge between two
+    // triangles two, one on the patch's outline one.
+    EXPECT_EQ(r.triangles.size(), 3u * 9);
+    expect_conforming(V, T, r);
+}
+
+// Data on and near an edge are placed on it: picks on a seismic line lie on
+// the edges of a patch whose sections a derivation put on that line. Every
+// triangle with the edge is split, on both sheets where the edge is the
+// patch's fold; data too near an end or each other are left out.
+TEST(PatchData, DataOnAnEdgeSplitItInEveryTriangleThatHasIt) {
+    // A fold along x = 10: one sheet counter-clockwise at z = 0, the other
+    // folded back over it clockwise, down to z = -20 at (0, 10).
+    const std::vector<double> V{0, 0, 0, 10, 0, 0, 10, 10, 0, 0, 10, -20};
+    const std::vector<std::int64_t> T{0, 1, 2, 1, 3, 2};
+    // On the fold edge (x = 10): three data, the third 0.05 m after the
+    // second (within a hundredth of the edge's length); one a millimetre
+    // inside the edge; one 0.05 m from its end; and one near the corner
+    // (10, 10) of the first triangle, within a hundredth of two edges.
+    const std::vector<double> P{10, 3, -1, 10, 6, -2, 10, 6.05, -3, 9.999, 8, -4, 10, 9.95, -5, 9.99, 9.98, -6};
+    const auto r = fm::insert_patch_data(V.data(), 4, T.data(), 2, P.data(), 6,
+                                         std::numeric_limits<double>::infinity());
+    EXPECT_EQ(r.placed, (std::vector<std::int64_t>{0, 1, 3}));
+    ASSERT_EQ(r.vertices.size(), 3u * 7);
+    EXPECT_EQ(r.vertices[3 * 6 + 0], 10.0);  // projected onto the edge
+    EXPECT_EQ(r.vertices[3 * 6 + 2], -4.0);
+    // Each of the two triangles with the edge becomes four.
+    EXPECT_EQ(r.triangles.size(), 3u * 8);
+    expect_conforming(V, T, r);
+    // No triangle has the unsplit edge 1-2 any more.
+    for (std::size_t t = 0; t < r.triangles.size(); t += 3)
+        for (int k = 0; k < 3; ++k) {
+            const std::int64_t a = r.triangles[t + k], b = r.triangles[t + (k + 1) % 3];
+            EXPECT_FALSE((a == 1 && b == 2) || (a == 2 && b == 1)) << "triangle " << t / 3;
+        }
+}
+
+// A triangle with data on two of its edges: its fan's triangles take the
+// second split.
+TEST(PatchData, ATriangleWithDataOnTwoEdgesIsSplitAlongBoth) {
+    const std::vector<double> V{0, 0, 0, 10, 0, 0, 0, 10, 0};
+    const std::vector<std::int64_t> T{0, 1, 2};
+    const std::vector<double> P{5, 0, 1, 0, 5, 2, 3, 3, 3};
+    const auto r = fm::insert_patch_data(V.data(), 3, T.data(), 1, P.data(), 3,
+                                         std::numeric_limits<double>::infinity());
+    EXPECT_EQ(r.placed.size(), 3u);
+    EXPECT_EQ(r.triangles.size(), 3u * 5);  // +2 inside, +1 and +1 on the edges
     expect_conforming(V, T, r);
 }
 

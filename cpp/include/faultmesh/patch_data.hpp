@@ -22,9 +22,15 @@
 // constrained Delaunay triangulation (gap_points.hpp), so the triangles
 // around it are untouched and the patch stays conforming. New triangles keep
 // the orientation (in XY) of the triangle they replace. A datum on or within
-// a hundredth of the triangle's height of a patch edge, or as near another
-// datum placed in the same triangle (the earlier row wins), is not placed:
-// it would make a sliver (patch_data.cpp, kMinShare).
+// a hundredth of the triangle's height of one of its edges goes onto that
+// edge, at its projection (moved at most that far in XY), with its own z:
+// every triangle with the edge -- on both sheets where the edge is a fold --
+// is fanned from its third corner through the edge's new points (picks on a
+// seismic line lie on the edges of a patch whose sections a derivation put
+// on that line). A datum within a hundredth of two edges (near a corner),
+// or as near another datum placed in the same triangle or on the same edge
+// (the earlier row wins), is not placed: it would make a sliver
+// (patch_data.cpp, kMinShare).
 #pragma once
 
 #include <cstddef>
@@ -37,8 +43,9 @@ struct PatchDataResult {
     std::vector<double> vertices;          // 3 per vertex: the patch's, then the placed data
     std::vector<std::int64_t> triangles;   // 3 per triangle: the patch's (rows kept), then new ones
     std::vector<std::int64_t> placed;      // per new vertex: the row of its datum
-    // Per datum: the patch triangle (input row) it was placed in, or -1 (not
-    // under the patch, on an edge or vertex, beyond max_dz, a duplicate).
+    // Per datum: the patch triangle (input row) it was placed in or on an
+    // edge of, or -1 (not under the patch, near a vertex, beyond max_dz, a
+    // duplicate).
     std::vector<std::int64_t> triangle;
 };
 
