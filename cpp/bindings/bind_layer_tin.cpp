@@ -129,16 +129,17 @@ void bind_layer_tin(py::module_& m) {
             "TIN vertices on the study-area boundary, counter-clockwise")
         .def(
             "insert",
-            [](PyLayerTin& t, const py::handle& xyz) {
+            [](PyLayerTin& t, const py::handle& xyz, bool as_data) {
                 auto P = as_coordinates(xyz, "LayerTin.insert", "xyz", 3, 3, 2);
                 const std::size_t n = static_cast<std::size_t>(P.shape(0));
-                return write_locked(t, [&](LayerTin& l) { return l.insert(P.data(), n); });
+                return write_locked(t, [&](LayerTin& l) { return l.insert(P.data(), n, as_data); });
             },
-            py::arg("xyz"),
+            py::arg("xyz"), py::arg("as_data") = false,
             "Insert points (k, 3) keeping the boundary protected (points on the boundary become\n"
             "boundary vertices, points outside are ignored); a point at an existing vertex's XY\n"
             "gives it its z, and so does a point on the boundary within 1e-9 of the perimeter of\n"
-            "a boundary vertex along its side. Returns the number of new vertices.")
+            "a boundary vertex along its side. Returns the number of new vertices. as_data=True:\n"
+            "the points are data (the stitcher puts them back into a gap, as the constructor's).")
         .def(
             "interpolate",
             [](const PyLayerTin& t, const py::handle& xy) {

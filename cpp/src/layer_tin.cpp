@@ -1003,7 +1003,7 @@ std::vector<double> LayerTin::interpolate(const double* xy, std::size_t n) const
 }
 
 // ---------------------------------------------------------------- insert
-std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
+std::size_t LayerTin::insert(const double* xyz, std::size_t n, bool as_data) {
     LayerTinState& s = *s_;
     const std::string fn = "LayerTin('" + s.name + "').insert";
     for (std::size_t i = 0; i < 3 * n; ++i)
@@ -1105,6 +1105,10 @@ std::size_t LayerTin::insert(const double* xyz, std::size_t n) {
         // `measured`, which mesh() and measured() pad with 0).
         detail::unmeasure_changed(s, ids.data(), z.data(), k);
         s.tin->set_z(ids.data(), z.data(), k);
+        if (as_data) {
+            s.measured.resize(s.tin->n_vertices(), 0);
+            for (std::int64_t v : ids) s.measured[static_cast<std::size_t>(v)] = 1;
+        }
     }
     s.on_boundary.resize(s.tin->n_vertices(), 0);
     std::vector<std::int64_t> fresh;  // new vertices to protect the pieces against

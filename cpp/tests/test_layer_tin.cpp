@@ -278,6 +278,14 @@ TEST(LayerTinMeasured, DataOnlyAndUntilTheirElevationChanges) {
     const std::vector<double> lowered = {100.0, 100.0, -7.0};
     tin.insert(lowered.data(), 1);
     EXPECT_EQ(flag_at(100.0, 100.0), 0);
+    // Points inserted as data are data: new ones, and one that gives an
+    // existing vertex (the lowered datum) its z back.
+    const std::size_t n_data = tin.n_data();
+    const std::vector<double> given = {400.0, 420.0, 6.0, 100.0, 100.0, 1.0};
+    EXPECT_EQ(tin.insert(given.data(), 2, /*as_data=*/true), 1u);
+    EXPECT_EQ(flag_at(400.0, 420.0), 1);
+    EXPECT_EQ(flag_at(100.0, 100.0), 1);
+    EXPECT_EQ(tin.n_data(), n_data);
     const std::vector<double> V = tin.tin().vertices();
     for (std::size_t v = 0; v < tin.n_vertices(); ++v)
         if (V[3 * v] == 700.0 && V[3 * v + 1] == 150.0) {

@@ -297,12 +297,13 @@ class LayerTin:
         StudyArea or a ring (k, 2). spacing: boundary vertex spacing (default: about the
         data spacing).
         """
-    def insert(self, xyz: typing.Any) -> int:
+    def insert(self, xyz: typing.Any, as_data: bool = False) -> int:
         """
         Insert points (k, 3) keeping the boundary protected (points on the boundary become
         boundary vertices, points outside are ignored); a point at an existing vertex's XY
         gives it its z, and so does a point on the boundary within 1e-9 of the perimeter of
-        a boundary vertex along its side. Returns the number of new vertices.
+        a boundary vertex along its side. Returns the number of new vertices. as_data=True:
+        the points are data (the stitcher puts them back into a gap, as the constructor's).
         """
     def interpolate(self, xy: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
         """

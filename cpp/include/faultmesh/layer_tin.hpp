@@ -122,8 +122,11 @@ public:
     // XY of an existing vertex gives that vertex its z; so does a point on
     // the boundary within 1e-9 of the perimeter of a boundary vertex (or of
     // an earlier point of the call) along its side. Returns the number of
-    // new vertices.
-    std::size_t insert(const double* xyz, std::size_t n);
+    // new vertices. as_data: the points are data (measured(), and the
+    // stitcher puts them back into a gap), e.g. data left out of the TIN
+    // for a fault patch that in the end does not cover them; n_data()
+    // counts those of the constructor only.
+    std::size_t insert(const double* xyz, std::size_t n, bool as_data = false);
     // Sets the elevation of vertices.
     void set_z(const std::int64_t* vertices, const double* z, std::size_t n);
     // z at n points (x, y interleaved), NaN outside the TIN's hull; a point
