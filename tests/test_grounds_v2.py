@@ -592,6 +592,41 @@ def test_derived_patches_honour_the_picks_under_them(seed, evaluated):
     assert out["ratio"] <= gr.V2_RATIO, (out["error_v1"], out["error_v2"])
 
 
+def test_picks_on_a_patch_edge_are_honoured(evaluated):
+    """Regression (random ground 42 as v2 with section picks): five L2
+    picks 7.5 m apart on a true section line lay on the edge of F1's patch
+    where the derivation put a section on that line, and
+    insert_patch_data left out every datum within a hundredth of a
+    triangle's height of an edge: the model passed 34-35 m under them. A
+    datum on or that near one edge now goes onto it (patch_data.hpp), and
+    the model passes within 2 cm of every datum (0.95 -> 0.93x the true
+    cutoffs' error near the faults)."""
+    out, built = evaluated(42)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    fit = built["m2"].metadata["data_fit"]
+    assert max(r["max_m"] for r in fit.values()) < 0.05, fit
+    assert "warnings" not in built["m2"].metadata
+
+
+def test_data_left_out_for_a_patch_that_does_not_cover_them_go_back(tmp_path):
+    """Regression (random ground 24 as v2 with section picks, a reverse
+    fault): L2 and L3 picks in the reverse fault's footprint were left out
+    of the continuous TINs (both sheets picked there), but the patch as
+    built, clipped and extended, does not cover 46 of them; they lay in
+    the stitched gap, where only the TIN's data are put back, and the model
+    missed them by up to 26.5 m. They now go back into the TIN as data
+    (build_model, LayerTin.insert(as_data=True)); the largest miss is 0.1 m
+    (0.92 -> 0.85x the true cutoffs' error near the faults)."""
+    built = {}
+    out = gr.evaluate_ground_v2(24, tmp_path, built=built)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    m = built["m2"]
+    given = {lay: t["given_back"] for lay, t in m.metadata["tins"].items() if t.get("given_back")}
+    assert given.keys() == {"L2", "L3"} and sum(given.values()) > 30, given
+    assert max(r["max_m"] for r in m.metadata["data_fit"].values()) < 0.5, m.metadata["data_fit"]
+    assert "warnings" not in m.metadata
+
+
 @pytest.mark.parametrize("seed", [93, 52])
 def test_halfway_sections_follow_the_fault_along_strike(seed, evaluated):
     """Regression (random grounds as v2 with section picks): on sections an
