@@ -496,6 +496,7 @@ def test_data_the_crossing_repair_lowers_are_named_in_a_warning(bump):
     assert warnings[0].startswith(f"layer 'B': the model misses 9 of its 81 data points, by up to {bump:.1f} m")
     assert "9 by over 5 m, 9 on the layer's own surface;" in warnings[0]
     assert f"the layer-crossing repair lowered 9 of the data missed, by up to {bump:.1f} m, under 'A'" in warnings[0]
+    assert "(its nearest datum 0 m from the one lowered most)" in warnings[0]
     assert fit["in_patch"] == fit["in_gap"] == 0
 
 

@@ -568,10 +568,12 @@ def _data_fit(dataset, surfaces: Dict[str, Surface], tins: Dict[str, LayerTin],
         dz, tri = misses[lay]
         off = dz > _report.DATA_FIT_TOLERANCE
         # The continuous TIN after the repair, at the data the model misses:
-        # below such a datum where the repair lowered it.
+        # below such a datum where the repair lowered it (the top layer is
+        # not repaired; its TIN misses only a datum another one at the same
+        # XY overrode).
         zt = np.asarray(tins[lay].interpolate(np.ascontiguousarray(D[off, :2])), dtype=np.float64)
         drop = D[off, 2] - zt
-        lowered = np.isfinite(drop) & (drop > _report.DATA_FIT_TOLERANCE)
+        lowered = np.isfinite(drop) & (drop > _report.DATA_FIT_TOLERANCE) & (i > 0)
         row["lowered"] = int(lowered.sum())
         row["max_lowered_m"] = float(drop[lowered].max()) if lowered.any() else 0.0
         kinds = np.asarray(surfaces[lay].kinds)[tri[off]]
@@ -601,12 +603,20 @@ def _data_fit(dataset, surfaces: Dict[str, Surface], tins: Dict[str, LayerTin],
             msg += (f"; {k} of those " + ("shares its" if k == 1 else "share their")
                     + f" place with another datum of {lay!r} (a hole that meets the layer twice, across a "
                     "reverse fault) where the model does not repeat the layer")
-        if lowered.any() and i > 0:
+        if lowered.any():
             upper = layers[i - 1]
+            # How far the layer above is from data where it pushed the datum
+            # down: far, its surface there is extrapolated.
+            U = data[upper]
+            k = int(np.argmax(np.where(lowered, drop, -np.inf)))
+            near_m = float(np.min(np.hypot(*(U[:, :2] - D[off][k, :2]).T))) if len(U) else float("inf")
+            row["upper_data_distance_m"] = near_m
             msg += (f"; the layer-crossing repair lowered {row['lowered']} of the data missed, by up to "
-                    f"{row['max_lowered_m']:.1f} m, under {upper!r}, which lies lower there: an offset "
-                    f"{lay!r} shows and {upper!r} does not (a fault that cuts {lay!r} and not {upper!r} "
-                    f"in the model; its data on one side of the fault missing), or the layer order")
+                    f"{row['max_lowered_m']:.1f} m, under {upper!r}, which lies lower there (its nearest "
+                    f"datum {near_m:.0f} m from the one lowered most): {upper!r} extrapolated across a gap "
+                    f"in its data, an offset {lay!r} shows and {upper!r} does not (a fault that cuts "
+                    f"{lay!r} and not {upper!r} in the model; its data on one side of the fault missing), "
+                    "or the layer order")
         warnings.append(msg)
     return fit, warnings
 
