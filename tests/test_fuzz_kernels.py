@@ -999,6 +999,11 @@ def test_kernels_never_read_arrays_another_thread_changes():
             if err is None:
                 lo, hi, hits = r
                 assert np.all(hits[~np.isnan(lo)] > 0) and np.all(np.nan_to_num(lo) <= np.nan_to_num(hi))
+            r, err = call(["nearest_sheet"], ["vertices", "triangles"], fm.nearest_sheet, V3, T,
+                          np.c_[Q, np.zeros(len(Q))])
+            if err is None:
+                z, tri = r
+                assert np.all(np.isnan(z) == (tri < 0)) and tri.max() < len(T)
             # FaultSide keeps its copies for its life; nearest_segment copies per call.
             r, err = call(["FaultSide", "fault_side"], ["vertices", "triangles"], fm.FaultSide, V3, T)
             if err is None:
@@ -1049,6 +1054,14 @@ def test_kernels_from_main_share_the_input_contract():
         fm.sample_surface(bad, LT, np.array([[50.0, 50.0]]))
     with pytest.raises(ValueError, match=r"sample_surface: triangles row 0 has the value 0.5, not an integer"):
         fm.sample_surface(LV, np.where(np.arange(LT.size).reshape(LT.shape) == 0, 0.5, LT), np.array([[1.0, 1.0]]))
+    with pytest.raises(ValueError, match=r"nearest_sheet: points row 1 has a non-finite coordinate"):
+        fm.nearest_sheet(LV, LT, np.array([[50.0, 50.0, 0.0], [np.nan, 1.0, 0.0]]))
+    with pytest.raises(ValueError, match=r"nearest_sheet: points row 0 has a coordinate beyond"):
+        fm.nearest_sheet(LV, LT, np.array([[1e61, 50.0, 0.0]]))
+    with pytest.raises(ValueError, match=r"nearest_sheet: triangles row 1 has vertex index .* out of range"):
+        fm.nearest_sheet(LV, np.r_[LT[:1], [[0, 1, len(LV)]]], np.array([[50.0, 50.0, 0.0]]))
+    z, tri = fm.nearest_sheet(LV, LT, np.array([[50.0, 50.0, 0.0], [500.0, 50.0, 0.0]]))
+    assert tri[0] >= 0 and np.isfinite(z[0]) and tri[1] == -1 and np.isnan(z[1])
     with pytest.raises(ValueError, match=r"sample_surface_grid: triangles row 1 has vertex index .* out of range"):
         fm.sample_surface_grid(LV, np.r_[LT[:1], [[0, 1, len(LV)]]], (0.0, 0.0), (1.0, 1.0), (2, 2))
     with pytest.raises(ValueError, match=r"sample_surface_grid: the grid's last point .* beyond \+-1e\+60"):

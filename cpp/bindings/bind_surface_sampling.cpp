@@ -39,7 +39,7 @@ void bind_surface_sampling(py::module_& m) {
         [](const py::handle& vertices, const py::handle& triangles, const py::handle& points) {
             auto V = as_coordinates(vertices, "nearest_sheet", "vertices", 3, 3, 2);
             auto T = as_indices(triangles, "nearest_sheet", "triangles", 3, V.shape(0));
-            auto P = as_points(points, "nearest_sheet", "points", 3, 3);
+            auto P = as_coordinates(points, "nearest_sheet", "points", 3, 3, 3);
             NearestSheet r;
             {
                 py::gil_scoped_release release;
@@ -53,7 +53,7 @@ void bind_surface_sampling(py::module_& m) {
         "whose XY projection holds the point (exact orient2d, as sample_surface), the one whose\n"
         "z there is closest to the point's, and that z; -1 and NaN where none does. Where a\n"
         "reverse fault folds the surface, each of a hole's two tops of the layer is compared\n"
-        "with its own sheet.");
+        "with its own sheet. Points: finite, within |c| <= 1e60 (ValueError naming the row).");
     m.def(
         "sample_surface_grid",
         [](const py::handle& vertices, const py::handle& triangles, std::pair<double, double> origin,

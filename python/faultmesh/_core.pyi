@@ -748,7 +748,7 @@ def nearest_sheet(vertices: typing.Any, triangles: typing.Any, points: typing.An
     whose XY projection holds the point (exact orient2d, as sample_surface), the one whose
     z there is closest to the point's, and that z; -1 and NaN where none does. Where a
     reverse fault folds the surface, each of a hole's two tops of the layer is compared
-    with its own sheet.
+    with its own sheet. Points: finite, within |c| <= 1e60 (ValueError naming the row).
     """
 def orient2d(a: typing.Any, b: typing.Any, c: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
     """
