@@ -500,6 +500,37 @@ def test_data_the_crossing_repair_lowers_are_named_in_a_warning(bump):
     assert fit["in_patch"] == fit["in_gap"] == 0
 
 
+def test_a_layer_extrapolated_across_a_hole_in_its_data_yields_to_the_data_under_it():
+    """Where the upper layer has no datum near (a hole in its picks: no
+    datum within UPPER_DATA_GAP of its spacings) and the lower layer's data
+    lie above its surface, the upper layer is raised to them before the
+    crossing repair, which then keeps them: the model honours them and does
+    not warn. Claudius's val_330 picks under val_250's kilometre-wide hole
+    were lowered by up to 75 m."""
+    ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], float)
+    g = np.linspace(20.0, 980.0, 25)
+    X, Y = (a.ravel() for a in np.meshgrid(g, g))
+    hole = np.hypot(X - 500.0, Y - 500.0) < 250.0
+    bump = 30.0 * np.exp(-((X - 500.0) ** 2 + (Y - 500.0) ** 2) / 150.0 ** 2)
+    n = len(X)
+    ids = [f"H{i}" for i in range(n)]
+    keep = ~hole
+    bh = Boreholes(np.array(ids + [ids[i] for i in np.flatnonzero(keep)]),
+                   np.vstack([np.c_[X, Y], np.c_[X, Y][keep]]),
+                   np.array(["B"] * n + ["A"] * int(keep.sum())),
+                   np.r_[-10.0 + bump, (0.0 + bump)[keep]])
+    m = build(Dataset("hole", ["A", "B"], ring, bh))
+    assert m.metadata["tins"]["A"]["raised_over_data"] > 10
+    fit = m.metadata["data_fit"]
+    assert fit["B"]["off"] == 0 and fit["A"]["off"] == 0, fit
+    assert "warnings" not in m.metadata
+    # A lies on B's data there and nowhere under B.
+    zB = m.surfaces["B"].vertices
+    za = np.asarray(faultmesh.sample_surface(m.surfaces["A"].vertices, m.surfaces["A"].triangles,
+                                             np.ascontiguousarray(zB[:, :2]))[0])
+    assert np.all(za >= zB[:, 2] - 1e-6)
+
+
 def test_a_miss_under_the_warning_threshold_is_reported_without_a_warning():
     ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], float)
     bh = _grid_boreholes({"A": lambda x, y: 0.0 * x, "B": lambda x, y: -10.0 + 12.0 * (x < 100) * (y < 100)})

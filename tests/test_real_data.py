@@ -183,21 +183,20 @@ def test_model_check_and_stitched_gaps(full):
 
 
 def test_the_model_s_fit_to_the_picks(full):
-    """Of the 21,018 picks the model misses few by over a millimetre:
-    where the repair kept val_330 under val_250, and val_250 has a hole of
-    about a kilometre in its picks, over which its surface (filled by
-    minimum curvature) lies up to 75 m below val_330's picks. The build's
-    warning names that layer pair and says how far val_250's nearest pick
-    is (978 m); val_0, val_60 and val_250 are honoured within 3.3 m."""
+    """The model passes within 3.3 m of each of its 21,018 picks. Where
+    val_330 has picks and val_250 none within 978 m (a hole in its picks),
+    val_250's surface, filled by minimum curvature, lay up to 75 m below
+    val_330's picks, and the crossing repair lowered 19 of them that far
+    (the build warned). val_250 is raised to them there now
+    (build._raise_over_data): its surface there is an extrapolation, the
+    picks are measurements."""
     _, _, _, _, model = full
     fit = model.metadata["data_fit"]
     assert sum(r["data"] for r in fit.values()) > 21000
+    assert max(r["max_m"] for r in fit.values()) < 5.0, fit
     assert sum(r["off"] for r in fit.values()) < 50, fit
-    assert max(fit[lay]["max_m"] for lay in ("val_0", "val_60", "val_250")) < 5.0, fit
-    assert fit["val_330"]["max_m"] > 5.0 and fit["val_330"]["lowered"] > 0, fit["val_330"]
-    assert fit["val_330"]["upper_data_distance_m"] > 500.0, fit["val_330"]
-    (w,) = model.metadata["warnings"]
-    assert w.startswith("layer 'val_330': the model misses ") and "under 'val_250'" in w, w
+    assert model.metadata["tins"]["val_250"]["raised_over_data"] > 10
+    assert "warnings" not in model.metadata
 
 
 def test_step_across_the_fault(full):
