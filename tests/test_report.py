@@ -161,3 +161,31 @@ def test_vertical_error_in_a_reverse_fault_overlap_band():
     assert (lo[0], hi[0]) == (0.0, 20.0) and nh[0] == 3
     assert lo[1] == hi[1] == 0.0
     assert np.isnan(lo[2]) and nh[2] == 0
+
+
+def test_fit_to_the_data_in_the_model_s_layer_order_after_a_3dt_round_trip(tmp_path):
+    """The quality report's fit to the data (from the build's
+    metadata["data_fit"]) lists the layers top down, also for a model read
+    back from a .3dt, whose metadata keys come back sorted; report.data_fit
+    compares each datum with the sheet nearest to it."""
+    from faultmesh.report import data_fit
+
+    ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], float)
+    g = np.linspace(50.0, 950.0, 5)
+    X, Y = (a.ravel() for a in np.meshgrid(g, g))
+    n = len(X)
+    bh = faultmesh.dataset.Boreholes(np.repeat([f"H{i}" for i in range(n)], 2), np.repeat(np.c_[X, Y], 2, axis=0),
+                                     np.tile(["Z top", "A base"], n), np.tile([0.0, -20.0], n))
+    m = faultmesh.build_model(faultmesh.Dataset("two", ["Z top", "A base"], ring, bh))
+    m.save(tmp_path / "m.3dt")
+    back = faultmesh.load_model(tmp_path / "m.3dt")
+    rep = back.quality()
+    assert [r["layer"] for r in rep.data_fit] == ["Z top", "A base"]
+    assert all(r["data"] == 25 and r["off"] == 0 for r in rep.data_fit)
+    assert "## Fit to the data" in rep.to_markdown() and "data_fit" in rep.to_dict()
+    # A datum 3 m off the surface, one outside the study area.
+    D = np.array([[500.0, 500.0, 3.0], [2000.0, 0.0, 0.0]])
+    fit = data_fit({"Z top": m.surfaces["Z top"]}, {"Z top": D})["Z top"]
+    assert (fit["data"], fit["outside"], fit["off"]) == (1, 1, 1)
+    assert fit["max_m"] == pytest.approx(3.0)
+    assert fit["worst"] == {"x": 500.0, "y": 500.0, "z": 3.0, "model_z": pytest.approx(0.0)}

@@ -581,7 +581,9 @@ def quality(model, *, near: float = 150.0, samples: int = 200, truth=None) -> Qu
             row.update(_angle_row(s.vertices, s.triangles))
             rep.surfaces.append(row)
     fit = (model.metadata or {}).get("data_fit") or {}
-    rep.data_fit = [{"layer": lay, **{k: v for k, v in r.items() if k != "worst"}} for lay, r in fit.items()]
+    # In the model's layer order (a model read from a .3dt has its metadata's keys sorted).
+    rep.data_fit = [{"layer": lay, **{k: v for k, v in fit[lay].items() if k != "worst"}}
+                    for lay in model.surfaces if lay in fit]
     truth = truth if truth is not None else model.truth
     rep.settings = {"angles": "3D headline; XY also given", "thresholds_deg": list(THRESHOLDS)}
     if truth is not None:
