@@ -185,3 +185,20 @@ TEST(PatchData, BadInputIsNamed) {
     const std::vector<double> Pbad{std::nan(""), 0.2, 0};
     EXPECT_THROW(fm::insert_patch_data(V.data(), 3, T2.data(), 1, Pbad.data(), 1, 1.0), std::invalid_argument);
 }
+
+// A datum within a micrometre outside the patch's outline lies on it (as
+// build.ON_OUTLINE has it): which side of the outline a pick on it falls on
+// is the outline's last bits. Farther out it is not the patch's.
+TEST(PatchData, ADatumAMicrometreOutsideTheOutlineLiesOnIt) {
+    const std::vector<double> V{500000, 7000000, 0, 500010, 7000000, 0, 500000, 7000010, 0};
+    const std::vector<std::int64_t> T{0, 1, 2};
+    const std::vector<double> P{500005, 7000000 - 4e-7, 1.0, 500005, 7000000 - 1e-5, 2.0};
+    const auto r = fm::insert_patch_data(V.data(), 3, T.data(), 1, P.data(), 2,
+                                         std::numeric_limits<double>::infinity());
+    EXPECT_EQ(r.placed, (std::vector<std::int64_t>{0}));
+    EXPECT_EQ(r.triangle, (std::vector<std::int64_t>{0, -1}));
+    ASSERT_EQ(r.vertices.size(), 3u * 4);
+    EXPECT_EQ(r.vertices[3 * 3 + 1], 7000000.0);  // on the edge
+    EXPECT_EQ(r.vertices[3 * 3 + 2], 1.0);
+    expect_conforming(V, T, r);
+}

@@ -10,9 +10,12 @@
 //
 // Which sheet. A patch may fold over itself in XY (a reverse fault repeats
 // the layer: footwall sheet, the strip on the fault, hanging-wall sheet), so
-// a datum is placed in the triangle, among those whose XY projection holds
-// it strictly inside (exact orient2d against each edge), whose elevation at
-// the datum's XY is nearest to the datum's (ties: the lowest triangle row).
+// a datum is placed in the triangle, among those whose closed XY projection
+// holds it (exact orient2d against each edge; a datum within a micrometre
+// outside an edge lies on it, as build.ON_OUTLINE has it), whose elevation
+// at the datum's XY is nearest to the datum's (within a micrometre of that,
+// one sheet: the triangle that takes it inside, else on an edge, then the
+// lowest row).
 // It is placed only if that distance is at most `max_dz`: farther, it is no
 // point of this patch (e.g. a datum of another fault block) and the patch is
 // left as it is there.
