@@ -536,7 +536,10 @@ def test_crossing_layers_name_where_and_the_faults_that_cut_nothing(monkeypatch)
     vertex of both layers; layer_tin.hpp, RepairOptions) the repair ends on
     that case as well, with each layer under the one above where they
     crossed (L2 lies above L1 at fewer than half its data, so the layer
-    order stands)."""
+    order stands); and with the former budget too, now that a layer with no
+    datum near a datum of the layer under it that lies above it is raised
+    to it first (build._raise_over_data), so the message is tested with
+    that off as well."""
     p = {"utm": True, "rounding": 0.01, "ring": "rect", "size": (8000.0, 3000.0), "n_layers": 4,
          "thickness": 120.0, "holes": "dense", "holes_where": "gap", "n_faults": 2, "second": "close",
          "seed": 1841981165, "tiny": False, "layer_data": "both", "odd_holes": None,
@@ -556,6 +559,8 @@ def test_crossing_layers_name_where_and_the_faults_that_cut_nothing(monkeypatch)
     former = faultmesh.build.repair_stack
     monkeypatch.setattr(faultmesh.build, "repair_stack",
                         lambda *a, **k: former(*a, max_inserted_per_vertex=0.0, **k))
+    assert check_case(make_case(p)) == "ok"
+    monkeypatch.setattr(faultmesh.build, "UPPER_DATA_GAP", math.inf)
     msg = check_case(make_case(p))
     assert msg.startswith("error: repair_crossings('L3', 'L4')"), msg
     assert "before the repair 'L2' lies up to 356.3 m above 'L1', most at (516476.7, 7013831.3)" in msg

@@ -238,7 +238,6 @@ def _in_fault_zones(dataset, layer: str, area: StudyArea, points: np.ndarray,
     surface's trend) towards the bridge: Claudius, every pick within 300 m
     of the fault withheld, val_330 median error at those picks 11.36 m
     with them, 11.07 m without them."""
-    from ._core import boundary_edges, nearest_segment, sample_surface
     from . import faults as fm
 
     inside = np.zeros(len(points), dtype=bool)
@@ -255,24 +254,36 @@ def _in_fault_zones(dataset, layer: str, area: StudyArea, points: np.ndarray,
         zl, zh, hits = sample_surface(p.vertices, p.triangles, xy)
         if both_sheets and not f.derived and not np.any((hits >= 2) & (zh > zl) & (z - zl < zh - z)):
             continue
-        hit = hits > 0
-        # A point within ON_OUTLINE of the outline is in the patch, as one
-        # exactly on it (the closed triangles) is: which side of the
-        # outline it falls on would otherwise be decided by the last bits
-        # of the outline's vertices. Picks on a seismic line lie on the end
-        # section a derivation places on that line; cutoffs moved by
-        # 1e-10 m (another root finder) moved two of random ground 2's L3
-        # picks across it, the TIN's data count and with it its boundary
-        # spacing changed, and the error near the faults by 6 %.
-        V = np.asarray(p.vertices, dtype=np.float64)
-        lo, hi = V[:, :2].min(axis=0) - ON_OUTLINE, V[:, :2].max(axis=0) + ON_OUTLINE
-        near = np.flatnonzero(~hit & np.all((xy >= lo) & (xy <= hi), axis=1))
-        if len(near):
-            e = boundary_edges(p.triangles, n_vertices=len(V))
-            _, d = nearest_segment(xy[near], V[e[:, 0], :2], V[e[:, 1], :2])
-            hit[near[d <= ON_OUTLINE]] = True
-        inside |= hit
+        inside |= _in_footprint(p.vertices, p.triangles, xy, hits)
     return inside
+
+
+def _in_footprint(V: np.ndarray, T: np.ndarray, xy: np.ndarray, hits: Optional[np.ndarray] = None) -> np.ndarray:
+    """Which points ``xy`` (k, 2) a patch (V, T) covers in map view: those
+    its closed triangles hold (``hits`` of :func:`sample_surface`, if the
+    caller has them) and those within :data:`ON_OUTLINE` of its outline.
+
+    A point within ON_OUTLINE of the outline is in the patch, as one
+    exactly on it (the closed triangles) is: which side of the outline it
+    falls on would otherwise be decided by the last bits of the outline's
+    vertices. Picks on a seismic line lie on the end section a derivation
+    places on that line; cutoffs moved by 1e-10 m (another root finder)
+    moved two of random ground 2's L3 picks across it, the TIN's data count
+    and with it its boundary spacing changed, and the error near the
+    faults by 6 %."""
+    from ._core import boundary_edges, nearest_segment
+
+    if hits is None:
+        hits = sample_surface(V, T, xy)[2]
+    hit = np.asarray(hits) > 0
+    V = np.asarray(V, dtype=np.float64)
+    lo, hi = V[:, :2].min(axis=0) - ON_OUTLINE, V[:, :2].max(axis=0) + ON_OUTLINE
+    near = np.flatnonzero(~hit & np.all((xy >= lo) & (xy <= hi), axis=1))
+    if len(near):
+        e = boundary_edges(T, n_vertices=len(V))
+        _, d = nearest_segment(xy[near], V[e[:, 0], :2], V[e[:, 1], :2])
+        hit[near[d <= ON_OUTLINE]] = True
+    return hit
 
 
 def continuous_layers(dataset, *, spacing: Optional[float] = None, repair: bool = True,
@@ -900,7 +911,9 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     for lay, P in left_out.items():
         covered = np.zeros(len(P), dtype=bool)
         for _, _, V, T in patches[lay]:
-            covered |= np.asarray(sample_surface(V, T, np.ascontiguousarray(P[:, :2]))[2]) > 0
+            # As the footprint that left them out (_in_fault_zones): a point
+            # on the outline is in, whatever the outline's last bits.
+            covered |= _in_footprint(V, T, np.ascontiguousarray(P[:, :2]))
         if np.any(~covered):
             tins[lay].insert(np.ascontiguousarray(P[~covered]), as_data=True)
         meta["tins"][lay]["given_back"] = int(np.sum(~covered))
