@@ -148,6 +148,12 @@ def test_demo_runs_the_real_workflow(tmp_path):
                        capture_output=True, text=True, env=_env(), timeout=300)
     assert r.returncode == 0, r.stderr
     assert str(out.resolve()) in r.stdout
+    # The fit to the data on stdout; the one miss over 5 m (hole R5 meets
+    # coal 8 twice where the traces do not repeat it) a warning on stderr,
+    # also with -q.
+    assert "fit to the data: 4 of 878 data points missed by over 1 mm, the most 15.38 m in 'coal 8'" \
+        in r.stdout, r.stdout
+    assert r.stderr.count("warning: layer 'coal 8': the model misses") == 1, r.stderr
     names = {p.name for p in out.iterdir()}
     for f in ("paper_like.3dt", "paper_like.ts", "paper_like.vtu", "quality.md", "quality.csv",
               "quality.json", "model_3d.png", "fence_3d.png", "layers_3d.png", "gaps.png",

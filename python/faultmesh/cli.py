@@ -140,9 +140,21 @@ def _input_summary(args, model) -> None:
 
 
 def _build_warnings(model) -> None:
-    """The build's warnings (a datum the model misses by metres:
+    """One line on how closely the model passes through its own data
+    (stdout), and the build's warnings (a datum the model misses by metres:
     build._data_fit) on stderr, also with --quiet."""
-    for w in (model.metadata or {}).get("warnings", []):
+    meta = model.metadata or {}
+    fit = meta.get("data_fit") or {}
+    if fit:
+        n = sum(r["data"] for r in fit.values())
+        off = sum(r["off"] for r in fit.values())
+        if not off:
+            _echo(f"fit to the data: the model passes within 1 mm of all {n} data points")
+        else:
+            lay = max(fit, key=lambda k: fit[k]["max_m"])
+            _echo(f"fit to the data: {off} of {n} data points missed by over 1 mm, the most "
+                  f"{fit[lay]['max_m']:.2f} m in {lay!r} (quality.md, 'Fit to the data')")
+    for w in meta.get("warnings", []):
         print(f"warning: {w}", file=sys.stderr, flush=True)
 
 
