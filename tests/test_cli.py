@@ -271,6 +271,20 @@ def test_derive_writes_the_derived_dataset_its_cutoff_lines_and_report(tmp_path,
         assert np.array_equal(a.surfaces[n].triangles, b.surfaces[n].triangles), n
 
 
+def test_build_of_a_v2_dataset_says_what_the_derivation_found(tmp_path, capsys):
+    """`faultmesh build` on a dataset whose faults are derived prints, per
+    fault, the line `faultmesh derive` prints (kind, ends, sections, throw
+    per layer, how many warnings and where), and the fit to the data."""
+    src = _v2_ground(tmp_path)
+    assert main(["derive", str(src), "-o", str(tmp_path / "d")]) == 0, capsys.readouterr().err
+    derived = [ln.split("; ")[:2] for ln in capsys.readouterr().out.splitlines() if ln.startswith("fault ")]
+    assert main(["build", str(src), "-o", str(tmp_path / "b"), "--formats", "3dt", "-q"]) == 0
+    out = capsys.readouterr().out
+    built = [ln.split("; ")[:2] for ln in out.splitlines() if ln.startswith("fault ")]
+    assert derived and built == derived, (derived, built)
+    assert "fit to the data: " in out
+
+
 def test_derive_without_a_fault_to_derive_says_so_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "d"
     assert main(["derive", "paper_like", "-o", str(out)]) == 2

@@ -9,7 +9,7 @@ import argparse
 import sys
 import time
 from pathlib import Path
-from typing import Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 EXIT_ERROR = 2
 
@@ -421,6 +421,12 @@ def cmd_build(args) -> int:
     for f in files:
         _echo(f"  {run.final(f)}")
     _input_summary(args, model)
+    derived = (model.metadata or {}).get("derived_faults") or {}
+    if derived:
+        # Faults derived from points, a surface or plane traces (a format 2
+        # dataset): what the derivation found, as `faultmesh derive` says it.
+        _derived_summary(derived, "the model's metadata (derived_faults; faultmesh derive writes "
+                                  "them to derivation.json)")
     _build_warnings(model)
     _print_tables(rep)
     return 0
@@ -477,16 +483,25 @@ def cmd_derive(args) -> int:
     _echo(f"{len(todo)} fault(s) of {ds.name!r} derived in {secs:.1f} s; written to {out.resolve()}/")
     for f in files:
         _echo(f"  {run.final(f)}")
-    for name in todo:
-        fd = rep.faults[name]
-        thr = {lay: np.asarray(t["throw"], dtype=np.float64) for lay, t in fd.throw.items()}
-        cut = [f"{lay} {np.nanmin(np.abs(v)):.1f}-{np.nanmax(np.abs(v)):.1f} m"
-               for lay, v in thr.items() if lay in fd.cutoffs and np.isfinite(v).any()]
-        given = f" (given {fd.given_kind})" if fd.given_kind and fd.given_kind != fd.kind else ""
-        _echo(f"fault {name!r}: {fd.kind or 'no kind'}{given}, ends {'/'.join(fd.ends)}, "
-              f"{len(fd.sections)} sections; throw " + (", ".join(cut) or "none: no layer is cut")
-              + (f"; {len(fd.warnings)} warning(s) in derivation.json" if fd.warnings else ""))
+    _derived_summary({name: rep.faults[name].as_dict() for name in todo}, "derivation.json")
     return 0
+
+
+def _derived_summary(faults: Dict[str, Any], where: str) -> None:
+    """One line per derived fault (its report as ``FaultDerivation.as_dict``):
+    kind, ends, sections, the throw range per layer it cuts, how many
+    warnings and ``where`` they are."""
+    import numpy as np
+
+    for name, fd in faults.items():
+        thr = {lay: np.array([np.nan if v is None else v for v in t["throw"]], dtype=np.float64)
+               for lay, t in fd["throw"].items()}
+        cut = [f"{lay} {np.nanmin(np.abs(v)):.1f}-{np.nanmax(np.abs(v)):.1f} m"
+               for lay, v in thr.items() if lay in fd["cutoffs"] and np.isfinite(v).any()]
+        given = f" (given {fd['given_kind']})" if fd["given_kind"] and fd["given_kind"] != fd["kind"] else ""
+        _echo(f"fault {name!r}: {fd['kind'] or 'no kind'}{given}, ends {'/'.join(fd['ends'])}, "
+              f"{len(fd['sections'])} sections; throw " + (", ".join(cut) or "none: no layer is cut")
+              + (f"; {len(fd['warnings'])} warning(s) in {where}" if fd["warnings"] else ""))
 
 
 def cmd_section(args) -> int:
