@@ -670,8 +670,9 @@ def _data_fit(dataset, surfaces: Dict[str, Surface], tins: Dict[str, LayerTin],
         if twice.any():
             k = int(twice.sum())
             msg += (f"; {k} of those " + ("shares its" if k == 1 else "share their")
-                    + f" place with another datum of {lay!r} (a hole that meets the layer twice, across a "
-                    "reverse fault) where the model does not repeat the layer")
+                    + f" XY with another datum of {lay!r} at another elevation (a hole that meets the "
+                    "layer twice across a reverse fault where the model does not repeat the layer, or "
+                    "two data that disagree)")
         if lowered.any():
             upper = layers[i - 1]
             # How far the layer above is from data where it pushed the datum
