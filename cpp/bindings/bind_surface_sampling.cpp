@@ -36,7 +36,7 @@ void bind_surface_sampling(py::module_& m) {
         "indices below n (ValueError naming the argument and row otherwise).");
     m.def(
         "nearest_sheet",
-        [](const py::handle& vertices, const py::handle& triangles, const py::handle& points) {
+        [](const py::handle& vertices, const py::handle& triangles, const py::handle& points, double reach) {
             auto V = as_coordinates(vertices, "nearest_sheet", "vertices", 3, 3, 2);
             auto T = as_indices(triangles, "nearest_sheet", "triangles", 3, V.shape(0));
             auto P = as_coordinates(points, "nearest_sheet", "points", 3, 3, 3);
@@ -44,16 +44,19 @@ void bind_surface_sampling(py::module_& m) {
             {
                 py::gil_scoped_release release;
                 r = nearest_sheet(V.data(), static_cast<std::size_t>(V.shape(0)), T.data(),
-                                  static_cast<std::size_t>(T.shape(0)), P.data(), static_cast<std::size_t>(P.shape(0)));
+                                  static_cast<std::size_t>(T.shape(0)), P.data(), static_cast<std::size_t>(P.shape(0)),
+                                  reach);
             }
             return py::make_tuple(to_numpy(std::move(r.z)), to_numpy(std::move(r.triangle)));
         },
-        py::arg("vertices"), py::arg("triangles"), py::arg("points"),
+        py::arg("vertices"), py::arg("triangles"), py::arg("points"), py::kw_only(), py::arg("reach") = 0.0,
         "The sheet of a TIN nearest to each of points (k, 3): (z, triangle). Of the triangles\n"
         "whose XY projection holds the point (exact orient2d, as sample_surface), the one whose\n"
         "z there is closest to the point's, and that z; -1 and NaN where none does. Where a\n"
         "reverse fault folds the surface, each of a hole's two tops of the layer is compared\n"
-        "with its own sheet. Points: finite, within |c| <= 1e60 (ValueError naming the row).");
+        "with its own sheet. reach (m, >= 0): a triangle within it of a point counts too, with\n"
+        "its nearest edge's z (a datum placed on a patch outline lies a rounding off it).\n"
+        "Points: finite, within |c| <= 1e60 (ValueError naming the row).");
     m.def(
         "sample_surface_grid",
         [](const py::handle& vertices, const py::handle& triangles, std::pair<double, double> origin,

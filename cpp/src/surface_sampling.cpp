@@ -57,16 +57,18 @@ void add(SurfaceSamples& s, std::size_t i, double z) {
 namespace {
 
 // f(i, t, z) for every triangle t whose closed XY projection holds point i
-// (x, y at pts + stride * i), with its z there.
+// (x, y at pts + stride * i), with its z there; with reach > 0 also for every
+// other triangle within reach (XY) of the point, with the z of its nearest
+// edge at the point's projection on it.
 template <class F>
 void for_each_cover(const double* V, std::size_t nv, const std::int64_t* T, std::size_t m, const double* pts,
-                    std::size_t stride, std::size_t n, F&& f) {
+                    std::size_t stride, std::size_t n, double reach, F&& f) {
     if (m == 0 || n == 0) return;
     const AabbTree tree = AabbTree::from_triangles(V, nv, 3, T, m);
     std::vector<Box2> q(n);
     for (std::size_t i = 0; i < n; ++i) {
         const double* p = pts + stride * i;
-        q[i] = {p[0], p[1], p[0], p[1]};
+        q[i] = {p[0] - reach, p[1] - reach, p[0] + reach, p[1] + reach};
     }
     const Csr hits = tree.query(q.data(), n, /*sorted=*/false);
     for (std::size_t i = 0; i < n; ++i) {
@@ -76,11 +78,29 @@ void for_each_cover(const double* V, std::size_t nv, const std::int64_t* T, std:
         if (!coordinate_in_range(p[0]) || !coordinate_in_range(p[1])) continue;
         for (std::int64_t j = hits.offsets[i]; j < hits.offsets[i + 1]; ++j) {
             const std::size_t t = static_cast<std::size_t>(hits.indices[static_cast<std::size_t>(j)]);
-            const double* a = V + 3 * T[3 * t];
-            const double* b = V + 3 * T[3 * t + 1];
-            const double* c = V + 3 * T[3 * t + 2];
+            const double* c3[3] = {V + 3 * T[3 * t], V + 3 * T[3 * t + 1], V + 3 * T[3 * t + 2]};
+            if (orient2d(c3[0], c3[1], c3[2]) == 0.0) continue;
             double z;
-            if (orient2d(a, b, c) != 0.0 && z_in_triangle(p, a, b, c, z)) f(i, t, z);
+            if (z_in_triangle(p, c3[0], c3[1], c3[2], z)) {
+                f(i, t, z);
+                continue;
+            }
+            if (reach == 0.0) continue;
+            double best = reach;
+            z = kNaN;
+            for (int k = 0; k < 3; ++k) {
+                const double* a = c3[k];
+                const double* b = c3[(k + 1) % 3];
+                const double dx = b[0] - a[0], dy = b[1] - a[1], l2 = dx * dx + dy * dy;
+                if (!(l2 > 0.0)) continue;
+                const double u = std::min(1.0, std::max(0.0, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2));
+                const double d = std::hypot(a[0] + u * dx - p[0], a[1] + u * dy - p[1]);
+                if (d <= best) {
+                    best = d;
+                    z = a[2] + u * (b[2] - a[2]);
+                }
+            }
+            if (z == z) f(i, t, z);
         }
     }
 }
@@ -91,17 +111,20 @@ SurfaceSamples sample_surface(const double* V, std::size_t nv, const std::int64_
                               const double* xy, std::size_t n) {
     check_mesh("sample_surface", V, nv, T, m);
     SurfaceSamples s{std::vector<double>(n, kNaN), std::vector<double>(n, kNaN), std::vector<std::int32_t>(n, 0)};
-    for_each_cover(V, nv, T, m, xy, 2, n, [&](std::size_t i, std::size_t, double z) { add(s, i, z); });
+    for_each_cover(V, nv, T, m, xy, 2, n, 0.0, [&](std::size_t i, std::size_t, double z) { add(s, i, z); });
     return s;
 }
 
 NearestSheet nearest_sheet(const double* V, std::size_t nv, const std::int64_t* T, std::size_t m, const double* xyz,
-                           std::size_t n) {
+                           std::size_t n, double reach) {
     check_mesh("nearest_sheet", V, nv, T, m);
+    if (!(reach >= 0.0) || !std::isfinite(reach))
+        throw std::invalid_argument("nearest_sheet: reach must be finite and >= 0, got " + std::to_string(reach));
     NearestSheet out{std::vector<double>(n, kNaN), std::vector<std::int64_t>(n, -1)};
-    for_each_cover(V, nv, T, m, xyz, 3, n, [&](std::size_t i, std::size_t t, double z) {
-        const double zi = xyz[3 * i + 2];
-        if (out.triangle[i] < 0 || std::abs(z - zi) < std::abs(out.z[i] - zi)) {
+    for_each_cover(V, nv, T, m, xyz, 3, n, reach, [&](std::size_t i, std::size_t t, double z) {
+        const double zi = xyz[3 * i + 2], d = std::abs(z - zi), best = std::abs(out.z[i] - zi);
+        // Ties (two triangles of a sheet at their shared edge): the lowest row.
+        if (out.triangle[i] < 0 || d < best || (d == best && static_cast<std::int64_t>(t) < out.triangle[i])) {
             out.z[i] = z;
             out.triangle[i] = static_cast<std::int64_t>(t);
         }

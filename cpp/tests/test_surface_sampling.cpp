@@ -88,3 +88,20 @@ TEST(SurfaceSampling, NearestSheetRefusesABadTriangleIndex) {
     const std::vector<double> pts{5.0, 3.0, 0.0};
     EXPECT_THROW(fm::nearest_sheet(s.V.data(), s.nv(), s.T.data(), s.nt(), pts.data(), 1), std::invalid_argument);
 }
+
+// With a reach, a triangle a hair away from the point counts too, with its
+// nearest edge's z: a datum placed on a patch's outline lies a rounding off
+// it, where only the other sheet covers it exactly.
+TEST(SurfaceSampling, NearestSheetWithinReachOfAnOutline) {
+    const Folded s;
+    // Just beyond the footwall's edge at x = 6 (its outline there), under
+    // the hanging wall only; near the footwall's level.
+    const std::vector<double> pts{6.0 + 1e-7, 3.0, -9.5};
+    const fm::NearestSheet exact = fm::nearest_sheet(s.V.data(), s.nv(), s.T.data(), s.nt(), pts.data(), 1);
+    EXPECT_GE(exact.triangle[0], 2);  // the hanging wall or the strip, not the footwall
+    const fm::NearestSheet near = fm::nearest_sheet(s.V.data(), s.nv(), s.T.data(), s.nt(), pts.data(), 1, 1e-6);
+    EXPECT_LT(near.triangle[0], 2);
+    EXPECT_DOUBLE_EQ(near.z[0], -10.0);
+    EXPECT_THROW(fm::nearest_sheet(s.V.data(), s.nv(), s.T.data(), s.nt(), pts.data(), 1, -1.0),
+                 std::invalid_argument);
+}

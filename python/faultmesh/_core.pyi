@@ -742,13 +742,15 @@ def nearest_segment(points: typing.Any, starts: typing.Any, ends: typing.Any) ->
     the lowest index wins. Coordinates must be finite with |c| <= 1e60 (ValueError
     naming the argument and row otherwise).
     """
-def nearest_sheet(vertices: typing.Any, triangles: typing.Any, points: typing.Any) -> tuple[numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.int64]]:
+def nearest_sheet(vertices: typing.Any, triangles: typing.Any, points: typing.Any, *, reach: typing.SupportsFloat | typing.SupportsIndex = 0.0) -> tuple[numpy.typing.NDArray[numpy.float64], numpy.typing.NDArray[numpy.int64]]:
     """
     The sheet of a TIN nearest to each of points (k, 3): (z, triangle). Of the triangles
     whose XY projection holds the point (exact orient2d, as sample_surface), the one whose
     z there is closest to the point's, and that z; -1 and NaN where none does. Where a
     reverse fault folds the surface, each of a hole's two tops of the layer is compared
-    with its own sheet. Points: finite, within |c| <= 1e60 (ValueError naming the row).
+    with its own sheet. reach (m, >= 0): a triangle within it of a point counts too, with
+    its nearest edge's z (a datum placed on a patch outline lies a rounding off it).
+    Points: finite, within |c| <= 1e60 (ValueError naming the row).
     """
 def orient2d(a: typing.Any, b: typing.Any, c: typing.Any) -> numpy.typing.NDArray[numpy.float64]:
     """

@@ -36,7 +36,7 @@ SurfaceSamples sample_surface(const double* vertices, std::size_t n_vertices, co
 
 // The sheet nearest to each of n points (x, y, z interleaved): of the
 // triangles that cover the point's XY, the one whose z there is closest to
-// its z, and that z (-1 and NaN where none does; the first of equals). A
+// its z, and that z (-1 and NaN where none does; of equals the lowest row). A
 // datum's distance to a folded layer: a hole's two tops of a layer that a
 // reverse fault repeats lie each on its own sheet, and the fault strip
 // between them is a third.
@@ -44,8 +44,11 @@ struct NearestSheet {
     std::vector<double> z;
     std::vector<std::int64_t> triangle;
 };
+// reach (m, XY, >= 0): a triangle within this distance of the point counts
+// as covering it, with the z of its nearest edge there -- a datum placed on
+// a patch's outline lies a rounding off it (patch_data.hpp).
 NearestSheet nearest_sheet(const double* vertices, std::size_t n_vertices, const std::int64_t* triangles,
-                           std::size_t n_triangles, const double* xyz, std::size_t n);
+                           std::size_t n_triangles, const double* xyz, std::size_t n, double reach = 0.0);
 
 // On the regular grid of nx x ny points (x0 + i hx, y0 + j hy), i fastest:
 // each triangle visits the grid points of its box, so the cost is about the
