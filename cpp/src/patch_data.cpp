@@ -3,6 +3,7 @@
 #include <faultmesh/gap_points.hpp>
 #include <faultmesh/patch_data.hpp>
 #include <faultmesh/predicates.hpp>
+#include <faultmesh/segments.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -70,13 +71,8 @@ void place_on_edges(PatchDataResult& out, const double* vertices, const std::int
         const std::int64_t* r = triangles + 3 * e.triangle;
         std::int64_t u = r[e.edge], v = r[(e.edge + 1) % 3];
         if (u > v) std::swap(u, v);
-        const double* a = vertices + 3 * u;
-        const double* b = vertices + 3 * v;
-        const double* q = points + 3 * e.datum;
-        const double dx = b[0] - a[0], dy = b[1] - a[1];
-        const double len2 = dx * dx + dy * dy;
-        if (!(len2 > 0.0)) continue;
-        const double s = ((q[0] - a[0]) * dx + (q[1] - a[1]) * dy) / len2;
+        double s;  // where on the edge the datum's projection lies (clamped to its ends)
+        segment_distance2(vertices + 3 * u, vertices + 3 * v, points + 3 * e.datum, &s);
         if (s < kMinShare || s > 1.0 - kMinShare) continue;
         split[{u, v}].emplace_back(s, e.datum, e.triangle);
     }
@@ -104,28 +100,28 @@ void place_on_edges(PatchDataResult& out, const double* vertices, const std::int
         changed = false;
         const std::size_t m = out.triangles.size() / 3;
         for (std::size_t t = 0; t < m; ++t) {
-        for (int k = 0; k < 3; ++k) {
-            const std::int64_t p = out.triangles[3 * t + static_cast<std::size_t>(k)];
-            const std::int64_t q = out.triangles[3 * t + static_cast<std::size_t>((k + 1) % 3)];
-            const auto it = chain.find({std::min(p, q), std::max(p, q)});
-            if (it == chain.end()) continue;
-            const std::int64_t c = out.triangles[3 * t + static_cast<std::size_t>((k + 2) % 3)];
-            std::vector<std::int64_t> along{p};
-            if (p < q)
-                along.insert(along.end(), it->second.begin(), it->second.end());
-            else
-                along.insert(along.end(), it->second.rbegin(), it->second.rend());
-            along.push_back(q);
-            for (std::size_t j = 0; j + 1 < along.size(); ++j) {
-                const std::int64_t tri[3] = {along[j], along[j + 1], c};
-                if (j == 0)
-                    std::copy(tri, tri + 3, &out.triangles[3 * t]);
+            for (int k = 0; k < 3; ++k) {
+                const std::int64_t p = out.triangles[3 * t + static_cast<std::size_t>(k)];
+                const std::int64_t q = out.triangles[3 * t + static_cast<std::size_t>((k + 1) % 3)];
+                const auto it = chain.find({std::min(p, q), std::max(p, q)});
+                if (it == chain.end()) continue;
+                const std::int64_t c = out.triangles[3 * t + static_cast<std::size_t>((k + 2) % 3)];
+                std::vector<std::int64_t> along{p};
+                if (p < q)
+                    along.insert(along.end(), it->second.begin(), it->second.end());
                 else
-                    out.triangles.insert(out.triangles.end(), tri, tri + 3);
+                    along.insert(along.end(), it->second.rbegin(), it->second.rend());
+                along.push_back(q);
+                for (std::size_t j = 0; j + 1 < along.size(); ++j) {
+                    const std::int64_t tri[3] = {along[j], along[j + 1], c};
+                    if (j == 0)
+                        std::copy(tri, tri + 3, &out.triangles[3 * t]);
+                    else
+                        out.triangles.insert(out.triangles.end(), tri, tri + 3);
+                }
+                changed = true;
+                break;  // the triangle is replaced; its other split edges in the next pass
             }
-            changed = true;
-            break;  // the triangle is replaced; its other split edges in the next pass
-        }
         }
     }
 }
@@ -168,12 +164,14 @@ PatchDataResult insert_patch_data(const double* vertices, std::size_t n_vertices
     // (on it, too), onto that edge; near a corner, nowhere.
     std::map<std::int64_t, std::vector<std::int64_t>> by_triangle;  // ascending rows: deterministic
     std::vector<EdgeDatumRef> on_edge;  // edge: the triangle's edge (r[edge], r[edge + 1])
+    // Per datum, every covering triangle with its distance in z and where
+    // the datum lies in it (-1: inside; 0-2: near that edge only; 3: near a
+    // corner); one buffer for all.
+    std::vector<std::tuple<double, std::int64_t, int>> cover;
     for (std::size_t i = 0; i < n_points; ++i) {
         const double* q = points + 3 * i;
         const Box2 box{q[0] - kOnOutline, q[1] - kOnOutline, q[0] + kOnOutline, q[1] + kOnOutline};
-        // Every covering triangle with its distance in z and where the datum
-        // lies in it (-1: inside; 0-2: near that edge only; 3: near a corner).
-        std::vector<std::tuple<double, std::int64_t, int>> cover;
+        cover.clear();
         tree.visit(box, [&](std::int64_t t) {
             const double o = orient[static_cast<std::size_t>(t)];
             if (o == 0.0) return;

@@ -1,6 +1,7 @@
 // A surface's elevations at points: see surface_sampling.hpp.
 #include <faultmesh/aabb_tree.hpp>
 #include <faultmesh/predicates.hpp>
+#include <faultmesh/segments.hpp>
 #include <faultmesh/surface_sampling.hpp>
 
 #include <algorithm>
@@ -86,17 +87,15 @@ void for_each_cover(const double* V, std::size_t nv, const std::int64_t* T, std:
                 continue;
             }
             if (reach == 0.0) continue;
-            double best = reach;
+            double best = reach * reach;  // squared
             z = kNaN;
             for (int k = 0; k < 3; ++k) {
                 const double* a = c3[k];
                 const double* b = c3[(k + 1) % 3];
-                const double dx = b[0] - a[0], dy = b[1] - a[1], l2 = dx * dx + dy * dy;
-                if (!(l2 > 0.0)) continue;
-                const double u = std::min(1.0, std::max(0.0, ((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2));
-                const double d = std::hypot(a[0] + u * dx - p[0], a[1] + u * dy - p[1]);
-                if (d <= best) {
-                    best = d;
+                double u;
+                const double d2 = segment_distance2(a, b, p, &u);
+                if (d2 <= best) {
+                    best = d2;
                     z = a[2] + u * (b[2] - a[2]);
                 }
             }

@@ -645,9 +645,9 @@ def _data_fit(dataset, surfaces: Dict[str, Surface], tins: Dict[str, LayerTin],
         lowered = np.isfinite(drop) & (drop > _report.DATA_FIT_TOLERANCE) & (i > 0)
         row["lowered"] = int(lowered.sum())
         row["max_lowered_m"] = float(drop[lowered].max()) if lowered.any() else 0.0
-        kinds = np.asarray(surfaces[lay].kinds)[tri[off]]
-        row["in_patch"] = int(np.sum(kinds == int(TriangleKind.patch)))
-        row["in_gap"] = int(np.sum(kinds == int(TriangleKind.gap)))
+        kind = np.asarray(surfaces[lay].kinds)[np.maximum(tri, 0)]  # per datum: its sheet's triangle kind
+        row["in_patch"] = int(np.sum(off & (kind == int(TriangleKind.patch))))
+        row["in_gap"] = int(np.sum(off & (kind == int(TriangleKind.gap))))
         if row["max_m"] <= DATA_MISS_WARNING:
             continue
         big = dz > DATA_MISS_WARNING
@@ -655,7 +655,7 @@ def _data_fit(dataset, surfaces: Dict[str, Surface], tins: Dict[str, LayerTin],
         msg = (f"layer {lay!r}: the model misses {row['off']} of its {row['data']} data points, by up to "
                f"{row['max_m']:.1f} m (at x={w['x']:.1f}, y={w['y']:.1f}: datum z={w['z']:.1f}, model "
                f"z={w['model_z']:.1f}); {int(big.sum())} by over {DATA_MISS_WARNING:g} m")
-        where = np.asarray(surfaces[lay].kinds)[tri[big]]
+        where = kind[big]
         parts = [f"{int(np.sum(where == int(k)))} {what}"
                  for k, what in ((TriangleKind.patch, "under a fault's patch"),
                                  (TriangleKind.gap, "in a stitched gap beside one"),

@@ -90,12 +90,15 @@ inline bool segment_meets_closed_triangle(const double* p, const double* q, cons
 // The one measure here, in floating point (not a decision of the exact kind
 // above): the squared XY distance of p from the closed segment [a, b]. Used
 // to pick the nearest of several outline edges (which piece a point beyond
-// the outlines belongs to), where a rounding tie may go either way.
-inline double segment_distance2(const double* a, const double* b, const double* p) {
+// the outlines belongs to), where a rounding tie may go either way. With s,
+// also where on the segment the nearest point lies: a + s (b - a), s in
+// [0, 1] (0 for a segment of no length).
+inline double segment_distance2(const double* a, const double* b, const double* p, double* s_out = nullptr) {
     const double ex = b[0] - a[0], ey = b[1] - a[1];
     const double len2 = ex * ex + ey * ey;
     double s = len2 > 0 ? ((p[0] - a[0]) * ex + (p[1] - a[1]) * ey) / len2 : 0.0;
     s = s < 0.0 ? 0.0 : (s > 1.0 ? 1.0 : s);
+    if (s_out != nullptr) *s_out = s;
     const double dx = a[0] + s * ex - p[0], dy = a[1] + s * ey - p[1];
     return dx * dx + dy * dy;
 }
