@@ -600,6 +600,43 @@ def test_a_repair_with_a_long_tail_of_rounds_ends():
     tail.check()
     assert tail.metadata["repair"]["L7"]["rounds"] > 50, tail.metadata["repair"]["L7"]
 
+def test_an_upper_layer_with_no_footwall_datum_borrows_the_layer_below():
+    """Regression (tests/data/derive/upper_layers_footwall_sliver.npz, a
+    stress generator's ground, seed 27): six layers cut by one normal fault
+    of 114 m at 27 degrees. L1-L3's footwall lies in a sliver at the edge
+    of the study area with no pick; L4-L6 have footwall picks near the
+    fault. With no footwall data L1-L3 were left uncut, their continuous
+    TINs took the hanging wall's level across the fault, and the crossing
+    repair lowered L4's and L5's footwall picks onto L3 by up to 96 m (the
+    model's error near the fault 2.38 m mean, 96 m at most). Their
+    footwall is now L4's data shifted by the thickness measured on the
+    hanging wall (derive._borrowed_side): every layer is cut, and the model
+    passes within centimetres of every pick."""
+    ds, truth = _stress_fixture("upper_layers_footwall_sliver.npz")
+    d = derive_faults(ds)
+    fr = d.derivation.faults["F1"]
+    cut = [lay for lay, t in fr.throw.items() if np.asarray(t["cut"]).any()]
+    assert cut == ds.layers, cut
+    for lay, have in (("L1", 0), ("L2", 0), ("L3", 1)):
+        said = [w for w in fr.warnings if w.startswith(f"fault 'F1', layer {lay!r}: {have} foot-wall datum(s)")]
+        assert len(said) == 1 and "its foot wall is that of layer 'L4' shifted by" in said[0], \
+            (lay, fr.warnings)
+        # The truth's throw is constant (114.36 m). The layers with data
+        # on both sides get 102-127 m from their own cutoffs; the borrowed
+        # ones as close (L3: 105-121 m).
+        t = np.asarray(fr.throw[lay]["throw"])[np.asarray(fr.throw[lay]["cut"], bool)]
+        assert np.all(np.abs(t - 114.36) < 12.0) and abs(np.median(t) - 114.36) < 8.0, \
+            (lay, np.round(t, 1))
+    model = fm.build_model(d, evaluate=False)
+    model.check()
+    err = _error_near_faults(model, ds, truth)
+    assert len(err) > 300 and np.all(np.isfinite(err))
+    assert err.mean() <= 0.5 and err.max() <= 3.0, (err.mean(), err.max())
+    fit = model.metadata["data_fit"]
+    assert max(r["max_m"] for r in fit.values()) < 1.0, fit
+    assert "warnings" not in model.metadata, model.metadata["warnings"]
+
+
 def test_derived_faults_too_close_say_where_their_cutoffs_are_extrapolated():
     """tests/data/derive/two_faults_sparse_lines.npz (a stress generator's
     ground, seed 3): two faults that do not meet, 950 m apart, with the

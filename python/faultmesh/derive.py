@@ -3287,6 +3287,119 @@ def _halfway_sections_to_keep(fault: Fault, fs: FaultSurface, halfway: np.ndarra
     return np.array(keep, dtype=np.float64)
 
 
+#: A side of a layer with fewer data than this is borrowed from another
+#: layer (:func:`_borrowed_side`) -- the count :func:`_side_surfaces` needs
+#: for a surface at all.
+BORROW_BELOW = 3
+#: Thickness samples (a layer's datum against the other layer's local plane
+#: beside it) take that other layer's data within this many of its data
+#: spacings: farther, a plane no longer stands for the surface (as
+#: :func:`_conformable_points`).
+BORROW_REACH = 3.0
+
+
+def _borrowed_side(lay: str, side: str, prep: Dict[str, Tuple[np.ndarray, np.ndarray, float]],
+                   order: Sequence[str]) -> Optional[Tuple[str, np.ndarray, float]]:
+    """Points standing for layer ``lay``'s data on ``side`` ("foot" or
+    "hanging") of the fault where it has fewer than :data:`BORROW_BELOW`
+    there: the nearest layer in ``order`` with data on that side, shifted by
+    the thickness between the two. ``prep``: per layer, its data (n, 3), each
+    datum's side (+1 hanging wall, -1 footwall, 0 on the fault) and its data
+    spacing. Returns (that layer, the points (m, 3), the thickness's median)
+    or None when no layer has data on the side and a thickness measured
+    beside ``lay``'s own data.
+
+    Where the fault cuts a stack obliquely, an upper layer's footwall (or a
+    lower layer's hanging wall) may lie in a sliver of the study area with
+    no datum, while the layers below (above) have theirs near the fault:
+    without a side the layer was left uncut, its continuous TIN took the
+    other wall's level across the fault, and the crossing repair pressed
+    the next layer's data onto it (stress ground 27: a normal fault of
+    114 m at 27 degrees derived as cutting L4-L6 of L1-L6; L3 lay up to
+    105 m below L4's footwall picks and the repair lowered them by up to
+    96 m). A geologist draws the missing wall conformable to the layer
+    that has it: its data, shifted by the thickness measured where both
+    layers have data. The thickness is a plane through the samples (at
+    least 10 of them; else their median), clamped to their range: past the
+    samples an isochore does not keep growing."""
+    from scipy.spatial import cKDTree
+
+    D, ext, _ = prep[lay]
+    i0 = order.index(lay)
+    want = (lambda e: e <= 0) if side == "foot" else (lambda e: e >= 0)
+    cands = [o for o in order if o != lay and o in prep and
+             int(np.count_nonzero(want(prep[o][1]))) >= BORROW_BELOW]
+    cands.sort(key=lambda o: (abs(order.index(o) - i0), -len(prep[o][0])))
+    for src in cands:
+        S, s_ext, s_sp = prep[src]
+        xy, t = [], []
+        # Samples on each side against the other layer's data on the same
+        # side: across the fault a thickness would span the throw.
+        # A datum on the fault (side 0) is no thickness sample.
+        for mine, theirs in ((ext < 0, s_ext <= 0), (ext > 0, s_ext >= 0)):
+            Dm, Sm = D[mine], S[theirs]
+            if len(Dm) == 0 or len(Sm) < 3:
+                continue
+            kn = min(8, len(Sm))
+            dist, idx = cKDTree(Sm[:, :2]).query(Dm[:, :2], k=kn)
+            dist, idx = dist.reshape(len(Dm), kn), idx.reshape(len(Dm), kn)
+            ok = dist <= BORROW_REACH * s_sp
+            has = ok.any(axis=1)
+            if not has.any():
+                continue
+            z_src = _local_planes(Dm[has, :2], Sm[idx[has]], dist[has], ok[has])
+            xy.append(Dm[has, :2])
+            t.append(Dm[has, 2] - z_src)
+        if not t or sum(len(v) for v in t) < 3:
+            continue
+        xy, t = np.vstack(xy), np.concatenate(t)
+        P = S[want(s_ext)].copy()
+        if len(t) >= 10 and np.linalg.matrix_rank(np.column_stack([np.ones(len(t)), xy - xy.mean(axis=0)]),
+                                                  tol=1e-9 * max(np.ptp(xy), 1.0)) == 3:
+            c = xy.mean(axis=0)
+            A = np.column_stack([np.ones(len(t)), xy - c])
+            coef, *_ = np.linalg.lstsq(A, t, rcond=None)
+            shift = np.clip(coef[0] + (P[:, :2] - c) @ coef[1:], t.min(), t.max())
+        else:
+            shift = np.full(len(P), float(np.median(t)))
+        P[:, 2] += shift
+        return src, P, float(np.median(t))
+    return None
+
+
+def _borrowed_points(fs: FaultSurface, surf: "SideSurface", sgn_side: int, frame: GridFrame,
+                     ring: np.ndarray, own: np.ndarray, spacing_data: float) -> np.ndarray:
+    """Points (m, 3) of a borrowed side's surface ``surf`` (:func:`_borrowed_side`)
+    for the layer's continuous TIN: on the nodes of a grid of one data
+    spacing over the side ``frame``, in the study area ``ring``, where the
+    surface lies on its side (``sgn_side``: -1 footwall, +1 hanging wall;
+    outside the fault's band) and no datum of the layer's own (``own``,
+    (n, 3)) lies within a data spacing (there the TIN has the layer's own).
+
+    The patch carries the side only one data spacing past the cutoff
+    (:func:`_far_distances`: no TIN triangle joins the two sides where one
+    has no datum); farther out, the layer's TIN took the other wall's level
+    across the fault (stress ground 27: L3's footwall sliver 105 m low,
+    and the crossing repair lowered L4's and L5's footwall picks onto it
+    by up to 64 m)."""
+    from scipy.spatial import cKDTree
+
+    u = frame.u0 + np.arange(0.0, (frame.nu - 1) * frame.h + 1e-9, spacing_data)
+    w = frame.w0 + np.arange(0.0, (frame.nw - 1) * frame.h + 1e-9, spacing_data)
+    U, W = np.meshgrid(u, w, indexing="ij")
+    xy = frame.origin + U.reshape(-1, 1) * frame.e_u + W.reshape(-1, 1) * frame.e_w
+    xy = xy[points_in_polygon(xy, ring)]
+    if len(own):
+        xy = xy[cKDTree(own[:, :2]).query(xy)[0] > spacing_data]
+    if not len(xy):
+        return np.zeros((0, 3))
+    P = np.column_stack([xy, surf(xy)])
+    P = P[np.isfinite(P[:, 2])]
+    located = fs.sides(P)
+    keep = (np.asarray(located[1]) == sgn_side) & ~_in_bands([fs], P, [located])
+    return np.ascontiguousarray(P[keep])
+
+
 def _derive_fault(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[float, float],
                   used_names: set, fs: FaultSurface, warn: List[str],
                   partners: Sequence[FaultSurface] = (),
@@ -3389,6 +3502,10 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # Per layer: side surfaces and cutoffs.
     res: Dict[str, Dict[str, Any]] = {}
     hint = (fault.throw or {}).get("max")
+    # Each layer's data for this fault and their sides, first for every
+    # layer: a layer with (nearly) no data on one side borrows that side
+    # from another (_borrowed_side).
+    prep: Dict[str, Tuple[np.ndarray, np.ndarray, float]] = {}
     for lay in ds.layers:
         # With the points of a sparse layer made conformable
         # (Dataset.derived_points, _conformable_points).
@@ -3402,6 +3519,27 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         D, ext = D[~gap], ext[~gap]
         if len(D) < 3:
             continue
+        prep[lay] = (D, ext, spacing_data)
+    for lay in prep:
+        D, ext, spacing_data = prep[lay]
+        frame = _side_frame(fs, ring, 3.0 * spacing + 2.0 * spacing_data, spacing_data / 2.0)
+        borrowed: Dict[str, Tuple[str, float]] = {}
+        own = D
+        for nm, sgn_side in (("foot", -1), ("hanging", 1)):
+            have = int(np.count_nonzero(ext <= 0 if nm == "foot" else ext >= 0))
+            if have >= BORROW_BELOW or len(D) - have < BORROW_BELOW:
+                continue
+            got = _borrowed_side(lay, nm, prep, list(prep))
+            if got is None:
+                continue
+            src, P, thick = got
+            D = np.vstack([D, P])
+            ext = np.concatenate([ext, np.full(len(P), sgn_side, dtype=ext.dtype)])
+            borrowed[nm] = (src, thick)
+            warn.append(f"fault {fault.name!r}, layer {lay!r}: {have} {nm}-wall datum(s), too few "
+                        f"for a surface; its {nm} wall is that of layer {src!r} shifted by the "
+                        f"thickness between the two (median {thick:+.1f} m, measured where both "
+                        "have data)")
         split = {"hanging": ext >= 0, "foot": ext <= 0}
         # The layer's fits depend on its data and the grid only: a second
         # derivation of the fault on other sections (_derive_fault) takes
@@ -3504,7 +3642,8 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         res[lay] = {"sides": sides, "roots": roots, "near": near, "spacing": spacing_data,
                     "sec_sides": sec_sides, "joint_secs": {i for _, i in gap_secs},
                     "decay_own": decay_own,
-                    "data": D, "split": split, "side": ext,
+                    "data": D, "split": split, "side": ext, "frame": frame,
+                    "borrowed": borrowed, "own": own,
                     "spoiled": _spoiled_vertices(fs, lay, ds.layer_points(lay), ring)}
 
     # Throws per section (lines) and layer.
@@ -3602,7 +3741,14 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # within the extent: its throw is carried past the fault's points by
     # the displacement, so it has the fault's sense only if that is the
     # kind the other layers say (below).
+    # A layer whose one side is borrowed from another layer
+    # (_borrowed_side) votes only where no other does: its throw is the
+    # other layer's assumed conformable, no evidence of the sense (v2
+    # random_ground(42): F4 cuts L2 only; L1's footwall, with no datum,
+    # borrowed from L2's, showed -4 m against L2's +45 m and outvoted it).
     voters = [lay for lay in res if cut[lay].any()]
+    if any(not res[lay]["borrowed"] for lay in voters):
+        voters = [lay for lay in voters if not res[lay]["borrowed"]]
     if any(lay not in cut_by_partner for lay in voters):
         voters = [lay for lay in voters if lay not in cut_by_partner]
     local: Dict[str, List[Tuple[float, float]]] = {}
@@ -4070,11 +4216,19 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                   "cut": cut[lay][order]} for lay in res}
     cl = {lay: {k: np.array(v).reshape(-1, 3) for k, v in d.items()}
           for lay, d in cut_lines.items() if d["foot"]}
+    carried = _carried_points(new_fault, fs, res, section_of, ring, others, partners,
+                              end_kind, spacing) if with_carried else {}
+    # A cut layer's borrowed side (_borrowed_side) goes into its TIN too.
+    for lay, r in res.items():
+        if not with_carried or not r["borrowed"] or not cut[lay].any():
+            continue
+        for nm in r["borrowed"]:
+            q = _borrowed_points(fs, r["sides"][nm], -1 if nm == "foot" else 1, r["frame"], ring,
+                                 r["own"], r["spacing"])
+            if len(q):
+                carried[lay] = np.vstack([carried[lay], q]) if lay in carried else q
     rep = FaultDerivation(fault.name, kind, fault.kind, warn, fs, sec_names, prof,
-                          np.array(tips).reshape(-1, 2), end_kind, cl,
-                          _carried_points(new_fault, fs, res, section_of, ring, others, partners,
-                                          end_kind, spacing) if with_carried else {},
-                          far_from_data)
+                          np.array(tips).reshape(-1, 2), end_kind, cl, carried, far_from_data)
     return new_fault, new_secs, rep
 
 
