@@ -637,6 +637,25 @@ def test_an_upper_layer_with_no_footwall_datum_borrows_the_layer_below():
     assert "warnings" not in model.metadata, model.metadata["warnings"]
 
 
+def test_a_fault_that_displaces_one_layer_only_lends_no_side():
+    """Regression (v2 random_ground(4) with section picks): F2 displaces
+    L2 only (17.7 m); L1 and L3 have no datum on its footwall (the section
+    picks are L2's). Borrowed from L2's footwall, shifted by the
+    thickness, L1 got throws of 21-42 m it does not have (0.58 -> 0.64x
+    the true cutoffs' error near the faults). With one layer alone showing
+    the fault on both sides, no side is borrowed (derive._borrowed_side)."""
+    from faultmesh import grounds
+
+    built = {}
+    out = grounds.evaluate_ground_v2(4, built=built)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    fr = built["derived"].derivation.faults["F2"]
+    assert not any("too few for a surface" in w for w in fr.warnings), fr.warnings
+    for lay in ("L1", "L3"):
+        assert lay not in fr.throw or not np.asarray(fr.throw[lay]["cut"]).any(), fr.throw[lay]
+    assert out["ratio"] <= 0.6, out["ratio"]
+
+
 def test_a_patch_problem_at_an_end_drops_the_section_nearest_to_it():
     """Regression (tests/data/derive/low_angle_reverse_fault.npz, a stress
     generator's ground, seed 78): nine layers cut by a reverse fault of 116

@@ -3299,15 +3299,15 @@ BORROW_REACH = 3.0
 
 
 def _borrowed_side(lay: str, side: str, prep: Dict[str, Tuple[np.ndarray, np.ndarray, float]],
-                   order: Sequence[str]) -> Optional[Tuple[str, np.ndarray, float]]:
+                   order: Sequence[str], fs: FaultSurface) -> Optional[Tuple[str, np.ndarray, float]]:
     """Points standing for layer ``lay``'s data on ``side`` ("foot" or
-    "hanging") of the fault where it has fewer than :data:`BORROW_BELOW`
-    there: the nearest layer in ``order`` with data on that side, shifted by
-    the thickness between the two. ``prep``: per layer, its data (n, 3), each
-    datum's side (+1 hanging wall, -1 footwall, 0 on the fault) and its data
-    spacing. Returns (that layer, the points (m, 3), the thickness's median)
-    or None when no layer has data on the side and a thickness measured
-    beside ``lay``'s own data.
+    "hanging") of the fault ``fs`` where it has fewer than
+    :data:`BORROW_BELOW` there: the nearest layer in ``order`` with data on
+    that side, shifted by the thickness between the two. ``prep``: per
+    layer, its data (n, 3), each datum's side (+1 hanging wall, -1
+    footwall, 0 on the fault) and its data spacing. Returns (that layer,
+    the points (m, 3), the thickness) or None when no layer has data on
+    the side and a thickness measured beside ``lay``'s own data.
 
     Where the fault cuts a stack obliquely, an upper layer's footwall (or a
     lower layer's hanging wall) may lie in a sliver of the study area with
@@ -3318,10 +3318,17 @@ def _borrowed_side(lay: str, side: str, prep: Dict[str, Tuple[np.ndarray, np.nda
     114 m at 27 degrees derived as cutting L4-L6 of L1-L6; L3 lay up to
     105 m below L4's footwall picks and the repair lowered them by up to
     96 m). A geologist draws the missing wall conformable to the layer
-    that has it: its data, shifted by the thickness measured where both
-    layers have data. The thickness is a plane through the samples (at
-    least 10 of them; else their median), clamped to their range: past the
-    samples an isochore does not keep growing."""
+    that has it: its data, shifted by the thickness between the two.
+
+    The thickness is the median of the samples (each datum of ``lay``
+    against the other layer's local plane beside it, on the same side)
+    in the half farther from the fault: near it, a fault that displaces
+    the two layers by different throws (one that dies out between them)
+    changes the thickness by the difference, and the borrowed side would
+    carry the other layer's throw into this one (v2 random_ground(4): F2
+    displaces L2 only; L1's footwall from L2's with the thickness beside
+    F2 got a throw of 21-41 m). A median: samples across other faults
+    that displace one layer and not the other are offset too."""
     from scipy.spatial import cKDTree
 
     D, ext, _ = prep[lay]
@@ -3332,10 +3339,10 @@ def _borrowed_side(lay: str, side: str, prep: Dict[str, Tuple[np.ndarray, np.nda
     cands.sort(key=lambda o: (abs(order.index(o) - i0), -len(prep[o][0])))
     for src in cands:
         S, s_ext, s_sp = prep[src]
-        xy, t = [], []
+        at, t = [], []
         # Samples on each side against the other layer's data on the same
-        # side: across the fault a thickness would span the throw.
-        # A datum on the fault (side 0) is no thickness sample.
+        # side: across the fault a thickness would span the throw. A datum
+        # on the fault (side 0) is no sample.
         for mine, theirs in ((ext < 0, s_ext <= 0), (ext > 0, s_ext >= 0)):
             Dm, Sm = D[mine], S[theirs]
             if len(Dm) == 0 or len(Sm) < 3:
@@ -3348,22 +3355,16 @@ def _borrowed_side(lay: str, side: str, prep: Dict[str, Tuple[np.ndarray, np.nda
             if not has.any():
                 continue
             z_src = _local_planes(Dm[has, :2], Sm[idx[has]], dist[has], ok[has])
-            xy.append(Dm[has, :2])
+            at.append(Dm[has])
             t.append(Dm[has, 2] - z_src)
         if not t or sum(len(v) for v in t) < 3:
             continue
-        xy, t = np.vstack(xy), np.concatenate(t)
+        at, t = np.vstack(at), np.concatenate(t)
+        far = _fault_distance(fs, at)
+        thick = float(np.median(t[far >= np.median(far)]))
         P = S[want(s_ext)].copy()
-        if len(t) >= 10 and np.linalg.matrix_rank(np.column_stack([np.ones(len(t)), xy - xy.mean(axis=0)]),
-                                                  tol=1e-9 * max(np.ptp(xy), 1.0)) == 3:
-            c = xy.mean(axis=0)
-            A = np.column_stack([np.ones(len(t)), xy - c])
-            coef, *_ = np.linalg.lstsq(A, t, rcond=None)
-            shift = np.clip(coef[0] + (P[:, :2] - c) @ coef[1:], t.min(), t.max())
-        else:
-            shift = np.full(len(P), float(np.median(t)))
-        P[:, 2] += shift
-        return src, P, float(np.median(t))
+        P[:, 2] += thick
+        return src, P, thick
     return None
 
 
@@ -3506,6 +3507,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # layer: a layer with (nearly) no data on one side borrows that side
     # from another (_borrowed_side).
     prep: Dict[str, Tuple[np.ndarray, np.ndarray, float]] = {}
+    on_sides: Dict[str, Tuple[int, int]] = {}
     for lay in ds.layers:
         # With the points of a sparse layer made conformable
         # (Dataset.derived_points, _conformable_points).
@@ -3513,6 +3515,10 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         if len(D) < 3:
             continue
         spacing_data = _median_spacing(D)
+        # The layer's data on each side of this fault before the other
+        # faults' blocks are taken into account (_borrowed_side).
+        ext_all = np.asarray(fs.side(D)[1])
+        on_sides[lay] = (int(np.count_nonzero(ext_all <= 0)), int(np.count_nonzero(ext_all >= 0)))
         D = D[_in_own_block(D, fs, others, 0.5 * spacing_data)]
         frame = _side_frame(fs, ring, 3.0 * spacing + 2.0 * spacing_data, spacing_data / 2.0)
         gap, ext = _data_sides(fs, D, frame, opt.k)
@@ -3520,6 +3526,15 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         if len(D) < 3:
             continue
         prep[lay] = (D, ext, spacing_data)
+    # Layers with data on both sides: a side is borrowed only where at
+    # least two of them show the fault displacing more than one layer
+    # (_borrowed_side). One alone may be the only layer the fault
+    # displaces, and the others' missing side no sliver but what says so:
+    # v2 random_ground(4), (42) and (83), whose F2, F4 and F2 displace L2
+    # only, where L1's footwall (and L3's) has no datum; borrowed from
+    # L2's, L1 got a throw it does not have (0.58 -> 0.60x, 0.93 -> 0.98x).
+    two_sided = [lay for lay, (_, e, _) in prep.items()
+                 if min(np.count_nonzero(e <= 0), np.count_nonzero(e >= 0)) >= BORROW_BELOW]
     for lay in prep:
         D, ext, spacing_data = prep[lay]
         frame = _side_frame(fs, ring, 3.0 * spacing + 2.0 * spacing_data, spacing_data / 2.0)
@@ -3529,7 +3544,15 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             have = int(np.count_nonzero(ext <= 0 if nm == "foot" else ext >= 0))
             if have >= BORROW_BELOW or len(D) - have < BORROW_BELOW:
                 continue
-            got = _borrowed_side(lay, nm, prep, list(prep))
+            # Only a layer that has (nearly) no datum on that side at all:
+            # one whose data there lie across another fault (left out of
+            # this fault's fits, _in_own_block) is not known to be
+            # conformable across this one (v2 random_ground(4): F2 cuts
+            # L2 only; L1 and L3, whose footwall data lie across F3,
+            # borrowed L2's footwall and got its throw, 0.58 -> 0.64x).
+            if on_sides[lay][0 if nm == "foot" else 1] >= BORROW_BELOW or len(two_sided) < 2:
+                continue
+            got = _borrowed_side(lay, nm, prep, list(prep), fs)
             if got is None:
                 continue
             src, P, thick = got
@@ -3538,8 +3561,8 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             borrowed[nm] = (src, thick)
             warn.append(f"fault {fault.name!r}, layer {lay!r}: {have} {nm}-wall datum(s), too few "
                         f"for a surface; its {nm} wall is that of layer {src!r} shifted by the "
-                        f"thickness between the two (median {thick:+.1f} m, measured where both "
-                        "have data)")
+                        f"thickness between the two ({thick:+.1f} m, measured where both have "
+                        "data, away from the fault)")
         split = {"hanging": ext >= 0, "foot": ext <= 0}
         # The layer's fits depend on its data and the grid only: a second
         # derivation of the fault on other sections (_derive_fault) takes
