@@ -685,6 +685,30 @@ def test_a_patch_problem_at_an_end_drops_the_section_nearest_to_it():
     assert all(u[s] < min(u[tr.section] for tr in kept) for s in dropped.get("L2", [])), (dropped, u)
 
 
+def test_a_fold_whose_trend_following_ends_reach_out_is_carried_unchanged():
+    """Regression (tests/data/derive/two_reverse_faults_folds_to_the_boundary.npz,
+    a stress generator's ground, seed 22): eight layers cut by two reverse
+    faults of 65 and 89 m at 34-35 degrees, 1.1 km apart, picks on eight
+    seismic lines. Once the drop rule dropped the section nearest to a
+    patch problem (L5 of F1 and L6 of F2 each keep all but one section;
+    by throw alone they had lost 16 and 10), L7's patch of F2, extended
+    onto the boundary at both ends along the continuous TIN's trend, no
+    longer covered its image once at one triangle, and the stitcher
+    refused it: "the patch does not cover its XY image once". A lone
+    folded patch the stitcher would refuse is now built again with its
+    ends carried unchanged (build.py, metadata["carried_unchanged"])."""
+    ds, truth = _stress_fixture("two_reverse_faults_folds_to_the_boundary.npz")
+    d = derive_faults(ds)
+    dropped = [w for fr in d.derivation.faults.values() for w in fr.warnings if "dropped from section" in w]
+    assert len(dropped) <= 2, dropped
+    model = fm.build_model(d, evaluate=False)
+    model.check()
+    assert "F2" in model.metadata["carried_unchanged"]["L7"], model.metadata.get("carried_unchanged")
+    err = _error_near_faults(model, ds, truth)
+    assert len(err) > 1000 and np.all(np.isfinite(err))
+    assert err.mean() <= 0.5 and err.max() <= 3.0, (err.mean(), err.max())
+
+
 def test_derived_faults_too_close_say_where_their_cutoffs_are_extrapolated():
     """tests/data/derive/two_faults_sparse_lines.npz (a stress generator's
     ground, seed 3): two faults that do not meet, 950 m apart, with the
