@@ -56,7 +56,7 @@ def one(seed: int, force=None) -> dict:
             fr = {"true_kind": ft.kind, "kind": d.faults[k].kind, "throw": round(ft.throw, 2),
                   "dip": round(ft.dip, 2), "n_warnings": len(fd.warnings),
                   "borrowed": sorted(re.match(r"fault '[^']*', layer '([^']*)'", w).group(1)
-                                     for w in fd.warnings if "too few for a surface" in w),
+                                     for w in fd.warnings if "wall is that of layer" in w),
                   "warnings": sorted({re.sub(r"[-0-9.]+", "#", w[:200]) for w in fd.warnings})[:6],
                   "ends": list(fd.ends), "n_traces": len(d.faults[k].traces)}
             # truly cut layers: both sides' sign change vs fault inside area

@@ -656,6 +656,30 @@ def test_a_fault_that_displaces_one_layer_only_lends_no_side():
     assert out["ratio"] <= 0.6, out["ratio"]
 
 
+def test_a_borrowed_side_whose_throw_is_not_the_other_layers_is_dropped():
+    """Regression (held-out random ground 148 as v2 with section picks):
+    F3 (reverse, 19 m at 31 degrees) displaces L5 and L6 only; L1-L4 have
+    no datum on its footwall. Borrowed from L5's footwall with thicknesses
+    measured a kilometre or two away (their samples spread by 25-32 m),
+    L1-L4 got throws of -35 to -56 m where L5 has -13 m, and the model cut
+    four layers the fault does not (the derived cutoffs' mean distance from
+    the true ones 1.78 -> 13.6 m; the error near the faults, measured in
+    the truth's fault bands only, did not show it). A borrowed side stands
+    only where the layer's throw comes out as the other layer's and the
+    thickness is known to better than a quarter of the throw."""
+    from faultmesh import grounds
+
+    built = {}
+    out = grounds.evaluate_ground_v2(148, built=built)
+    assert out["stage"] == "ok", (out["stage"], out["error"])
+    fr = built["derived"].derivation.faults["F3"]
+    for lay in ("L1", "L2", "L3", "L4"):
+        said = [w for w in fr.warnings if w.startswith(f"fault 'F3', layer {lay!r}: 0 foot-wall datum(s)")]
+        assert len(said) == 1 and "not known to be conformable; the layer is left uncut" in said[0], said
+        assert lay not in fr.cutoffs and not np.asarray(fr.throw[lay]["cut"]).any(), lay
+    assert out["cutoff_mean"] < 2.0 and not out["cutoff_nan"], (out["cutoff_mean"], out["cutoff_nan"])
+
+
 def test_a_patch_problem_at_an_end_drops_the_section_nearest_to_it():
     """Regression (tests/data/derive/low_angle_reverse_fault.npz, a stress
     generator's ground, seed 78): nine layers cut by a reverse fault of 116
