@@ -3518,6 +3518,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # layer: a layer with (nearly) no data on one side borrows that side
     # from another (_borrowed_side).
     prep: Dict[str, Tuple[np.ndarray, np.ndarray, float]] = {}
+    frames: Dict[str, GridFrame] = {}
     for lay in ds.layers:
         # With the points of a sparse layer made conformable
         # (Dataset.derived_points, _conformable_points).
@@ -3532,6 +3533,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         if len(D) < 3:
             continue
         prep[lay] = (D, ext, spacing_data)
+        frames[lay] = frame
     # Layers with data on both sides: a side is borrowed only where at
     # least two of them show the fault displacing more than one layer
     # (_borrowed_side). One alone may be the only layer the fault
@@ -3545,7 +3547,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                  if min(np.count_nonzero(e <= 0), np.count_nonzero(e >= 0)) >= BORROW_BELOW]
     for lay in prep:
         D, ext, spacing_data = prep[lay]
-        frame = _side_frame(fs, ring, 3.0 * spacing + 2.0 * spacing_data, spacing_data / 2.0)
+        frame = frames[lay]
         borrowed: Dict[str, Tuple[str, float]] = {}
         own = D
         for nm, sgn_side in (("foot", -1), ("hanging", 1)):
