@@ -9,6 +9,7 @@
 namespace faultmesh::bindings {
 
 void bind_patch_data(py::module_& m) {
+    m.attr("ON_OUTLINE") = kOnOutline;
     m.def(
         "insert_patch_data",
         [](const py::handle& vertices, const py::handle& triangles, const py::handle& points, double max_dz) {

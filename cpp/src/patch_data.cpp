@@ -33,13 +33,6 @@ namespace {
 // triangle's size of a corner or of another datum.
 constexpr double kMinShare = 0.01;
 
-// A datum within this distance (m, XY) outside a triangle's edge lies on the
-// edge, as in build.ON_OUTLINE: which side of a patch's outline a pick on it
-// falls on is decided by the outline's last bits (random ground 2 as v2:
-// picks on a seismic line where the derivation put an end section fell
-// inside or outside F3's patch for cutoffs moved by 1e-10 m).
-constexpr double kOnOutline = 1e-6;
-
 // Triangles whose z at a datum lie within this (m) of the nearest one's are
 // of one sheet: two triangles meeting at an edge give a datum on it the same
 // z but for rounding (ulps of the elevation, 1e-10 m at 1 km), the sheets

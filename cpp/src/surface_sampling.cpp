@@ -99,7 +99,7 @@ void for_each_cover(const double* V, std::size_t nv, const std::int64_t* T, std:
                     z = a[2] + u * (b[2] - a[2]);
                 }
             }
-            if (z == z) f(i, t, z);
+            if (!std::isnan(z)) f(i, t, z);
         }
     }
 }

@@ -8,7 +8,7 @@ import enum
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'FaultSide', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TouchingRegion', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'halfedge_twins', 'incircle', 'insert_patch_data', 'join_holes', 'loft', 'loft_area', 'nearest_segment', 'nearest_sheet', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
+__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'FaultSide', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'ON_OUTLINE', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TouchingRegion', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'halfedge_twins', 'incircle', 'insert_patch_data', 'join_holes', 'loft', 'loft_area', 'nearest_segment', 'nearest_sheet', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
 class GeometryError(ValueError):
     pass
 class PatchOverlapError(GeometryError):
@@ -866,4 +866,5 @@ BEYOND_FAULT: int = 2
 FOOTWALL: int = -1
 HANGING_WALL: int = 1
 ON_FAULT: int = 0
+ON_OUTLINE: float = 1e-06
 __version__: str = '0.1.0'

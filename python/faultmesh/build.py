@@ -18,8 +18,8 @@ from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 
-from ._core import (GeometryError, LayerTin, PatchOverlapError, Stitcher, StudyArea, TriangleKind, build_layer_tins,
-                    insert_patch_data, repair_crossings, repair_stack, sample_surface)
+from ._core import (ON_OUTLINE, GeometryError, LayerTin, PatchOverlapError, Stitcher, StudyArea, TriangleKind,
+                    build_layer_tins, insert_patch_data, repair_crossings, repair_stack, sample_surface)
 from . import report as _report
 from .dataset import DatasetError, prepare_for_build
 from .model import Gap, Model, StitchedPatch, Surface
@@ -175,11 +175,10 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
     return added
 
 
-#: Points within this distance (m, XY) of a fault patch's outline count as
-#: on it, and so in the patch (_in_fault_zones): a micrometre, below any
-#: survey's precision and above the nanometre to which derive places the
-#: cutoffs (and the rounding of coordinates of 1e7 m, 2e-9 m).
-ON_OUTLINE = 1e-6
+# ON_OUTLINE (imported above): points within this distance (m, XY) of a
+# fault patch's outline count as on it, and so in the patch
+# (_in_fault_zones): a micrometre, the C++ placement's own (patch_data.hpp,
+# kOnOutline, which says why).
 
 
 def _in_fault_zones(dataset, layer: str, area: StudyArea, points: np.ndarray,

@@ -42,6 +42,8 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
+from ._core import ON_OUTLINE
+
 __all__ = ["QualityReport", "quality", "triangle_angles", "min_angles", "evaluate_surface",
            "vertical_errors", "accuracy_near_faults", "gap_quality", "data_fit", "data_misses"]
 
@@ -56,11 +58,11 @@ DATA_FIT_TOLERANCE = 1e-3
 
 #: A triangle within this distance (m, XY) of a datum counts as covering it
 #: (:func:`data_misses`): a datum placed on a patch's outline lies a rounding
-#: off it (patch_data.hpp: within a micrometre, as build.ON_OUTLINE), where
-#: only the other sheets of a fold cover it exactly (held-out random ground
-#: 146 as v2: picks on F1's outline "missed" by 31 m, 1e-10 m from their
-#: own vertices).
-DATA_REACH = 1e-6
+#: off it, where only the other sheets of a fold cover it exactly (held-out
+#: random ground 146 as v2: picks on F1's outline "missed" by 31 m, 1e-10 m
+#: from their own vertices). The placement's own micrometre
+#: (patch_data.hpp, kOnOutline; build.ON_OUTLINE).
+DATA_REACH = ON_OUTLINE
 
 
 def data_misses(surface, D: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -42,6 +42,17 @@
 
 namespace faultmesh {
 
+// A point within this distance (m, XY) outside a patch's outline lies on it:
+// a micrometre, below any survey's precision and above the nanometre to
+// which derive places the cutoffs (and the rounding of coordinates of 1e7 m,
+// 2e-9 m). Which side of the outline a pick on it falls on is otherwise
+// decided by the outline's last bits (random ground 2 as v2: picks on a
+// seismic line where the derivation put an end section fell inside or
+// outside F3's patch for cutoffs moved by 1e-10 m). The one value for the
+// placement here, the build's footprint test (faultmesh.ON_OUTLINE,
+// build.ON_OUTLINE) and the data fit's reach (report.DATA_REACH).
+inline constexpr double kOnOutline = 1e-6;
+
 struct PatchDataResult {
     std::vector<double> vertices;          // 3 per vertex: the patch's, then the placed data
     std::vector<std::int64_t> triangles;   // 3 per triangle: the patch's (rows kept), then new ones
