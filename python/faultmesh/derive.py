@@ -49,7 +49,7 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
    interpolated from that side's data only (the fault is a barrier): a
    minimum-curvature grid (:func:`_min_curvature`; a smoothing thin-plate
    spline on a grid in the fault's frame, cells of half a data spacing,
-   one sparse solve) that follows the data closely, is smooth between sparse
+   one banded Cholesky solve) that follows the data closely, is smooth between sparse
    data and, towards and past the fault, continues their trend with its
    slope relaxing over a tension length (:data:`TENSION` data spacings)
    towards the layer's regional slope. Where neither side has data within
@@ -457,8 +457,9 @@ def _min_curvature(frame: GridFrame, xy: np.ndarray, z: np.ndarray, ell: float,
     throw T(u), piecewise linear on the knots, fitted jointly with S (with
     ``ell_t`` the smoothing length of T along strike); ``hanging`` may be
     weights in [0, 1] (the share of the throw a datum shows:
-    :func:`_decay_sides`). Returns (nodes, T at the knots or None). All in
-    sparse matrices, one direct solve. With ``energy`` (a list, only with
+    :func:`_decay_sides`). Returns (nodes, T at the knots or None). One
+    direct solve: the banded Cholesky factor of the surface's system, and
+    for T its Schur complement (:class:`_CurvatureFit`). With ``energy`` (a list, only with
     ``hanging``): the minimised objective is appended to it."""
     return _CurvatureFit(frame, xy, z, ell, tension, slope).solve(hanging, knots, ell_t, energy)
 
@@ -472,7 +473,11 @@ class _CurvatureFit:
     Assembling the sparse matrices took about as long as solving them (1.7
     of 3.7 s in the fits of random ground 363 as v2, on a grid of 43
     profiles); derivation of grounds 363, 61, 164 and 30 as v2 0.95x the
-    time with an assembly per solve (3 paired runs), the same to the bit."""
+    time with an assembly per solve (3 paired runs), the same to the bit.
+    The surface's system M is factored once too (:meth:`_factor`) and the
+    throw solved through its Schur complement (:meth:`_schur`): a joint
+    SuperLU solve per profile was three quarters of the derivation's time
+    (26.5 of 35 s on stress ground 44, 940 solves of 28 ms)."""
 
     def __init__(self, frame: GridFrame, xy: np.ndarray, z: np.ndarray, ell: float,
                  tension: Optional[float] = None, slope: Optional[np.ndarray] = None) -> None:
@@ -500,6 +505,37 @@ class _CurvatureFit:
         self.ell, self.B, self.R, self.M, self.rhs = ell, B, R, M, rhs
         self._throw_terms: Dict[Tuple[bytes, float], Tuple[Any, Any]] = {}
 
+    @cached_property
+    def _factor(self) -> Optional[Tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """The Cholesky factor of M in LAPACK's lower band storage, with the
+        node order that gives M the narrower band (the thin-plate stencil
+        reaches two rows of nodes: 2 x the shorter side, plus one), and L^-1
+        rhs; None where M is not positive definite (data on one line and no
+        tension leave a plane free), which :meth:`solve` then hands to
+        SuperLU as before. M is the same for every profile of the fading
+        fit, so one factorisation serves all of them (:meth:`solve`)."""
+        import scipy.linalg as sl
+        from scipy.linalg.lapack import dtbtrs
+        nu, nw = self.frame.nu, self.frame.nw
+        order = np.arange(nu * nw)
+        if nu < nw:
+            order = order.reshape(nu, nw).T.ravel()
+        Mp = self.M.tocsr()[order][:, order].tocoo()
+        low = Mp.row >= Mp.col
+        bw = int(np.max(Mp.row[low] - Mp.col[low]))
+        ab = np.zeros((bw + 1, len(order)))
+        ab[Mp.row[low] - Mp.col[low], Mp.col[low]] = Mp.data[low]
+        try:
+            L = sl.cholesky_banded(ab, lower=True, check_finite=False)
+        except np.linalg.LinAlgError:
+            return None
+        if not np.all(L[0] ** 2 > self._singular_below() * ab[0]):
+            return None
+        g, info = dtbtrs(L, self.rhs[order][:, None], uplo="L")
+        if info != 0:
+            return None
+        return L, order, g
+
     def solve(self, hanging: Optional[np.ndarray] = None, knots: Optional[np.ndarray] = None,
               ell_t: Optional[float] = None,
               energy: Optional[List[float]] = None) -> Tuple[np.ndarray, Optional[np.ndarray]]:
@@ -508,7 +544,10 @@ class _CurvatureFit:
         from scipy.sparse.linalg import spsolve
         frame, xy, z, z0, N = self.frame, self.xy, self.z, self.z0, self.N
         ell, B, R, M, rhs = self.ell, self.B, self.R, self.M, self.rhs
+        factor = self._factor
         if hanging is None:
+            if factor is not None:
+                return self._back(factor, factor[2]) + z0, None
             # MMD on A^T A: about twice as fast as the default ordering on these
             # (symmetric, banded) systems.
             return np.asarray(spsolve(M.tocsc(), rhs, permc_spec="MMD_ATA"), dtype=np.float64) + z0, None
@@ -519,8 +558,69 @@ class _CurvatureFit:
             self._throw_terms[key] = (_hat(knots, frame.uw(xy)[0]), _second_differences(knots, lt))
         hat, D2 = self._throw_terms[key]
         H = hat.multiply(np.asarray(hanging, dtype=np.float64)[:, None]).tocsr() * (-1.0 / math.sqrt(N))
-        K = sp.bmat([[M, B.T @ H], [H.T @ B, H.T @ H + D2.T @ D2]]).tocsc()
-        rhs2 = np.r_[rhs, H.T @ ((z - z0) / math.sqrt(N))]
+        C = B.T @ H
+        E = H.T @ H + D2.T @ D2
+        rhs_t = H.T @ ((z - z0) / math.sqrt(N))
+        if factor is not None:
+            xs, xt = self._schur(factor, C.toarray(), E.toarray(), rhs_t)
+        else:
+            xs, xt = self._superlu(sp.bmat([[M, C], [C.T, E]]).tocsc(), np.r_[rhs, rhs_t], frame.n)
+        if energy is not None:
+            res = B @ xs + H @ xt - (z - z0) / math.sqrt(N)
+            energy.append(float(res @ res + np.sum((R @ xs) ** 2) + np.sum((D2 @ xt) ** 2)))
+        return xs + z0, xt
+
+    def _singular_below(self) -> float:
+        """A Cholesky pivot of M, or of the throw's system S = E - C^T M^-1 C
+        (the Schur complement of M, m x m for m throw knots), under this
+        share of its diagonal entry counts as zero: the system is singular
+        there (for S: the hanging wall's data leave T undetermined, too few
+        of them weigh the knots and the second differences leave a line
+        free). The subtraction E - V^T V rounds each entry by up to n eps
+        of E's diagonal (n the grid's nodes, the length of the sums: Higham's
+        gamma_n); ten times that is the bound. Measured on the fits of the
+        stress grounds 44 and 69: singular systems' pivots 1.5e-16 - 8.5e-15
+        of the diagonal (about sqrt(n) eps, rounding that adds up at random)
+        or Cholesky's refusal, determined ones' over 2.7e-10 (their throws
+        within 2e-4 of SuperLU's); the bound, 6.5e-12 at 2,914 nodes, lies
+        between with 40x and 760x to spare. SuperLU returned throws of 0.3 to
+        5.6 km for the singular ones instead of its NaN."""
+        return 10.0 * self.frame.n * float(np.finfo(np.float64).eps)
+
+    def _back(self, factor, y: np.ndarray) -> np.ndarray:
+        """M^-1 rhs from L^-1 rhs = y (the factor's order undone)."""
+        from scipy.linalg.lapack import dtbtrs
+        L, order, _ = factor
+        x, info = dtbtrs(L, y, uplo="L", trans="T")
+        out = np.empty(len(order))
+        out[order] = x[:, 0]
+        return out
+
+    def _schur(self, factor, C: np.ndarray, E: np.ndarray, rhs_t: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """The joint system [[M, C], [C^T, E]] [xs; xt] = [rhs; rhs_t] by
+        the Schur complement of M, from M's Cholesky factor L: V = L^-1 C,
+        S = E - V^T V, xt = S^-1 (rhs_t - V^T L^-1 rhs), xs = L^-T (L^-1 rhs
+        - V xt). Raises :class:`SingularFit` where S is (numerically)
+        singular."""
+        import scipy.linalg as sl
+        from scipy.linalg.lapack import dtbtrs
+        L, order, g = factor
+        V, info = dtbtrs(L, C[order], uplo="L")
+        S = E - V.T @ V
+        try:
+            cf = sl.cho_factor(S, lower=True, check_finite=False)
+        except np.linalg.LinAlgError:
+            raise SingularFit("_min_curvature: the throw is undetermined by the hanging wall's data") from None
+        piv = np.diag(cf[0]) ** 2
+        if not np.all(piv > self._singular_below() * np.diag(E)):
+            raise SingularFit("_min_curvature: the throw is undetermined by the hanging wall's data")
+        xt = sl.cho_solve(cf, rhs_t - V.T @ g[:, 0], check_finite=False)
+        return self._back(factor, g - V @ xt[:, None]), xt
+
+    @staticmethod
+    def _superlu(K, rhs, n: int) -> Tuple[np.ndarray, np.ndarray]:
+        """The joint system by SuperLU (M not positive definite)."""
+        from scipy.sparse.linalg import spsolve
         # Throw knots that too few hanging-wall data weigh leave T undetermined
         # (the second differences leave a line free) and the system singular:
         # SuperLU then warns and returns NaN everywhere (one such datum in
@@ -532,14 +632,31 @@ class _CurvatureFit:
         import warnings
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", MatrixRankWarning)
-            x = np.asarray(spsolve(K, rhs2, permc_spec="MMD_ATA"), dtype=np.float64)
+            x = np.asarray(spsolve(K, rhs, permc_spec="MMD_ATA"), dtype=np.float64)
         if not np.isfinite(x).all():
             raise SingularFit("_min_curvature: the throw is undetermined by the hanging wall's data")
-        if energy is not None:
-            xs, xt = x[:frame.n], x[frame.n:]
-            res = B @ xs + H @ xt - (z - z0) / math.sqrt(N)
-            energy.append(float(res @ res + np.sum((R @ xs) ** 2) + np.sum((D2 @ xt) ** 2)))
-        return x[:frame.n] + z0, x[frame.n:]
+        return x[:n], x[n:]
+
+
+def one_blas_thread(func):
+    """Runs ``func`` with BLAS and LAPACK (NumPy's and SciPy's OpenBLAS) on
+    one thread. The fits factor and solve banded systems of a few thousand
+    nodes with a handful of right-hand sides, too small to gain from
+    threads: stress ground 44 derived in 13.5 s with two BLAS threads, 10.4
+    s with one; in two processes at once (pytest's two, an ensemble's
+    workers) each with two threads, 92 s, the threads spinning on each
+    other's cores."""
+    import functools
+
+    @functools.wraps(func)
+    def run(*args, **kwargs):
+        # The limit reaches the libraries loaded when it is set: SciPy's
+        # OpenBLAS loads with scipy.linalg, which the fits import lazily.
+        import scipy.linalg  # noqa: F401
+        from threadpoolctl import threadpool_limits
+        with threadpool_limits(limits=1, user_api="blas"):
+            return func(*args, **kwargs)
+    return run
 
 
 def _second_differences(knots: np.ndarray, lt: float):
@@ -5270,6 +5387,7 @@ def _conformable_points(ds: Dataset, surfs: Sequence[FaultSurface],
     return out
 
 
+@one_blas_thread
 def derive_faults(dataset: Dataset, *, spacing: Optional[float] = None, min_throw: float = 3.0,
                   reach: Optional[float] = None, near: Optional[float] = None, k: int = 12,
                   max_z_dip: Optional[float] = None) -> Dataset:

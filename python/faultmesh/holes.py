@@ -111,7 +111,7 @@ def hole_fill(vertices: np.ndarray, triangles: np.ndarray, data: np.ndarray, rin
     from scipy.spatial import cKDTree
 
     from .dataset import points_in_polygon
-    from .derive import SMOOTHING, GridFrame, _min_curvature
+    from .derive import SMOOTHING, GridFrame, _min_curvature, one_blas_thread
 
     V = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
     T = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
@@ -172,6 +172,6 @@ def hole_fill(vertices: np.ndarray, triangles: np.ndarray, data: np.ndarray, rin
         # relaxes to (dz/du, dz/dw of the frame; e_u is x).
         A = np.c_[np.ones(len(W)), W[:, :2] - W[:, :2].mean(axis=0)]
         slope = np.linalg.lstsq(A, W[:, 2], rcond=None)[0][1:]
-        nodes, _ = _min_curvature(frame, W[:, :2], W[:, 2], SMOOTHING * s, tension, slope)
+        nodes, _ = one_blas_thread(_min_curvature)(frame, W[:, :2], W[:, 2], SMOOTHING * s, tension, slope)
         out.append(np.c_[P, frame.bilinear(P) @ nodes])
     return np.concatenate(out) if out else none
