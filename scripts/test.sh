@@ -21,16 +21,17 @@ if [ ${#missing[@]} -gt 0 ]; then
   fi
 fi
 
-python3 -m pip install --quiet ".[test]"
+# The package's wheel is built with the C++ tests (FAULTMESH_BUILD_TESTS) in
+# build/wheel-tests, so that ctest runs on the same Release build of the
+# library as the Python module: one compile of the library instead of two.
+python3 -m pip install --quiet -C build-dir=build/wheel-tests \
+  -C cmake.define.FAULTMESH_BUILD_TESTS=ON ".[test]"
 # geoh5py pins exact minors of numpy/Pillow/pydantic (pyproject.toml, test
 # extra); it runs with the versions above, so it comes without its pins.
 python3 -m pip install --quiet --no-deps "geoh5py==0.12.2"
 
 echo "== C++ tests (ctest)"
-cmake -S . -B build/ctest -G Ninja -DCMAKE_BUILD_TYPE=Release \
-  -DFAULTMESH_BUILD_TESTS=ON -DFAULTMESH_BUILD_PYTHON=OFF >/dev/null
-cmake --build build/ctest -j2
-ctest --test-dir build/ctest --output-on-failure -j2 --no-tests=error
+ctest --test-dir build/wheel-tests --output-on-failure -j2 --no-tests=error
 
 echo "== C++ tests under AddressSanitizer + UndefinedBehaviorSanitizer (ctest)"
 # A second build of the library and the C++ tests with sanitizers (CMake
