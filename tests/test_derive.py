@@ -277,6 +277,74 @@ def test_min_curvature_grid_reproduces_a_plane_and_follows_data():
     assert np.abs(surf(xy) - wave).max() < 1.0
 
 
+@pytest.mark.parametrize("nu_short", [True, False])
+def test_the_throw_fit_by_its_schur_complement_equals_the_joint_solve(nu_short):
+    """The fading fit solves the throw through the Schur complement of the
+    surface's banded Cholesky factor (derive._CurvatureFit): the same
+    surface and throw as one sparse solve of the joint system (SuperLU), on
+    a grid longer along u and one longer along w (the factor numbers the
+    nodes along the shorter side), at UTM coordinates, with the minimised
+    objective reported as it is."""
+    import math
+
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import spsolve
+
+    rng = np.random.default_rng(17)
+    origin = np.array([512000.0, 4100000.0])
+    lu, lw = (1600.0, 700.0) if not nu_short else (700.0, 1600.0)
+    xy = origin + rng.uniform([-lu / 2, -lw / 2], [lu / 2, lw / 2], size=(300, 2))
+    frame = derive.GridFrame.around(origin, (1.0, 0.0), (-lu / 2, lu / 2), (-lw / 2, lw / 2), 30.0)
+    assert (frame.nu < frame.nw) == nu_short
+    u, w = frame.uw(xy)
+    share = np.where(w > 60.0, rng.uniform(0.3, 1.0, len(u)), 0.0)   # of a throw 25 m + 1 cm/m
+    z = -800.0 + 0.03 * u - 0.01 * w - share * (25.0 + 0.01 * u) + rng.normal(0.0, 0.3, len(u))
+    knots = np.linspace(-lu / 2, lu / 2, 9)
+    fit = derive._CurvatureFit(frame, xy, z, 30.0, 400.0, derive._regional_slope(np.column_stack([xy, z]), frame))
+    energy = []
+    nodes, T = fit.solve(share, knots, 60.0, energy)
+    # The joint system as the fit defines it, solved at once.
+    N = len(z)
+    H = derive._hat(knots, u).multiply(share[:, None]).tocsr() * (-1.0 / math.sqrt(N))
+    D2 = derive._second_differences(knots, 60.0)
+    K = sp.bmat([[fit.M, fit.B.T @ H], [H.T @ fit.B, H.T @ H + D2.T @ D2]]).tocsc()
+    x = spsolve(K, np.r_[fit.rhs, H.T @ ((z - fit.z0) / math.sqrt(N))])
+    # Both solves are accurate to about 1e-9 of these values (hundreds of
+    # metres, throws of tens): 1e-6 m.
+    assert np.allclose(nodes, x[:frame.n] + fit.z0, atol=1e-6)
+    assert np.allclose(T, x[frame.n:], atol=1e-6)
+    assert np.abs(T - (25.0 + 0.01 * knots)).max() < 2.0, T
+    xs, xt = x[:frame.n], x[frame.n:]
+    res = fit.B @ xs + H @ xt - (z - fit.z0) / math.sqrt(N)
+    want = float(res @ res + np.sum((fit.R @ xs) ** 2) + np.sum((D2 @ xt) ** 2))
+    assert energy == [pytest.approx(want, rel=1e-9)]
+
+
+def test_a_throw_the_hanging_walls_data_leave_undetermined_is_a_singular_fit():
+    """Regression (stress ground 69): hanging-wall data that weigh the
+    throw at one place along strike only leave its slope free (the second
+    differences do not fix a line), and none leave it free altogether.
+    SuperLU returned throws of kilometres for such systems instead of its
+    NaN; the Schur complement's pivots name them (derive.SingularFit)."""
+    rng = np.random.default_rng(3)
+    xy = rng.uniform(0.0, 1000.0, size=(200, 2)) + np.array([300000.0, 6200000.0])
+    frame = derive.GridFrame.around(xy.mean(axis=0), (1.0, 0.0), (-520.0, 520.0), (-520.0, 520.0), 40.0)
+    u, w = frame.uw(xy)
+    z = 100.0 + 0.02 * u
+    knots = np.linspace(-520.0, 520.0, 7)
+    fit = derive._CurvatureFit(frame, xy, z, 40.0, 400.0, np.zeros(2))
+    one = np.zeros(len(z))
+    one[np.argmin(np.abs(u - knots[3]))] = 1.0       # a single hanging-wall datum
+    for share in (np.zeros(len(z)), one):
+        with pytest.raises(derive.SingularFit):
+            fit.solve(share, knots, 80.0)
+    # Two hanging-wall data at different places along strike fix the line.
+    two = one.copy()
+    two[np.argmax(u)] = 1.0
+    _, T = fit.solve(two, knots, 80.0)
+    assert np.all(np.isfinite(T)) and np.abs(T).max() < 1.0, T
+
+
 def test_tension_keeps_a_dipping_layer_level_across_a_gap():
     """Regression (found on paper_like(0): 4F2 came out reverse): with
     tension towards flat, each side of a dipping, unfaulted layer relaxes
