@@ -503,7 +503,12 @@ class _CurvatureFit:
                 rhs = rhs + G.T @ (G @ P)
         self.frame, self.xy, self.z, self.z0, self.N = frame, xy, z, z0, N
         self.ell, self.B, self.R, self.M, self.rhs = ell, B, R, M, rhs
-        self._throw_terms: Dict[Tuple[bytes, float], Tuple[Any, Any]] = {}
+        self._throw_terms: Dict[Tuple[bytes, float], Tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    @cached_property
+    def _Bt(self):
+        """B^T in rows (the profiles' C = B^T H)."""
+        return self.B.T.tocsr()
 
     @cached_property
     def _factor(self) -> Optional[Tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -555,18 +560,24 @@ class _CurvatureFit:
         lt = ell if ell_t is None else float(ell_t)
         key = (knots.tobytes(), lt)
         if key not in self._throw_terms:
-            self._throw_terms[key] = (_hat(knots, frame.uw(xy)[0]), _second_differences(knots, lt))
-        hat, D2 = self._throw_terms[key]
-        H = hat.multiply(np.asarray(hanging, dtype=np.float64)[:, None]).tocsr() * (-1.0 / math.sqrt(N))
-        C = B.T @ H
-        E = H.T @ H + D2.T @ D2
-        rhs_t = H.T @ ((z - z0) / math.sqrt(N))
+            # Dense: m knots (tens) by N data; the profiles' products with them
+            # are one sparse-dense product each (the sparse matrices' set-up per
+            # profile was a fifth of ground 69's derivation).
+            D2 = _second_differences(knots, lt).toarray()
+            self._throw_terms[key] = (_hat(knots, frame.uw(xy)[0]).toarray(), D2, D2.T @ D2)
+        hat, D2, DtD = self._throw_terms[key]
+        H = hat * (np.asarray(hanging, dtype=np.float64) * (-1.0 / math.sqrt(N)))[:, None]
+        r = (z - z0) / math.sqrt(N)
+        C = np.asarray(self._Bt @ H)
+        E = H.T @ H + DtD
+        rhs_t = H.T @ r
         if factor is not None:
-            xs, xt = self._schur(factor, C.toarray(), E.toarray(), rhs_t)
+            xs, xt = self._schur(factor, C, E, rhs_t)
         else:
-            xs, xt = self._superlu(sp.bmat([[M, C], [C.T, E]]).tocsc(), np.r_[rhs, rhs_t], frame.n)
+            Cs = sp.csr_matrix(C)
+            xs, xt = self._superlu(sp.bmat([[M, Cs], [Cs.T, sp.csr_matrix(E)]]).tocsc(), np.r_[rhs, rhs_t], frame.n)
         if energy is not None:
-            res = B @ xs + H @ xt - (z - z0) / math.sqrt(N)
+            res = B @ xs + H @ xt - r
             energy.append(float(res @ res + np.sum((R @ xs) ** 2) + np.sum((D2 @ xt) ** 2)))
         return xs + z0, xt
 
