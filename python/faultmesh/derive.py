@@ -434,6 +434,9 @@ class SingularFit(ValueError):
     """A joint fit of :func:`_min_curvature` whose throw the data leave
     undetermined (a singular system)."""
 
+    def __init__(self, message: str = "_min_curvature: the throw is undetermined by the hanging wall's data") -> None:
+        super().__init__(message)   # the message as an argument: the exception pickles
+
 
 def _min_curvature(frame: GridFrame, xy: np.ndarray, z: np.ndarray, ell: float,
                    tension: Optional[float] = None, slope: Optional[np.ndarray] = None,
@@ -621,10 +624,10 @@ class _CurvatureFit:
         try:
             cf = sl.cho_factor(S, lower=True, check_finite=False)
         except np.linalg.LinAlgError:
-            raise SingularFit("_min_curvature: the throw is undetermined by the hanging wall's data") from None
+            raise SingularFit() from None
         piv = np.diag(cf[0]) ** 2
         if not np.all(piv > self._singular_below() * np.diag(E)):
-            raise SingularFit("_min_curvature: the throw is undetermined by the hanging wall's data")
+            raise SingularFit()
         xt = sl.cho_solve(cf, rhs_t - V.T @ g[:, 0], check_finite=False)
         return self._back(factor, g - V @ xt[:, None]), xt
 
@@ -645,7 +648,7 @@ class _CurvatureFit:
             warnings.simplefilter("ignore", MatrixRankWarning)
             x = np.asarray(spsolve(K, rhs, permc_spec="MMD_ATA"), dtype=np.float64)
         if not np.isfinite(x).all():
-            raise SingularFit("_min_curvature: the throw is undetermined by the hanging wall's data")
+            raise SingularFit()
         return x[:n], x[n:]
 
 
