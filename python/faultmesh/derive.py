@@ -493,7 +493,8 @@ class _CurvatureFit:
         area = (frame.nu - 1) * (frame.nw - 1) * frame.h ** 2
         R = frame.roughness() * (ell ** 2 / math.sqrt(area))
         M = B.T @ B + R.T @ R
-        rhs = B.T @ ((z - z0) / math.sqrt(N))
+        r = (z - z0) / math.sqrt(N)   # the data's residual rows, scaled as B
+        rhs = B.T @ r
         if tension is not None:
             G = frame.gradient() * (ell ** 2 / float(tension) / math.sqrt(area))
             M = M + G.T @ G
@@ -504,8 +505,8 @@ class _CurvatureFit:
                 iu, iw = np.meshgrid(np.arange(frame.nu), np.arange(frame.nw), indexing="ij")
                 P = (float(slope[0]) * iu + float(slope[1]) * iw).ravel() * frame.h
                 rhs = rhs + G.T @ (G @ P)
-        self.frame, self.xy, self.z, self.z0, self.N = frame, xy, z, z0, N
-        self.ell, self.B, self.R, self.M, self.rhs = ell, B, R, M, rhs
+        self.frame, self.xy, self.z0, self.N = frame, xy, z0, N
+        self.ell, self.B, self.R, self.M, self.rhs, self.r = ell, B, R, M, rhs, r
         self._throw_terms: Dict[Tuple[bytes, float], Tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     @cached_property
@@ -550,8 +551,8 @@ class _CurvatureFit:
         """:func:`_min_curvature` with this system's data."""
         import scipy.sparse as sp
         from scipy.sparse.linalg import spsolve
-        frame, xy, z, z0, N = self.frame, self.xy, self.z, self.z0, self.N
-        ell, B, R, M, rhs = self.ell, self.B, self.R, self.M, self.rhs
+        frame, xy, z0, N = self.frame, self.xy, self.z0, self.N
+        ell, B, R, M, rhs, r = self.ell, self.B, self.R, self.M, self.rhs, self.r
         factor = self._factor
         if hanging is None:
             if factor is not None:
@@ -570,7 +571,6 @@ class _CurvatureFit:
             self._throw_terms[key] = (_hat(knots, frame.uw(xy)[0]).toarray(), D2, D2.T @ D2)
         hat, D2, DtD = self._throw_terms[key]
         H = hat * (np.asarray(hanging, dtype=np.float64) * (-1.0 / math.sqrt(N)))[:, None]
-        r = (z - z0) / math.sqrt(N)
         C = np.asarray(self._Bt @ H)
         E = H.T @ H + DtD
         rhs_t = H.T @ r
@@ -638,8 +638,11 @@ class _CurvatureFit:
         # Throw knots that too few hanging-wall data weigh leave T undetermined
         # (the second differences leave a line free) and the system singular:
         # SuperLU then warns and returns NaN everywhere (one such datum in
-        # test_carried_ends_of_a_pair_and_a_reverse_fault_keep_apart). Named
-        # here, so that the caller drops that fit. No ridge instead: the fit's
+        # test_carried_ends_of_a_pair_and_a_reverse_fault_keep_apart), named
+        # here, so that the caller drops that fit -- or, where rounding leaves
+        # the pivot short of zero, finite throws of kilometres (what the
+        # Schur path's pivot test catches; this path serves only an M that is
+        # not positive definite). No ridge instead: the fit's
         # roughness terms are 1e-8 of its largest entries, and a ridge of 1e-10
         # of those already took the throw of a block fault down to nothing.
         from scipy.sparse.linalg import MatrixRankWarning
@@ -3913,8 +3916,11 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # samples spread by tens of metres, came out with L5's 7 m).
     for lay, r in res.items():
         for nm, (src, thick, spread, have) in list(r["borrowed"].items()):
-            both = cut[lay] & (cut[src] if src in cut else False)
-            both &= np.isfinite(throw[lay]) & np.isfinite(throw[src] if src in throw else np.nan)
+            # The sections where both layers are cut with a throw (none if
+            # the lending layer has no sections of its own).
+            both = np.zeros_like(cut[lay])
+            if src in cut and src in throw:
+                both = cut[lay] & cut[src] & np.isfinite(throw[lay]) & np.isfinite(throw[src])
             t_lay = float(np.median(throw[lay][both])) if both.any() else math.nan
             t_src = float(np.median(throw[src][both])) if both.any() else math.nan
             agree = abs(t_lay - t_src) <= max(opt.min_throw, BORROW_AGREE * abs(t_src)) and \
