@@ -950,6 +950,61 @@ def test_extension_follows_the_boundary_around_corners():
     assert ((T[:, 0] != T[:, 1]) & (T[:, 1] != T[:, 2]) & (T[:, 2] != T[:, 0])).all()
 
 
+def test_a_loft_sliver_on_the_boundary_is_dropped_from_the_patch():
+    # Regression (stress ground 78, a reverse fault of 116 m at 23 degrees
+    # meeting an oblique side): the minimum-area loft between an end section
+    # and its copy carried onto the boundary made a triangle of three points
+    # on the side (5e-13 m2 by rounding); it did not cover its image once,
+    # and the derivation dropped L2 from its first two sections. Such a
+    # sliver is peeled off the patch; a triangle on the side that joins two
+    # sheets (a strip along the boundary) stays.
+    from faultmesh.faults import _drop_boundary_slivers
+
+    ring = np.array([[684.8, 1068.5], [1500.0, 1000.0], [1400.0, 2300.0], [553.7, 2288.7]])
+    area = faultmesh.StudyArea(ring)
+    side = int(area.locate(np.array([[619.25, 1678.6]]))[0][0])   # the oblique side
+    assert side >= 0
+    on = np.asarray(area.place(np.full(3, side), np.array([300.0, 328.96, 354.3])))
+    inner = np.array([[700.0, 1650.0], [720.0, 1700.0]])
+    V = np.column_stack([np.vstack([on, inner]), [-673.52, -672.16, -670.97, -680.0, -681.0]])
+    # An interior triangle on the long edge (0, 2), the sliver (0, 1, 2).
+    T = np.array([[2, 0, 3], [2, 1, 0], [3, 0, 4]])
+    kept, n = _drop_boundary_slivers(V, T, area)
+    assert n == 1 and kept.tolist() == [[2, 0, 3], [3, 0, 4]]
+    assert len(faultmesh.faults._unfit_triangles(V, kept, area)) == 0
+    # No sliver: unchanged.
+    assert _drop_boundary_slivers(V, T[[0, 2]], area)[1] == 0
+    # The only link between two sheets lies on the side: kept (peeled, the
+    # patch would fall apart).
+    V2 = np.vstack([V, [[*inner[0] + [0.0, -120.0], -690.0]]])
+    T2 = np.array([[2, 0, 3], [2, 1, 0], [0, 1, 5]])
+    assert _drop_boundary_slivers(V2, T2, area)[1] == 0
+
+
+def test_an_end_is_carried_as_far_as_its_cutoffs_need():
+    # The reach of an end's extension is judged at its cutoffs: where the
+    # boundary runs oblique to the fault, the far ends of the sheets hit it
+    # farther away than the band does (stress ground 78: L2's last section
+    # 37-323 m from the boundary at its cutoffs, 450 m at the far end of
+    # its hanging wall, beyond the 439 m allowed: closed by a pinch-out, the
+    # fault's last 300 m left L2 unfaulted and its data there were missed
+    # by the whole throw of 116 m).
+    from faultmesh.faults import _extend
+
+    area = faultmesh.StudyArea(np.array([[0.0, 0.0], [1000.0, 0.0], [0.0, 1000.0]]))
+    d = np.array([1.0, 0.0])
+    # A section along y at x = 500 (the hypotenuse x + y = 1000 ahead):
+    # footwall from y = 50 up to its cutoff at y = 250, hanging-wall cutoff
+    # at y = 200, hanging wall on to y = 400.
+    poly = np.array([[500.0, y, -100.0] for y in (50.0, 100.0, 250.0, 200.0, 300.0, 400.0)])
+    cut = (2, 3)
+    got = _extend(poly, d, area, {}, 400.0, None, cut)
+    assert got is not None and got[1] == "boundary"
+    assert np.allclose(got[0][:, 0] + got[0][:, 1], 1000.0)
+    assert _extend(poly, d, area, {}, 400.0, None) is None          # every point: 450 m
+    assert _extend(poly, d, area, {}, 200.0, None, cut) is None     # the cutoffs: 250-300 m
+
+
 def test_reach_past_the_band_stops_at_the_boundary():
     # A reverse-fault section that ends at the study-area boundary inside the
     # repetition band: the hanging-wall polyline is carried to the boundary,

@@ -872,21 +872,6 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
                         if q is not None:
                             plist[i] = p = q
                     before[p.fault] = fm.patch_outline(p.vertices, p.triangles)
-            if len(plist) == 1 and fm.is_folded(plist[0]) and \
-                    len(fm._unfit_triangles(plist[0].vertices, plist[0].triangles, area)):
-                # A fold whose ends, carried along the layer's trend (the
-                # continuous TIN's change), reach out of its outline, which
-                # the stitcher refuses: its ends carried unchanged instead
-                # (no surface), if that is fit. Stress ground 22 (two
-                # reverse faults): L7's patch of F2, extended onto the
-                # boundary at both ends, did not cover its image once at
-                # one triangle; carried unchanged it does.
-                f = dataset.fault(plist[0].fault)
-                q = fm.layer_patch(f, lay, ends[f.name], area, None, loft_method)
-                if q is not None and len(q.triangles) and \
-                        not len(fm._unfit_triangles(q.vertices, q.triangles, area)):
-                    plist[0] = q
-                    meta.setdefault("carried_unchanged", {}).setdefault(lay, []).append(f.name)
             for p in plist:
                 fault_meta[p.fault]["layers"][lay] = {"ends": p.ends, "abuts": p.abuts,
                                                       "triangles": int(len(p.triangles)), **p.metadata}

@@ -88,8 +88,8 @@ from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ._core import (AabbTree, GeometryError, StudyArea, TouchingRegion, boundary_contours, loft, orient2d,
-                    triangles_not_covered_once, triangles_touching_region)
+from ._core import (AabbTree, GeometryError, StudyArea, TouchingRegion, boundary_contours, boundary_loops, loft,
+                    orient2d, triangles_not_covered_once, triangles_touching_region)
 
 __all__ = ["LayerPatch", "FaultEnds", "EndMove", "EndMoveKind", "fault_ends", "trace_polyline",
            "layer_patch", "fault_surface", "group_patch", "group_order", "is_folded", "band_quads",
@@ -606,13 +606,30 @@ def _pinched(plane: np.ndarray, move: "EndMove") -> Tuple[np.ndarray, np.ndarray
 
 def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
             partners: Dict[str, List[np.ndarray]], max_dist: float,
-            surface_z) -> Optional[Tuple[np.ndarray, str, float]]:
-    """``poly`` carried along ``d`` onto the nearest target (every point must
-    hit it within ``max_dist``): the study-area boundary or a group partner's
-    outline. Returns (new polyline, target name, median distance) or None."""
+            surface_z, cut: Optional[Tuple[int, int]] = None) -> Optional[Tuple[np.ndarray, str, float]]:
+    """``poly`` carried along ``d`` onto the nearest target: the study-area
+    boundary (every point must hit it, its cutoffs ``cut`` -- every point
+    without -- within ``max_dist``) or a group partner's outline (every
+    point within ``max_dist``). Returns (new polyline, target name, median
+    distance) or None.
+
+    On the boundary the reach is the fault's own: where a side runs oblique
+    to the fault, the sheets' far ends hit it farther away than the cutoffs
+    do, by up to the polyline's length times the obliquity, and they only
+    follow the band along the side (stress ground 78: L2's last section
+    37-323 m from the boundary at its cutoffs, 450 m at its hanging wall's
+    far end; closed by a pinch-out instead, the fault's last 300 m left L2
+    unfaulted, data missed by the whole 116 m throw). Not so for a partner:
+    there the distance places the fault's end (``EndMove.shift``) or a
+    reverse fault's pinch-out halfway, and sheets that reach a partner only
+    far beyond the spacing tell of no fault that meets it (sweep seed 31:
+    F2's L1, its cutoffs within reach of F1 but the sheets a kilometre
+    away, pinched out 512 m ahead of its last section: near-fault error
+    0.81 -> 1.01 m)."""
+    at = list(cut) if cut is not None else slice(None)
     best = None
     pts, t = _to_boundary(area, poly, d, surface_z)
-    if np.all(np.isfinite(t)) and float(t.max()) <= max_dist:
+    if np.all(np.isfinite(t)) and float(t[at].max()) <= max_dist:
         best = (pts, "boundary", float(np.median(t)))
     for name, rings in partners.items():
         if not rings:
@@ -1169,6 +1186,58 @@ def _band_core(poly: np.ndarray, cut: Optional[Tuple[int, int]], tight: bool = T
     # on the segments i -> i + 1 and j - 1 -> j.
     pts = np.vstack([at(i, i + 1, lo_band - m)[None, :], poly[i + 1:j], at(j - 1, j, hi_band + m)[None, :]])
     return np.ascontiguousarray(pts), (fw - i, hw - i)
+
+
+def _drop_boundary_slivers(V: np.ndarray, T: np.ndarray, area: StudyArea) -> Tuple[np.ndarray, int]:
+    """``T`` without the slivers a loft leaves on the study-area boundary:
+    triangles whose three vertices lie on one side of it (StudyArea.locate;
+    a corner lies on both its sides) and that have an edge on the patch's
+    outline, peeled until none is left; with the number dropped.
+
+    Such a triangle has no area in XY -- its image is a piece of the side --
+    but rounding gives its orientation a sign (the points are placed on the
+    side, not exactly on its line). The minimum-area loft makes them where
+    an end polyline carried onto a side meets a point of the polyline before
+    it that was on the side already: three consecutive points of the carried
+    one with that point between them (stress ground 78, a reverse fault of
+    116 m at 23 degrees: a sliver of 5e-13 m2 at the hanging-wall sheet's
+    end on the boundary counted twice in the covered-once test, and L2 lost
+    its first two sections). A vertical wall along the boundary is nothing
+    the model has; the outline then runs along the sliver's long edge, on the
+    same side. Kept where the peeling would split the patch or pinch it (a
+    strip that lies along the boundary joins two sheets)."""
+    if len(T) == 0:
+        return T, 0
+    side, s = area.locate(np.ascontiguousarray(V[:, :2]))
+    n = int(area.n_sides)
+    # The second side of a corner (located at the start of its side).
+    other = np.where((side >= 0) & (s == 0.0), (side - 1) % n, side)
+    a, b = side[T], other[T]                                             # (m, 3)
+    shared = np.zeros(len(T), dtype=bool)
+    for c in (a[:, 0], b[:, 0]):
+        shared |= ((c >= 0) & ((a[:, 1] == c) | (b[:, 1] == c)) & ((a[:, 2] == c) | (b[:, 2] == c)))
+    if not shared.any():
+        return T, 0
+    keep = np.ones(len(T), dtype=bool)
+    while True:
+        live = np.flatnonzero(keep)
+        E = np.sort(T[live][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        _, inv, cnt = np.unique(E, axis=0, return_inverse=True, return_counts=True)
+        outline = (cnt[inv.ravel()] == 1).reshape(-1, 3).any(axis=1)
+        peel = live[outline & shared[live]]
+        if not len(peel):
+            break
+        keep[peel] = False
+    if keep.all():
+        return T, 0
+    kept = T[keep]
+    before = boundary_contours(T, n_vertices=len(V))
+    after = boundary_contours(kept, n_vertices=len(V))
+    if (len(kept) == 0 or len(after.pinch_vertices) > len(before.pinch_vertices)
+            or len(boundary_loops(kept, n_vertices=len(V), strict=False))
+            > len(boundary_loops(T, n_vertices=len(V), strict=False))):
+        return T, 0
+    return np.ascontiguousarray(kept), int(len(T) - len(kept))
 
 
 def _fold_area(parts, method: str) -> float:
@@ -2053,7 +2122,8 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
         else:
             if max_extension is None:
                 max_extension = max(1.5 * ends.spacing, 0.25 * math.sqrt(abs(_area(area.ring))))
-            ext = _extend(poly, d, area, partners or {}, max_extension, surface_z)
+            ext = _extend(poly, d, area, partners or {}, max_extension, surface_z,
+                          cuts[0] if end == 0 else cuts[-1])
             if (ext is not None and ext[1] != "boundary" and fault.kind == "reverse"
                     and len(ext[0]) > 1):
                 # A reverse fault's fold (footwall, strip, hanging wall)
@@ -2125,6 +2195,10 @@ def layer_patch(fault, layer: str, ends: FaultEnds, ring, surface_z=None,
     V, T, _, n_cut, n_out = area.clip_surface(V, T, f"fault {fault.name!r} layer {layer!r}")
     if n_cut or n_out:
         meta["clipped_to_study_area"] = {"cut": int(n_cut), "dropped": int(n_out)}
+    T, n_slivers = _drop_boundary_slivers(V, T, area)
+    if n_slivers:
+        V, T = _compact(V, T)
+        meta["boundary_slivers_dropped"] = n_slivers
     return LayerPatch(fault.name, layer, V, T, kinds, abuts, meta, pinch)
 
 
