@@ -981,6 +981,64 @@ def test_a_loft_sliver_on_the_boundary_is_dropped_from_the_patch():
     assert _drop_boundary_slivers(V2, T2, area)[1] == 0
 
 
+@settings(max_examples=100, deadline=None, derandomize=True)
+@given(st.floats(15.0, 75.0), st.sampled_from([(0.0, 0.0), (512345.678, 6123456.789)]),
+       st.floats(5.0, 200.0), st.floats(0.0, 1.0), st.integers(2, 6), st.booleans())
+def test_peeling_boundary_slivers_drops_no_area_and_keeps_the_patch_whole(angle, offset, ahead, band,
+                                                                          per_part, end_on_side):
+    # A reverse fault's end section (footwall, strip back, hanging wall on:
+    # a fold in XY) ahead of an oblique side, its hanging wall's last point
+    # on that side or not, carried along strike onto the side and lofted, as
+    # layer_patch does; at UTM magnitudes too. What the peel drops has all
+    # three vertices on one side and no area beyond the side's rounding;
+    # the patch keeps its outline loops and gets no pinch vertex.
+    from faultmesh import boundary_contours, boundary_loops
+    from faultmesh.faults import _assemble, _drop_boundary_slivers, _to_boundary
+
+    a = np.radians(angle)
+    o = np.asarray(offset)
+    # A triangle whose side from (0, 0) runs at ``angle`` from the x axis;
+    # the strike is along -x (towards that side), the sections along y.
+    ring = o + np.array([[0.0, 0.0], [3000.0, 0.0], [1500.0 / np.tan(a), 1500.0]])
+    area = faultmesh.StudyArea(ring)
+    y0, width = 300.0, 400.0
+    x = (y0 + width + 100.0) / np.tan(a) + ahead   # the section: ahead of the side everywhere
+    fw = np.linspace(y0, y0 + width, per_part + 1)
+    cut_fw, cut_hw = y0 + width, y0 + width - band * width
+    strip = np.linspace(cut_fw, cut_hw, per_part + 1)[1:]
+    hw = np.linspace(cut_hw, y0 + width + 100.0, per_part + 1)[1:]
+    ys = np.concatenate([fw, strip, hw])
+    z = np.concatenate([-100.0 - 0.01 * fw, np.linspace(-105.0, -60.0, per_part), -60.0 - 0.01 * (hw - cut_hw)])
+    poly = np.column_stack([np.full(len(ys), x), ys, z]) + np.r_[o, 0.0]
+    cut = (per_part, 2 * per_part)
+    if end_on_side:
+        # The hanging wall's last point clipped onto the side, as the input
+        # policy leaves a section that reaches the boundary.
+        hit = area.ray_hit(poly[[-1], :2], np.array([[-1.0, 0.0]]))[3]
+        poly[-1, :2] = hit[0]
+    carried, t = _to_boundary(area, poly, np.array([-1.0, 0.0]), None)
+    assert np.isfinite(t).all()
+    V, T = _assemble([carried, poly], "min_area", [cut, cut])
+    V, T, *_ = area.clip_surface(V, T, "test patch")
+    kept, n = _drop_boundary_slivers(V, T, area)
+    event(f"peeled {n}")
+    if n == 0:
+        assert np.array_equal(kept, T)
+        return
+    gone = np.setdiff1d(np.arange(len(T)), [i for i, t_ in enumerate(map(tuple, T)) if t_ in set(map(tuple, kept))])
+    side, _ = area.locate(np.ascontiguousarray(V[T[gone].ravel(), :2]))
+    assert (side >= 0).all()
+    xy = np.ascontiguousarray(V[:, :2])
+    lost = np.abs(faultmesh.orient2d(xy[T[gone, 0]], xy[T[gone, 1]], xy[T[gone, 2]])).sum()
+    # 64 ulps of the coordinates (StudyArea's on-side tolerance) times the
+    # patch's extent bounds a sliver's doubled area.
+    assert lost <= 64 * np.spacing(np.abs(ring).max()) * 4000.0 * len(gone)
+    assert len(boundary_contours(kept, n_vertices=len(V)).pinch_vertices) <= \
+        len(boundary_contours(T, n_vertices=len(V)).pinch_vertices)
+    assert len(boundary_loops(kept, n_vertices=len(V), strict=False)) <= \
+        len(boundary_loops(T, n_vertices=len(V), strict=False))
+
+
 def test_an_end_is_carried_as_far_as_its_cutoffs_need():
     # The reach of an end's extension is judged at its cutoffs: where the
     # boundary runs oblique to the fault, the far ends of the sheets hit it
