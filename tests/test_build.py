@@ -983,17 +983,18 @@ def test_a_loft_sliver_on_the_boundary_is_dropped_from_the_patch():
 
 @settings(max_examples=100, deadline=None, derandomize=True)
 @given(st.floats(15.0, 75.0), st.sampled_from([(0.0, 0.0), (512345.678, 6123456.789)]),
-       st.floats(5.0, 200.0), st.floats(0.0, 1.0), st.integers(2, 6), st.booleans())
+       st.floats(5.0, 200.0), st.floats(0.0, 0.9), st.integers(2, 6), st.booleans())
 def test_peeling_boundary_slivers_drops_no_area_and_keeps_the_patch_whole(angle, offset, ahead, band,
                                                                           per_part, end_on_side):
     # A reverse fault's end section (footwall, strip back, hanging wall on:
     # a fold in XY) ahead of an oblique side, its hanging wall's last point
-    # on that side or not, carried along strike onto the side and lofted, as
-    # layer_patch does; at UTM magnitudes too. What the peel drops has all
+    # on that side or not, carried along strike onto the side and lofted
+    # with the sections after it, as layer_patch does; at UTM magnitudes too. What the peel drops has all
     # three vertices on one side and no area beyond the side's rounding;
-    # the patch keeps its outline loops and gets no pinch vertex.
+    # the patch keeps its outline loops, gets no pinch vertex and is fit for
+    # the stitcher.
     from faultmesh import boundary_contours, boundary_loops
-    from faultmesh.faults import _assemble, _drop_boundary_slivers, _to_boundary
+    from faultmesh.faults import _assemble, _drop_boundary_slivers, _to_boundary, _unfit_triangles
 
     a = np.radians(angle)
     o = np.asarray(offset)
@@ -1011,6 +1012,10 @@ def test_peeling_boundary_slivers_drops_no_area_and_keeps_the_patch_whole(angle,
     z = np.concatenate([-100.0 - 0.01 * fw, np.linspace(-105.0, -60.0, per_part), -60.0 - 0.01 * (hw - cut_hw)])
     poly = np.column_stack([np.full(len(ys), x), ys, z]) + np.r_[o, 0.0]
     cut = (per_part, 2 * per_part)
+    # The patch goes on along strike to a second section and closes at a
+    # tip beyond it (a fan): the first section is then inside the patch.
+    nxt = poly + np.array([300.0, 0.0, -2.0])
+    tip = 0.5 * (nxt[cut[0]] + nxt[cut[1]]) + np.array([150.0, 0.0, 0.0])
     if end_on_side:
         # The hanging wall's last point clipped onto the side, as the input
         # policy leaves a section that reaches the boundary.
@@ -1018,10 +1023,13 @@ def test_peeling_boundary_slivers_drops_no_area_and_keeps_the_patch_whole(angle,
         poly[-1, :2] = hit[0]
     carried, t = _to_boundary(area, poly, np.array([-1.0, 0.0]), None)
     assert np.isfinite(t).all()
-    V, T = _assemble([carried, poly], "min_area", [cut, cut])
+    V, T = _assemble([carried, poly, nxt, tip[None, :]], "min_area", [cut, cut, cut, None])
     V, T, *_ = area.clip_surface(V, T, "test patch")
     kept, n = _drop_boundary_slivers(V, T, area)
     event(f"peeled {n}")
+    event(f"unfit before the peel: {len(_unfit_triangles(V, T, area)) > 0}")
+    # What the stitcher needs of the patch holds after the peel.
+    assert len(_unfit_triangles(V, kept, area)) == 0
     if n == 0:
         assert np.array_equal(kept, T)
         return
