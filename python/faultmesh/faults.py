@@ -88,8 +88,8 @@ from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ._core import (AabbTree, GeometryError, StudyArea, TouchingRegion, boundary_contours, boundary_loops, loft,
-                    orient2d, triangles_not_covered_once, triangles_touching_region)
+from ._core import (AabbTree, GeometryError, StudyArea, TouchingRegion, boundary_contours, boundary_edges,
+                    boundary_loops, loft, orient2d, triangles_not_covered_once, triangles_touching_region)
 
 __all__ = ["LayerPatch", "FaultEnds", "EndMove", "EndMoveKind", "fault_ends", "trace_polyline",
            "layer_patch", "fault_surface", "group_patch", "group_order", "is_folded", "band_quads",
@@ -1219,11 +1219,14 @@ def _drop_boundary_slivers(V: np.ndarray, T: np.ndarray, area: StudyArea) -> Tup
     if not shared.any():
         return T, 0
     keep = np.ones(len(T), dtype=bool)
+    nv = np.int64(len(V))
     while True:
         live = np.flatnonzero(keep)
-        E = np.sort(T[live][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-        _, inv, cnt = np.unique(E, axis=0, return_inverse=True, return_counts=True)
-        outline = (cnt[inv.ravel()] == 1).reshape(-1, 3).any(axis=1)
+        # The triangles with an outline edge (an edge of boundary_edges, in
+        # its own triangle's direction).
+        B = boundary_edges(T[live], n_vertices=len(V))
+        E = T[live][:, [0, 1, 1, 2, 2, 0]].reshape(-1, 3, 2)
+        outline = np.isin(E[:, :, 0] * nv + E[:, :, 1], B[:, 0] * nv + B[:, 1]).any(axis=1)
         peel = live[outline & shared[live]]
         if not len(peel):
             break
