@@ -752,6 +752,36 @@ def test_a_low_angle_reverse_fault_keeps_every_section_and_reaches_the_boundary(
     assert err.mean() <= 0.5 and err.max() <= 0.5 * 116.3, (err.mean(), err.max())
 
 
+def test_a_reverse_fault_oblique_to_the_boundary_carries_its_band_onto_it():
+    """Regression (tests/data/derive/reverse_fault_oblique_to_the_boundary.npz,
+    stress ground 384): six layers cut by a normal fault of 82 m and a
+    reverse one (F2) of 98 m at 23 degrees, which runs out of the study area
+    across a side about 19 degrees off its strike. L5's and L6's last
+    sections lie 110 and 786 m (16 and 783 m) from that side at their two
+    cutoffs, 654 m being the extension's reach: judged at the farther
+    cutoff, both closed by pinch-outs, and the picks of the repeated sheet
+    beyond were missed by the whole throw (L5: 98.2 m). The band meets the
+    side at its nearer cutoff, and the patches are now carried onto it.
+    Left open: L1 and L2 repeat at the area's edge where the derivation has
+    F2 cut no layer above L3 (missed by 98 m there)."""
+    from faultmesh.report import evaluate_surface
+
+    ds, truth = _stress_fixture("reverse_fault_oblique_to_the_boundary.npz")
+    d = derive_faults(ds)
+    model = fm.build_model(d, evaluate=False)
+    model.check()
+    layers = model.metadata["faults"]["F2"]["layers"]
+    for lay in ("L5", "L6"):
+        assert layers[lay]["ends"] == ["extended", "extended"], (lay, layers[lay]["ends"])
+        P = np.asarray(ds.points[lay])
+        z, dist = truth[lay]
+        sel = dist <= 200.0
+        lo, hi, _ = evaluate_surface(model.surfaces[lay], P[sel, 0], P[sel, 1])
+        err = np.minimum(np.abs(lo - z[sel]), np.abs(hi - z[sel]))
+        assert sel.sum() > 50 and np.all(np.isfinite(err))
+        assert err.mean() <= 0.6 and err.max() <= 0.5 * 98.28, (lay, err.mean(), err.max())
+
+
 def test_a_fold_extended_onto_oblique_sides_keeps_its_trend_without_slivers():
     """Regression (tests/data/derive/two_reverse_faults_folds_to_the_boundary.npz,
     a stress generator's ground, seed 22): eight layers cut by two reverse
