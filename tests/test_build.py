@@ -1047,16 +1047,14 @@ def test_peeling_boundary_slivers_drops_no_area_and_keeps_the_patch_whole(angle,
         len(boundary_loops(T, n_vertices=len(V), strict=False))
 
 
-def test_an_end_is_carried_onto_the_boundary_when_its_band_meets_it_within_reach():
-    # The reach of an end's extension onto the boundary is judged where the
-    # layer's band meets it, at the nearer cutoff: where the boundary runs
-    # oblique to the fault, the farther cutoff and the far ends of the
-    # sheets hit it farther away (stress ground 78: L2's last section 37-323
-    # m from the boundary at its cutoffs, 450 m at the far end of its
-    # hanging wall, beyond the 439 m allowed; stress ground 384: L5's 110 and
-    # 786 m at its cutoffs, 654 m allowed). Closed by pinch-outs instead, the
-    # fault's last few hundred metres left the layer unfaulted and its data
-    # there were missed by the whole throw (116 m, 98 m).
+def test_an_end_is_carried_as_far_as_its_cutoffs_need():
+    # The reach of an end's extension onto the boundary is judged at its
+    # cutoffs: where the boundary runs oblique to the fault, the far ends of
+    # the sheets hit it farther away than the band does (stress ground 78:
+    # L2's last section 37-323 m from the boundary at its cutoffs, 450 m at
+    # the far end of its hanging wall, beyond the 439 m allowed: closed by a
+    # pinch-out, the fault's last 300 m left L2 unfaulted and its data there
+    # were missed by the whole throw of 116 m).
     from faultmesh.faults import _extend
 
     area = faultmesh.StudyArea(np.array([[0.0, 0.0], [1000.0, 0.0], [0.0, 1000.0]]))
@@ -1066,11 +1064,11 @@ def test_an_end_is_carried_onto_the_boundary_when_its_band_meets_it_within_reach
     # at y = 200, hanging wall on to y = 400.
     poly = np.array([[500.0, y, -100.0] for y in (50.0, 100.0, 250.0, 200.0, 300.0, 400.0)])
     cut = (2, 3)
-    got = _extend(poly, d, area, {}, 260.0, None, cut)             # the band meets it at 250 m
+    got = _extend(poly, d, area, {}, 320.0, None, cut)             # the cutoffs: 250-300 m
     assert got is not None and got[1] == "boundary"
     assert np.allclose(got[0][:, 0] + got[0][:, 1], 1000.0)
     assert _extend(poly, d, area, {}, 400.0, None) is None          # every point: 450 m
-    assert _extend(poly, d, area, {}, 240.0, None, cut) is None     # the band: 250 m
+    assert _extend(poly, d, area, {}, 280.0, None, cut) is None     # the farther cutoff: 300 m
     # A partner is reached only with every point within reach: its outline
     # oblique ahead (x = 700 + y / 2), the band meets it at 300 m, the
     # hanging wall's far end at 400 m; the study area's side 1500 m away.
