@@ -605,7 +605,8 @@ class _CurvatureFit:
         """M^-1 rhs from L^-1 rhs = y (the factor's order undone)."""
         from scipy.linalg.lapack import dtbtrs
         L, order, _ = factor
-        x, info = dtbtrs(L, y, uplo="L", trans="T")
+        # info is 0: L's diagonal was checked non-zero when it was made.
+        x, _ = dtbtrs(L, y, uplo="L", trans="T")
         out = np.empty(len(order))
         out[order] = x[:, 0]
         return out

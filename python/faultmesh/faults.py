@@ -88,8 +88,8 @@ from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ._core import (AabbTree, GeometryError, StudyArea, TouchingRegion, boundary_contours, boundary_edges,
-                    boundary_loops, loft, orient2d, triangles_not_covered_once, triangles_touching_region)
+from ._core import (AabbTree, GeometryError, StudyArea, TouchingRegion, boundary_contours, boundary_edges, loft,
+                    orient2d, triangles_not_covered_once, triangles_touching_region)
 
 __all__ = ["LayerPatch", "FaultEnds", "EndMove", "EndMoveKind", "fault_ends", "trace_polyline",
            "layer_patch", "fault_surface", "group_patch", "group_order", "is_folded", "band_quads",
@@ -1244,8 +1244,7 @@ def _drop_boundary_slivers(V: np.ndarray, T: np.ndarray, area: StudyArea) -> Tup
     before = boundary_contours(T, n_vertices=len(V))
     after = boundary_contours(kept, n_vertices=len(V))
     if (len(kept) == 0 or len(after.pinch_vertices) > len(before.pinch_vertices)
-            or len(boundary_loops(kept, n_vertices=len(V), strict=False))
-            > len(boundary_loops(T, n_vertices=len(V), strict=False))):
+            or len(after.loops) > len(before.loops)):
         return T, 0
     return np.ascontiguousarray(kept), int(len(T) - len(kept))
 
