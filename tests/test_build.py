@@ -1143,14 +1143,57 @@ def test_cover_once_flags_sheet_ends_reaching_past_the_fold():
     flagged = set(triangles_not_covered_once(V, cut).tolist())
     # Rows after the deletion: 0-1 footwall [0, 1], 2-3 strip, 4-5 hanging wall.
     assert {2, 3} <= flagged and not flagged & {0, 1}
-    # The hanging wall's half over [1, 2] (row 5: centroid x = 5/3) is flagged,
-    # the one whose centroid lies over [2, 3] (row 4: x = 7/3) is not.
-    assert 5 in flagged and 4 not in flagged
+    # The hanging wall's half over [1, 2] (row 5: centroid x = 5/3) is flagged
+    # at its centroid. The other half (row 4: (1, 0), (3, 0), (3, 1)) has its
+    # centroid over [2, 3] (x = 7/3), covered once, but its corner over
+    # [1, 2] is not: the strip's outline edge x = 2 runs through it, and the
+    # exact test flags it too; at the centroids alone it passes.
+    assert 5 in flagged and 4 in flagged
+    at_centroids = set(triangles_not_covered_once(V, cut, outline=False).tolist())
+    assert 5 in at_centroids and 4 not in at_centroids and at_centroids <= flagged
     # Orientation is per piece: the same fold lofted the other way round
     # (every triangle reversed) covers its image once too.
     assert triangles_not_covered_once(V, T[:, ::-1]).size == 0
     with pytest.raises(ValueError, match="out of range"):
         triangles_not_covered_once(V, [[0, 1, 99]])
+
+
+def test_a_fan_reaching_past_its_outline_is_not_covered_once():
+    """Regression (random ground 76 as v2 with section picks, L2 of the
+    F1+F2 group): the group clip left a tip fan around vertex 70 whose
+    triangles reach 0.1 m past the patch outline (its edge 68-72 runs
+    through them), every centroid covered once, so the stitcher laid its gap
+    over them. The exact test flags the fan (0.2 % of the patch's area);
+    the clip's clean-up removes it, and the triangles that then reach past
+    the new outline (16 in all, 1.7 % of the area, round the tip), and
+    leaves a patch that passes."""
+    from faultmesh import faults as fm, triangles_not_covered_once
+
+    z = np.load(Path(__file__).parent / "data" / "patches" / "group_patch_76_L2.npz")
+    V, T = z["vertices"], z["triangles"]
+    area = fm.as_study_area(z["ring"])
+    assert not len(triangles_not_covered_once(V, T, area=area, outline=False))
+    flagged = fm._unfit_triangles(V, T, area)
+    assert set(flagged.tolist()) == {114, 115, 116, 117, 118, 120, 121}
+    assert (T[flagged] == 70).any(axis=1).all()                  # the fan round vertex 70
+    xy = np.ascontiguousarray(V[:, :2])
+    o = faultmesh.orient2d(xy[T[:, 0]], xy[T[:, 1]], xy[T[:, 2]])
+    # Clean-up as the group clip does it (a region far away: nothing clipped).
+    far = [V[:, :2].min(axis=0) - 1000.0 + np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]])]
+    V2, T2 = fm.clip_patch(V, T, far, tol=0.0, area=area)
+    assert len(T2) and not len(fm._unfit_triangles(V2, T2, area))
+    xy2 = np.ascontiguousarray(V2[:, :2])
+    o2 = faultmesh.orient2d(xy2[T2[:, 0]], xy2[T2[:, 1]], xy2[T2[:, 2]])
+    assert 0.98 * np.abs(o).sum() < np.abs(o2).sum() < np.abs(o).sum()
+    # The stitcher refuses the patch as it was, and takes the cleaned one.
+    ring = np.asarray(area.ring)
+    lo, hi = ring.min(axis=0), ring.max(axis=0)
+    g = np.stack(np.meshgrid(np.linspace(lo[0], hi[0], 40), np.linspace(lo[1], hi[1], 40)), -1).reshape(-1, 2)
+    g = g[area.contains(g)]
+    tin = faultmesh.LayerTin("L2", np.column_stack([g, np.full(len(g), -100.0)]), area)
+    with pytest.raises(faultmesh.GeometryError, match="reaches out of the patch outline"):
+        faultmesh.Stitcher.from_layer_tin(tin).stitch(V, T, name="F1+F2")
+    faultmesh.Stitcher.from_layer_tin(tin).stitch(V2, T2, name="F1+F2")
 
 
 def test_repair_stack_is_repair_crossings_pair_after_pair(paper):
@@ -1681,16 +1724,20 @@ def test_bent_closures_from_both_sides_of_a_dropped_trace_do_not_overlap():
     assert max(p[:, 0].max() for p in a) > 290.0 and min(p[:, 0].min() for p in b) < 310.0
 
 
-def test_a_datum_that_would_put_a_centroid_into_a_fold_of_its_patch_is_left_out():
+def test_a_datum_that_would_put_a_centroid_into_a_fold_of_its_patch_is_left_out(monkeypatch):
     """Regression (fuzz case 51074 of tests/test_derive_fuzz.py, a nearly
     vertical reverse fault, with the fading-throw fit trying flat parts
     every 25 m): the L1 patch's triangles 43 and 44 share an edge and fold
     over it (opposite orientation: net cover 0 where they overlap, outside
     the outline), and a third sheet covers each of their centroids once, so
-    the stitcher's test at the centroids passes. Two data placed in
-    triangle 43 made a triangle whose centroid lies in the overlap, and the
-    stitcher refused the patch ("does not cover its XY image once"). Those
-    data are left out; the other 50 are placed and the patch passes."""
+    a test at the centroids passes. Two data placed in triangle 43 made a
+    triangle whose centroid lies in the overlap, and the stitcher refused
+    the patch ("does not cover its XY image once"). The exact cover test
+    (outline edges entering a triangle too) refuses the patch itself, before
+    any datum: the builder then leaves it to the stitcher. With the test at
+    the centroids alone (monkeypatched back), the placement's own guard
+    leaves those two data out; the other 50 are placed and the patch
+    passes."""
     from scipy.spatial import cKDTree
 
     from faultmesh import build, faults as fm
@@ -1700,6 +1747,19 @@ def test_a_datum_that_would_put_a_centroid_into_a_fold_of_its_patch_is_left_out(
     V, T, D = z["vertices"], z["triangles"], z["data"]
     area = fm.as_study_area(z["ring"])
     D = D[np.argsort(D[:, 0], kind="stable")]
+    # The exact test: the fold at 43 and 44 (and 69, 70) reaches past the
+    # outline; the centroids alone do not show it.
+    from faultmesh import triangles_not_covered_once
+    assert {43, 44} <= set(fm._unfit_triangles(V, T, area).tolist())
+    assert not len(triangles_not_covered_once(V, T, area=area, outline=False))
+    V0, T0, n0 = build._honour_layer_data(V, T, D, area)
+    assert n0 == len(insert_patch_data(V, T, D)[2])   # refused already: all placed, left to the stitcher
+    # The placement's guard, under the centroid test the stitcher had.
+    def at_centroids(V, T, area):
+        rows = fm._outline_crossings(V, T, area)
+        return rows if rows.size else triangles_not_covered_once(V, T, area=area, outline=False)
+
+    monkeypatch.setattr(fm, "_unfit_triangles", at_centroids)
     assert not len(fm._unfit_triangles(V, T, area))
     V_all, T_all, placed_all, _ = insert_patch_data(V, T, D)
     assert len(fm._unfit_triangles(V_all, T_all, area))      # all placed: refused

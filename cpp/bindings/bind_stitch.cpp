@@ -324,8 +324,14 @@ local merge with shared vertices. mesh() returns the compacted surface.
 
     m.def(
         "triangles_not_covered_once",
-        [](const py::handle& vertices, const py::handle& triangles) {
+        [](const py::handle& vertices, const py::handle& triangles, const py::object& area_obj, bool outline) {
             const char* fn = "triangles_not_covered_once";
+            const StudyArea* area = nullptr;
+            if (!area_obj.is_none()) {
+                if (!py::isinstance<StudyArea>(area_obj))
+                    throw py::type_error(std::string(fn) + ": area must be a StudyArea or None");
+                area = area_obj.cast<const StudyArea*>();
+            }
             auto V = as_points(vertices, fn, "vertices", 2, 3);
             auto T = as_indices(triangles, fn, "triangles", 3, V.shape(0));
             std::vector<std::int64_t> out;
@@ -333,16 +339,19 @@ local merge with shared vertices. mesh() returns the compacted surface.
                 py::gil_scoped_release release;
                 out = triangles_not_covered_once(V.data(), static_cast<std::size_t>(V.shape(0)),
                                                  static_cast<std::size_t>(V.shape(1)), T.data(),
-                                                 static_cast<std::size_t>(T.shape(0)));
+                                                 static_cast<std::size_t>(T.shape(0)), area, outline);
             }
             return to_numpy(std::move(out));
         },
-        py::arg("vertices"), py::arg("triangles"),
-        "Rows (int64) of the triangles at whose centroid the surface does not cover the XY plane\n"
-        "exactly once with orientation (+1 per containing triangle oriented like its piece, -1\n"
-        "per one oriented against it: a fold's strip). Exact (orient2d, simulation of simplicity\n"
-        "on edges). A folded patch whose sheets end at different places reaches out of its\n"
-        "outline where this is not 1.");
+        py::arg("vertices"), py::arg("triangles"), py::kw_only(), py::arg("area") = py::none(), py::arg("outline") = true,
+        "Rows (int64) of the triangles where the surface does not cover the XY plane exactly once\n"
+        "with orientation (+1 per containing triangle oriented like its piece, -1 per one oriented\n"
+        "against it: a fold's strip): at its centroid the cover is not 1, or an outline edge enters\n"
+        "its open interior (with ``area``, a StudyArea, outline edges along one of its sides are\n"
+        "exempt: a fold carried onto the boundary overlaps itself there; ``outline=False``: the\n"
+        "centroids only). Exact (orient2d,\n"
+        "simulation of simplicity on edges). A folded patch whose sheets end at different places\n"
+        "reaches out of its outline where this is not 1.");
 }
 
 }  // namespace faultmesh::bindings

@@ -5,6 +5,7 @@
 #include <faultmesh/errors.hpp>
 #include <faultmesh/layer_tin.hpp>
 #include <faultmesh/predicates.hpp>
+#include <faultmesh/segments.hpp>
 #include <faultmesh/stitch.hpp>
 #include <faultmesh/study_area.hpp>
 #include <faultmesh/triangle_adjacency.hpp>
@@ -399,10 +400,13 @@ std::vector<std::int64_t> triangles_touching_region(const double* vertices, std:
 
 std::vector<std::int64_t> triangles_not_covered_once(const double* vertices, std::size_t n_vertices,
                                                      std::size_t stride, const std::int64_t* triangles,
-                                                     std::size_t n_triangles) {
+                                                     std::size_t n_triangles, const StudyArea* study,
+                                                     bool outline) {
     const char* fn = "triangles_not_covered_once";
     if (stride != 2 && stride != 3) throw std::invalid_argument(std::string(fn) + ": stride must be 2 or 3");
     if (n_triangles == 0) return {};
+    // Edges are keyed by their two vertex indices in 32 bits each.
+    if (n_vertices > 0xffffffffULL) throw std::invalid_argument(std::string(fn) + ": more than 2^32 - 1 vertices");
     // from_triangles checks the indices and the coordinate range.
     const AabbTree tree = AabbTree::from_triangles(vertices, n_vertices, stride, triangles, n_triangles);
     auto V = [&](std::int64_t i) { return vertices + stride * static_cast<std::size_t>(i); };
@@ -416,25 +420,27 @@ std::vector<std::int64_t> triangles_not_covered_once(const double* vertices, std
         while (parent[x] != x) x = parent[x] = parent[parent[x]];
         return x;
     };
-    {
-        std::unordered_map<std::uint64_t, std::size_t> first;
-        first.reserve(3 * n_triangles);
-        for (std::size_t t = 0; t < n_triangles; ++t)
-            for (int k = 0; k < 3; ++k) {
-                const std::int64_t a = triangles[3 * t + k], b = triangles[3 * t + (k + 1) % 3];
-                const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) ^
-                                          static_cast<std::uint64_t>(std::max(a, b));
-                auto [it, fresh] = first.emplace(key, t);
-                if (!fresh) parent[find(t)] = find(it->second);
+    // Edge -> (first triangle, uses): outline edges are used once.
+    std::unordered_map<std::uint64_t, std::pair<std::size_t, int>> uses;
+    uses.reserve(3 * n_triangles);
+    for (std::size_t t = 0; t < n_triangles; ++t)
+        for (int k = 0; k < 3; ++k) {
+            const std::int64_t a = triangles[3 * t + k], b = triangles[3 * t + (k + 1) % 3];
+            const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) ^
+                                      static_cast<std::uint64_t>(std::max(a, b));
+            auto [it, fresh] = uses.emplace(key, std::make_pair(t, 1));
+            if (!fresh) {
+                parent[find(t)] = find(it->second.first);
+                ++it->second.second;
             }
-    }
+        }
     std::unordered_map<std::size_t, double> area;
     for (std::size_t t = 0; t < n_triangles; ++t)
         area[find(t)] += orient2d(V(triangles[3 * t]), V(triangles[3 * t + 1]), V(triangles[3 * t + 2]));
     std::vector<int> sign(n_triangles);
     for (std::size_t t = 0; t < n_triangles; ++t) sign[t] = area[find(t)] < 0.0 ? -o[t] : o[t];
 
-    std::vector<std::int64_t> out;
+    std::vector<char> bad(n_triangles, 0);
     for (std::size_t t = 0; t < n_triangles; ++t) {
         const double *a = V(triangles[3 * t]), *b = V(triangles[3 * t + 1]), *c = V(triangles[3 * t + 2]);
         const double q[2] = {(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0};
@@ -454,8 +460,34 @@ std::vector<std::int64_t> triangles_not_covered_once(const double* vertices, std
             }
             cover += sign[static_cast<std::size_t>(j)];
         });
-        if (cover != 1) out.push_back(static_cast<std::int64_t>(t));
+        if (cover != 1) bad[t] = 1;
     }
+    // Outline edges entering a triangle's open interior.
+    std::vector<StudyArea::Hit> ha, hb;
+    for (const auto& kv : uses) {
+        if (!outline) break;
+        if (kv.second.second != 1) continue;
+        const std::int64_t ia = static_cast<std::int64_t>(kv.first >> 32);
+        const std::int64_t ib = static_cast<std::int64_t>(kv.first & 0xffffffffULL);
+        const double *p = V(ia), *q = V(ib);
+        if (same_point(p, q)) continue;  // no line: it enters nothing it does not end in
+        if (study != nullptr) {
+            study->locate(p, ha);
+            study->locate(q, hb);
+            if (StudyArea::along_one_side(ha, hb, false)) continue;
+        }
+        const Box2 box{std::min(p[0], q[0]), std::min(p[1], q[1]), std::max(p[0], q[0]), std::max(p[1], q[1])};
+        tree.visit(box, [&](std::int64_t j) {
+            const std::size_t u = static_cast<std::size_t>(j);
+            if (o[u] == 0 || bad[u]) return;
+            const double *a = V(triangles[3 * j]), *b = V(triangles[3 * j + 1]), *c = V(triangles[3 * j + 2]);
+            if (o[u] > 0 ? segment_meets_open_triangle(p, q, a, b, c) : segment_meets_open_triangle(p, q, a, c, b))
+                bad[u] = 1;
+        });
+    }
+    std::vector<std::int64_t> out;
+    for (std::size_t t = 0; t < n_triangles; ++t)
+        if (bad[t]) out.push_back(static_cast<std::int64_t>(t));
     return out;
 }
 

@@ -155,16 +155,14 @@ void outline_patch(const StitcherState& s, StitchJob& job) {
                 // it went into the gap polygon as a gap edge there and the gap
                 // touched itself at the layer vertex of that point (fuzz
                 // test_vertical_fault_carried_onto_the_boundary_builds).
-                const bool point = P(a)[0] == P(b)[0] && P(a)[1] == P(b)[1];
-                if (ia != hits.end() && ib != hits.end())
-                    for (const auto& ha : ia->second)
-                        for (const auto& hb : ib->second)
-                            if (!e.study && ha.side == hb.side && (ha.s != hb.s || point)) {
-                                e.study = true;
-                                e.side = ha.side;
-                                e.sa = ha.s;
-                                e.sb = hb.s;
-                            }
+                StudyArea::Hit ha, hb;
+                if (ia != hits.end() && ib != hits.end() &&
+                    StudyArea::along_one_side(ia->second, ib->second, same_point(P(a), P(b)), &ha, &hb)) {
+                    e.study = true;
+                    e.side = ha.side;
+                    e.sa = ha.s;
+                    e.sb = hb.s;
+                }
                 if (!e.study) check_inside(a, b, ia == hits.end() ? nullptr : &ia->second,
                                            ib == hits.end() ? nullptr : &ib->second);
                 oedges.push_back(e);
@@ -225,17 +223,17 @@ void outline_patch(const StitcherState& s, StitchJob& job) {
     // and the gap would be laid over it (sweep seed 24: "new triangles: edge
     // ... is used by 4 triangles").
     {
-        const std::vector<std::int64_t> bad = triangles_not_covered_once(pv, npv, 3, ptri.data(), npt);
+        const std::vector<std::int64_t> bad = triangles_not_covered_once(pv, npv, 3, ptri.data(), npt, &s.study);
         if (!bad.empty()) {
             const std::int64_t* t = ptri.data() + 3 * bad[0];
             const double *a = P(t[0]), *b = P(t[1]), *c = P(t[2]);
             const double q[2] = {(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0};
             throw GeometryError(
-                fn + ": the patch does not cover its XY image once: at the centroid " + fmt_point(q) +
-                " of patch triangle " + std::to_string(bad[0]) + " (vertices " + std::to_string(t[0]) + ", " +
-                std::to_string(t[1]) + ", " + std::to_string(t[2]) + "), counted with orientation, it " +
-                "does not (" + std::to_string(bad.size()) + " triangle(s)): a folded patch whose sheets "
-                "end at different places reaches out of its outline there");
+                fn + ": the patch does not cover its XY image once, counted with orientation: patch triangle " +
+                std::to_string(bad[0]) + " (vertices " + std::to_string(t[0]) + ", " + std::to_string(t[1]) +
+                ", " + std::to_string(t[2]) + ", centroid " + fmt_point(q) + ") reaches out of the patch outline " +
+                "or lies over another sheet (" + std::to_string(bad.size()) + " triangle(s)): a folded patch " +
+                "whose sheets end at different places");
         }
     }
     job.region = Region(ring_xy.data(), ring_off.data(), ring_off.size() - 1);

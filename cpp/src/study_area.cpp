@@ -165,6 +165,18 @@ bool StudyArea::on_boundary(const double* p) const {
     return !hits.empty();
 }
 
+bool StudyArea::along_one_side(const std::vector<Hit>& ha, const std::vector<Hit>& hb, bool same_xy, Hit* on_a,
+                               Hit* on_b) {
+    for (const Hit& x : ha)
+        for (const Hit& y : hb)
+            if (x.side == y.side && (x.s != y.s || same_xy)) {
+                if (on_a != nullptr) *on_a = x;
+                if (on_b != nullptr) *on_b = y;
+                return true;
+            }
+    return false;
+}
+
 bool StudyArea::inside_strictly(const double* p) const {
     // Parity of the crossings of the ray to +x, exact (orient2d).
     bool in = false;

@@ -831,13 +831,16 @@ def triangle_overlaps_region(a: typing.Any, b: typing.Any, c: typing.Any, rings:
     Exact per-row test (brute force over the ring edges, no tree): does the open triangle
     (a[i], b[i], c[i]) meet the region's interior? Arrays (n, 2|3); returns bool (n,).
     """
-def triangles_not_covered_once(vertices: typing.Any, triangles: typing.Any) -> numpy.typing.NDArray[numpy.int64]:
+def triangles_not_covered_once(vertices: typing.Any, triangles: typing.Any, *, area: typing.Any = None, outline: bool = True) -> numpy.typing.NDArray[numpy.int64]:
     """
-    Rows (int64) of the triangles at whose centroid the surface does not cover the XY plane
-    exactly once with orientation (+1 per containing triangle oriented like its piece, -1
-    per one oriented against it: a fold's strip). Exact (orient2d, simulation of simplicity
-    on edges). A folded patch whose sheets end at different places reaches out of its
-    outline where this is not 1.
+    Rows (int64) of the triangles where the surface does not cover the XY plane exactly once
+    with orientation (+1 per containing triangle oriented like its piece, -1 per one oriented
+    against it: a fold's strip): at its centroid the cover is not 1, or an outline edge enters
+    its open interior (with ``area``, a StudyArea, outline edges along one of its sides are
+    exempt: a fold carried onto the boundary overlaps itself there; ``outline=False``: the
+    centroids only). Exact (orient2d,
+    simulation of simplicity on edges). A folded patch whose sheets end at different places
+    reaches out of its outline where this is not 1.
     """
 def triangles_touching_region(vertices: typing.Any, triangles: typing.Any, rings: typing.Any) -> numpy.typing.NDArray[numpy.int64]:
     """

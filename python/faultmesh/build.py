@@ -489,15 +489,18 @@ def _honour_layer_data(V: np.ndarray, T: np.ndarray, data: np.ndarray,
     by x.
 
     A datum whose new triangles the stitcher would refuse (faults._unfit_triangles
-    with ``area``: its XY image not covered once at their centroids) is left
-    out, and the rest placed again. The stitcher tests a patch at its
-    triangles' centroids; where two sheets of a folded patch overlap with
-    opposite orientation (net cover 0, outside its outline) and a third
-    sheet covers each centroid once, the patch passes, and a datum placed
-    in one of those sheets puts a centroid into the overlap (fuzz case
-    51074 of tests/test_derive_fuzz.py with a finer fading-profile grid:
-    "the patch does not cover its XY image once"). The placement itself
-    keeps each triangle's XY image (patch_data.hpp).
+    with ``area``: its XY image not covered once) is left out, and the rest
+    placed again. The placement keeps each triangle's XY image
+    (patch_data.hpp) up to the rounding of a datum moved onto an edge, so
+    with the exact cover test a patch that passes before passes after; this
+    guard is for that rounding. It was written when the stitcher tested the
+    cover at the centroids only: where two sheets of a folded patch overlap
+    with opposite orientation (net cover 0, outside its outline) and a
+    third sheet covers each centroid once, the patch passed, and a datum
+    placed in one of those sheets put a centroid into the overlap (fuzz
+    case 51074 of tests/test_derive_fuzz.py with a finer fading-profile
+    grid: "the patch does not cover its XY image once"); the exact test
+    refuses such a patch before any datum.
 
     Why: the patch replaces the continuous TIN around the fault, and with it
     every datum there; between two sections the loft is straight and the

@@ -1279,7 +1279,7 @@ def _unfit_triangles(V: np.ndarray, T: np.ndarray, area: Optional[StudyArea]) ->
     derive's patch check (``derive._patch_problem``)."""
     rows = _outline_crossings(V, T, area)
     if rows.size == 0:
-        rows = np.asarray(triangles_not_covered_once(V, T), dtype=np.int64)
+        rows = np.asarray(triangles_not_covered_once(V, T, area=area), dtype=np.int64)
     return rows
 
 
@@ -1679,8 +1679,9 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
             if f > best_fold:
                 best, best_fold = got, f
         # ... among those whose piece covers its image once (exact,
-        # triangles_not_covered_once; its outline runs back along the
-        # folded poly, so that is not tested here), if any does. A piece
+        # triangles_not_covered_once at the centroids; its outline runs
+        # back along the folded poly, so the outline is not tested here),
+        # if any does. A piece
         # that does not makes its run not simple, and _clear_of then drops
         # every variant whose closures follow the cutoff lines: sweep seeds
         # 236 and 244, where the band widens towards the crossing and the
@@ -1699,7 +1700,7 @@ def _closing(poly: np.ndarray, cut: Optional[Tuple[int, int]], nxt: np.ndarray,
         for f, got in first_ways + sorted(found, key=lambda t: -t[0]):
             piece = ordered([(poly, cut)] + ordered(got))
             V, T = _assemble([p for p, _ in piece], method, [c_ for _, c_ in piece])
-            if len(T) and not len(triangles_not_covered_once(V, T)):
+            if len(T) and not len(triangles_not_covered_once(V, T, outline=False)):
                 return got
         if best is not None:
             return best

@@ -18,9 +18,11 @@
 //     simple in XY and no two loops meet, except along the study-area
 //     boundary (where the end trace of a fault that reaches the boundary may
 //     fold back on itself); every vertex of P lies in the study area; P
-//     covers R once, counted with orientation, at every triangle's centroid
-//     (triangles_not_covered_once: a folded patch whose sheets end at
-//     different places reaches out of R, and the gap would cover it again).
+//     covers R once, counted with orientation, everywhere (exactly:
+//     triangles_not_covered_once, at every triangle's centroid and no
+//     outline edge off the study boundary through a triangle; a folded
+//     patch whose sheets end at different places reaches out of R, and the
+//     gap would cover it again).
 //  2. Overlap (find_overlap, two stages): the AABB tree gives the triangles
 //     whose XY box meets R's box (the tree is built once per layer over
 //     blocks of 8 consecutive triangles -- a Delaunay TIN's rows are spatially
@@ -80,6 +82,7 @@
 #include <faultmesh/aabb_tree.hpp>
 #include <faultmesh/ear_clipping.hpp>
 #include <faultmesh/overlap.hpp>
+#include <faultmesh/study_area.hpp>
 
 namespace faultmesh {
 
@@ -244,21 +247,37 @@ private:
     std::unique_ptr<detail::Region> region_;  // null: no rings
 };
 
-// Rows of the triangles at whose centroid the surface does not cover the XY
-// plane exactly once, counted with orientation: a triangle containing the
-// point counts +1 if its XY orientation agrees with its edge-connected
-// piece's (the sign of the piece's signed XY area), -1 if not (the strip of
-// a fold). A folded patch (footwall +, strip -, hanging wall +) covers its
-// image once; one whose sheets end at different places does not: a sheet
-// reaching past the others (cover 0 or -1) lies outside the region its
-// outline encloses, which is the stitcher's region R, and the gap would
-// cover it again; a sheet over a hole of the strip has cover 2. Containment
-// is exact (orient2d); a centroid on the line of another triangle's edge is
-// moved by an infinitesimal (+eps, +eps^2) (simulation of simplicity), so
-// that it lies in exactly one of two triangles sharing an edge. Zero-area
-// triangles count for nothing. stride: 2 or 3 doubles per vertex.
+// Rows of the triangles where the surface does not cover the XY plane
+// exactly once, counted with orientation: a triangle containing a point
+// counts +1 if its XY orientation agrees with its edge-connected piece's (the
+// sign of the piece's signed XY area), -1 if not (the strip of a fold). A
+// folded patch (footwall +, strip -, hanging wall +) covers its image once;
+// one whose sheets end at different places does not: a sheet reaching past
+// the others (cover 0 or -1) lies outside the region its outline encloses,
+// which is the stitcher's region R, and the gap would cover it again; a
+// sheet over a hole of the strip has cover 2. Two exact tests (orient2d):
+//  * at each triangle's centroid, the cover is 1. A centroid on the line of
+//    another triangle's edge is moved by an infinitesimal (+eps, +eps^2)
+//    (simulation of simplicity), so that it lies in exactly one of two
+//    triangles sharing an edge;
+//  * no outline edge (an edge of one triangle) enters a triangle's open
+//    interior. Why this too: the cover counted with orientation equals, off
+//    the edges, the winding number of the outline, so a triangle reaching
+//    past a simple outline has cover 0 or 2 beside the outline edge that
+//    runs through it while its centroid, inside, has 1 (random ground 76 as
+//    v2: a tip fan of the F1+F2 group patch in L2, clipped by its partner,
+//    reached 0.1 m past the outline with every centroid covered once).
+//    With `study`, outline edges that run along one of its sides
+//    (StudyArea::along_one_side) are exempt: there a fold carried onto the
+//    boundary overlaps itself, and its points, placed on the side, are on
+//    either side of its line by rounding. outline = false skips this test
+//    (a piece whose outline is known to fold back on itself: the closures
+//    of faults.py's fold, tested before they are joined to the patch).
+// Zero-area triangles count for nothing and are never reported. stride: 2
+// or 3 doubles per vertex.
 std::vector<std::int64_t> triangles_not_covered_once(const double* vertices, std::size_t n_vertices,
                                                      std::size_t stride, const std::int64_t* triangles,
-                                                     std::size_t n_triangles);
+                                                     std::size_t n_triangles, const StudyArea* study = nullptr,
+                                                     bool outline = true);
 
 }  // namespace faultmesh

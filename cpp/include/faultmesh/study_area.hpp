@@ -78,6 +78,14 @@ public:
     // of its sides, with s snapped to the corner.
     void locate(const double* p, std::vector<Hit>& out) const;
     bool on_boundary(const double* p) const;
+    // Whether an edge whose ends have the hits ha and hb (locate) runs along
+    // one side: both ends on a common side at different positions, or both
+    // one XY point on it (same_xy: a vertical fault's cutoffs carried onto
+    // the boundary, two vertices at one XY). The first such side's hits in
+    // *on_a and *on_b. The stitcher's outline edges "on the study boundary",
+    // which a folded patch carried onto it may overlap.
+    static bool along_one_side(const std::vector<Hit>& ha, const std::vector<Hit>& hb, bool same_xy,
+                               Hit* on_a = nullptr, Hit* on_b = nullptr);
     // Inside or on the boundary.
     bool contains(const double* p) const;
     // The point at arc length s along side (clamped to the side), in out[0..1].
