@@ -498,6 +498,16 @@ def _layer_tip(fault, traces_with, layer: str, end: int, tip: np.ndarray, direct
     return np.array([xy[0], xy[1], z])
 
 
+def _sides_at(area: StudyArea, xy: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(side, s, other) of points ``xy`` (k, 2) on the study-area boundary
+    (:meth:`StudyArea.locate`: side -1 off it, a corner located at the start
+    of its side); ``other`` is the side that ends at a corner, else ``side``:
+    a corner lies on both."""
+    side, s = (np.asarray(a) for a in area.locate(np.ascontiguousarray(xy)))
+    other = np.where((side >= 0) & (s == 0.0), (side - 1) % int(area.n_sides), side)
+    return side, s, other
+
+
 def _to_boundary(area: StudyArea, poly: np.ndarray, d: np.ndarray, surface_z):
     """``poly`` carried along ``d`` onto the study-area boundary: (points
     (k, 3) placed on their sides, t (k,) the distances). A point already on
@@ -671,10 +681,9 @@ def _band_reach(area: StudyArea, pts: np.ndarray, t: np.ndarray, cut: Optional[T
     tc = t[list(cut)]
     if not np.all(np.isfinite(tc)):
         return float("inf")
-    side, s = (np.asarray(a) for a in area.locate(np.ascontiguousarray(pts[list(cut), :2])))
+    side, _, other = _sides_at(area, pts[list(cut), :2])
     n = int(area.n_sides)
-    # A corner is the start of its side (locate) and the end of the one before.
-    on = [{int(k)} | ({(int(k) - 1) % n} if x == 0.0 else set()) for k, x in zip(side, s) if k >= 0]
+    on = [{int(a), int(b)} for a, b in zip(side, other) if a >= 0]
     if len(on) == 2 and any((a - b) % n in (0, 1, n - 1) for a in on[0] for b in on[1]):
         return float(tc.min())
     return float(tc.max())
@@ -1244,10 +1253,7 @@ def _drop_boundary_slivers(V: np.ndarray, T: np.ndarray, area: StudyArea) -> Tup
     strip that lies along the boundary joins two sheets)."""
     if len(T) == 0:
         return T, 0
-    side, s = area.locate(np.ascontiguousarray(V[:, :2]))
-    n = int(area.n_sides)
-    # The second side of a corner (located at the start of its side).
-    other = np.where((side >= 0) & (s == 0.0), (side - 1) % n, side)
+    side, _, other = _sides_at(area, V[:, :2])
     a, b = side[T], other[T]                                             # (m, 3)
     shared = np.zeros(len(T), dtype=bool)
     for c in (a[:, 0], b[:, 0]):
@@ -2407,8 +2413,8 @@ def _along_one_side(xy: np.ndarray, S: np.ndarray, area: StudyArea) -> np.ndarra
     onto the boundary; a corner is on the side that starts and the side that
     ends there): the stitcher's boundary edges (stitch_outline.cpp,
     OutlineEdge.study)."""
-    side, s = (np.asarray(a) for a in area.locate(xy))
-    prev = np.where((side >= 0) & (s == 0.0), (side - 1) % area.n_sides, -1)
+    side, s, other = _sides_at(area, xy)
+    prev = np.where(other != side, other, -1)
     a, b = S[:, 0], S[:, 1]
     point = np.all(xy[a] == xy[b], axis=1)
     return (((side[a] >= 0) & (side[a] == side[b]) & ((s[a] != s[b]) | point))
