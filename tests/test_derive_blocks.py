@@ -752,22 +752,26 @@ def test_a_low_angle_reverse_fault_keeps_every_section_and_reaches_the_boundary(
     assert err.mean() <= 0.5 and err.max() <= 0.5 * 116.3, (err.mean(), err.max())
 
 
+@pytest.mark.xfail(strict=True, reason="open: an end whose band meets an oblique side within reach but whose "
+                   "farther cutoff lies beyond it is closed by a pinch-out (faults._extend)")
 def test_a_reverse_fault_oblique_to_the_boundary_carries_its_band_onto_it():
-    """Regression (tests/data/derive/reverse_fault_oblique_to_the_boundary.npz,
+    """Open reproducer (tests/data/derive/reverse_fault_oblique_to_the_boundary.npz,
     stress ground 384): six layers cut by a normal fault of 82 m and a
     reverse one (F2) of 98 m at 23 degrees, which runs out of the study area
     across a side about 19 degrees off its strike. L5's and L6's last
     sections lie 110 and 786 m (16 and 783 m) from that side at their two
     cutoffs, 654 m being the extension's reach: judged at the farther
-    cutoff, both were closed by pinch-outs, and the picks of the repeated
-    sheet beyond were missed by the whole throw (L5: 98.2 m). The cutoffs
-    land on two sides that share a corner: the band meets the boundary at
-    the nearer one (faults._band_reach), and the ends are carried onto it.
-    (Held-out random ground 167, whose band runs along a notch with its
-    cutoffs on sides a whole side apart, keeps the farther cutoff's test:
-    tests/test_build.py, test_an_end_is_carried_as_far_as_its_band_needs.)
-    Still open: L1 and L2 repeat at the area's edge where the derivation
-    has F2 cut no layer above L3 (missed by 98 m there)."""
+    cutoff (faults._extend), both are closed by pinch-outs, and the picks of
+    the repeated sheet beyond are missed by the whole throw (L5: 98.2 m).
+    Judged at the nearer cutoff they are carried onto the side (L5 16.6 m
+    at most, L6 0.8 m), but so is held-out random ground 167's F1, whose
+    band runs nearly along a side (2 and 1,223 m): 0.80 -> 1.45 m near the
+    faults, and the true cutoffs' model 2.93 -> 3.97 m. Judged at the nearer
+    cutoff only where the two land on one side or round one corner (167's
+    land on the two walls of a notch), stress ground 216's F2 was carried
+    onto F1's patch and did not build. Also open: L1 and
+    L2 repeat at the area's edge where the derivation has F2 cut no layer
+    above L3 (missed by 98 m there)."""
     from faultmesh.report import evaluate_surface
 
     ds, truth = _stress_fixture("reverse_fault_oblique_to_the_boundary.npz")

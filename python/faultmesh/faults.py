@@ -618,20 +618,30 @@ def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
             partners: Dict[str, List[np.ndarray]], max_dist: float,
             surface_z, cut: Optional[Tuple[int, int]] = None) -> Optional[Tuple[np.ndarray, str, float]]:
     """``poly`` carried along ``d`` onto the nearest target: the study-area
-    boundary (every point must hit it, its band -- :func:`_band_reach`,
-    every point without cutoffs ``cut`` -- within ``max_dist``) or a group
-    partner's outline (every point within ``max_dist``). Returns (new
-    polyline, target name, median distance) or None.
+    boundary (every point must hit it, its cutoffs ``cut`` -- every point
+    without -- within ``max_dist``) or a group partner's outline (every
+    point within ``max_dist``). Returns (new polyline, target name, median
+    distance) or None.
 
     On the boundary the reach is the fault's own: where a side runs oblique
-    to the fault, the sheets' far ends hit it farther away than the band
-    does, by up to the polyline's length times the obliquity, and they only
+    to the fault, the sheets' far ends hit it farther away than the cutoffs
+    do, by up to the polyline's length times the obliquity, and they only
     follow the band along the side. Judged at every point, an end short of
     the reach was closed by a pinch-out and the fault's last few hundred
     metres left the layer unfaulted, its data there missed by the whole
     throw (stress ground 78: reverse, 116 m at 23 degrees; L2's last section
     37-323 m from the boundary at its cutoffs, 450 m at its hanging wall's
-    far end, 439 m allowed). Not so for a partner: there the
+    far end, 439 m allowed). Both cutoffs, not the nearer one: where the
+    band runs nearly along the side, the nearer cutoff can lie on it and
+    the farther one a kilometre on (held-out random ground 167: 2 and 1,223
+    m; carried, near-fault error 0.80 -> 1.45 m), though a side about 20
+    degrees off the strike then keeps stress ground 384's L5 a pinch-out
+    (110 and 786 m, 654 m allowed; Open). The nearer one where the two
+    cutoffs land on one side or round one corner was tried too: it carries
+    384 and leaves 167 (its cutoffs land on the two walls of a notch), but
+    stress ground 216's F2 was then carried 465 m to a farther cutoff 1,203
+    m on (764 m allowed), onto F1's patch, and the ground no longer built
+    ("faults too close"). Not so for a partner: there the
     distance places the fault's end (``EndMove.shift``) or a reverse
     fault's pinch-out halfway, and sheets that reach a partner only far
     beyond the spacing tell of no fault that meets it (sweep seed 31: F2's
@@ -640,7 +650,8 @@ def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
     1.01 m)."""
     best = None
     pts, t = _to_boundary(area, poly, d, surface_z)
-    if np.all(np.isfinite(t)) and _band_reach(area, pts, t, cut) <= max_dist:
+    reach = float(t[list(cut)].max()) if cut is not None else float(t.max())
+    if np.all(np.isfinite(t)) and reach <= max_dist:
         best = (pts, "boundary", float(np.median(t)))
     for name, rings in partners.items():
         if not rings:
@@ -653,40 +664,6 @@ def _extend(poly: np.ndarray, d: np.ndarray, area: StudyArea,
             xy = poly[:, :2] + t[:, None] * d[None, :]
             best = (np.column_stack([xy, _shift_z(poly, xy, surface_z)]), name, med)
     return best
-
-
-def _band_reach(area: StudyArea, pts: np.ndarray, t: np.ndarray, cut: Optional[Tuple[int, int]]) -> float:
-    """How far an end polyline carried onto the boundary (its points ``pts``
-    there, each ``t`` away, cutoffs ``cut``) travels to reach it: where the
-    band meets it. Its two cutoffs land on one side or on two sides that
-    share a corner: the band meets the boundary there, at the nearer
-    cutoff's distance, and the farther cutoff follows along the side (the
-    band crosses a side oblique to it: stress ground 384, a reverse fault
-    of 98 m leaving across a side 18-29 degrees off its band, the cutoffs
-    16-110 and 567-786 m from it, 654 m allowed; closed by a pinch-out at
-    the last section, the repeated sheet's picks beyond were missed by the
-    whole throw). Landing on sides farther apart round the boundary, the
-    band runs along the area's outline past a whole side, not across it:
-    then the farther cutoff's distance (held-out random ground 167: the
-    band 2.3 degrees off a notch's side, its cutoffs 2 and 1,223 m from
-    the two sides of the notch, 598 m allowed; carried, it ran 1.2 km along
-    the notch where the truth has no offset, and the error near the fault
-    went 0.80 -> 1.45 m). Without cutoffs, every point's (the farthest).
-    The sides decide, not the angle: a band a few degrees off the two
-    sides of one corner is carried at its nearer cutoff too (167's true
-    cutoffs, L2: 7.6 degrees, 362 and 703 m, 673 m allowed; carried, that
-    model's error near the faults went 2.93 -> 3.97 m)."""
-    if cut is None:
-        return float(t.max())
-    tc = t[list(cut)]
-    if not np.all(np.isfinite(tc)):
-        return float("inf")
-    side, _, other = _sides_at(area, pts[list(cut), :2])
-    n = int(area.n_sides)
-    on = [{int(a), int(b)} for a, b in zip(side, other) if a >= 0]
-    if len(on) == 2 and any((a - b) % n in (0, 1, n - 1) for a in on[0] for b in on[1]):
-        return float(tc.min())
-    return float(tc.max())
 
 
 def _resample(p: np.ndarray, m: int) -> np.ndarray:
