@@ -1123,6 +1123,44 @@ def test_layer_tin_inserts_from_several_threads():
     assert np.all(orient_rows(V, T) > 0)
 
 
+@pytest.mark.fuzz
+@fuzz_settings(300)
+@given(data=st.data(), offset=st.sampled_from([0.0, 5.5e5, 7.8e6]), with_area=st.booleans(),
+       hostile=st.sampled_from([None, None, None, "nan", "far", "index", "area"]))
+def test_fuzz_triangles_not_covered_once(data, offset, with_area, hostile):
+    """Random triangles on few points (duplicates, collinear triples, zero
+    areas, folds: any orientation), at UTM offsets too, with or without a
+    study area that some of them touch: the rows returned are valid, sorted,
+    unique, and a superset of the centroid test's;
+    hostile input (NaN, beyond the coordinate limit, an index out of range,
+    an area that is no StudyArea) is a ValueError (TypeError for the area)
+    naming the function."""
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    n = data.draw(st.integers(3, 9))
+    V = np.c_[rng.integers(0, 6, (n, 2)).astype(float) * 10.0 + offset, np.zeros(n)]
+    m = data.draw(st.integers(1, 12))
+    T = rng.integers(0, n, (m, 3))
+    area = fm.StudyArea(np.array([[0.0, 0.0], [50.0, 0.0], [50.0, 50.0], [0.0, 50.0]]) + offset) \
+        if with_area else None
+    if hostile in ("nan", "far"):   # a vertex a triangle uses
+        V[T[rng.integers(m), rng.integers(3)], rng.integers(2)] = np.nan if hostile == "nan" else 1e61
+    elif hostile == "index":
+        T[rng.integers(m), rng.integers(3)] = n + 3
+    elif hostile == "area":
+        with pytest.raises(TypeError, match="triangles_not_covered_once: area must be a StudyArea"):
+            fm.triangles_not_covered_once(V, T, area=V)
+        return
+    r, err = call(["triangles_not_covered_once"], ["vertices", "triangles"],
+                  fm.triangles_not_covered_once, V, T, area=area)
+    if err is not None:
+        assert hostile is not None, err
+        return
+    assert hostile is None, "hostile input was accepted"
+    assert r.dtype == np.int64 and np.array_equal(r, np.unique(r)) and (len(r) == 0 or 0 <= r.min() <= r.max() < m)
+    at_centroids = fm.triangles_not_covered_once(V, T, area=area, outline=False)
+    assert set(at_centroids.tolist()) <= set(r.tolist())
+
+
 # ------------------------------------------------------------ patch data
 @pytest.mark.fuzz
 @fuzz_settings(150)

@@ -407,9 +407,23 @@ std::vector<std::int64_t> triangles_not_covered_once(const double* vertices, std
     if (n_triangles == 0) return {};
     // Edges are keyed by their two vertex indices in 32 bits each.
     if (n_vertices > 0xffffffffULL) throw std::invalid_argument(std::string(fn) + ": more than 2^32 - 1 vertices");
-    // from_triangles checks the indices and the coordinate range.
-    const AabbTree tree = AabbTree::from_triangles(vertices, n_vertices, stride, triangles, n_triangles);
+    // The indices and the coordinates of the vertices the triangles use,
+    // checked here to name this function (from_triangles checks them too).
     auto V = [&](std::int64_t i) { return vertices + stride * static_cast<std::size_t>(i); };
+    for (std::size_t t = 0; t < n_triangles; ++t)
+        for (int k = 0; k < 3; ++k) {
+            const std::int64_t v = triangles[3 * t + k];
+            if (v < 0 || static_cast<std::size_t>(v) >= n_vertices)
+                throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(t) +
+                                            " has vertex index " + std::to_string(v) + " outside [0, " +
+                                            std::to_string(n_vertices) + ")");
+            for (int c = 0; c < 2; ++c)
+                if (!coordinate_in_range(V(v)[c]))
+                    throw_coordinate_error(fn, "vertices row " + std::to_string(v) + " (used by triangles row " +
+                                                   std::to_string(t) + ")",
+                                           c, V(v)[c]);
+        }
+    const AabbTree tree = AabbTree::from_triangles(vertices, n_vertices, stride, triangles, n_triangles);
     std::vector<int> o(n_triangles);
     for (std::size_t t = 0; t < n_triangles; ++t)
         o[t] = orient2d_sign(V(triangles[3 * t]), V(triangles[3 * t + 1]), V(triangles[3 * t + 2]));

@@ -273,8 +273,9 @@ private:
 //    either side of its line by rounding. outline = false skips this test
 //    (a piece whose outline is known to fold back on itself: the closures
 //    of faults.py's fold, tested before they are joined to the patch).
-// Zero-area triangles count for nothing and are never reported. stride: 2
-// or 3 doubles per vertex.
+// Zero-area triangles add nothing to the cover and no outline edge enters
+// them; one whose centroid is not covered once is reported like any other.
+// stride: 2 or 3 doubles per vertex.
 std::vector<std::int64_t> triangles_not_covered_once(const double* vertices, std::size_t n_vertices,
                                                      std::size_t stride, const std::int64_t* triangles,
                                                      std::size_t n_triangles, const StudyArea* study = nullptr,
