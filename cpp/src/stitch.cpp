@@ -361,13 +361,12 @@ TouchingRegion::~TouchingRegion() = default;
 TouchingRegion::TouchingRegion(TouchingRegion&&) noexcept = default;
 TouchingRegion& TouchingRegion::operator=(TouchingRegion&&) noexcept = default;
 
-std::vector<std::int64_t> TouchingRegion::touching(const double* vertices, std::size_t n_vertices,
-                                                   std::size_t stride, const std::int64_t* triangles,
-                                                   std::size_t n_triangles) const {
-    const char* fn = "triangles_touching_region";
-    if (stride != 2 && stride != 3) throw std::invalid_argument(std::string(fn) + ": stride must be 2 or 3");
-    std::vector<std::int64_t> out;
-    if (!region_) return out;
+namespace {
+// Every index of the triangles within [0, n_vertices) and the x, y of every
+// vertex they use within the coordinate limit of predicates.hpp; errors name
+// `fn`, the triangles row and the vertices row.
+void check_used_vertices(const char* fn, const double* vertices, std::size_t n_vertices, std::size_t stride,
+                         const std::int64_t* triangles, std::size_t n_triangles) {
     for (std::size_t t = 0; t < n_triangles; ++t) {
         const std::int64_t* r = triangles + 3 * t;
         for (int k = 0; k < 3; ++k)
@@ -375,14 +374,31 @@ std::vector<std::int64_t> TouchingRegion::touching(const double* vertices, std::
                 throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(t) +
                                             " has vertex index " + std::to_string(r[k]) + " outside [0, " +
                                             std::to_string(n_vertices) + ")");
+        for (int k = 0; k < 3; ++k) {
+            const double* p = vertices + stride * static_cast<std::size_t>(r[k]);
+            for (int c = 0; c < 2; ++c)
+                if (!coordinate_in_range(p[c]))
+                    throw_coordinate_error(fn, "vertices row " + std::to_string(r[k]) + " (used by triangles row " +
+                                                   std::to_string(t) + ")",
+                                           c, p[c]);
+        }
+    }
+}
+}  // namespace
+
+std::vector<std::int64_t> TouchingRegion::touching(const double* vertices, std::size_t n_vertices,
+                                                   std::size_t stride, const std::int64_t* triangles,
+                                                   std::size_t n_triangles) const {
+    const char* fn = "triangles_touching_region";
+    if (stride != 2 && stride != 3) throw std::invalid_argument(std::string(fn) + ": stride must be 2 or 3");
+    std::vector<std::int64_t> out;
+    if (!region_) return out;
+    check_used_vertices(fn, vertices, n_vertices, stride, triangles, n_triangles);
+    for (std::size_t t = 0; t < n_triangles; ++t) {
+        const std::int64_t* r = triangles + 3 * t;
         const double* a = vertices + stride * static_cast<std::size_t>(r[0]);
         const double* b = vertices + stride * static_cast<std::size_t>(r[1]);
         const double* c = vertices + stride * static_cast<std::size_t>(r[2]);
-        for (const double* p : {a, b, c})
-            for (int k = 0; k < 2; ++k)
-                if (!coordinate_in_range(p[k]))
-                    throw_coordinate_error(fn, "vertices row " + std::to_string((p - vertices) / static_cast<std::ptrdiff_t>(stride)) +
-                                               " (used by triangles row " + std::to_string(t) + ")", k, p[k]);
         if (region_->meets_closed_triangle(a, b, c)) out.push_back(static_cast<std::int64_t>(t));
     }
     return out;
@@ -407,22 +423,10 @@ std::vector<std::int64_t> triangles_not_covered_once(const double* vertices, std
     if (n_triangles == 0) return {};
     // Edges are keyed by their two vertex indices in 32 bits each.
     if (n_vertices > 0xffffffffULL) throw std::invalid_argument(std::string(fn) + ": more than 2^32 - 1 vertices");
-    // The indices and the coordinates of the vertices the triangles use,
-    // checked here to name this function (from_triangles checks them too).
+    // Checked here to name this function and its arguments (from_triangles
+    // checks the same, naming itself).
+    check_used_vertices(fn, vertices, n_vertices, stride, triangles, n_triangles);
     auto V = [&](std::int64_t i) { return vertices + stride * static_cast<std::size_t>(i); };
-    for (std::size_t t = 0; t < n_triangles; ++t)
-        for (int k = 0; k < 3; ++k) {
-            const std::int64_t v = triangles[3 * t + k];
-            if (v < 0 || static_cast<std::size_t>(v) >= n_vertices)
-                throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(t) +
-                                            " has vertex index " + std::to_string(v) + " outside [0, " +
-                                            std::to_string(n_vertices) + ")");
-            for (int c = 0; c < 2; ++c)
-                if (!coordinate_in_range(V(v)[c]))
-                    throw_coordinate_error(fn, "vertices row " + std::to_string(v) + " (used by triangles row " +
-                                                   std::to_string(t) + ")",
-                                           c, V(v)[c]);
-        }
     const AabbTree tree = AabbTree::from_triangles(vertices, n_vertices, stride, triangles, n_triangles);
     std::vector<int> o(n_triangles);
     for (std::size_t t = 0; t < n_triangles; ++t)
@@ -477,27 +481,28 @@ std::vector<std::int64_t> triangles_not_covered_once(const double* vertices, std
         if (cover != 1) bad[t] = 1;
     }
     // Outline edges entering a triangle's open interior.
-    std::vector<StudyArea::Hit> ha, hb;
-    for (const auto& kv : uses) {
-        if (!outline) break;
-        if (kv.second.second != 1) continue;
-        const std::int64_t ia = static_cast<std::int64_t>(kv.first >> 32);
-        const std::int64_t ib = static_cast<std::int64_t>(kv.first & 0xffffffffULL);
-        const double *p = V(ia), *q = V(ib);
-        if (same_point(p, q)) continue;  // no line: it enters nothing it does not end in
-        if (study != nullptr) {
-            study->locate(p, ha);
-            study->locate(q, hb);
-            if (StudyArea::along_one_side(ha, hb, false)) continue;
+    if (outline) {
+        std::vector<StudyArea::Hit> ha, hb;
+        for (const auto& kv : uses) {
+            if (kv.second.second != 1) continue;
+            const std::int64_t ia = static_cast<std::int64_t>(kv.first >> 32);
+            const std::int64_t ib = static_cast<std::int64_t>(kv.first & 0xffffffffULL);
+            const double *p = V(ia), *q = V(ib);
+            if (same_point(p, q)) continue;  // no line: it enters nothing it does not end in
+            if (study != nullptr) {
+                study->locate(p, ha);
+                study->locate(q, hb);
+                if (StudyArea::along_one_side(ha, hb, false)) continue;
+            }
+            const Box2 box{std::min(p[0], q[0]), std::min(p[1], q[1]), std::max(p[0], q[0]), std::max(p[1], q[1])};
+            tree.visit(box, [&](std::int64_t j) {
+                const std::size_t u = static_cast<std::size_t>(j);
+                if (o[u] == 0 || bad[u]) return;
+                const double *a = V(triangles[3 * j]), *b = V(triangles[3 * j + 1]), *c = V(triangles[3 * j + 2]);
+                if (o[u] > 0 ? segment_meets_open_triangle(p, q, a, b, c) : segment_meets_open_triangle(p, q, a, c, b))
+                    bad[u] = 1;
+            });
         }
-        const Box2 box{std::min(p[0], q[0]), std::min(p[1], q[1]), std::max(p[0], q[0]), std::max(p[1], q[1])};
-        tree.visit(box, [&](std::int64_t j) {
-            const std::size_t u = static_cast<std::size_t>(j);
-            if (o[u] == 0 || bad[u]) return;
-            const double *a = V(triangles[3 * j]), *b = V(triangles[3 * j + 1]), *c = V(triangles[3 * j + 2]);
-            if (o[u] > 0 ? segment_meets_open_triangle(p, q, a, b, c) : segment_meets_open_triangle(p, q, a, c, b))
-                bad[u] = 1;
-        });
     }
     std::vector<std::int64_t> out;
     for (std::size_t t = 0; t < n_triangles; ++t)
