@@ -92,18 +92,19 @@ void outline_patch(const StitcherState& s, StitchJob& job) {
                                 " lies outside the study area");
 
     // Outline edges, classified: on the study boundary (same side) or not.
-    using OEdge = StitchJob::OutlineEdge;
-    std::vector<OEdge>& oedges = job.outline;
+    std::unordered_map<std::int64_t, std::vector<StudyArea::Hit>> hits;
+    job.outline = classify_outline(&s.study, pv, 3, bc.loops, &hits);
+    const std::vector<OutlineEdge>& oedges = job.outline;
     std::vector<double> ring_xy;
     std::vector<std::int64_t> ring_off{0};
+    for (const auto& loop : bc.loops) {
+        for (std::int64_t vtx : loop) {
+            ring_xy.push_back(P(vtx)[0]);
+            ring_xy.push_back(P(vtx)[1]);
+        }
+        ring_off.push_back(static_cast<std::int64_t>(ring_xy.size() / 2));
+    }
     {
-        std::unordered_map<std::int64_t, std::vector<StudyArea::Hit>> hits;
-        std::vector<StudyArea::Hit> tmp;
-        for (const auto& loop : bc.loops)
-            for (std::int64_t vtx : loop) {
-                s.study.locate(P(vtx), tmp);
-                if (!tmp.empty()) hits[vtx] = tmp;
-            }
         // The patch must stay in the study area: its vertices do (above),
         // so an outline edge leaves the area iff a side crosses it properly
         // (exact orientations). A side an end point lies on (within the
@@ -112,21 +113,22 @@ void outline_patch(const StitcherState& s, StitchJob& job) {
         // between two traces -- across the notch of a non-convex study area
         // (sweep seeds 418, 454) -- and the gap polygon would cross itself.
         std::vector<std::size_t> cand;
-        auto check_inside = [&](std::int64_t a, std::int64_t b, const std::vector<StudyArea::Hit>* ha,
-                                const std::vector<StudyArea::Hit>* hb) {
-            const double *pa = P(a), *pb = P(b);
+        auto on_side = [&](std::int64_t v, std::size_t k) {
+            auto h = hits.find(v);
+            return h != hits.end() && std::any_of(h->second.begin(), h->second.end(),
+                                                  [&](const StudyArea::Hit& x) { return x.side == k; });
+        };
+        for (const OutlineEdge& e : oedges) {
+            if (e.study) continue;
+            const double *pa = P(e.a), *pb = P(e.b);
             const double mid[2] = {0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1])};
             // A filter only (box distance): the half length, with a margin
             // for the rounding of the midpoint.
             const double r = 0.5 * std::hypot(pb[0] - pa[0], pb[1] - pa[1]) * (1.0 + 1e-9) +
                              s.study.tolerance();
             s.study.sides_near(mid, r, cand);
-            auto on_side = [](const std::vector<StudyArea::Hit>* h, std::size_t k) {
-                return h != nullptr && std::any_of(h->begin(), h->end(),
-                                                   [&](const StudyArea::Hit& x) { return x.side == k; });
-            };
             for (std::size_t k : cand) {
-                if (on_side(ha, k) || on_side(hb, k)) continue;
+                if (on_side(e.a, k) || on_side(e.b, k)) continue;
                 const double *c = s.study.corner(k), *d = s.study.corner(k + 1);
                 const double o1 = orient2d(pa, pb, c), o2 = orient2d(pa, pb, d);
                 const double o3 = orient2d(c, d, pa), o4 = orient2d(c, d, pb);
@@ -141,80 +143,18 @@ void outline_patch(const StitcherState& s, StitchJob& job) {
                         "clip the patch first (clip_to_study_area, StudyArea.clip_surface in Python) "
                         "as the builder does)");
             }
-        };
-        for (const auto& loop : bc.loops) {
-            for (std::size_t i = 0; i < loop.size(); ++i) {
-                const std::int64_t a = loop[i], b = loop[(i + 1) % loop.size()];
-                OEdge e{a, b, false, 0, 0.0, 0.0};
-                auto ia = hits.find(a), ib = hits.find(b);
-                // An edge of length 0 in XY at a point of the study boundary
-                // (a vertical fault's footwall and hanging-wall cutoffs
-                // carried onto the boundary: two vertices at one XY, their
-                // elevations apart by the throw) runs along its side too, from
-                // that point to itself: classified as an edge inside the area,
-                // it went into the gap polygon as a gap edge there and the gap
-                // touched itself at the layer vertex of that point (fuzz
-                // test_vertical_fault_carried_onto_the_boundary_builds).
-                StudyArea::Hit ha, hb;
-                if (ia != hits.end() && ib != hits.end() &&
-                    StudyArea::along_one_side(ia->second, ib->second, same_point(P(a), P(b)), &ha, &hb)) {
-                    e.study = true;
-                    e.side = ha.side;
-                    e.sa = ha.s;
-                    e.sb = hb.s;
-                }
-                if (!e.study) check_inside(a, b, ia == hits.end() ? nullptr : &ia->second,
-                                           ib == hits.end() ? nullptr : &ib->second);
-                oedges.push_back(e);
-                ring_xy.push_back(P(a)[0]);
-                ring_xy.push_back(P(a)[1]);
-            }
-            ring_off.push_back(static_cast<std::int64_t>(ring_xy.size() / 2));
         }
     }
     // Simplicity of the outline away from the study boundary.
     {
-        std::vector<double> exy(pv, pv + 3 * npv);
-        std::vector<std::int64_t> seg;
-        for (const auto& e : oedges) {
-            seg.push_back(e.a);
-            seg.push_back(e.b);
-        }
-        AabbTree et = AabbTree::from_segments(exy.data(), npv, 3, seg.data(), oedges.size());
-        std::vector<std::int64_t> hitsv;
-        for (std::size_t i = 0; i < oedges.size(); ++i) {
-            const OEdge& e = oedges[i];
-            hitsv.clear();
-            et.query(et.box(i), hitsv);
-            for (std::int64_t j64 : hitsv) {
-                const std::size_t j = static_cast<std::size_t>(j64);
-                if (j <= i) continue;
-                const OEdge& f = oedges[j];
-                if (e.study && f.study) continue;
-                const double *a = P(e.a), *b = P(e.b), *c = P(f.a), *d = P(f.b);
-                std::int64_t shared = -1, ea = -1, fb = -1;
-                if (e.a == f.a) shared = e.a, ea = e.b, fb = f.b;
-                else if (e.a == f.b) shared = e.a, ea = e.b, fb = f.a;
-                else if (e.b == f.a) shared = e.b, ea = e.a, fb = f.b;
-                else if (e.b == f.b) shared = e.b, ea = e.a, fb = f.a;
-                bool bad;
-                if (shared >= 0) {
-                    // Adjacent edges may only share their common vertex: bad
-                    // if they fold back onto each other (collinear, same side).
-                    const double *o = P(shared), *p = P(ea), *q = P(fb);
-                    bad = orient2d(o, p, q) == 0.0 &&
-                          (p[0] - o[0]) * (q[0] - o[0]) + (p[1] - o[1]) * (q[1] - o[1]) > 0.0;
-                } else {
-                    bad = segments_meet(a, b, c, d);
-                }
-                if (bad)
-                    throw GeometryError(
-                        fn + ": the patch outline is not simple in XY: edges (" + std::to_string(e.a) +
-                        ", " + std::to_string(e.b) + ") and (" + std::to_string(f.a) + ", " +
-                        std::to_string(f.b) + ") meet near " + fmt_point(a) +
-                        " (a reverse fault must end at a pinch-out tip, a zero-throw trace or the "
-                        "study-area boundary)");
-            }
+        const auto meet = meeting_outline_edges(pv, npv, 3, oedges, true);
+        if (!meet.empty()) {
+            const OutlineEdge &e = oedges[meet[0].first], &f = oedges[meet[0].second];
+            throw GeometryError(fn + ": the patch outline is not simple in XY: edges (" + std::to_string(e.a) +
+                                ", " + std::to_string(e.b) + ") and (" + std::to_string(f.a) + ", " +
+                                std::to_string(f.b) + ") meet near " + fmt_point(P(e.a)) +
+                                " (a reverse fault must end at a pinch-out tip, a zero-throw trace or the "
+                                "study-area boundary)");
         }
     }
     // The region R is what the outline encloses: the patch must cover it
@@ -237,6 +177,96 @@ void outline_patch(const StitcherState& s, StitchJob& job) {
         }
     }
     job.region = Region(ring_xy.data(), ring_off.data(), ring_off.size() - 1);
+}
+
+std::vector<OutlineEdge> classify_outline(const StudyArea* study, const double* vertices, std::size_t stride,
+                                          const std::vector<std::vector<std::int64_t>>& loops,
+                                          std::unordered_map<std::int64_t, std::vector<StudyArea::Hit>>* hits) {
+    auto P = [&](std::int64_t i) { return vertices + stride * static_cast<std::size_t>(i); };
+    std::unordered_map<std::int64_t, std::vector<StudyArea::Hit>> own;
+    auto& at = hits != nullptr ? *hits : own;
+    std::vector<OutlineEdge> out;
+    std::vector<StudyArea::Hit> tmp;
+    if (study != nullptr)
+        for (const auto& loop : loops)
+            for (std::int64_t vtx : loop) {
+                study->locate(P(vtx), tmp);
+                if (!tmp.empty()) at[vtx] = tmp;
+            }
+    for (const auto& loop : loops)
+        for (std::size_t i = 0; i < loop.size(); ++i) {
+            const std::int64_t a = loop[i], b = loop[(i + 1) % loop.size()];
+            OutlineEdge e{a, b, false, 0, 0.0, 0.0};
+            auto ia = at.find(a), ib = at.find(b);
+            // An edge of length 0 in XY at a point of the study boundary (a
+            // vertical fault's footwall and hanging-wall cutoffs carried onto
+            // the boundary: two vertices at one XY, their elevations apart by
+            // the throw) runs along its side too, from that point to itself:
+            // classified as an edge inside the area, it went into the gap
+            // polygon as a gap edge there and the gap touched itself at the
+            // layer vertex of that point (fuzz
+            // test_vertical_fault_carried_onto_the_boundary_builds).
+            StudyArea::Hit ha, hb;
+            if (ia != at.end() && ib != at.end() &&
+                StudyArea::along_one_side(ia->second, ib->second, same_point(P(a), P(b)), &ha, &hb)) {
+                e.study = true;
+                e.side = ha.side;
+                e.sa = ha.s;
+                e.sb = hb.s;
+            }
+            out.push_back(e);
+        }
+    return out;
+}
+
+std::vector<std::pair<std::size_t, std::size_t>> meeting_outline_edges(const double* vertices,
+                                                                       std::size_t n_vertices,
+                                                                       std::size_t stride,
+                                                                       const std::vector<OutlineEdge>& edges,
+                                                                       bool first_only) {
+    auto P = [&](std::int64_t i) { return vertices + stride * static_cast<std::size_t>(i); };
+    std::vector<std::pair<std::size_t, std::size_t>> out;
+    if (edges.empty()) return out;
+    std::vector<std::int64_t> seg;
+    seg.reserve(2 * edges.size());
+    for (const auto& e : edges) {
+        seg.push_back(e.a);
+        seg.push_back(e.b);
+    }
+    const AabbTree et = AabbTree::from_segments(vertices, n_vertices, stride, seg.data(), edges.size());
+    std::vector<std::int64_t> near;
+    for (std::size_t i = 0; i < edges.size(); ++i) {
+        const OutlineEdge& e = edges[i];
+        near.clear();
+        et.query(et.box(i), near);
+        for (std::int64_t j64 : near) {
+            const std::size_t j = static_cast<std::size_t>(j64);
+            if (j <= i) continue;
+            const OutlineEdge& f = edges[j];
+            if (e.study && f.study) continue;
+            std::int64_t shared = -1, ea = -1, fb = -1;
+            if (e.a == f.a) shared = e.a, ea = e.b, fb = f.b;
+            else if (e.a == f.b) shared = e.a, ea = e.b, fb = f.a;
+            else if (e.b == f.a) shared = e.b, ea = e.a, fb = f.b;
+            else if (e.b == f.b) shared = e.b, ea = e.a, fb = f.a;
+            bool meet;
+            if (shared >= 0) {
+                // Adjacent edges may only share their common vertex: they
+                // meet elsewhere iff they fold back onto each other
+                // (collinear, the same way from it).
+                const double *o = P(shared), *p = P(ea), *q = P(fb);
+                meet = orient2d(o, p, q) == 0.0 &&
+                       (p[0] - o[0]) * (q[0] - o[0]) + (p[1] - o[1]) * (q[1] - o[1]) > 0.0;
+            } else {
+                meet = segments_meet(P(e.a), P(e.b), P(f.a), P(f.b));
+            }
+            if (meet) {
+                out.emplace_back(i, j);
+                if (first_only) return out;
+            }
+        }
+    }
+    return out;
 }
 
 }  // namespace faultmesh::detail

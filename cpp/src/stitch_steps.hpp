@@ -93,6 +93,40 @@ struct StitcherState {
 
 StitcherState& state_of(LayerStitcher& st);  // for the step tests
 
+// ---------------------------------------------------------------- the outline
+// An outline edge of a patch (patch-local vertices a -> b, as its loop runs),
+// classified as lying along one side of the study area or not.
+struct OutlineEdge {
+    std::int64_t a, b;
+    bool study;
+    std::size_t side;
+    double sa, sb;  // arc lengths of a and b along that side
+};
+
+// The edges of the outline loops, loop after loop, each classified by
+// StudyArea::along_one_side (an edge of length 0 at a point of a side runs
+// along it: a vertical fault's cutoffs carried onto the boundary); with no
+// study area none is. The boundary hits of the loop vertices that lie on the
+// study-area boundary go into *hits when it is given.
+std::vector<OutlineEdge> classify_outline(
+    const StudyArea* study, const double* vertices, std::size_t stride,
+    const std::vector<std::vector<std::int64_t>>& loops,
+    std::unordered_map<std::int64_t, std::vector<StudyArea::Hit>>* hits = nullptr);
+
+// The pairs (i, j), i < j, of outline edges that meet where the outline
+// must be simple in XY (stitch step 1): two edges that share no vertex meet
+// if their closed segments share a point; two that share a vertex if they
+// fold back onto each other there (collinear, the same way from it). Pairs of
+// edges that both run along the study-area boundary are exempt (a reverse
+// fault that runs out of the area folds along it). In the order i, then the
+// AABB tree's order of j; only the first pair with first_only. Exact
+// (orient2d); the vertices are checked by the caller.
+std::vector<std::pair<std::size_t, std::size_t>> meeting_outline_edges(const double* vertices,
+                                                                       std::size_t n_vertices,
+                                                                       std::size_t stride,
+                                                                       const std::vector<OutlineEdge>& edges,
+                                                                       bool first_only);
+
 // What the grower needs to know about the layer's triangles: base triangles
 // are verified lazily, earlier fault patches are frozen (they become holes of
 // the gap), earlier gaps are atomic groups.
@@ -128,12 +162,7 @@ struct StitchJob {
 
     // 1. outline: R's edges (patch-local vertices, patch on the left), each
     // classified as lying on one side of the study area or not.
-    struct OutlineEdge {
-        std::int64_t a, b;
-        bool study;
-        std::size_t side;
-        double sa, sb;  // arc lengths of a and b along that side
-    };
+    using OutlineEdge = detail::OutlineEdge;
     std::vector<OutlineEdge> outline;
     Region region;
 

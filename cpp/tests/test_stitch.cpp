@@ -603,6 +603,48 @@ TEST(Stitch, FoldCarriedOntoTheBoundaryIsExemptFromTheOutlineCoverTest) {
                     .empty());
 }
 
+TEST(Stitch, OutlineCrossingsNameTheTrianglesOfBothEdges) {
+    // A fan round (50, 50) whose rim turns on past a full turn: the last rim
+    // edge crosses the first spoke. triangles_at_outline_crossings gives
+    // the triangles of the two edges, and the stitcher, which runs the same
+    // test, refuses the patch naming them.
+    const double c = 50.0, pi = std::acos(-1.0);
+    std::vector<double> V = {c, c, 0.0};
+    const double ang[] = {0.0, 90.0, 180.0, 270.0, 405.0}, rad[] = {20.0, 20.0, 20.0, 20.0, 10.0};
+    for (int i = 0; i < 5; ++i) {
+        V.push_back(c + rad[i] * std::cos(ang[i] * pi / 180.0));
+        V.push_back(c + rad[i] * std::sin(ang[i] * pi / 180.0));
+        V.push_back(0.5);
+    }
+    const std::vector<std::int64_t> T = {0, 1, 2, 0, 2, 3, 0, 3, 4, 0, 4, 5};
+    EXPECT_EQ(faultmesh::triangles_at_outline_crossings(V.data(), 6, 3, T.data(), 4),
+              (std::vector<std::int64_t>{0, 3}));
+    Mesh L = grid_tin();
+    LayerStitcher st(L.v.data(), L.v.size() / 3, L.t.data(), L.t.size() / 3, kSquare.data(), 4, nullptr, "L");
+    try {
+        st.stitch(V.data(), 6, T.data(), 4, "fan");
+        FAIL() << "no error";
+    } catch (const GeometryError& e) {
+        EXPECT_NE(std::string(e.what()).find("outline is not simple"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("edges (0, 1) and (4, 5)"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(st.n_live_triangles(), L.t.size() / 3);  // nothing changed
+    // A fold carried onto the side y = 0 overlaps itself there: its outline
+    // edges along the side meet, and with the study area they are exempt.
+    std::vector<double> end = reverse_trace(0.0);
+    for (std::size_t i = 0; i < end.size() / 3; ++i) end[3 * i + 1] = 0.0;
+    Mesh P = loft_patch({end, reverse_trace(20.0), reverse_trace(40.0), {46.0, 50.0, 0.3}});
+    const faultmesh::StudyArea area(kSquare.data(), 4);
+    EXPECT_FALSE(
+        faultmesh::triangles_at_outline_crossings(P.v.data(), P.v.size() / 3, 3, P.t.data(), P.t.size() / 3).empty());
+    EXPECT_TRUE(faultmesh::triangles_at_outline_crossings(P.v.data(), P.v.size() / 3, 3, P.t.data(), P.t.size() / 3,
+                                                          &area)
+                    .empty());
+    // Bad input is named.
+    const std::vector<std::int64_t> bad = {0, 1, 9};
+    EXPECT_THROW(faultmesh::triangles_at_outline_crossings(V.data(), 6, 3, bad.data(), 1), std::invalid_argument);
+}
+
 TEST(Stitch, FoldedPatchCoversItsImageOnce) {
     // A valid fold (footwall +, strip -, hanging wall +) covers its image once.
     Mesh P = reverse_patch();

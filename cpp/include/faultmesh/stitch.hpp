@@ -17,7 +17,8 @@
 //     its signed XY areas is positive (outer loops CCW). Checks: every loop is
 //     simple in XY and no two loops meet, except along the study-area
 //     boundary (where the end trace of a fault that reaches the boundary may
-//     fold back on itself); every vertex of P lies in the study area; P
+//     fold back on itself; triangles_at_outline_crossings, the same test,
+//     gives every triangle at such a meeting); every vertex of P lies in the study area; P
 //     covers R once, counted with orientation, everywhere (exactly:
 //     triangles_not_covered_once, at every triangle's centroid and no
 //     outline edge off the study boundary through a triangle; a folded
@@ -280,5 +281,22 @@ std::vector<std::int64_t> triangles_not_covered_once(const double* vertices, std
                                                      std::size_t stride, const std::int64_t* triangles,
                                                      std::size_t n_triangles, const StudyArea* study = nullptr,
                                                      bool outline = true);
+
+// Rows of the triangles whose outline edges meet another outline edge in
+// XY where the stitcher needs the outline simple (stitch step 1, the same
+// test): the outline is the boundary loops of the triangles (boundary.hpp;
+// open chains are not tested); two of its edges that share no vertex must not
+// share a point (closed segments), two that share a vertex must not fold back
+// onto each other there (collinear, the same way from it). With `study`,
+// pairs of edges that both run along one of its sides
+// (StudyArea::along_one_side, an edge of length 0 at a point of a side
+// included) are exempt: a reverse fault that runs out of the area folds along
+// it. Each meeting reports the triangle of each of its two edges. Exact
+// (orient2d); with triangles_not_covered_once, what a patch must pass to be
+// stitched (besides no pinch vertex, boundary_contours). stride: 2 or 3.
+std::vector<std::int64_t> triangles_at_outline_crossings(const double* vertices, std::size_t n_vertices,
+                                                         std::size_t stride, const std::int64_t* triangles,
+                                                         std::size_t n_triangles,
+                                                         const StudyArea* study = nullptr);
 
 }  // namespace faultmesh
