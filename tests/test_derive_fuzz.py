@@ -626,7 +626,7 @@ def test_vertical_fault_carried_onto_the_boundary_builds():
                      "dip_t": 0.018239964067449543, "anchor": (0.2650415617755283, 0.43926457220709225),
                      "axis_strike": True, "odd_points": "vertical", "depth": "span", "profile": "const"}]}
     d = derive.derive_faults(make_case(p))
-    # derive's patch check follows the stitcher (faults._along_one_side):
+    # derive's patch check is the stitcher's (triangles_at_outline_crossings):
     # it dropped the layers of 5 end sections, 15 warnings, before.
     assert not any("made the patch cross itself" in w for w in d.derivation.warnings)
     faultmesh.build_model(d, evaluate=False).check()

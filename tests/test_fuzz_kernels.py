@@ -1161,6 +1161,95 @@ def test_fuzz_triangles_not_covered_once(data, offset, with_area, hostile):
     assert set(at_centroids.tolist()) <= set(r.tolist())
 
 
+def _outline_meetings_brute_force(V, T) -> set:
+    """The rows triangles_at_outline_crossings should give without a study
+    area, by brute force over every pair of outline edges with exact
+    rational orientations: edges sharing no vertex meet if their closed
+    segments share a point; edges sharing a vertex if they run the same way
+    from it along one line."""
+    loops = fm.boundary_contours(T, n_vertices=len(V)).loops
+    E = [(int(l[i]), int(l[(i + 1) % len(l)])) for l in loops for i in range(len(l))]
+    P = [tuple(map(float, v[:2])) for v in V]
+
+    def on_closed(a, b, c):   # c on the closed segment [a, b], given collinear
+        return min(a[0], b[0]) <= c[0] <= max(a[0], b[0]) and min(a[1], b[1]) <= c[1] <= max(a[1], b[1])
+
+    def meet(e, f):
+        shared = set(e) & set(f)
+        if shared:
+            (o,) = shared if len(shared) == 1 else (e[0],)
+            p = P[e[1] if e[0] == o else e[0]]
+            q = P[f[1] if f[0] == o else f[0]]
+            O = P[o]
+            dot = (Fraction(p[0]) - Fraction(O[0])) * (Fraction(q[0]) - Fraction(O[0])) + \
+                (Fraction(p[1]) - Fraction(O[1])) * (Fraction(q[1]) - Fraction(O[1]))
+            return exact_orient(O, p, q) == 0 and dot > 0
+        a, b, c, d = P[e[0]], P[e[1]], P[f[0]], P[f[1]]
+        o1, o2, o3, o4 = exact_orient(a, b, c), exact_orient(a, b, d), exact_orient(c, d, a), exact_orient(c, d, b)
+        if o1 * o2 < 0 and o3 * o4 < 0:
+            return True
+        return (o1 == 0 and on_closed(a, b, c)) or (o2 == 0 and on_closed(a, b, d)) or \
+            (o3 == 0 and on_closed(c, d, a)) or (o4 == 0 and on_closed(c, d, b))
+
+    def row(e):
+        for key in (e, e[::-1]):
+            for t, r in enumerate(T.tolist()):
+                if any((r[k], r[(k + 1) % 3]) == key for k in range(3)):
+                    return t
+        return None
+
+    out = set()
+    for i in range(len(E)):
+        for j in range(i + 1, len(E)):
+            if meet(E[i], E[j]):
+                out |= {row(E[i]), row(E[j])} - {None}
+    return out
+
+
+@pytest.mark.fuzz
+@fuzz_settings(300)
+@given(data=st.data(), offset=st.sampled_from([0.0, 5.5e5, 7.8e6]), with_area=st.booleans(),
+       hostile=st.sampled_from([None, None, None, "nan", "far", "index", "area"]))
+def test_fuzz_triangles_at_outline_crossings(data, offset, with_area, hostile):
+    """Random triangles on few points (duplicates, collinear triples, zero
+    areas, folds, pinches, edges used three times: any outline; a row that
+    repeats a vertex is named), at UTM
+    offsets too: without a study area the rows are those of a brute force
+    over all pairs of outline edges in exact rational arithmetic; with one
+    (that some points lie on) a subset of them (the pairs along its sides
+    are exempt). Hostile input (NaN, beyond the coordinate limit, an index
+    out of range, an area that is no StudyArea) is a ValueError (TypeError
+    for the area) naming the function."""
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    n = data.draw(st.integers(3, 9))
+    V = np.c_[rng.integers(0, 6, (n, 2)).astype(float) * 10.0 + offset, np.zeros(n)]
+    m = data.draw(st.integers(1, 10))
+    T = rng.integers(0, n, (m, 3))
+    area = fm.StudyArea(np.array([[0.0, 0.0], [50.0, 0.0], [50.0, 50.0], [0.0, 50.0]]) + offset) \
+        if with_area else None
+    if hostile in ("nan", "far"):   # a vertex a triangle uses
+        V[T[rng.integers(m), rng.integers(3)], rng.integers(2)] = np.nan if hostile == "nan" else 1e61
+    elif hostile == "index":
+        T[rng.integers(m), rng.integers(3)] = n + 3
+    elif hostile == "area":
+        with pytest.raises(TypeError, match="triangles_at_outline_crossings: area must be a StudyArea"):
+            fm.triangles_at_outline_crossings(V, T, area=V)
+        return
+    repeats = bool(((T[:, 0] == T[:, 1]) | (T[:, 1] == T[:, 2]) | (T[:, 2] == T[:, 0])).any())
+    r, err = call(["triangles_at_outline_crossings"], ["vertices", "triangles"],
+                  fm.triangles_at_outline_crossings, V, T, area=area)
+    if err is not None:
+        assert hostile is not None or (repeats and "repeats vertex" in str(err)), err
+        return
+    assert hostile is None and not repeats, "hostile input was accepted"
+    assert r.dtype == np.int64 and np.array_equal(r, np.unique(r)) and (len(r) == 0 or 0 <= r.min() <= r.max() < m)
+    want = _outline_meetings_brute_force(V, T)
+    if area is None:
+        assert set(r.tolist()) == want
+    else:
+        assert set(r.tolist()) <= want
+
+
 # ------------------------------------------------------------ patch data
 @pytest.mark.fuzz
 @fuzz_settings(150)

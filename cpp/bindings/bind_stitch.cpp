@@ -352,6 +352,35 @@ local merge with shared vertices. mesh() returns the compacted surface.
         "centroids only). Exact (orient2d,\n"
         "simulation of simplicity on edges). A folded patch whose sheets end at different places\n"
         "reaches out of its outline where this is not 1.");
+
+    m.def(
+        "triangles_at_outline_crossings",
+        [](const py::handle& vertices, const py::handle& triangles, const py::object& area_obj) {
+            const char* fn = "triangles_at_outline_crossings";
+            const StudyArea* area = nullptr;
+            if (!area_obj.is_none()) {
+                if (!py::isinstance<StudyArea>(area_obj))
+                    throw py::type_error(std::string(fn) + ": area must be a StudyArea or None");
+                area = area_obj.cast<const StudyArea*>();
+            }
+            auto V = as_points(vertices, fn, "vertices", 2, 3);
+            auto T = as_indices(triangles, fn, "triangles", 3, V.shape(0));
+            std::vector<std::int64_t> out;
+            {
+                py::gil_scoped_release release;
+                out = triangles_at_outline_crossings(V.data(), static_cast<std::size_t>(V.shape(0)),
+                                                     static_cast<std::size_t>(V.shape(1)), T.data(),
+                                                     static_cast<std::size_t>(T.shape(0)), area);
+            }
+            return to_numpy(std::move(out));
+        },
+        py::arg("vertices"), py::arg("triangles"), py::kw_only(), py::arg("area") = py::none(),
+        "Rows (int64, sorted) of the triangles whose outline edges meet another outline edge in XY,\n"
+        "where the stitcher needs the outline simple (its own test): edges that share no vertex must\n"
+        "not share a point, edges that share one must not fold back onto each other there. With\n"
+        "``area`` (a StudyArea), pairs of edges that both run along one of its sides are exempt (a\n"
+        "reverse fault that runs out of the area folds along it). The outline is the triangles'\n"
+        "boundary loops (open chains are not tested). Exact (orient2d).");
 }
 
 }  // namespace faultmesh::bindings

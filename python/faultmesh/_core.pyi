@@ -8,7 +8,7 @@ import enum
 import numpy
 import numpy.typing
 import typing
-__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'FaultSide', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'ON_OUTLINE', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TouchingRegion', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'halfedge_twins', 'incircle', 'insert_patch_data', 'join_holes', 'loft', 'loft_area', 'nearest_segment', 'nearest_sheet', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
+__all__: list[str] = ['AabbTree', 'BEYOND_FAULT', 'BoundaryContours', 'DelaunayInfo', 'FOOTWALL', 'FaultSide', 'GeometryError', 'HANGING_WALL', 'LayerTin', 'ON_FAULT', 'ON_OUTLINE', 'PatchOverlapError', 'StitchGap', 'StitchReport', 'StitchedMesh', 'Stitcher', 'StudyArea', 'Tin', 'TouchingRegion', 'TriangleKind', 'boundary_contours', 'boundary_edges', 'boundary_loops', 'build_layer_tins', 'check_polygon', 'cut_layer', 'delaunay', 'fault_side', 'flip_to_constrained_delaunay', 'halfedge_twins', 'incircle', 'insert_patch_data', 'join_holes', 'loft', 'loft_area', 'nearest_segment', 'nearest_sheet', 'orient2d', 'orient3d', 'overlapping_triangles', 'repair_crossings', 'repair_stack', 'sample_surface', 'sample_surface_grid', 'sort_segments', 'stitch', 'triangle_overlaps_region', 'triangles_at_outline_crossings', 'triangles_not_covered_once', 'triangles_touching_region', 'triangulate_polygon']
 class GeometryError(ValueError):
     pass
 class PatchOverlapError(GeometryError):
@@ -830,6 +830,15 @@ def triangle_overlaps_region(a: typing.Any, b: typing.Any, c: typing.Any, rings:
     """
     Exact per-row test (brute force over the ring edges, no tree): does the open triangle
     (a[i], b[i], c[i]) meet the region's interior? Arrays (n, 2|3); returns bool (n,).
+    """
+def triangles_at_outline_crossings(vertices: typing.Any, triangles: typing.Any, *, area: typing.Any = None) -> numpy.typing.NDArray[numpy.int64]:
+    """
+    Rows (int64, sorted) of the triangles whose outline edges meet another outline edge in XY,
+    where the stitcher needs the outline simple (its own test): edges that share no vertex must
+    not share a point, edges that share one must not fold back onto each other there. With
+    ``area`` (a StudyArea), pairs of edges that both run along one of its sides are exempt (a
+    reverse fault that runs out of the area folds along it). The outline is the triangles'
+    boundary loops (open chains are not tested). Exact (orient2d).
     """
 def triangles_not_covered_once(vertices: typing.Any, triangles: typing.Any, *, area: typing.Any = None, outline: bool = True) -> numpy.typing.NDArray[numpy.int64]:
     """

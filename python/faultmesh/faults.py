@@ -88,8 +88,9 @@ from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ._core import (AabbTree, GeometryError, StudyArea, TouchingRegion, boundary_contours, boundary_edges, loft,
-                    orient2d, triangles_not_covered_once, triangles_touching_region)
+from ._core import (GeometryError, StudyArea, TouchingRegion, boundary_contours, boundary_edges, loft,
+                    orient2d, triangles_at_outline_crossings, triangles_not_covered_once,
+                    triangles_touching_region)
 
 __all__ = ["LayerPatch", "FaultEnds", "EndMove", "EndMoveKind", "fault_ends", "trace_polyline",
            "layer_patch", "fault_surface", "group_patch", "group_order", "is_folded", "band_quads",
@@ -2383,69 +2384,14 @@ def _triangles_near_region(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray]
     return np.unique(np.flatnonzero(near) // 3)
 
 
-def _along_one_side(xy: np.ndarray, S: np.ndarray, area: StudyArea) -> np.ndarray:
-    """Per edge S (e, 2) of points xy: True if it runs along one side of the
-    study area between two different positions on it, or from a point of it
-    to that point (two vertices at one XY: a vertical fault's cutoffs carried
-    onto the boundary; a corner is on the side that starts and the side that
-    ends there): the stitcher's boundary edges (stitch_outline.cpp,
-    OutlineEdge.study)."""
-    side, s, other = _sides_at(area, xy)
-    prev = np.where(other != side, other, -1)
-    a, b = S[:, 0], S[:, 1]
-    point = np.all(xy[a] == xy[b], axis=1)
-    return (((side[a] >= 0) & (side[a] == side[b]) & ((s[a] != s[b]) | point))
-            | ((prev[a] >= 0) & (prev[a] == side[b])) | ((side[a] >= 0) & (side[a] == prev[b])))
-
-
 def _outline_crossings(V: np.ndarray, T: np.ndarray, area: Optional[StudyArea] = None) -> np.ndarray:
     """Rows of the triangles whose outline edges meet another outline edge of
-    the patch in XY (exactly; edges sharing a vertex do not count), except
-    pairs of edges that each run along a side of the study area (a reverse
-    fault that runs out of the area folds along it, which the stitcher
-    allows). Pairs "wholly on the boundary" were exempt before, and the
-    patch of a nearly vertical fault carried onto the boundary, with
-    coincident outline vertices there, passed derive's check and failed the
-    stitcher (fuzz: 87.5 and 90 degree faults, test_derive_fuzz.py). An edge
-    of length 0 at a point of a side runs along it (as in the stitcher since
-    test_vertical_fault_carried_onto_the_boundary_builds; before, neither
-    counted it, and derive dropped the layers of the end sections of such a
-    patch: fuzz seed 20903 15 drops, 21103 3)."""
-    from .dataset import _segments_intersect
-
-    c = boundary_contours(T, n_vertices=len(V))
-    loops = [np.asarray(l, dtype=np.int64) for l in c.loops]
-    if not loops:
-        return np.zeros(0, dtype=np.int64)
-    S = np.vstack([np.column_stack([l, np.roll(l, -1)]) for l in loops])
-    tree = AabbTree.from_segments(V[:, :2], S)
-    xy = V[:, :2]
-    boxes = np.column_stack([np.minimum(xy[S[:, 0]], xy[S[:, 1]]), np.maximum(xy[S[:, 0]], xy[S[:, 1]])])
-    off, idx = (np.asarray(a) for a in tree.query(boxes))
-    i = np.repeat(np.arange(len(S)), np.diff(off))
-    j = idx
-    pair = (i < j) & (S[i, 0] != S[j, 0]) & (S[i, 0] != S[j, 1]) & (S[i, 1] != S[j, 0]) & (S[i, 1] != S[j, 1])
-    i, j = i[pair], j[pair]
-    if len(i) == 0:
-        return np.zeros(0, dtype=np.int64)
-    hit = _segments_intersect(xy[S[i, 0]], xy[S[i, 1]], xy[S[j, 0]], xy[S[j, 1]])
-    i, j = i[hit], j[hit]
-    if area is not None and len(i):
-        along = _along_one_side(xy, S, area)
-        both = along[i] & along[j]
-        i, j = i[~both], j[~both]
-    if len(i) == 0:
-        return np.zeros(0, dtype=np.int64)
-    # The triangle of each outline edge (the edge a -> b of an outline loop is
-    # a directed edge of exactly one triangle).
-    n = len(V)
-    H = np.column_stack([T.reshape(-1), T[:, [1, 2, 0]].reshape(-1)])
-    key = H[:, 0] * n + H[:, 1]
-    order = np.argsort(key)
-    edges = np.unique(np.r_[i, j])
-    want = S[edges, 0] * n + S[edges, 1]
-    pos = np.searchsorted(key[order], want)
-    return np.unique(order[np.minimum(pos, len(order) - 1)] // 3)
+    the patch in XY where the stitcher needs the outline simple: the
+    stitcher's own test (``triangles_at_outline_crossings``, stitch step 1),
+    pairs of edges that each run along a side of the study area exempt (a
+    reverse fault that runs out of the area folds along it; an edge of length
+    0 at a point of a side runs along it)."""
+    return np.asarray(triangles_at_outline_crossings(V, T, area=area), dtype=np.int64)
 
 
 def clip_patch(V: np.ndarray, T: np.ndarray, rings: List[np.ndarray],
