@@ -531,6 +531,26 @@ def test_a_layer_extrapolated_across_a_hole_in_its_data_yields_to_the_data_under
     assert np.all(za >= zB[:, 2] - 1e-6)
 
 
+def test_segments_across_a_fault_zone_are_found_exactly():
+    """build._across_fault_zones: a segment meets a patch's map-view
+    footprint when an end lies in it (or within ON_OUTLINE of its outline,
+    as _in_footprint counts) or it meets an outline edge, touching included
+    (exact), whatever the patch's orientation."""
+    from faultmesh.build import _across_fault_zones
+
+    V = np.array([[10.0, 0.0, -5.0], [20.0, 0.0, -6.0], [20.0, 100.0, -7.0], [10.0, 100.0, -8.0]])
+    T = np.array([[0, 1, 2], [0, 2, 3]])
+    A = np.array([[0.0, 50.0], [0.0, 50.0], [15.0, 50.0], [0.0, 0.0], [0.0, 100.0 + 1e-9], [0.0, 100.0],
+                  [512000.0, 50.0], [20.0, 50.0]])
+    B = np.array([[30.0, 50.0], [9.99, 50.0], [40.0, 60.0], [30.0, -20.0], [30.0, 100.0 + 1e-9],
+                  [30.0, 100.0], [512010.0, 50.0], [20.0, 50.0]])
+    want = [True, False, True, False, False, True, False, True]
+    for tri in (T, T[:, ::-1]):
+        got = _across_fault_zones([(V, tri)], A, B)
+        assert got.tolist() == want
+    assert not _across_fault_zones([], A, B).any()
+
+
 def test_a_miss_under_the_warning_threshold_is_reported_without_a_warning():
     ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], float)
     bh = _grid_boreholes({"A": lambda x, y: 0.0 * x, "B": lambda x, y: -10.0 + 12.0 * (x < 100) * (y < 100)})

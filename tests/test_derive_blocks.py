@@ -752,6 +752,37 @@ def test_a_low_angle_reverse_fault_keeps_every_section_and_reaches_the_boundary(
     assert err.mean() <= 0.5 and err.max() <= 0.5 * 116.3, (err.mean(), err.max())
 
 
+def test_a_datum_whose_upper_layer_lies_across_a_fault_is_not_lowered_under_it():
+    """Regression (tests/data/derive/reverse_fault_upper_layer_across_it.npz,
+    stress ground 207): nine layers cut by a normal fault of 25 m and a
+    reverse one (F2) of 57 m, picked on six seismic lines. An L3 pick 171 m
+    from the faults had L2 picks within 40 m, but all across F2: L2's
+    continuous TIN there follows F2's other block, 57 m away in z, and the
+    crossing repair lowered the pick 54.9 m under it (the model missed it
+    by 45.5 m). L2's data near it all lying across a fault (the segments
+    to them meet F2's L2 patch in map view), L2 gets a point at the pick's
+    elevation first (build._raise_over_data), as where it has no datum
+    near at all."""
+    from faultmesh.report import evaluate_surface
+
+    ds, truth = _stress_fixture("reverse_fault_upper_layer_across_it.npz")
+    model = fm.build_model(derive_faults(ds), evaluate=False)
+    model.check()
+    assert model.metadata["tins"]["L2"]["raised_over_data"] >= 1
+    P = np.asarray(ds.points["L3"])
+    k = int(np.argmin(np.hypot(P[:, 0] - 4250.18, P[:, 1] - 1705.78)))
+    lo, hi, _ = evaluate_surface(model.surfaces["L3"], P[k:k + 1, 0], P[k:k + 1, 1])
+    assert abs(lo[0] - P[k, 2]) <= 0.5 and abs(hi[0] - P[k, 2]) <= 0.5, (lo, hi, P[k])
+    for lay in ds.layers:
+        P = np.asarray(ds.points[lay])
+        z, _ = truth[lay]
+        lo, hi, _ = evaluate_surface(model.surfaces[lay], P[:, 0], P[:, 1])
+        err = np.minimum(np.abs(lo - z), np.abs(hi - z))
+        assert np.all(np.isfinite(err)) and err.max() <= 2.0, (lay, err.max())
+    err = _error_near_faults(model, ds, truth)
+    assert len(err) > 300 and err.mean() <= 0.3, err.mean()
+
+
 @pytest.mark.xfail(strict=True, reason="open: an end whose band meets an oblique side within reach but whose "
                    "farther cutoff lies beyond it is closed by a pinch-out (faults._extend)")
 def test_a_reverse_fault_oblique_to_the_boundary_carries_its_band_onto_it():

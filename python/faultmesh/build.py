@@ -18,7 +18,7 @@ from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 
-from ._core import (ON_OUTLINE, GeometryError, LayerTin, PatchOverlapError, Stitcher, StudyArea, TriangleKind,
+from ._core import (ON_OUTLINE, AabbTree, GeometryError, LayerTin, PatchOverlapError, Stitcher, StudyArea, TriangleKind,
                     build_layer_tins, insert_patch_data, repair_crossings, repair_stack, sample_surface)
 from . import report as _report
 from .dataset import DatasetError, prepare_for_build
@@ -108,7 +108,7 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
                                      for lay, t in tins.items()},
                             "repair": {}}
     if repair:
-        raised = _raise_over_data(tins, layers, data)
+        raised = _raise_over_data(tins, layers, data, dataset, area)
         for lay in layers:
             meta["tins"][lay]["raised_over_data"] = raised.get(lay, 0)
         # Pair after pair, top down; the pairs' first tests (apart
@@ -127,23 +127,34 @@ UPPER_DATA_GAP = 4.0
 
 
 def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
-                     data: Dict[str, np.ndarray]) -> Dict[str, int]:
+                     data: Dict[str, np.ndarray], dataset=None,
+                     area: Optional[StudyArea] = None) -> Dict[str, int]:
     """Before the crossing repair, top down: where a datum of a layer lies
     above the layer over it and that layer has no datum of its own within
-    :data:`UPPER_DATA_GAP` of its data spacings, the upper layer gets a
-    point there at the datum's elevation (no higher than the layer over
-    it), so the repair keeps the datum instead of lowering it under a
-    surface the upper layer's data do not decide. Returns per upper layer
-    the points added.
+    :data:`UPPER_DATA_GAP` of its data spacings -- or (given the dataset
+    and the study area) every one it has there lies across a fault from
+    it, the segment between them meeting the map-view footprint of a fault
+    patch of the upper layer (:func:`_across_fault_zones`), the datum
+    itself outside every such footprint -- the upper layer gets a point
+    there at the datum's elevation (no higher than the layer over it), so
+    the repair keeps the datum instead of lowering it under a surface the
+    upper layer's data do not decide. Returns per upper layer the points
+    added.
 
     Why: on the Claudius picks val_250 has a hole of about a kilometre in
     its picks where val_330 has its own; val_250's surface there, extrapolated
     (or filled by minimum curvature), lay up to 75 m below val_330's picks,
-    and the repair lowered 19 of them that far. Where the upper layer does
-    have data near (picks of both on one seismic line, the tops of one
+    and the repair lowered 19 of them that far. Across a fault the upper
+    layer's continuous TIN follows the other block, which the fault has
+    moved by its throw: unseen random ground 200 as v2, an L5 pick east of
+    F1 whose nearest L4 picks, 39-155 m away, all lie west of it, was
+    lowered 35.7 m under L4's TIN. Where the upper layer does have data near
+    in the same block (picks of both on one seismic line, the tops of one
     hole), a datum above it is a conflict of the data -- an offset only the
     lower layer shows, a pick's error -- which the repair resolves as
-    before, and the build's fit to the data reports (_data_fit)."""
+    before, and the build's fit to the data reports (_data_fit). A datum in
+    the upper layer's fault zone keeps that rule: there the patch, not the
+    TIN, is the upper layer."""
     from scipy.spatial import cKDTree
 
     from .derive import _median_spacing
@@ -160,8 +171,13 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
         above = np.isfinite(zu) & (D[:, 2] - zu > tol)
         if not above.any():
             continue
-        far, _ = cKDTree(U[:, :2]).query(D[above, :2])
-        sel = np.flatnonzero(above)[far > UPPER_DATA_GAP * _median_spacing(U)]
+        gap = UPPER_DATA_GAP * _median_spacing(U)
+        tree = cKDTree(U[:, :2])
+        far, _ = tree.query(D[above, :2])
+        sel = np.flatnonzero(above)[far > gap]
+        near = np.flatnonzero(above)[far <= gap]
+        if len(near) and dataset is not None and area is not None and dataset.faults:
+            sel = np.union1d(sel, near[_upper_data_across_faults(dataset, up, area, D[near, :2], U, tree, gap)])
         if not len(sel):
             continue
         P = D[sel].copy()
@@ -173,6 +189,52 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
         tins[up].insert(np.ascontiguousarray(P))
         added[up] = int(len(P))
     return added
+
+
+def _upper_data_across_faults(dataset, layer: str, area: StudyArea, xy: np.ndarray, U: np.ndarray,
+                              tree, radius: float) -> np.ndarray:
+    """Per point ``xy`` (k, 2): it lies outside the map-view footprint of
+    every fault patch of ``layer`` and each datum of ``layer`` (``U``, in
+    the cKDTree ``tree``) within ``radius`` lies across a fault from it
+    (:func:`_across_fault_zones`)."""
+    nb = tree.query_ball_point(xy, radius)
+    i = np.repeat(np.arange(len(xy)), [len(b) for b in nb])
+    j = np.fromiter((k for b in nb for k in b), dtype=np.int64, count=len(i))
+    zones = [(V, T) for _, V, T in _fault_zone_patches(dataset, layer, area)]
+    A, B = np.ascontiguousarray(xy[i]), np.ascontiguousarray(U[j, :2])
+    across = _across_fault_zones(zones, A, B)
+    same = np.zeros(len(xy), dtype=bool)
+    same[i[~across]] = True
+    inside = np.zeros(len(xy), dtype=bool)
+    for V, T in zones:
+        inside |= _in_footprint(V, T, np.ascontiguousarray(xy))
+    return ~same & ~inside
+
+
+def _across_fault_zones(zones: List[Tuple[np.ndarray, np.ndarray]], A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Per segment A[k] -> B[k] (XY): it meets the map-view footprint of one
+    of the patches ``zones`` -- an end within it (:func:`_in_footprint`:
+    within :data:`ON_OUTLINE` of its outline counts) or an outline edge
+    meeting it (closed segments, exact)."""
+    from . import faults as fm
+    from .dataset import _segments_intersect
+
+    hit = np.zeros(len(A), dtype=bool)
+    if not len(A):
+        return hit
+    boxes = np.ascontiguousarray(np.column_stack([np.minimum(A, B), np.maximum(A, B)]))
+    for V, T in zones:
+        ends = _in_footprint(V, T, np.ascontiguousarray(np.vstack([A, B])))
+        hit |= ends[:len(A)] | ends[len(A):]
+        for ring in fm.patch_outline(V, T):
+            k = np.arange(len(ring))
+            E = np.ascontiguousarray(np.column_stack([k, np.roll(k, -1)]))
+            off, idx = (np.asarray(a) for a in AabbTree.from_segments(ring, E).query(boxes))
+            s = np.repeat(np.arange(len(A)), np.diff(off))
+            if len(s):
+                meet = _segments_intersect(A[s], B[s], ring[E[idx, 0]], ring[E[idx, 1]])
+                hit[s[meet]] = True
+    return hit
 
 
 # ON_OUTLINE (imported above): points within this distance (m, XY) of a
@@ -237,24 +299,35 @@ def _in_fault_zones(dataset, layer: str, area: StudyArea, points: np.ndarray,
     surface's trend) towards the bridge: Claudius, every pick within 300 m
     of the fault withheld, val_330 median error at those picks 11.36 m
     with them, 11.07 m without them."""
-    from . import faults as fm
-
     inside = np.zeros(len(points), dtype=bool)
     if not len(points):
         return inside
     xy = np.ascontiguousarray(np.asarray(points, dtype=np.float64)[:, :2])
     z = np.asarray(points, dtype=np.float64).reshape(-1, 3)[:, 2]
+    for f, V, T in _fault_zone_patches(dataset, layer, area, kind, every_derived):
+        zl, zh, hits = sample_surface(V, T, xy)
+        if both_sheets and not f.derived and not np.any((hits >= 2) & (zh > zl) & (z - zl < zh - z)):
+            continue
+        inside |= _in_footprint(V, T, xy, hits)
+    return inside
+
+
+def _fault_zone_patches(dataset, layer: str, area: StudyArea, kind: Optional[str] = None,
+                        every_derived: bool = False) -> List[Tuple[Any, np.ndarray, np.ndarray]]:
+    """(fault, vertices, triangles) of the patch of every fault in ``layer``
+    (of ``kind`` only, if given; with ``every_derived`` derived faults of
+    either kind too), as the build lofts them from the faults' traces
+    (:func:`faultmesh.faults.layer_patch`): the fault zones' footprints."""
+    from . import faults as fm
+
+    out = []
     for f in dataset.faults:
         if kind is not None and f.kind != kind and not (every_derived and f.derived):
             continue
         p = fm.layer_patch(f, layer, fm.fault_ends(f), area)
-        if p is None or not len(p.triangles):
-            continue
-        zl, zh, hits = sample_surface(p.vertices, p.triangles, xy)
-        if both_sheets and not f.derived and not np.any((hits >= 2) & (zh > zl) & (z - zl < zh - z)):
-            continue
-        inside |= _in_footprint(p.vertices, p.triangles, xy, hits)
-    return inside
+        if p is not None and len(p.triangles):
+            out.append((f, p.vertices, p.triangles))
+    return out
 
 
 def _in_footprint(V: np.ndarray, T: np.ndarray, xy: np.ndarray, hits: Optional[np.ndarray] = None) -> np.ndarray:
