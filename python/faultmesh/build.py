@@ -146,9 +146,10 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
     (or filled by minimum curvature), lay up to 75 m below val_330's picks,
     and the repair lowered 19 of them that far. Across a fault the upper
     layer's continuous TIN follows the other block, which the fault has
-    moved by its throw: unseen random ground 200 as v2, an L5 pick east of
-    F1 whose nearest L4 picks, 39-155 m away, all lie west of it, was
-    lowered 35.7 m under L4's TIN. Where the upper layer does have data near
+    moved by its throw: stress ground 207, an L3 pick 171 m from a reverse
+    fault of 57 m whose nearest L2 picks, 40 m away, all lie across it, was
+    lowered 54.9 m under L2's TIN (tests/data/derive/reverse_fault_upper_layer_across_it.npz).
+    Where the upper layer does have data near
     in the same block (picks of both on one seismic line, the tops of one
     hole), a datum above it is a conflict of the data -- an offset only the
     lower layer shows, a pick's error -- which the repair resolves as
