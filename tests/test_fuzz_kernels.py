@@ -1123,6 +1123,25 @@ def test_layer_tin_inserts_from_several_threads():
     assert np.all(orient_rows(V, T) > 0)
 
 
+def _random_triangles_on_few_points(data, offset, with_area, hostile, max_triangles):
+    """Random triangles (any orientation, repeated vertices, duplicates) on
+    3-9 points of a 10 m grid at ``offset``, a 50 m square study area with
+    ``with_area``, and the ``hostile`` change: "nan" or "far" (beyond the
+    coordinate limit) at a vertex a triangle uses, "index" out of range."""
+    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
+    n = data.draw(st.integers(3, 9))
+    V = np.c_[rng.integers(0, 6, (n, 2)).astype(float) * 10.0 + offset, np.zeros(n)]
+    m = data.draw(st.integers(1, max_triangles))
+    T = rng.integers(0, n, (m, 3))
+    area = fm.StudyArea(np.array([[0.0, 0.0], [50.0, 0.0], [50.0, 50.0], [0.0, 50.0]]) + offset) \
+        if with_area else None
+    if hostile in ("nan", "far"):
+        V[T[rng.integers(m), rng.integers(3)], rng.integers(2)] = np.nan if hostile == "nan" else 1e61
+    elif hostile == "index":
+        T[rng.integers(m), rng.integers(3)] = n + 3
+    return V, T, area
+
+
 @pytest.mark.fuzz
 @fuzz_settings(300)
 @given(data=st.data(), offset=st.sampled_from([0.0, 5.5e5, 7.8e6]), with_area=st.booleans(),
@@ -1135,18 +1154,9 @@ def test_fuzz_triangles_not_covered_once(data, offset, with_area, hostile):
     hostile input (NaN, beyond the coordinate limit, an index out of range,
     an area that is no StudyArea) is a ValueError (TypeError for the area)
     naming the function."""
-    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
-    n = data.draw(st.integers(3, 9))
-    V = np.c_[rng.integers(0, 6, (n, 2)).astype(float) * 10.0 + offset, np.zeros(n)]
-    m = data.draw(st.integers(1, 12))
-    T = rng.integers(0, n, (m, 3))
-    area = fm.StudyArea(np.array([[0.0, 0.0], [50.0, 0.0], [50.0, 50.0], [0.0, 50.0]]) + offset) \
-        if with_area else None
-    if hostile in ("nan", "far"):   # a vertex a triangle uses
-        V[T[rng.integers(m), rng.integers(3)], rng.integers(2)] = np.nan if hostile == "nan" else 1e61
-    elif hostile == "index":
-        T[rng.integers(m), rng.integers(3)] = n + 3
-    elif hostile == "area":
+    V, T, area = _random_triangles_on_few_points(data, offset, with_area, hostile, 12)
+    m = len(T)
+    if hostile == "area":
         with pytest.raises(TypeError, match="triangles_not_covered_once: area must be a StudyArea"):
             fm.triangles_not_covered_once(V, T, area=V)
         return
@@ -1220,18 +1230,9 @@ def test_fuzz_triangles_at_outline_crossings(data, offset, with_area, hostile):
     are exempt). Hostile input (NaN, beyond the coordinate limit, an index
     out of range, an area that is no StudyArea) is a ValueError (TypeError
     for the area) naming the function."""
-    rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
-    n = data.draw(st.integers(3, 9))
-    V = np.c_[rng.integers(0, 6, (n, 2)).astype(float) * 10.0 + offset, np.zeros(n)]
-    m = data.draw(st.integers(1, 10))
-    T = rng.integers(0, n, (m, 3))
-    area = fm.StudyArea(np.array([[0.0, 0.0], [50.0, 0.0], [50.0, 50.0], [0.0, 50.0]]) + offset) \
-        if with_area else None
-    if hostile in ("nan", "far"):   # a vertex a triangle uses
-        V[T[rng.integers(m), rng.integers(3)], rng.integers(2)] = np.nan if hostile == "nan" else 1e61
-    elif hostile == "index":
-        T[rng.integers(m), rng.integers(3)] = n + 3
-    elif hostile == "area":
+    V, T, area = _random_triangles_on_few_points(data, offset, with_area, hostile, 10)
+    m = len(T)
+    if hostile == "area":
         with pytest.raises(TypeError, match="triangles_at_outline_crossings: area must be a StudyArea"):
             fm.triangles_at_outline_crossings(V, T, area=V)
         return

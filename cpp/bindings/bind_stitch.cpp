@@ -12,6 +12,14 @@ namespace faultmesh::bindings {
 
 namespace {
 
+// The keyword argument area=: a StudyArea or None (nullptr).
+const StudyArea* optional_study_area(const py::object& area_obj, const char* fn) {
+    if (area_obj.is_none()) return nullptr;
+    if (!py::isinstance<StudyArea>(area_obj))
+        throw py::type_error(std::string(fn) + ": area must be a StudyArea or None");
+    return area_obj.cast<const StudyArea*>();
+}
+
 // A LayerStitcher shared with Python (common.hpp). It is not thread-safe and
 // stitch() runs with the GIL released, so two Python threads could otherwise
 // stitch into one layer at the same time (a data race on its arrays):
@@ -326,12 +334,7 @@ local merge with shared vertices. mesh() returns the compacted surface.
         "triangles_not_covered_once",
         [](const py::handle& vertices, const py::handle& triangles, const py::object& area_obj, bool outline) {
             const char* fn = "triangles_not_covered_once";
-            const StudyArea* area = nullptr;
-            if (!area_obj.is_none()) {
-                if (!py::isinstance<StudyArea>(area_obj))
-                    throw py::type_error(std::string(fn) + ": area must be a StudyArea or None");
-                area = area_obj.cast<const StudyArea*>();
-            }
+            const StudyArea* area = optional_study_area(area_obj, fn);
             auto V = as_points(vertices, fn, "vertices", 2, 3);
             auto T = as_indices(triangles, fn, "triangles", 3, V.shape(0));
             std::vector<std::int64_t> out;
@@ -357,12 +360,7 @@ local merge with shared vertices. mesh() returns the compacted surface.
         "triangles_at_outline_crossings",
         [](const py::handle& vertices, const py::handle& triangles, const py::object& area_obj) {
             const char* fn = "triangles_at_outline_crossings";
-            const StudyArea* area = nullptr;
-            if (!area_obj.is_none()) {
-                if (!py::isinstance<StudyArea>(area_obj))
-                    throw py::type_error(std::string(fn) + ": area must be a StudyArea or None");
-                area = area_obj.cast<const StudyArea*>();
-            }
+            const StudyArea* area = optional_study_area(area_obj, fn);
             auto V = as_points(vertices, fn, "vertices", 2, 3);
             auto T = as_indices(triangles, fn, "triangles", 3, V.shape(0));
             std::vector<std::int64_t> out;
