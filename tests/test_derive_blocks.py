@@ -593,7 +593,7 @@ def test_a_repair_with_a_long_tail_of_rounds_ends():
     model's error at the picks within 200 m of a fault 0.32 m mean, 0.65 m
     at the 95th percentile. Since L6 is raised over L7's data where it has
     none near (build._raise_over_data), L7's repair ends in 20 rounds; the
-    long tail is tested with that off."""
+    long tail is tested with the raise off."""
     ds, truth = _stress_fixture("thin_layers_reverse_fault_long_repair.npz")
     d = derive_faults(ds)   # once for both builds
     model = fm.build_model(d, evaluate=False)
@@ -602,10 +602,11 @@ def test_a_repair_with_a_long_tail_of_rounds_ends():
     assert len(err) > 500 and np.all(np.isfinite(err))
     assert err.mean() <= 0.5 and np.percentile(err, 95) <= 2.0, (err.mean(), np.percentile(err, 95))
     # The long tail is that of the repair with no upper layer raised over
-    # the data under it (build._raise_over_data, later): L6 raised over
-    # L7's data where it has none near, L7's repair ends in 20 rounds.
+    # the data under it (build._raise_over_data, later, for either of its
+    # reasons: no datum near, or all across a fault): L6 raised over L7's
+    # data, L7's repair ends in 20 rounds.
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(fm.build, "UPPER_DATA_GAP", np.inf)
+        mp.setattr(fm.build, "_raise_over_data", lambda *args: {})
         tail = fm.build_model(d, evaluate=False)
     tail.check()
     assert tail.metadata["repair"]["L7"]["rounds"] > 50, tail.metadata["repair"]["L7"]
