@@ -11,6 +11,7 @@
 #include <faultmesh/study_area.hpp>
 #include <faultmesh/triangle_adjacency.hpp>
 
+#include "edge_key.hpp"
 #include "stitch_steps.hpp"
 
 #include <algorithm>
@@ -445,8 +446,7 @@ std::vector<std::int64_t> triangles_not_covered_once(const double* vertices, std
     for (std::size_t t = 0; t < n_triangles; ++t)
         for (int k = 0; k < 3; ++k) {
             const std::int64_t a = triangles[3 * t + k], b = triangles[3 * t + (k + 1) % 3];
-            const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) ^
-                                      static_cast<std::uint64_t>(std::max(a, b));
+            const std::uint64_t key = detail::undirected_edge_key(a, b);
             auto [it, fresh] = uses.emplace(key, std::make_pair(t, 1));
             if (!fresh) {
                 parent[find(t)] = find(it->second.first);
@@ -517,42 +517,29 @@ std::vector<std::int64_t> triangles_at_outline_crossings(const double* vertices,
     const char* fn = "triangles_at_outline_crossings";
     if (stride != 2 && stride != 3) throw std::invalid_argument(std::string(fn) + ": stride must be 2 or 3");
     if (n_triangles == 0) return {};
-    // Directed edges are keyed by their two vertex indices in 32 bits each.
+    // Edges are keyed by their two vertex indices in 32 bits each.
     if (n_vertices > 0xffffffffULL) throw std::invalid_argument(std::string(fn) + ": more than 2^32 - 1 vertices");
     check_used_vertices(fn, vertices, n_vertices, stride, triangles, n_triangles);
-    // A row that repeats a vertex has no outline of its own (boundary_contours
-    // refuses it too; checked here to name this function).
-    for (std::size_t t = 0; t < n_triangles; ++t) {
-        const std::int64_t a = triangles[3 * t], b = triangles[3 * t + 1], c = triangles[3 * t + 2];
-        if (a == b || b == c || c == a)
-            throw std::invalid_argument(std::string(fn) + ": triangles row " + std::to_string(t) + " repeats vertex " +
-                                        std::to_string(a == b || a == c ? a : b));
+    BoundaryContours bc;
+    try {
+        bc = boundary_contours(triangles, n_triangles, n_vertices);
+    } catch (const std::invalid_argument& e) {  // a row that repeats a vertex: named as this function's
+        throw std::invalid_argument(std::string(fn) + ": " + e.what());
     }
-    const BoundaryContours bc = boundary_contours(triangles, n_triangles, n_vertices);
     const std::vector<detail::OutlineEdge> edges = detail::classify_outline(study, vertices, stride, bc.loops);
     const auto meet = detail::meeting_outline_edges(vertices, n_vertices, stride, edges, false);
     if (meet.empty()) return {};
-    // The triangle of an outline edge: the loops keep the direction of the
-    // edge's one triangle (boundary.hpp); the other direction is looked up
-    // too for a patch whose pieces are oriented inconsistently.
-    auto key = [](std::int64_t a, std::int64_t b) {
-        return (static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint64_t>(b);
-    };
+    // The triangle of an outline edge: the one triangle that uses it.
     std::unordered_map<std::uint64_t, std::int64_t> row;
     row.reserve(3 * n_triangles);
     for (std::size_t t = 0; t < n_triangles; ++t)
         for (int k = 0; k < 3; ++k)
-            row.emplace(key(triangles[3 * t + k], triangles[3 * t + (k + 1) % 3]), static_cast<std::int64_t>(t));
+            row.emplace(detail::undirected_edge_key(triangles[3 * t + k], triangles[3 * t + (k + 1) % 3]),
+                        static_cast<std::int64_t>(t));
     std::vector<std::int64_t> out;
-    auto add = [&](const detail::OutlineEdge& e) {
-        auto it = row.find(key(e.a, e.b));
-        if (it == row.end()) it = row.find(key(e.b, e.a));
-        if (it != row.end()) out.push_back(it->second);
-    };
-    for (const auto& m : meet) {
-        add(edges[m.first]);
-        add(edges[m.second]);
-    }
+    for (const auto& m : meet)
+        for (const std::size_t i : {m.first, m.second})
+            out.push_back(row.at(detail::undirected_edge_key(edges[i].a, edges[i].b)));
     std::sort(out.begin(), out.end());
     out.erase(std::unique(out.begin(), out.end()), out.end());
     return out;

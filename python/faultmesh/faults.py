@@ -499,16 +499,6 @@ def _layer_tip(fault, traces_with, layer: str, end: int, tip: np.ndarray, direct
     return np.array([xy[0], xy[1], z])
 
 
-def _sides_at(area: StudyArea, xy: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(side, s, other) of points ``xy`` (k, 2) on the study-area boundary
-    (:meth:`StudyArea.locate`: side -1 off it, a corner located at the start
-    of its side); ``other`` is the side that ends at a corner, else ``side``:
-    a corner lies on both."""
-    side, s = (np.asarray(a) for a in area.locate(np.ascontiguousarray(xy)))
-    other = np.where((side >= 0) & (s == 0.0), (side - 1) % int(area.n_sides), side)
-    return side, s, other
-
-
 def _to_boundary(area: StudyArea, poly: np.ndarray, d: np.ndarray, surface_z):
     """``poly`` carried along ``d`` onto the study-area boundary: (points
     (k, 3) placed on their sides, t (k,) the distances). A point already on
@@ -1231,7 +1221,9 @@ def _drop_boundary_slivers(V: np.ndarray, T: np.ndarray, area: StudyArea) -> Tup
     strip that lies along the boundary joins two sheets)."""
     if len(T) == 0:
         return T, 0
-    side, _, other = _sides_at(area, V[:, :2])
+    side, s = area.locate(np.ascontiguousarray(V[:, :2]))
+    # The second side of a corner (located at the start of its side).
+    other = np.where((side >= 0) & (s == 0.0), (side - 1) % int(area.n_sides), side)
     a, b = side[T], other[T]                                             # (m, 3)
     shared = np.zeros(len(T), dtype=bool)
     for c in (a[:, 0], b[:, 0]):
