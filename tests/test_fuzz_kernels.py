@@ -1261,7 +1261,8 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
     and data anywhere, on its vertices and edges too: every datum placed
     is a vertex at its own elevation in or on the edge of a triangle it
     was in (at its own XY, or within a hundredth of the triangle's height
-    of it, on the edge), the XY area of each sheet is kept with its
+    of it, on the edge, with the z that puts its sheet through it at its
+    own XY), the XY area of each sheet is kept with its
     orientation, every edge is used twice at most, no triangle is flat in
     XY; hostile data (NaN, beyond the coordinate limit) are a ValueError
     naming the function."""
@@ -1290,7 +1291,8 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
     assert not (hostile and m), "a coordinate beyond the limit was accepted"
     assert len(V2) == len(V) + len(placed) and len(T2) >= len(T) + len(placed)
     new = V2[len(V):]
-    np.testing.assert_array_equal(new[:, 2], P[placed, 2])
+    at_own_xy = np.all(new[:, :2] == P[placed, :2], axis=1)
+    np.testing.assert_array_equal(new[at_own_xy, 2], P[placed[at_own_xy], 2])
     assert ((tri >= 0).sum() == len(placed)) and (tri[placed] >= 0).all()
 
     def o2(W, S):
@@ -1316,3 +1318,21 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
             # Moved onto an edge of that triangle, at most a hundredth of its height.
             wn = np.linalg.solve(M, np.r_[new[k, :2], 1.0])
             assert (wn > -tol).all() and np.min(np.abs(wn)) <= tol and np.min(w) <= 0.01 + tol, (w, wn)
+            # Its vertex's z puts its sheet through it at its own XY (the new
+            # triangles round it of its triangle's orientation, the one that
+            # holds its XY best), or it is its own where its weight there is
+            # under 3/4 (patch_data.cpp, kMinOwnWeight).
+            v = len(V) + k
+            S = T2[(T2 == v).any(axis=1) & (np.sign(o_new) == np.sign(o_old[j]))]
+            best, z_at = -np.inf, None
+            for s in S:
+                Ms = np.array([V2[s, 0], V2[s, 1], [1.0, 1.0, 1.0]])
+                ws = np.linalg.solve(Ms, np.r_[P[i, :2], 1.0])
+                if ws.min() > best:
+                    best, own, z_at = ws.min(), ws[list(s).index(v)], ws @ V2[s, 2]
+            assert z_at is not None
+            zscale = 1.0 + np.abs(V[T[j], 2]).max() + abs(P[i, 2])
+            if own >= 0.75:
+                assert abs(z_at - P[i, 2]) <= 1e-6 * zscale + tol * zscale, (z_at, P[i, 2])
+            else:
+                assert new[k, 2] == P[i, 2]

@@ -37,9 +37,12 @@ void bind_patch_data(py::module_& m) {
         "Each such triangle is triangulated again on its own (its edges constrained, the data\n"
         "flipped to a constrained Delaunay triangulation), in its own XY orientation; the\n"
         "other triangles are untouched. A datum within a hundredth of the triangle's height of\n"
-        "its edges, or of a datum placed in it before, is not placed (it would make a sliver).\n\n"
-        "Returns (vertices (k + p, 3), triangles (m + 2p, 3), placed int64 (p,) the datum of\n"
-        "each new vertex, triangle int64 (n,) the input triangle each datum went into or -1).");
+        "one edge goes onto that edge at its projection, with the z that puts its sheet through\n"
+        "it at its own XY, and every triangle with the edge is fanned through it; one within\n"
+        "that of two edges, or of a datum placed before, is not placed (it would make a sliver).\n\n"
+        "Returns (vertices (k + p, 3), triangles (m + 2p or more, 3), placed int64 (p,) the\n"
+        "datum of each new vertex, triangle int64 (n,) the input triangle each datum went into\n"
+        "or -1).");
 }
 
 }  // namespace faultmesh::bindings

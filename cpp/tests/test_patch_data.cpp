@@ -45,6 +45,25 @@ void expect_conforming(const std::vector<double>& V0, const std::vector<std::int
     EXPECT_NEAR(in_neg, out_neg, 1e-9 * (1 + std::fabs(in_neg)));
 }
 
+// z at q's XY of the output triangle of the given orientation that holds
+// it (the sheet's), NaN if none does.
+double sheet_z(const fm::PatchDataResult& r, bool ccw, const double* q) {
+    for (std::size_t t = 0; t < r.triangles.size(); t += 3) {
+        const std::int64_t* s = &r.triangles[t];
+        const double o = orient_xy(r.vertices, s);
+        if (o == 0.0 || (o > 0.0) != ccw) continue;
+        double w[3], z = 0.0;
+        bool inside = true;
+        for (int k = 0; k < 3; ++k) {
+            w[k] = fm::orient2d(&r.vertices[3 * s[(k + 1) % 3]], &r.vertices[3 * s[(k + 2) % 3]], q) / o;
+            inside = inside && w[k] >= 0.0;
+            z += w[k] * r.vertices[3 * s[k] + 2];
+        }
+        if (inside) return z;
+    }
+    return std::numeric_limits<double>::quiet_NaN();
+}
+
 }  // namespace
 
 TEST(PatchData, DataInsideBecomeVerticesAtTheirElevation) {
@@ -63,11 +82,12 @@ TEST(PatchData, DataInsideBecomeVerticesAtTheirElevation) {
     ASSERT_EQ(r.vertices.size(), 3u * 8);
     EXPECT_EQ(r.vertices[3 * 4 + 2], 1.5);
     EXPECT_EQ(r.vertices[3 * 5 + 2], -0.5);
-    // The datum a rounding inside the bottom edge lies on it, with its z;
-    // the one on the diagonal where it was.
+    // The datum a rounding inside the bottom edge lies on it, with its z
+    // (up to that rounding times the slope); the one on the diagonal where
+    // it was.
     EXPECT_EQ(r.vertices[3 * 6 + 0], 5.0);
     EXPECT_EQ(r.vertices[3 * 6 + 1], 0.0);
-    EXPECT_EQ(r.vertices[3 * 6 + 2], 1.0);
+    EXPECT_NEAR(r.vertices[3 * 6 + 2], 1.0, 1e-9);
     EXPECT_EQ(r.vertices[3 * 7 + 0], 5.0);
     EXPECT_EQ(r.vertices[3 * 7 + 1], 5.0);
     EXPECT_EQ(r.vertices[3 * 7 + 2], 3.0);
@@ -96,7 +116,10 @@ TEST(PatchData, DataOnAnEdgeSplitItInEveryTriangleThatHasIt) {
     EXPECT_EQ(r.placed, (std::vector<std::int64_t>{0, 1, 3}));
     ASSERT_EQ(r.vertices.size(), 3u * 7);
     EXPECT_EQ(r.vertices[3 * 6 + 0], 10.0);  // projected onto the edge
-    EXPECT_EQ(r.vertices[3 * 6 + 2], -4.0);
+    // Its z puts its sheet (the nearer in z: the folded one, clockwise)
+    // through it at its own XY, 1 mm from the edge.
+    EXPECT_NEAR(r.vertices[3 * 6 + 2], -4.0, 0.01);
+    EXPECT_NEAR(sheet_z(r, false, &P[9]), -4.0, 1e-9);
     // Each of the two triangles with the edge becomes four.
     EXPECT_EQ(r.triangles.size(), 3u * 8);
     expect_conforming(V, T, r);
@@ -118,6 +141,30 @@ TEST(PatchData, ATriangleWithDataOnTwoEdgesIsSplitAlongBoth) {
                                          std::numeric_limits<double>::infinity());
     EXPECT_EQ(r.placed.size(), 3u);
     EXPECT_EQ(r.triangles.size(), 3u * 5);  // +2 inside, +1 and +1 on the edges
+    expect_conforming(V, T, r);
+}
+
+// A datum moved onto an edge of a steep ramp (a patch between a fault's
+// cutoffs) is still honoured at its own XY: the vertex takes the z that puts
+// the ramp through it there, not the datum's (which would miss it by the
+// slope times the move, stress ground 55: 5.6 m). Two data on one edge share
+// a fan triangle; the solve takes both.
+TEST(PatchData, ADatumMovedOntoAnEdgeOfARampIsHonouredAtItsOwnXY) {
+    // z falls 4 m per metre north; the edge y = 0 is 100 m long, the
+    // triangle's height over it 100 m.
+    const std::vector<double> V{0, 0, 0, 100, 0, 0, 0, 100, -400};
+    const std::vector<std::int64_t> T{0, 1, 2};
+    // 0.5 m and 0.8 m north of the edge (within a hundredth of its height).
+    const std::vector<double> P{50, 0.5, -1, 53, 0.8, -2};
+    const auto r = fm::insert_patch_data(V.data(), 3, T.data(), 1, P.data(), 2,
+                                         std::numeric_limits<double>::infinity());
+    ASSERT_EQ(r.placed, (std::vector<std::int64_t>{0, 1}));
+    EXPECT_EQ(r.vertices[3 * 3 + 1], 0.0);  // on the edge
+    EXPECT_EQ(r.vertices[3 * 4 + 1], 0.0);
+    for (int i = 0; i < 2; ++i) EXPECT_NEAR(sheet_z(r, true, &P[3 * i]), P[3 * i + 2], 1e-9) << "datum " << i;
+    // The vertices moved by about the slope times the move (2 and 3.2 m).
+    EXPECT_NEAR(r.vertices[3 * 3 + 2], -1 + 2.0, 0.5);
+    EXPECT_NEAR(r.vertices[3 * 4 + 2], -2 + 3.2, 0.5);
     expect_conforming(V, T, r);
 }
 

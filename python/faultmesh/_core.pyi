@@ -707,10 +707,13 @@ def insert_patch_data(vertices: typing.Any, triangles: typing.Any, points: typin
     Each such triangle is triangulated again on its own (its edges constrained, the data
     flipped to a constrained Delaunay triangulation), in its own XY orientation; the
     other triangles are untouched. A datum within a hundredth of the triangle's height of
-    its edges, or of a datum placed in it before, is not placed (it would make a sliver).
+    one edge goes onto that edge at its projection, with the z that puts its sheet through
+    it at its own XY, and every triangle with the edge is fanned through it; one within
+    that of two edges, or of a datum placed before, is not placed (it would make a sliver).
     
-    Returns (vertices (k + p, 3), triangles (m + 2p, 3), placed int64 (p,) the datum of
-    each new vertex, triangle int64 (n,) the input triangle each datum went into or -1).
+    Returns (vertices (k + p, 3), triangles (m + 2p or more, 3), placed int64 (p,) the
+    datum of each new vertex, triangle int64 (n,) the input triangle each datum went into
+    or -1).
     """
 def join_holes(rings: typing.Any, bridge: str = 'extreme') -> tuple[numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.int64], numpy.typing.NDArray[numpy.int64]]:
     """

@@ -26,7 +26,10 @@
 // around it are untouched and the patch stays conforming. New triangles keep
 // the orientation (in XY) of the triangle they replace. A datum on or within
 // a hundredth of the triangle's height of one of its edges goes onto that
-// edge, at its projection (moved at most that far in XY), with its own z:
+// edge, at its projection (moved at most that far in XY), with the z that
+// makes its sheet pass through the datum at the datum's own XY (on a steep
+// ramp the move would otherwise cost the slope times it; where a neighbour
+// on the edge is as near, its own z):
 // every triangle with the edge -- on both sheets where the edge is a fold --
 // is fanned from its third corner through the edge's new points (picks on a
 // seismic line lie on the edges of a patch whose sections a derivation put
