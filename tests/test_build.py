@@ -1841,13 +1841,16 @@ def test_a_datum_that_would_put_a_centroid_into_a_fold_of_its_patch_is_left_out(
     V2, T2, n = build._honour_layer_data(V, T, D, area)
     assert not len(fm._unfit_triangles(V2, T2, area))
     assert n == len(placed_all) - 2
-    # Every placed datum is a vertex at its own elevation: at its own XY,
-    # or (on or near a patch edge) moved onto the edge by at most a
-    # hundredth of its triangle's height (under 2.5 m in this patch).
+    # Every placed datum is a vertex: at its own XY and elevation, or (on
+    # or near a patch edge) moved onto the edge by at most a hundredth of
+    # its triangle's height (under 2.5 m in this patch), its z then the
+    # one that puts its sheet through it (insert_patch_data).
     new = V2[len(V):]
     assert len({tuple(v) for v in new}) == n
     # (Data in both sheets of the fold share an XY: matched in x, y and z,
     # z scaled so that another elevation is never the nearer.)
     d, k = cKDTree(D * [1.0, 1.0, 1e6]).query(new * [1.0, 1.0, 1e6])
-    assert np.array_equal(new[:, 2], D[k, 2]) and np.all(d < 2.5), d.max()
     assert np.sum(d == 0.0) >= n - 12
+    moved = d > 0.0
+    d_xy, _ = cKDTree(D[:, :2]).query(new[moved, :2])
+    assert np.all(d_xy < 2.5), d_xy.max()
