@@ -824,6 +824,27 @@ def test_picks_under_the_fault_zones_of_the_layers_above_are_not_lowered():
     assert len(err) > 100 and err.mean() <= 0.5, err.mean()
 
 
+def test_a_repair_that_fails_after_the_stack_raise_builds_with_the_upper_layer_alone():
+    """Stress ground 362 (tests/data/derive/two_normal_faults_stack_raise_repair_fails.npz):
+    after the raise's stack rule (build._raise_over_data) put an L8 datum's
+    point into L7 and the layers above, the crossing repair did not end
+    (L9 still crossed L8 after 200 rounds, both with and without the
+    derivation's extra points under the patches): the lower layer, lowered
+    onto the raised cones' creases, cannot follow them. The build then
+    takes the upper layer's raise alone, as before the stack rule, and
+    says so; every pick near the faults is honoured as then."""
+    ds, truth = _stress_fixture("two_normal_faults_stack_raise_repair_fails.npz")
+    model = fm.build_model(derive_faults(ds), evaluate=False)
+    model.check()
+    retry = model.metadata["repair_retry"]
+    assert "still crosses" in retry and "raised over the data under it alone" in retry, retry
+    assert "left out of its continuous TIN" not in retry, retry
+    for lay in ds.layers:
+        assert _largest_error_at_picks(model, ds, truth, lay) <= 1.5, lay
+    err = _error_near_faults(model, ds, truth)
+    assert len(err) > 300 and err.mean() <= 0.3, err.mean()
+
+
 def test_a_raise_by_the_boundary_takes_the_boundary_vertices_round_it():
     """Stress ground 55 (tests/data/derive/low_angle_normal_fault_pick_at_the_boundary.npz):
     eight layers cut by a normal fault of 93 m at 27 degrees, picked on
