@@ -511,6 +511,27 @@ def _largest_error_at_picks(model, ds, truth, lay: str) -> float:
     return float(err.max()) if np.all(np.isfinite(err)) else np.inf
 
 
+def _miss_at_pick(model, ds, lay: str, x: float, y: float) -> float:
+    """How far the model's surface of ``lay`` (either sheet where a reverse
+    fault folds it) passes from the layer's pick nearest to (x, y)."""
+    from faultmesh.report import evaluate_surface
+
+    P = np.asarray(ds.points[lay])
+    k = int(np.argmin(np.hypot(P[:, 0] - x, P[:, 1] - y)))
+    lo, hi, _ = evaluate_surface(model.surfaces[lay], P[k:k + 1, 0], P[k:k + 1, 1])
+    return float(max(abs(lo[0] - P[k, 2]), abs(hi[0] - P[k, 2])))
+
+
+def _assert_picks_honoured(model, ds, truth, layers, largest: float, n_near: int, mean_near: float) -> None:
+    """Each of ``layers`` within ``largest`` m of the truth at its picks,
+    and the mean error at the picks near the faults (more than ``n_near``
+    of them) within ``mean_near`` m."""
+    for lay in layers:
+        assert _largest_error_at_picks(model, ds, truth, lay) <= largest, lay
+    err = _error_near_faults(model, ds, truth)
+    assert len(err) > n_near and err.mean() <= mean_near, (len(err), err.mean())
+
+
 def _error_near_faults(model, ds, truth, near: float = 200.0) -> np.ndarray:
     """|dz| of the model at the picks within ``near`` m (horizontally) of a
     true fault, against the noise-free truth (the nearer of the surface's
@@ -777,20 +798,12 @@ def test_a_datum_whose_upper_layer_lies_across_a_fault_is_not_lowered_under_it()
     to them meet F2's L2 patch in map view), L2 gets a point at the pick's
     elevation first (build._raise_over_data), as where it has no datum
     near at all."""
-    from faultmesh.report import evaluate_surface
-
     ds, truth = _stress_fixture("reverse_fault_upper_layer_across_it.npz")
     model = fm.build_model(derive_faults(ds), evaluate=False)
     model.check()
     assert model.metadata["tins"]["L2"]["raised_over_data"] >= 1
-    P = np.asarray(ds.points["L3"])
-    k = int(np.argmin(np.hypot(P[:, 0] - 4250.18, P[:, 1] - 1705.78)))
-    lo, hi, _ = evaluate_surface(model.surfaces["L3"], P[k:k + 1, 0], P[k:k + 1, 1])
-    assert abs(lo[0] - P[k, 2]) <= 0.5 and abs(hi[0] - P[k, 2]) <= 0.5, (lo, hi, P[k])
-    for lay in ds.layers:
-        assert _largest_error_at_picks(model, ds, truth, lay) <= 2.0, lay
-    err = _error_near_faults(model, ds, truth)
-    assert len(err) > 300 and err.mean() <= 0.3, err.mean()
+    assert _miss_at_pick(model, ds, "L3", 4250.18, 1705.78) <= 0.5
+    _assert_picks_honoured(model, ds, truth, ds.layers, 2.0, 300, 0.3)
 
 
 def test_picks_under_the_fault_zones_of_the_layers_above_are_not_lowered():
@@ -807,21 +820,13 @@ def test_picks_under_the_fault_zones_of_the_layers_above_are_not_lowered():
     is raised with it (build._raise_over_data): the ground's mean error near
     the fault 2.12 -> 0.32 m. L10 still misses a pick by 11 m, 28 m from an
     L9 datum (a conflict of the data there, which the repair resolves)."""
-    from faultmesh.report import evaluate_surface
-
     ds, truth = _stress_fixture("normal_fault_picks_under_upper_patches.npz")
     model = fm.build_model(derive_faults(ds), evaluate=False)
     model.check()
     assert all(model.metadata["tins"][lay]["raised_over_data"] >= 1 for lay in ("L5", "L6"))
     for lay in ("L7", "L9"):
-        P = np.asarray(ds.points[lay])
-        k = int(np.argmin(np.hypot(P[:, 0] - 2604.01, P[:, 1] - 1869.5)))
-        lo, hi, _ = evaluate_surface(model.surfaces[lay], P[k:k + 1, 0], P[k:k + 1, 1])
-        assert abs(lo[0] - P[k, 2]) <= 0.5 and abs(hi[0] - P[k, 2]) <= 0.5, (lay, lo, hi, P[k])
-    for lay in ds.layers[:9]:
-        assert _largest_error_at_picks(model, ds, truth, lay) <= 2.0, lay
-    err = _error_near_faults(model, ds, truth)
-    assert len(err) > 100 and err.mean() <= 0.5, err.mean()
+        assert _miss_at_pick(model, ds, lay, 2604.01, 1869.5) <= 0.5, lay
+    _assert_picks_honoured(model, ds, truth, ds.layers[:9], 2.0, 100, 0.5)
 
 
 def test_a_repair_that_fails_after_the_stack_raise_builds_with_the_upper_layer_alone():
@@ -839,10 +844,7 @@ def test_a_repair_that_fails_after_the_stack_raise_builds_with_the_upper_layer_a
     retry = model.metadata["repair_retry"]
     assert "still crosses" in retry and "raised over the data under it alone" in retry, retry
     assert "left out of its continuous TIN" not in retry, retry
-    for lay in ds.layers:
-        assert _largest_error_at_picks(model, ds, truth, lay) <= 1.5, lay
-    err = _error_near_faults(model, ds, truth)
-    assert len(err) > 300 and err.mean() <= 0.3, err.mean()
+    _assert_picks_honoured(model, ds, truth, ds.layers, 1.5, 300, 0.3)
 
 
 def test_a_raise_by_the_boundary_takes_the_boundary_vertices_round_it():
@@ -858,21 +860,14 @@ def test_a_raise_by_the_boundary_takes_the_boundary_vertices_round_it():
     L5 datum, moved 0.9 m onto a patch edge, was missed by 5.6 m (2.6 m
     with the boundary vertices raised, before the placement solved the
     moved vertex's z: insert_patch_data). Now every datum is honoured."""
-    from faultmesh.report import evaluate_surface
-
     ds, truth = _stress_fixture("low_angle_normal_fault_pick_at_the_boundary.npz")
     model = fm.build_model(derive_faults(ds), evaluate=False)
     model.check()
     assert all(model.metadata["tins"][lay]["raised_over_data"] >= 2 for lay in ("L1", "L2", "L3", "L4"))
-    P = np.asarray(ds.points["L5"])
-    k = int(np.argmin(np.hypot(P[:, 0] - 170.68, P[:, 1] - 1215.71)))
-    lo, hi, _ = evaluate_surface(model.surfaces["L5"], P[k:k + 1, 0], P[k:k + 1, 1])
-    assert abs(lo[0] - P[k, 2]) <= 0.05 and abs(hi[0] - P[k, 2]) <= 0.05, (lo, hi, P[k])
+    assert _miss_at_pick(model, ds, "L5", 170.68, 1215.71) <= 0.05
     for lay in ds.layers:
         assert model.metadata["data_fit"][lay]["max_m"] <= 0.05, (lay, model.metadata["data_fit"][lay])
-        assert _largest_error_at_picks(model, ds, truth, lay) <= 1.0, lay
-    err = _error_near_faults(model, ds, truth)
-    assert len(err) > 50 and err.mean() <= 0.3, err.mean()
+    _assert_picks_honoured(model, ds, truth, ds.layers, 1.0, 50, 0.3)
 
 
 @pytest.mark.xfail(strict=True, reason="open: an end whose band meets an oblique side within reach but whose "
