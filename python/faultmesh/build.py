@@ -1003,12 +1003,12 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
             # lower layer, lowered onto it, cannot follow in 200 rounds:
             # stress ground 362, L9 under L8).
             left_out.clear()
+            retries.append(f"{e}; built again with each layer raised over the data under it alone "
+                           "(not the layers above it)")
             try:
                 tins, tin_meta = stratum_tins(dataset, area, spacing, repair, max_repair_rounds, prog,
                                               n_threads, fill_holes=fill_holes, left_out=left_out,
                                               raise_stack=False)
-                retries.append(f"{e}; built again with each layer raised over the data under it alone "
-                               "(not the layers above it)")
             except GeometryError as e1:
                 if "repair_crossings(" not in str(e1):
                     raise
