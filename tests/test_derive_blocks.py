@@ -839,11 +839,13 @@ def test_a_repair_that_fails_after_the_stack_raise_builds_with_the_upper_layer_a
     derivation's extra points under the patches): the lower layer, lowered
     onto the raised cones' creases, cannot follow them. The build then
     takes the upper layer's raise alone, as before the stack rule, and
-    says so; every pick near the faults is honoured as then."""
+    says so; every pick near the faults is honoured as then. The stack
+    attempt's repair stops after build.STACK_REPAIR_ROUNDS rounds."""
     ds, truth = _stress_fixture("two_normal_faults_stack_raise_repair_fails.npz")
     model = fm.build_model(derive_faults(ds), evaluate=False)
     model.check()
     retry = model.metadata["repair_retry"]
+    assert f"after {fm.build.STACK_REPAIR_ROUNDS} rounds" in retry, retry
     assert "still crosses" in retry and "raised over the data under it alone" in retry, retry
     assert "left out of its continuous TIN" not in retry, retry
     _assert_picks_honoured(model, ds, truth, ds.layers, 1.5, 300, 0.3)
