@@ -233,12 +233,11 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
         # The points under the layer's patch are kept with the layer's
         # elevation before them (the repair needs them; the patch's loft
         # must not follow them, _lower_back).
-        xy = np.ascontiguousarray(P[:, :2])
-        if stack is not None and np.any(kind == 2):
-            at = xy[kind == 2]
-            stack["under_patches"].setdefault(lay, []).append(
-                np.column_stack([at, np.asarray(tins[lay].interpolate(np.ascontiguousarray(at)), dtype=np.float64)]))
         if stack is not None:
+            at = np.ascontiguousarray(P[kind == 2, :2])
+            if len(at):
+                stack["under_patches"].setdefault(lay, []).append(
+                    np.column_stack([at, np.asarray(tins[lay].interpolate(at), dtype=np.float64)]))
             stack["points"] += n_stack
         tins[lay].insert(np.ascontiguousarray(P))
         added[lay] = added.get(lay, 0) + int(len(P))
@@ -263,6 +262,9 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
         if not len(sel):
             continue
         P, kind = D[sel], kind[kind > 0]
+        # The upper layer's raise alone: its own data points of kind 1 (the
+        # datum outside its patches); every other point is the stack rule's.
+        n_own = int(np.sum(kind == 1))
         # The upper layer's boundary vertices next to a datum raised (within
         # one boundary spacing, and it the lower datum nearest to them), at
         # the lower layer's elevation where that is above them. Farther
@@ -270,12 +272,13 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
         # four of the lower layer's data spacings, stress ground 69's L3
         # took L4's extrapolation at the boundary, up to 148 m above its
         # own, and its error near the fault on a grid went 1.67 -> 2.13 m.
-        B = np.asarray(tins[up].vertices)[np.asarray(tins[up].boundary_vertices)][:, :2]
-        dist, nearest = cKDTree(D[:, :2]).query(B)
-        raised = np.zeros(len(D), dtype=bool)
-        raised[sel] = True
-        B = np.ascontiguousarray(B[raised[nearest] & (dist <= tins[up].spacing)])
-        if len(B) and stack is not None:
+        if stack is not None:
+            B = np.asarray(tins[up].vertices)[np.asarray(tins[up].boundary_vertices)][:, :2]
+            dist, nearest = cKDTree(D[:, :2]).query(B)
+            raised = np.zeros(len(D), dtype=bool)
+            raised[sel] = True
+            B = np.ascontiguousarray(B[raised[nearest] & (dist <= tins[up].spacing)])
+        if stack is not None and len(B):
             zl = np.asarray(tins[lo].interpolate(B), dtype=np.float64)
             zb = np.asarray(tins[up].interpolate(B), dtype=np.float64)
             ok = np.isfinite(zl) & np.isfinite(zb) & (zl - zb > tol)
@@ -291,10 +294,7 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
                 if over.any() and len(data[layers[k - 1]]) >= 2 and stack is not None:
                     above_kind[over] = undecided(layers[k - 1], P[over])
                 Z = np.where(over & (above_kind == 0), cap, Z)
-            # The stack rule's points: all but the upper layer's own data
-            # points of kind 1 (the datum outside its patches).
-            own = (kind == 1) & (np.arange(len(P)) < len(sel)) if k == i - 1 else np.zeros(len(P), dtype=bool)
-            insert(layers[k], np.column_stack([P[:, :2], Z]), kind, int(np.sum(~own)))
+            insert(layers[k], np.column_stack([P[:, :2], Z]), kind, len(P) - (n_own if k == i - 1 else 0))
             go_on = above_kind > 0
             P, kind = P[go_on], above_kind[go_on]
             if not len(P):
@@ -302,11 +302,10 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
     return added
 
 
-def _lower_back(tins: Dict[str, LayerTin], under_patches: Dict[str, List[np.ndarray]]) -> int:
+def _lower_back(tins: Dict[str, LayerTin], under_patches: Dict[str, List[np.ndarray]]) -> None:
     """After the crossing repair: each point that :func:`_raise_over_data`
     put into a layer's TIN under that layer's fault patch goes back to the
     elevation the layer had there before it (no higher than it has now).
-    Returns the number of points.
 
     Why: the patch, not the TIN, is the layer there, and the stitcher
     removes the TIN there; the raise is for the repair, which would
@@ -317,7 +316,6 @@ def _lower_back(tins: Dict[str, LayerTin], under_patches: Dict[str, List[np.ndar
     patches of stress ground 42 follow the TIN's bridge, up to 8 m off
     the truth 130 m away (the error near the fault on a grid 0.59 -> 0.65
     m)."""
-    n = 0
     for lay, parts in under_patches.items():
         R = np.vstack(parts)
         # One row per XY, the lowest elevation recorded (a later raise
@@ -330,8 +328,6 @@ def _lower_back(tins: Dict[str, LayerTin], under_patches: Dict[str, List[np.ndar
         now = np.asarray(tins[lay].interpolate(np.ascontiguousarray(R[:, :2])), dtype=np.float64)
         R[:, 2] = np.where(np.isfinite(now), np.minimum(R[:, 2], now), R[:, 2])
         tins[lay].insert(np.ascontiguousarray(R))
-        n += len(R)
-    return n
 
 
 def _upper_layer_undecided(zones: List[Tuple[np.ndarray, np.ndarray]], P: np.ndarray, U: np.ndarray,
