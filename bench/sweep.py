@@ -54,7 +54,7 @@ QUICK_OUT = ROOT / "bench" / "results" / "quick"
 
 
 def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=False,
-           fault_form: str = "sticks", fault_noise: float = 0.0) -> None:
+           fault_form: str = "sticks", fault_noise: float = 0.0, groups: bool = True) -> None:
     try:
         import resource
         lim = int(mem_gb * 2 ** 30)
@@ -70,7 +70,7 @@ def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=Fal
     from faultmesh.grounds import evaluate_ground, evaluate_ground_v2
     try:
         out = (evaluate_ground_v2(seed, section_picks=(v2 != "holes"), fault_form=fault_form,
-                                  fault_noise=fault_noise)
+                                  fault_noise=fault_noise, groups=groups)
                if v2 else evaluate_ground(seed))
     except BaseException as e:  # evaluate_ground records failures; this is its own defect
         out = {"seed": seed, "ok": False, "stage": "crash", "error_type": type(e).__name__,
@@ -80,11 +80,13 @@ def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=Fal
 
 
 def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl: Path = None,
-              v2=False, fault_form: str = "sticks", fault_noise: float = 0.0) -> List[Dict]:
+              v2=False, fault_form: str = "sticks", fault_noise: float = 0.0,
+              groups: bool = True) -> List[Dict]:
     """Outcomes of the seeds, each in its own forked process (``v2``: False,
     True, or "holes" for v2 grounds without the trace picks; ``fault_form``:
     how the v2 grounds give their faults, ``grounds.FAULT_FORMS``;
-    ``fault_noise``: their picking error, m)."""
+    ``fault_noise``: their picking error, m; ``groups`` False: the faults
+    written without their groups, which the derivation must find)."""
     import tempfile
     ctx = mp.get_context("fork")
     tb_dir = tempfile.mkdtemp(prefix="sweep-tb-")
@@ -100,7 +102,7 @@ def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl:
                 r, w = ctx.Pipe(duplex=False)
                 tb = os.path.join(tb_dir, f"seed{s}.txt")
                 p = ctx.Process(target=_child, args=(s, w, mem_gb, tb, 0.95 * timeout, v2, fault_form,
-                                                      fault_noise),
+                                                      fault_noise, groups),
                                daemon=True)
                 p.start()
                 w.close()
@@ -373,7 +375,8 @@ def render_v2(outs: List[Dict], meta: Dict[str, Any]) -> str:
     L = _header(title + (", layer data from the holes only" if holes else "")
                 + ("" if form == "sticks" else f", faults as {form}")
                 + (f", fault points with a {meta['fault_noise']:g} m picking error"
-                   if meta.get("fault_noise") else ""), outs, meta)
+                   if meta.get("fault_noise") else "")
+                + ("" if meta.get("groups", True) else ", faults without their groups"), outs, meta)
     L += ["Each seed's ground (`faultmesh.grounds.random_ground(seed)`) is written twice: as its v1 "
           "dataset (hand-drawn traces up to the true cutoffs) and by `faultmesh.grounds.write_v2` as "
           "format 2 without cutoffs (each fault as "
@@ -453,13 +456,15 @@ def render_v2(outs: List[Dict], meta: Dict[str, Any]) -> str:
     return "\n".join(L).rstrip() + "\n"
 
 
-def _stem(v2, fault_form: str = "sticks", fault_noise: float = 0.0) -> str:
+def _stem(v2, fault_form: str = "sticks", fault_noise: float = 0.0, groups: bool = True) -> str:
     """The file stem of a sweep's outputs."""
     stem = {False: "sweep", None: "sweep", True: "sweep_v2", "holes": "sweep_v2_holes"}[v2]
     if v2 and fault_form != "sticks":
         stem += f"_{fault_form}"
     if v2 and fault_noise > 0.0:
         stem += f"_noise{fault_noise:g}"
+    if v2 and not groups:
+        stem += "_nogroups"
     return stem
 
 
@@ -487,6 +492,9 @@ def main(argv=None) -> int:
                     help="with --v2: each fault point moved across strike by a normal error of this "
                          "standard deviation (m; an interpreter's picking error); adds _noiseM to the "
                          "file stem")
+    ap.add_argument("--no-groups", action="store_true",
+                    help="with --v2: the faults written without their groups (T and X pairs), which "
+                         "the derivation must find; adds _nogroups to the file stem")
     ap.add_argument("--render", type=Path, default=None, metavar="JSON",
                     help="no sweep: render the table again from a sweep.json (into --out or its folder)")
     args = ap.parse_args(argv)
@@ -502,14 +510,15 @@ def main(argv=None) -> int:
         print(text)
         if not args.no_write:
             out = (args.out or args.render.parent) / (_stem(v2, doc["meta"].get("fault_form", "sticks"),
-                                                              doc["meta"].get("fault_noise", 0.0)) + ".md")
+                                                              doc["meta"].get("fault_noise", 0.0),
+                                                              doc["meta"].get("groups", True)) + ".md")
             out.write_text(text)
             print(f"wrote {out}", file=sys.stderr)
         return 0
     if args.holes_only and not args.v2:
         ap.error("--holes-only goes with --v2")
-    if (args.fault_form != "sticks" or args.fault_noise) and not args.v2:
-        ap.error("--fault-form and --fault-noise go with --v2")
+    if (args.fault_form != "sticks" or args.fault_noise or args.no_groups) and not args.v2:
+        ap.error("--fault-form, --fault-noise and --no-groups go with --v2")
     if not args.fault_noise >= 0.0:
         ap.error("--fault-noise must be at least 0")
     v2 = "holes" if args.holes_only else args.v2
@@ -521,10 +530,10 @@ def main(argv=None) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     seeds = list(range(args.start, args.start + args.seeds))
     t0 = time.perf_counter()
-    stem = _stem(v2, args.fault_form, args.fault_noise)
+    stem = _stem(v2, args.fault_form, args.fault_noise, not args.no_groups)
     outs = run_seeds(seeds, args.jobs, args.timeout, args.memory_gb,
                      jsonl=None if args.no_write else out_dir / f"{stem}.jsonl", v2=v2,
-                     fault_form=args.fault_form, fault_noise=args.fault_noise)
+                     fault_form=args.fault_form, fault_noise=args.fault_noise, groups=not args.no_groups)
     elapsed = time.perf_counter() - t0
     if not args.v2:
         fill_specs(outs)
@@ -532,7 +541,8 @@ def main(argv=None) -> int:
     meta = {"command": command_line("sweep.py"), "date": today(),
             "machine": machine(numpy=True, faultmesh=True), "jobs": args.jobs, "timeout": args.timeout,
             "memory_gb": args.memory_gb, "elapsed": elapsed, "v2": v2,
-            **({"fault_form": args.fault_form, "fault_noise": args.fault_noise} if args.v2 else {})}
+            **({"fault_form": args.fault_form, "fault_noise": args.fault_noise,
+                "groups": not args.no_groups} if args.v2 else {})}
     text = render_v2(outs, meta) if args.v2 else render(outs, meta)
     print(text)
     if not args.no_write:

@@ -2090,7 +2090,7 @@ FAULT_FORMS = ("sticks", "points", "surface")
 
 
 def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks: bool = False,
-             fault_form: str = "sticks", fault_noise: float = 0.0) -> Path:
+             fault_form: str = "sticks", fault_noise: float = 0.0, groups: bool = True) -> Path:
     """Write ground ``spec.seed`` (its v1 dataset ``ds1`` as loaded, its truth
     ``geo``) as a format-2 dataset into ``folder`` without cutoffs: each fault
     as fault sticks on the truth's surface (:func:`_fault_sticks`; with
@@ -2098,7 +2098,8 @@ def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks
     "surface" a TSurf (:func:`_fault_surface`); ``fault_noise`` (m): the
     standard deviation of a picking error across strike, drawn from
     ``default_rng([seed, 4])``; no traces, no kind, no tips: :func:`faultmesh.derive.derive_faults` derives them;
-    the group kept), the layer tops as collar, survey and interval tables of
+    the group kept, or with ``groups`` False left out: the derivation
+    finds the faults that meet), the layer tops as collar, survey and interval tables of
     the same holes with a share of them deviated (:func:`_v2_drillholes`),
     the v1 topography as points and, with ``section_picks``, the v1 traces'
     layer polylines beyond a fault shadow as points
@@ -2126,12 +2127,13 @@ def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks
     noise = {"noise": np.random.default_rng([int(spec.seed), 4]), "sigma": float(fault_noise)}
     for f in ds1.faults:
         dec = (int(spec.rounding["traces"]), int(spec.rounding["z"]))
+        group = f.group if groups else None
         if fault_form == "surface":
             V, T = _fault_surface(geo, geo.fault(f.name), ring, z_range, rng, *dec, **noise)
-            faults.append(Fault(f.name, None, f.group, surface=(V, T)))
+            faults.append(Fault(f.name, None, group, surface=(V, T)))
             continue
         P, st = _fault_sticks(geo, geo.fault(f.name), ring, z_range, rng, *dec, **noise)
-        faults.append(Fault(f.name, None, f.group, points=P, sticks=st if fault_form == "sticks" else None))
+        faults.append(Fault(f.name, None, group, points=P, sticks=st if fault_form == "sticks" else None))
     tables, kinds = _v2_drillholes(geo, ds1, spec, rng)
     points = {lay: np.asarray(v, dtype=np.float64).reshape(-1, 3) for lay, v in ds1.points.items()}
     picks, shadow = trace_picks(ds1, spec.seed) if section_picks else ({}, None)
@@ -2240,10 +2242,11 @@ def _derive_symptom(out: Dict[str, Any]) -> str:
 
 def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, section_picks: bool = True,
                        built: Optional[Dict[str, Any]] = None, fault_form: str = "sticks",
-                       fault_noise: float = 0.0, **overrides) -> Dict[str, Any]:
+                       fault_noise: float = 0.0, groups: bool = True, **overrides) -> Dict[str, Any]:
     """Ground ``seed`` as v1 (true cutoffs) and as v2 without cutoffs
     (:func:`write_v2`, with or without ``section_picks``, its faults in
-    ``fault_form``, picked with ``fault_noise``), each loaded,
+    ``fault_form``, picked with ``fault_noise``, with or without their
+    ``groups``), each loaded,
     built and checked; never raises for a failure of faultmesh (it is
     recorded). Returns a JSON-serialisable dict:
     seed, spec, describe, tags, v2 (hole kinds, fault points), ok (v2 derived,
@@ -2293,7 +2296,7 @@ def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, se
             kept["geo"], kept["ds1"] = geo, ds1
             try:
                 path2 = write_v2(ds1, geo, spec, folder / "v2", section_picks=section_picks,
-                                 fault_form=fault_form, fault_noise=fault_noise)
+                                 fault_form=fault_form, fault_noise=fault_noise, groups=groups)
                 out["v2"] = json.loads((folder / "v2" / "v2.json").read_text())
             except Exception as e:
                 return fail("generate:v2", e)
