@@ -967,3 +967,31 @@ def test_derived_faults_too_close_say_where_their_cutoffs_are_extrapolated():
         assert re.search(rf"fault '{name}' is derived, and on \d+ of its sections in layer 'L1' no "
                          r"hanging-wall data lie within \d+ m of its cutoffs", msg), msg
     assert "a 'throw' hint" in msg
+
+
+@pytest.mark.parametrize("name, f1_throw", [("graben_antithetic_fault_ends_on_the_other.npz", 23.6),
+                                             ("graben_antithetic_fault_picks_past_the_other.npz", 22.9)])
+def test_an_antithetic_fault_ending_against_another_takes_no_data_from_across_it(name, f1_throw):
+    """Regression (tests/data/derive/graben_*.npz, a narrow graben whose
+    antithetic fault F2 ends against F1, the graben floor without picks of
+    L1 and L2): F2's hanging wall came from F1's footwall, across F1, where
+    F2 does not exist, so its throw was minus F1's and it came out a
+    reverse fault (17 of 18 such grounds). Data across a fault that a fault
+    ends against are not its own (derive._in_own_block, _abutted_sides; a
+    block's lacking side too): F2 cuts no layer its data show (it is left
+    out, with a warning), F1 keeps its throw, and the model keeps to the
+    picks."""
+    ds, truth = _stress_fixture(name)
+    d = derive_faults(ds)
+    f2 = d.derivation.faults["F2"]
+    assert f2.kind != "reverse"
+    assert any("no layer is cut" in w for w in f2.warnings)
+    f1 = d.derivation.faults["F1"]
+    assert f1.kind == "normal"
+    for lay, p in f1.throw.items():
+        t = p["throw"][p["cut"]]
+        assert len(t) and np.all(np.abs(t - f1_throw) < 2.0), (lay, t)
+    m = fm.build_model(d, evaluate=False)
+    m.check()
+    for lay in ds.layers:
+        assert _largest_error_at_picks(m, ds, truth, lay) < 1.5, lay
