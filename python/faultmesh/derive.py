@@ -3279,13 +3279,12 @@ def _in_own_block(D: np.ndarray, fs: FaultSurface, others: Sequence[FaultSurface
 
     Of another fault that this one ends against (:func:`_ends_against`:
     its own part wholly on one side, and reaching it), every datum on the
-    far side goes: this
-    fault does not exist there, and the data there carry the other's
-    throw (a narrow graben whose antithetic fault ends against the other
-    and whose floor has no datum of a layer took the antithetic fault's
-    hanging wall from the other's footwall: its throw came out minus the
-    other's, a reverse fault). ``ends_on``: :func:`_ends_against` of
-    ``others``, where the caller has it."""
+    far side goes: this fault does not exist there, and the data there
+    carry the other's throw (a narrow graben whose antithetic fault ends
+    against the other and whose floor has no datum of a layer took the
+    antithetic fault's hanging wall from the other's footwall: its throw
+    came out minus the other's, a reverse fault). ``ends_on``:
+    :func:`_ends_against` of ``others``, where the caller has it."""
     keep = np.ones(len(D), dtype=bool)
     if not others or len(D) < 2:
         return keep
@@ -3819,6 +3818,11 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                     continue
                 mid = 0.5 * (f[0] + h[0])
                 key = tuple(int(v) for v in _block_keys(partners, mid[None, :])[0])
+                # Of a partner it ends against, the section's block is on the
+                # fault's own side, wherever the whole layer's cutoffs fell
+                # (a narrow graben's hanging-wall cutoff, from the data
+                # across the partner, lay beyond it).
+                key = tuple(dict(abutted).get(pi, v) for pi, v in enumerate(key))
                 if key not in blocks:
                     blocks[key] = np.all((keys == np.array(key)[None, :]) | (keys == 0), axis=1) & ~unsure
                 if ("block", key) not in fits:
