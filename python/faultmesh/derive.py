@@ -3818,11 +3818,6 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                     continue
                 mid = 0.5 * (f[0] + h[0])
                 key = tuple(int(v) for v in _block_keys(partners, mid[None, :])[0])
-                # Of a partner it ends against, the section's block is on the
-                # fault's own side, wherever the whole layer's cutoffs fell
-                # (a narrow graben's hanging-wall cutoff, from the data
-                # across the partner, lay beyond it).
-                key = tuple(dict(abutted).get(pi, v) for pi, v in enumerate(key))
                 if key not in blocks:
                     blocks[key] = np.all((keys == np.array(key)[None, :]) | (keys == 0), axis=1) & ~unsure
                 if ("block", key) not in fits:
