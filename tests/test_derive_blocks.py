@@ -969,18 +969,22 @@ def test_derived_faults_too_close_say_where_their_cutoffs_are_extrapolated():
     assert "a 'throw' hint" in msg
 
 
+@pytest.mark.xfail(strict=True, reason="open: an antithetic fault ending against another whose hanging-wall "
+                   "block has no data takes that side from across the other and comes out reverse")
 @pytest.mark.parametrize("name, f1_throw", [("graben_antithetic_fault_ends_on_the_other.npz", 23.6),
                                              ("graben_antithetic_fault_picks_past_the_other.npz", 22.9)])
 def test_an_antithetic_fault_ending_against_another_takes_no_data_from_across_it(name, f1_throw):
-    """Regression (tests/data/derive/graben_*.npz, a narrow graben whose
+    """Reproducer (tests/data/derive/graben_*.npz, a narrow graben whose
     antithetic fault F2 ends against F1, the graben floor without picks of
-    L1 and L2): F2's hanging wall came from F1's footwall, across F1, where
-    F2 does not exist, so its throw was minus F1's and it came out a
-    reverse fault (17 of 18 such grounds). Data across a fault that a fault
-    ends against are not its own (derive._in_own_block, _abutted_sides; a
-    block's lacking side too): F2 cuts no layer its data show (it is left
-    out, with a warning), F1 keeps its throw, and the model keeps to the
-    picks."""
+    L1 and L2): F2's hanging wall comes from F1's footwall, across F1,
+    where F2 does not exist, so its throw is minus F1's and it comes out a
+    reverse fault (17 of 18 such grounds of a probe of close faults). What
+    should hold: F2 cuts no layer its data show (it is left out, with a
+    warning) or has its own throw, F1 keeps its throw, and the model keeps
+    to the picks. Leaving out the data beyond a fault that a fault ends
+    against (tried at the thirty-sixth stop) made both pass, left 6 of the
+    18 reverse, and made grabens whose faults meet under the layers worse
+    (5 of 6): not kept."""
     ds, truth = _stress_fixture(name)
     d = derive_faults(ds)
     f2 = d.derivation.faults["F2"]

@@ -2283,12 +2283,11 @@ def _side_surfaces(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame
     """Each side of a layer's data ``D`` (``split``: masks "foot",
     "hanging") on its own (:class:`SideSurface`), or None when a side has
     fewer than 3 data; with ``fallback`` (per side), that side's surface
-    where it has fewer, None when both have or that side's fallback is
-    None. ``fades``: per side, the partner faults' fading throws that
-    ``D`` was restored by (:func:`_restored`)."""
+    where it has fewer, None only when both have. ``fades``: per side, the
+    partner faults' fading throws that ``D`` was restored by
+    (:func:`_restored`)."""
     enough = {nm: int(np.count_nonzero(split[nm])) >= 3 for nm in ("foot", "hanging")}
-    if not all(enough.values()) and (fallback is None or not any(enough.values())
-                                     or any(fallback[nm] is None for nm in enough if not enough[nm])):
+    if not all(enough.values()) and (fallback is None or not any(enough.values())):
         return None
     fades = fades or {}
     slope = _regional_slope(D, frame, split["hanging"])
@@ -2855,32 +2854,6 @@ def _own_part_sides(fs: FaultSurface, partners: Sequence[FaultSurface]) -> List[
     return [p.sides(V) for p in partners]
 
 
-def _abutted_sides(fs: FaultSurface, partners: Sequence[FaultSurface]) -> List[int]:
-    """Per partner, the side (+1 hanging wall, -1 footwall of the
-    partner's continued surface, as :func:`_block_keys` reads it) that the
-    own part of ``fs`` lies on, none of it on the other (a T: ``fs`` ends
-    against the partner); 0 where it lies on both (an X)."""
-    out = []
-    V = fs.own[0]
-    for p, loc in zip(partners, _own_part_sides(fs, partners)):
-        # The vertices within the partner's band (its picking error) of the
-        # plane that decided their side do not count: a T's picks reach the
-        # partner and may lie a hair across it, also past the partner's own
-        # part, where its continued surface decides (a narrow graben's last
-        # points on the partner fell on its footwall side of that).
-        tri = np.asarray(loc[2])
-        far = np.ones(len(V), dtype=bool)
-        m = np.flatnonzero(tri >= 0)
-        T = p.triangles[tri[m]]
-        a = p.vertices[T[:, 0]]
-        n = np.cross(p.vertices[T[:, 1]] - a, p.vertices[T[:, 2]] - a)
-        # A magnitude (the sides stay exact): the distance to that plane.
-        far[m] = np.abs(np.einsum("ij,ij->i", V[m] - a, n)) > p.band * np.linalg.norm(n, axis=1)
-        e = np.asarray(loc[1])[far]
-        out.append(1 if np.all(e >= 0) and np.any(e > 0) else -1 if np.all(e <= 0) and np.any(e < 0) else 0)
-    return out
-
-
 def _lies_on_hanging_wall(fs: FaultSurface, other: FaultSurface, located=None) -> bool:
     """Whether the own part of ``fs`` lies on the hanging-wall side of
     ``other``'s (continued) surface, none of it on the footwall side
@@ -3262,7 +3235,7 @@ def _data_sides(fs: FaultSurface, D: np.ndarray, frame: GridFrame,
 
 
 def _in_own_block(D: np.ndarray, fs: FaultSurface, others: Sequence[FaultSurface],
-                  cell: float, ends_on: Optional[Sequence[int]] = None) -> np.ndarray:
+                  cell: float) -> np.ndarray:
     """Mask (n,) of the layer data ``D`` (n, 3) that this fault's side
     surfaces may use: all but a datum that lies on the other side of another
     fault (in that fault's extent; exact sides) than this fault does while a
@@ -3275,57 +3248,23 @@ def _in_own_block(D: np.ndarray, fs: FaultSurface, others: Sequence[FaultSurface
     9.7 m apart in z; F1's hanging wall came out 260 m above its data, F1's
     patch ran into F3's: "faults too close"). Which side of the other
     fault this one is on: that of its centre, relative to the other's
-    continued surface.
-
-    Of another fault that this one ends against (:func:`_ends_against`:
-    its own part wholly on one side, and reaching it), every datum on the
-    far side goes: this fault does not exist there, and the data there
-    carry the other's throw (a narrow graben whose antithetic fault ends
-    against the other and whose floor has no datum of a layer took the
-    antithetic fault's hanging wall from the other's footwall: its throw
-    came out minus the other's, a reverse fault). ``ends_on``:
-    :func:`_ends_against` of ``others``, where the caller has it."""
+    continued surface."""
     keep = np.ones(len(D), dtype=bool)
     if not others or len(D) < 2:
         return keep
     from scipy.spatial import cKDTree
 
-    if ends_on is None:
-        ends_on = _ends_against(fs, others)
-    for o, against in zip(others, ends_on):
-        mine = against or int(o.side(fs.centre[None, :])[1][0])
+    for o in others:
+        mine = int(o.side(fs.centre[None, :])[1][0])
         if mine not in (-1, 1):
             continue
         side = o.side(D)[0]
         near, far = side == mine, side == -mine
-        if against:
-            keep &= ~far
-            continue
         if not near.any() or not far.any():
             continue
         d, _ = cKDTree(D[near, :2]).query(D[far, :2], k=1)
         keep[np.flatnonzero(far)[d <= cell]] = False
     return keep
-
-
-def _ends_against(fs: FaultSurface, others: Sequence[FaultSurface]) -> List[int]:
-    """Per other fault, the side of it (+1, -1) on which ``fs`` ends
-    against it (:func:`_abutted_sides`, and a vertex of its own part on the
-    other's own part: within either's band, the picking error), else 0.
-    Not within its reach along strike (:attr:`FaultSurface.reach`, the
-    rule by which partners abut): two parallel step faults 60 m apart,
-    sticks 100 m apart, each took the other for one it ends against,
-    lost its hanging wall's data beyond the other, and neither cut a layer
-    (a probe of close faults)."""
-    sides = _abutted_sides(fs, others)
-    out = []
-    V = fs.own[0]
-    for o, sg in zip(others, sides):
-        if sg and np.min(_fault_distance(o, V), initial=np.inf) <= max(fs.band, o.band):
-            out.append(sg)
-        else:
-            out.append(0)
-    return out
 
 
 #: Where the extra section at an end on the study-area boundary goes: this
@@ -3718,7 +3657,6 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # from another (_borrowed_side).
     prep: Dict[str, Tuple[np.ndarray, np.ndarray, float]] = {}
     frames: Dict[str, GridFrame] = {}
-    ends_on = _ends_against(fs, others)
     for lay in ds.layers:
         # With the points of a sparse layer made conformable
         # (Dataset.derived_points, _conformable_points).
@@ -3726,7 +3664,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         if len(D) < 3:
             continue
         spacing_data = _median_spacing(D)
-        D = D[_in_own_block(D, fs, others, 0.5 * spacing_data, ends_on)]
+        D = D[_in_own_block(D, fs, others, 0.5 * spacing_data)]
         frame = _side_frame(fs, ring, 3.0 * spacing + 2.0 * spacing_data, spacing_data / 2.0)
         gap, ext = _data_sides(fs, D, frame, opt.k)
         D, ext = D[~gap], ext[~gap]
@@ -3796,22 +3734,6 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             located = [p.sides(D) for p in partners]
             keys = _block_keys(partners, D, located)
             unsure = _in_bands(partners, D, located)
-            # A side a block lacks comes from the whole layer's data on that
-            # side, but not from across a partner the fault ends against (a
-            # T): this fault does not exist there. A narrow graben whose
-            # antithetic fault F2 ends against F1 and whose floor has no
-            # datum of a layer took F2's hanging wall from F1's footwall,
-            # across F1: F2's throw came out minus F1's, a reverse fault
-            # (17 of 18 such grounds of a probe of close faults). Without a
-            # datum of that side on its side of such a partner the section
-            # does not cut the layer.
-            abutted = [(pi, sg) for pi, sg in enumerate(_ends_against(fs, partners)) if sg]
-            lacking = sides
-            if abutted:
-                here = np.all([(keys[:, pi] == sg) | (keys[:, pi] == 0) for pi, sg in abutted], axis=0) & ~unsure
-                slope = _regional_slope(D, frame, split["hanging"])
-                lacking = {nm: SideSurface(D[split[nm] & here], opt.k, frame, slope=slope)
-                           if np.count_nonzero(split[nm] & here) >= 3 else None for nm in ("foot", "hanging")}
             for j, i in enumerate(good):
                 f, h = roots["foot"][j], roots["hanging"][j]
                 if f is None or h is None:
@@ -3838,11 +3760,9 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                     # z = 221 m where the layer lies at 1 m, its block
                     # having 9 footwall data and 2 hanging-wall ones).
                     fits["block", key] = _side_surfaces(Db[inblock], {nm: split[nm][inblock] for nm in split},
-                                                        frame, opt.k, fades, fallback=lacking)
+                                                        frame, opt.k, fades, fallback=sides)
                 blk = fits["block", key]
                 if blk is None:
-                    if abutted:
-                        roots["foot"][j] = roots["hanging"][j] = None
                     continue
                 sec_sides[i] = blk
                 sec_block[i] = key
