@@ -592,7 +592,6 @@ def test_derived_dataset_keeps_what_the_given_one_says():
     drillhole tables stay. Regression: it kept ten fields and dropped
     these four (a derived dataset's messages named no file, and a build
     from it took the default snap distance)."""
-    from dataclasses import replace
     ds = datasets.synthetic(2, kind="normal", dip=60.0, n_boreholes=120, n_layers=2)
     v2 = replace(v2_of(ds), snap_distance=0.25, point_sources={ds.layers[0]: ("top.csv", None)},
                  drillholes=object())
@@ -917,7 +916,6 @@ def test_plane_traces_above_a_cutoff_still_take_room():
     footwall far ends (1.2 km long with 26 holes over 5.7 km) ran under
     F3's tip: "faults too close". The other fault's nearest trace (its
     extent's deepest) now stands in."""
-    from dataclasses import replace
 
     from faultmesh import grounds
 

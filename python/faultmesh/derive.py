@@ -4919,48 +4919,53 @@ def _faults_that_meet(faults: Sequence[Fault], surfs: Dict[str, "FaultSurface"],
         P = P.reshape(-1, 3)
         return (P[:, 2] >= lo) & (P[:, 2] <= hi) & points_in_polygon(P[:, :2], ring)
 
+    # Each ordered pair's side test once, for both kinds (the first found
+    # per pair is kept below, crossings first).
+    met: Dict[Tuple[str, str, str], Tuple[np.ndarray, float]] = {}
+    for a in names:
+        fa = surfs[a]
+        V, T = fa.own
+        if not len(T):
+            continue
+        v_in = inside(V)
+        E = np.vstack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]]) if "cross" in kinds else None
+        for b in names:
+            if a == b or (group[a] and group[a] == group[b]):
+                continue
+            loc = surfs[b].sides(V)
+            s = np.asarray(loc[0]).astype(np.int64)
+            d = _fault_distance(surfs[b], V, loc)
+            if E is not None:
+                where = None
+                X = E[s[E[:, 0]] * s[E[:, 1]] == -1]
+                if len(X):
+                    # Where the edge meets b: by the vertices' distances to
+                    # b's located triangles (both finite: located in b's own
+                    # part), a share in [0, 1].
+                    den = d[X[:, 0]] + d[X[:, 1]]
+                    w = np.divide(d[X[:, 0]], den, out=np.full(len(X), 0.5), where=den > 0)
+                    P = V[X[:, 0]] + w[:, None] * (V[X[:, 1]] - V[X[:, 0]])
+                    ok = np.flatnonzero(inside(P))
+                    if len(ok):
+                        where = P[ok[0]]
+                on = np.flatnonzero((s == 0) & v_in)
+                if where is None and len(on):
+                    where = V[on[0]]
+                if where is not None:
+                    met["cross", a, b] = (where, 0.0)
+            inb = s != BEYOND_FAULT
+            if "abut" in kinds and (np.all(s[inb] >= 0) or np.all(s[inb] <= 0)):
+                near = np.flatnonzero((d <= max(fa.reach, ON_FAULT)) & v_in)
+                if len(near):
+                    k = near[np.argmin(d[near])]
+                    met["abut", a, b] = (V[k], float(d[k]))
     found = set()
     for how in [k for k in ("cross", "abut") if k in kinds]:
         for a in names:
             for b in names:
-                if a == b or (group[a] and group[a] == group[b]) or frozenset((a, b)) in found:
-                    continue
-                fa, fb = surfs[a], surfs[b]
-                V, T = fa.own
-                if not len(T):
-                    continue
-                loc = fb.sides(V)
-                s = np.asarray(loc[0]).astype(np.int64)
-                d = _fault_distance(fb, V, loc)
-                where = None
-                gap = 0.0
-                if how == "cross":
-                    E = np.vstack([T[:, [0, 1]], T[:, [1, 2]], T[:, [2, 0]]])
-                    E = E[s[E[:, 0]] * s[E[:, 1]] == -1]
-                    if len(E):
-                        # Where the edge meets b: by the vertices' distances
-                        # to b's located triangles (both finite: located in
-                        # b's own part), a share in [0, 1].
-                        den = d[E[:, 0]] + d[E[:, 1]]
-                        w = np.divide(d[E[:, 0]], den, out=np.full(len(E), 0.5), where=den > 0)
-                        P = V[E[:, 0]] + w[:, None] * (V[E[:, 1]] - V[E[:, 0]])
-                        ok = np.flatnonzero(inside(P))
-                        if len(ok):
-                            where = P[ok[0]]
-                    on = np.flatnonzero((s == 0) & inside(V))
-                    if where is None and len(on):
-                        where = V[on[0]]
-                else:
-                    inb = s != BEYOND_FAULT
-                    if not (np.all(s[inb] >= 0) or np.all(s[inb] <= 0)):
-                        continue
-                    near = np.flatnonzero((d <= max(fa.reach, ON_FAULT)) & inside(V))
-                    if len(near):
-                        i = near[np.argmin(d[near])]
-                        where, gap = V[i], float(d[i])
-                if where is not None:
+                if (how, a, b) in met and frozenset((a, b)) not in found:
                     found.add(frozenset((a, b)))
-                    out.append(FaultsMeet(a, b, how, where, gap))
+                    out.append(FaultsMeet(a, b, how, *met[how, a, b]))
     return out
 
 
