@@ -60,11 +60,14 @@ def fault_points(geo: Geology, name: str, ds: Dataset, step_u: float = 120.0,
 
 def v2_of(ds: Dataset, **fault_kw) -> Dataset:
     """The ground of ``ds`` with each fault given by points only (no traces,
-    no tips, no kind): what derive_faults starts from."""
+    no tips, no kind unless ``kind`` is given): what derive_faults starts
+    from."""
     faults = []
+    fault_kw = dict(fault_kw)
+    kind = fault_kw.pop("kind", None)
     for f in ds.faults:
         P, st_ = fault_points(ds.geology, f.name, ds)
-        faults.append(Fault(f.name, None, f.group, points=P, sticks=st_, **fault_kw))
+        faults.append(Fault(f.name, kind, f.group, points=P, sticks=st_, **fault_kw))
     return Dataset(name=ds.name + "-v2", layers=ds.layers, boundary=ds.boundary,
                    boreholes=ds.boreholes, points=ds.points, sections={}, faults=faults,
                    crs=ds.crs, truth=ds.truth, geology=ds.geology)
@@ -672,6 +675,80 @@ def test_throw_hint_where_a_side_has_no_data():
     t = fr.throw[lay]["throw"][fr.throw[lay]["cut"]]
     assert len(used) > 0 and np.any(np.abs(t - 20.0) < 1.0), t
     faultmesh.build_model(d1, evaluate=False).check()
+
+
+def _one_side_only(ds: Dataset, keep: str) -> Dataset:
+    """``ds`` with every hole on the other side of its fault F1 (and within
+    50 m of its trace on this one) taken out: a fault whose ``keep`` wall
+    ("foot" or "hanging") alone has data, in every layer."""
+    fm = ds.geology.fault("F1")
+    b = ds.boreholes
+    d_hw = fm.d(*ds.geology.local(b.xy[:, 0], b.xy[:, 1]))
+    drop = d_hw > -50.0 if keep == "foot" else d_hw < 50.0
+    keep_rows = ~np.isin(b.hole_id, np.unique(b.hole_id[drop]))
+    return Dataset(name=f"{keep} only", layers=ds.layers, boundary=ds.boundary,
+                   boreholes=Boreholes(b.hole_id[keep_rows], b.xy[keep_rows], b.layer[keep_rows],
+                                       b.z[keep_rows]),
+                   truth=ds.truth, geology=ds.geology, faults=ds.faults)
+
+
+@pytest.mark.parametrize("kind,keep", [("normal", "foot"), ("reverse", "hanging")])
+def test_throw_hint_where_a_side_has_no_data_at_all(kind, keep):
+    """A fault with no datum on one side in any layer: without a hint it cuts
+    no layer (its throw is unknowable from the data; warning); with a throw
+    hint that side is the other shifted by the hint, in the given kind's
+    sense, and the fault is in the model -- nearer the truth than the model
+    without it."""
+    from faultmesh.grounds import near_fault_errors
+
+    ds = datasets.synthetic(0, kind=kind, dip=60.0, n_boreholes=N_HOLES, n_layers=2, throw=20.0)
+    half = _one_side_only(ds, keep)
+    d0 = derive.derive_faults(v2_of(half))
+    assert any("no layer is cut" in w for w in d0.derivation.faults["F1"].warnings)
+    d1 = derive.derive_faults(v2_of(half, throw={"max": 20.0}, kind=kind))
+    fr = d1.derivation.faults["F1"]
+    gone = "hanging" if keep == "foot" else "foot"
+    assert fr.kind == kind, fr.warnings
+    assert any(f"0 {gone}-wall data; that wall is the other's surface shifted by the throw hint 20 m "
+               f"as a {kind} fault" in w for w in fr.warnings), fr.warnings
+    sgn = 1.0 if kind == "normal" else -1.0
+    for lay in ds.layers:
+        t = sgn * fr.throw[lay]["throw"][fr.throw[lay]["cut"]]
+        # The synthetic fault dies out at two tips inside the area: the hint
+        # in the middle, less towards the tips (_hint_share), never more.
+        assert len(t) >= 5 and np.all(t > 0.0) and np.all(t <= 20.0 + 1e-6), (lay, t)
+        mid = len(t) // 2
+        assert t.max() > 19.0 and t[0] < 0.5 * t[mid] and t[-1] < 0.5 * t[mid], (lay, t)
+    m0 = faultmesh.build_model(d0, evaluate=False)
+    m1 = faultmesh.build_model(d1, evaluate=False)
+    m1.check()
+    e0, e1 = near_fault_errors([m0, m1], ds.geology, np.asarray(ds.boundary))
+    assert e1 < 0.5 * e0, (e0, e1)
+    # Without a kind the sense is the default's (normal), and said so.
+    d2 = derive.derive_faults(v2_of(half, throw={"max": 20.0}))
+    assert any("(no kind given; no data show it)" in w for w in d2.derivation.faults["F1"].warnings)
+    assert d2.derivation.faults["F1"].kind == "normal"
+
+
+def test_throw_hint_share_falls_to_zero_at_tips():
+    share = derive._hint_share
+    ends = (-500.0, 500.0)
+    # No tip: the hint all along.
+    assert share(-500.0, ends, (False, False)) == share(480.0, ends, (False, False)) == 1.0
+    # Two tips: the whole hint in the middle, none at the tips, 1 - x^2 between.
+    assert share(0.0, ends, (True, True)) == 1.0
+    assert share(-500.0, ends, (True, True)) == share(500.0, ends, (True, True)) == 0.0
+    assert share(250.0, ends, (True, True)) == pytest.approx(0.75)
+    # One tip: the whole hint at the other end (the largest throw may lie
+    # beyond the area), none at the tip.
+    assert share(-500.0, ends, (False, True)) == 1.0 and share(500.0, ends, (False, True)) == 0.0
+    assert share(0.0, ends, (False, True)) == pytest.approx(0.75)
+    assert share(0.0, ends, (True, False)) == pytest.approx(0.75)
+    assert share(-500.0, ends, (True, False)) == 0.0
+    # Past the extent: nothing (never negative).
+    assert share(700.0, ends, (True, True)) == 0.0
+    # A degenerate extent: the hint.
+    assert share(3.0, (3.0, 3.0), (True, True)) == 1.0
 
 
 def test_fault_from_surface_or_trace_planes():

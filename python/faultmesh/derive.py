@@ -935,13 +935,22 @@ def _local_planes(q: np.ndarray, P: np.ndarray, dist: np.ndarray,
 
 
 class _Shifted:
-    """Another side's surface shifted vertically (the throw hint)."""
+    """Another side's surface shifted vertically (the throw hint). It has
+    no data of its own: every point is infinitely far from them
+    (``nearest``), so each section's cutoff on it counts as one without
+    data near and takes the hint's path (``use_shifted`` in
+    :func:`_derive_fault`)."""
+
+    data = np.zeros((0, 3))
 
     def __init__(self, base: SideSurface, dz: float) -> None:
         self.base, self.dz = base, float(dz)
 
     def __call__(self, xy):
         return self.base(xy) + self.dz
+
+    def nearest(self, xy) -> np.ndarray:
+        return np.full(len(np.asarray(xy).reshape(-1, 2)), np.inf)
 
 
 class _Faded:
@@ -2295,6 +2304,49 @@ def _side_surfaces(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame
             if enough[nm] else fallback[nm] for nm in ("foot", "hanging")}
 
 
+def _hinted_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, k: int,
+                  hint: float, kind: Optional[str]) -> Optional[Dict[str, Any]]:
+    """A layer's side surfaces where one side has fewer than 3 data (none
+    to fit) and the other enough, with a throw hint: the side with data on
+    its own (:class:`SideSurface`), the other that surface shifted by the
+    hint (:class:`_Shifted`) down on the hanging wall of a ``kind`` fault
+    (normal where None: the data cannot show the sense). None where both
+    sides lack data. The hint is the fault's largest throw: where the
+    fault's throw fades towards a tip, the derived throw there is too
+    large; a geologist who gives the hint knows no better from the data."""
+    have = {nm: int(np.count_nonzero(split[nm])) for nm in ("foot", "hanging")}
+    lacking = [nm for nm in have if have[nm] < 3]
+    if len(lacking) != 1:
+        return None
+    gone = lacking[0]
+    kept = "hanging" if gone == "foot" else "foot"
+    sgn = 1.0 if (kind or "normal") == "normal" else -1.0
+    base = SideSurface(D[split[kept]], k, frame, slope=_regional_slope(D[split[kept]], frame))
+    return {kept: base, gone: _Shifted(base, -sgn * hint if gone == "hanging" else sgn * hint)}
+
+
+def _hint_share(u: float, ends_u: Sequence[float], tipped: Tuple[bool, bool]) -> float:
+    """The share of a fault's throw hint (its largest throw) at strike
+    coordinate ``u`` on a fault whose extent runs over ``ends_u`` and dies
+    out at the ends ``tipped``: a fault's throw is largest near its middle
+    and falls to zero at its tips (Walsh and Watterson 1988; an elliptical
+    or parabolic profile along strike), here 1 - x^2 with x the distance
+    from the largest throw over the distance to the tip: in the middle of
+    a fault with two tips, at the untipped end of a fault with one (its
+    largest throw may lie beyond the study area), 1 along a fault with no
+    tip (it crosses the study area, or ends on other faults)."""
+    u0, u1 = float(ends_u[0]), float(ends_u[1])
+    if not (u1 > u0) or not any(tipped):
+        return 1.0
+    if tipped[0] and tipped[1]:
+        x = (u - 0.5 * (u0 + u1)) / (0.5 * (u1 - u0))
+    elif tipped[1]:
+        x = (u - u0) / (u1 - u0)
+    else:
+        x = (u1 - u) / (u1 - u0)
+    return float(max(0.0, 1.0 - x * x))
+
+
 def _regional_slope(D: np.ndarray, frame: GridFrame, hanging: Optional[np.ndarray] = None) -> np.ndarray:
     """(dz/du, dz/dw) in ``frame`` of the least-squares plane through the
     layer's data in it, both sides. With ``hanging`` (bool per datum) the
@@ -2987,6 +3039,8 @@ def _tip_side_datum(side: "SideSurface", fs: FaultSurface, cut: np.ndarray, u: f
     ``cut`` at or past the section's strike coordinate ``u`` towards the
     fault's ``end`` (0: lower u, 1: higher u): one that shows the layer
     between the section and the tip, not only behind it."""
+    if not len(side.data):
+        return False
     near = side.tree.query_ball_point(np.asarray(cut, dtype=np.float64)[:2], reach)
     if not near:
         return False
@@ -3708,9 +3762,20 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         fits = memo.setdefault(lay, {})
         if "sides" not in fits:
             fits["sides"] = _side_surfaces(D, split, frame, opt.k)
+            if fits["sides"] is None and hint is not None:
+                fits["sides"] = _hinted_sides(D, split, frame, opt.k, hint, fault.kind)
         sides = fits["sides"]
         if sides is None:
             continue
+        # A side that is only the hint (no data of its own): no fading fit
+        # and no joint surface across the fault (both need data on it).
+        hint_only = any(isinstance(sd, _Shifted) for sd in sides.values())
+        if hint_only:
+            side_nm = next(nm for nm, sd in sides.items() if isinstance(sd, _Shifted))
+            warn.append(f"fault {fault.name!r}, layer {lay!r}: {int(np.count_nonzero(split[side_nm]))} "
+                        f"{side_nm}-wall data; that wall is the other's surface shifted by the throw hint "
+                        f"{hint:g} m as a {fault.kind or 'normal'} fault"
+                        + ("" if fault.kind else " (no kind given; no data show it)"))
         near = opt.near if opt.near is not None else 4.0 * spacing_data
         tr_all = [traces[i] for i in good]
         roots = {}
@@ -3769,9 +3834,10 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                 for nm in ("foot", "hanging"):
                     roots[nm][j] = _roots([traces[i]], blk[nm], blk[nm].nearest)[0]
         decay_own: Dict[int, tuple] = {}
-        _decay_sections(D, split, frame, opt.k, spacing, spacing_data, fs, ring,
-                        [traces[i] for i in good], good, roots, sides, sec_sides, decay_own, fits,
-                        sec_block, blocks)
+        if not hint_only:
+            _decay_sections(D, split, frame, opt.k, spacing, spacing_data, fs, ring,
+                            [traces[i] for i in good], good, roots, sides, sec_sides, decay_own, fits,
+                            sec_block, blocks)
         # Sections where neither side has data within two data spacings of
         # its cutoff (a data gap at the fault): there the two extrapolations
         # are unrelated and their difference is no throw. Both sides come
@@ -3782,7 +3848,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         gap_secs = []
         for j, i in enumerate(good):
             f, h = roots["foot"][j], roots["hanging"][j]
-            if f is None or h is None:
+            if f is None or h is None or hint_only:
                 continue
             sd = sec_sides.get(i, sides)
             if sd["foot"].nearest(f[0][None, :2])[0] > 2.0 * spacing_data and \
@@ -4045,8 +4111,10 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                                "profile" if i in r["joint_secs"] else "extrapolated")
                             + " (give a throw hint to use instead)")
                 continue
-            use_shifted(lay, i, side, -sgn * hint if side == "hanging" else sgn * hint,
-                        f"no {side}-wall data near the cutoff; used the throw hint {hint:g} m")
+            t = hint * _hint_share(float(lines[i]["u"]), ends_u, (fs.tipped(0), fs.tipped(1)))
+            use_shifted(lay, i, side, -sgn * t if side == "hanging" else sgn * t,
+                        f"no {side}-wall data near the cutoff; used the throw hint {hint:g} m"
+                        + (f" ({t:.1f} m here, towards a tip)" if t < hint else ""))
 
     # Sections whose fading-throw fit says the other sense than the fault's
     # and whose own surfaces say the fault's: the own surfaces back.
