@@ -54,7 +54,8 @@ QUICK_OUT = ROOT / "bench" / "results" / "quick"
 
 
 def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=False,
-           fault_form: str = "sticks", fault_noise: float = 0.0, groups: bool = True) -> None:
+           fault_form: str = "sticks", fault_noise: float = 0.0, groups: bool = True,
+           throw_hints: bool = False) -> None:
     try:
         import resource
         lim = int(mem_gb * 2 ** 30)
@@ -70,7 +71,7 @@ def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=Fal
     from faultmesh.grounds import evaluate_ground, evaluate_ground_v2
     try:
         out = (evaluate_ground_v2(seed, section_picks=(v2 != "holes"), fault_form=fault_form,
-                                  fault_noise=fault_noise, groups=groups)
+                                  fault_noise=fault_noise, groups=groups, throw_hints=throw_hints)
                if v2 else evaluate_ground(seed))
     except BaseException as e:  # evaluate_ground records failures; this is its own defect
         out = {"seed": seed, "ok": False, "stage": "crash", "error_type": type(e).__name__,
@@ -81,12 +82,13 @@ def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=Fal
 
 def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl: Path = None,
               v2=False, fault_form: str = "sticks", fault_noise: float = 0.0,
-              groups: bool = True) -> List[Dict]:
+              groups: bool = True, throw_hints: bool = False) -> List[Dict]:
     """Outcomes of the seeds, each in its own forked process (``v2``: False,
     True, or "holes" for v2 grounds without the trace picks; ``fault_form``:
     how the v2 grounds give their faults, ``grounds.FAULT_FORMS``;
     ``fault_noise``: their picking error, m; ``groups`` False: the faults
-    written without their groups, which the derivation must find)."""
+    written without their groups, which the derivation must find;
+    ``throw_hints``: each fault with its largest true throw as a hint)."""
     import tempfile
     ctx = mp.get_context("fork")
     tb_dir = tempfile.mkdtemp(prefix="sweep-tb-")
@@ -102,7 +104,7 @@ def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl:
                 r, w = ctx.Pipe(duplex=False)
                 tb = os.path.join(tb_dir, f"seed{s}.txt")
                 p = ctx.Process(target=_child, args=(s, w, mem_gb, tb, 0.95 * timeout, v2, fault_form,
-                                                      fault_noise, groups),
+                                                      fault_noise, groups, throw_hints),
                                daemon=True)
                 p.start()
                 w.close()
@@ -376,7 +378,9 @@ def render_v2(outs: List[Dict], meta: Dict[str, Any]) -> str:
                 + ("" if form == "sticks" else f", faults as {form}")
                 + (f", fault points with a {meta['fault_noise']:g} m picking error"
                    if meta.get("fault_noise") else "")
-                + ("" if meta.get("groups", True) else ", faults without their groups"), outs, meta)
+                + ("" if meta.get("groups", True) else ", faults without their groups")
+                + (", each fault with a throw hint (its largest true throw)" if meta.get("throw_hints") else ""),
+                outs, meta)
     L += ["Each seed's ground (`faultmesh.grounds.random_ground(seed)`) is written twice: as its v1 "
           "dataset (hand-drawn traces up to the true cutoffs) and by `faultmesh.grounds.write_v2` as "
           "format 2 without cutoffs (each fault as "
@@ -456,7 +460,8 @@ def render_v2(outs: List[Dict], meta: Dict[str, Any]) -> str:
     return "\n".join(L).rstrip() + "\n"
 
 
-def _stem(v2, fault_form: str = "sticks", fault_noise: float = 0.0, groups: bool = True) -> str:
+def _stem(v2, fault_form: str = "sticks", fault_noise: float = 0.0, groups: bool = True,
+          throw_hints: bool = False) -> str:
     """The file stem of a sweep's outputs."""
     stem = {False: "sweep", None: "sweep", True: "sweep_v2", "holes": "sweep_v2_holes"}[v2]
     if v2 and fault_form != "sticks":
@@ -465,6 +470,8 @@ def _stem(v2, fault_form: str = "sticks", fault_noise: float = 0.0, groups: bool
         stem += f"_noise{fault_noise:g}"
     if v2 and not groups:
         stem += "_nogroups"
+    if v2 and throw_hints:
+        stem += "_hints"
     return stem
 
 
@@ -495,6 +502,9 @@ def main(argv=None) -> int:
     ap.add_argument("--no-groups", action="store_true",
                     help="with --v2: the faults written without their groups (T and X pairs), which "
                          "the derivation must find; adds _nogroups to the file stem")
+    ap.add_argument("--throw-hints", action="store_true",
+                    help="with --v2: each fault written with a throw hint, its largest true throw over "
+                         "the layers it displaces; adds _hints to the file stem")
     ap.add_argument("--render", type=Path, default=None, metavar="JSON",
                     help="no sweep: render the table again from a sweep.json (into --out or its folder)")
     args = ap.parse_args(argv)
@@ -511,14 +521,15 @@ def main(argv=None) -> int:
         if not args.no_write:
             out = (args.out or args.render.parent) / (_stem(v2, doc["meta"].get("fault_form", "sticks"),
                                                               doc["meta"].get("fault_noise", 0.0),
-                                                              doc["meta"].get("groups", True)) + ".md")
+                                                              doc["meta"].get("groups", True),
+                                                              doc["meta"].get("throw_hints", False)) + ".md")
             out.write_text(text)
             print(f"wrote {out}", file=sys.stderr)
         return 0
     if args.holes_only and not args.v2:
         ap.error("--holes-only goes with --v2")
-    if (args.fault_form != "sticks" or args.fault_noise or args.no_groups) and not args.v2:
-        ap.error("--fault-form, --fault-noise and --no-groups go with --v2")
+    if (args.fault_form != "sticks" or args.fault_noise or args.no_groups or args.throw_hints) and not args.v2:
+        ap.error("--fault-form, --fault-noise, --no-groups and --throw-hints go with --v2")
     if not args.fault_noise >= 0.0:
         ap.error("--fault-noise must be at least 0")
     v2 = "holes" if args.holes_only else args.v2
@@ -530,10 +541,11 @@ def main(argv=None) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     seeds = list(range(args.start, args.start + args.seeds))
     t0 = time.perf_counter()
-    stem = _stem(v2, args.fault_form, args.fault_noise, not args.no_groups)
+    stem = _stem(v2, args.fault_form, args.fault_noise, not args.no_groups, args.throw_hints)
     outs = run_seeds(seeds, args.jobs, args.timeout, args.memory_gb,
                      jsonl=None if args.no_write else out_dir / f"{stem}.jsonl", v2=v2,
-                     fault_form=args.fault_form, fault_noise=args.fault_noise, groups=not args.no_groups)
+                     fault_form=args.fault_form, fault_noise=args.fault_noise, groups=not args.no_groups,
+                     throw_hints=args.throw_hints)
     elapsed = time.perf_counter() - t0
     if not args.v2:
         fill_specs(outs)
@@ -542,7 +554,7 @@ def main(argv=None) -> int:
             "machine": machine(numpy=True, faultmesh=True), "jobs": args.jobs, "timeout": args.timeout,
             "memory_gb": args.memory_gb, "elapsed": elapsed, "v2": v2,
             **({"fault_form": args.fault_form, "fault_noise": args.fault_noise,
-                "groups": not args.no_groups} if args.v2 else {})}
+                "groups": not args.no_groups, "throw_hints": args.throw_hints} if args.v2 else {})}
     text = render_v2(outs, meta) if args.v2 else render(outs, meta)
     print(text)
     if not args.no_write:

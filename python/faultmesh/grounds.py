@@ -2090,7 +2090,8 @@ FAULT_FORMS = ("sticks", "points", "surface")
 
 
 def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks: bool = False,
-             fault_form: str = "sticks", fault_noise: float = 0.0, groups: bool = True) -> Path:
+             fault_form: str = "sticks", fault_noise: float = 0.0, groups: bool = True,
+             throw_hints: bool = False) -> Path:
     """Write ground ``spec.seed`` (its v1 dataset ``ds1`` as loaded, its truth
     ``geo``) as a format-2 dataset into ``folder`` without cutoffs: each fault
     as fault sticks on the truth's surface (:func:`_fault_sticks`; with
@@ -2099,7 +2100,9 @@ def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks
     standard deviation of a picking error across strike, drawn from
     ``default_rng([seed, 4])``; no traces, no kind, no tips: :func:`faultmesh.derive.derive_faults` derives them;
     the group kept, or with ``groups`` False left out: the derivation
-    finds the faults that meet), the layer tops as collar, survey and interval tables of
+    finds the faults that meet; with ``throw_hints`` each fault's ``throw``
+    hint, its largest true throw over the layers it displaces, to 0.1 m, as
+    a geologist's estimate would give it), the layer tops as collar, survey and interval tables of
     the same holes with a share of them deviated (:func:`_v2_drillholes`),
     the v1 topography as points and, with ``section_picks``, the v1 traces'
     layer polylines beyond a fault shadow as points
@@ -2128,12 +2131,17 @@ def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks
     for f in ds1.faults:
         dec = (int(spec.rounding["traces"]), int(spec.rounding["z"]))
         group = f.group if groups else None
+        fm = geo.fault(f.name)
+        hint = {"max": round(fm.throw * max(fm.layers.values(), default=0.0), 1)} if throw_hints else None
+        if hint is not None and not hint["max"] > 0.0:
+            hint = None
         if fault_form == "surface":
             V, T = _fault_surface(geo, geo.fault(f.name), ring, z_range, rng, *dec, **noise)
-            faults.append(Fault(f.name, None, group, surface=(V, T)))
+            faults.append(Fault(f.name, None, group, surface=(V, T), throw=hint))
             continue
         P, st = _fault_sticks(geo, geo.fault(f.name), ring, z_range, rng, *dec, **noise)
-        faults.append(Fault(f.name, None, group, points=P, sticks=st if fault_form == "sticks" else None))
+        faults.append(Fault(f.name, None, group, points=P, sticks=st if fault_form == "sticks" else None,
+                            throw=hint))
     tables, kinds = _v2_drillholes(geo, ds1, spec, rng)
     points = {lay: np.asarray(v, dtype=np.float64).reshape(-1, 3) for lay, v in ds1.points.items()}
     picks, shadow = trace_picks(ds1, spec.seed) if section_picks else ({}, None)
@@ -2242,11 +2250,12 @@ def _derive_symptom(out: Dict[str, Any]) -> str:
 
 def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, section_picks: bool = True,
                        built: Optional[Dict[str, Any]] = None, fault_form: str = "sticks",
-                       fault_noise: float = 0.0, groups: bool = True, **overrides) -> Dict[str, Any]:
+                       fault_noise: float = 0.0, groups: bool = True, throw_hints: bool = False,
+                       **overrides) -> Dict[str, Any]:
     """Ground ``seed`` as v1 (true cutoffs) and as v2 without cutoffs
     (:func:`write_v2`, with or without ``section_picks``, its faults in
     ``fault_form``, picked with ``fault_noise``, with or without their
-    ``groups``), each loaded,
+    ``groups``, with or without ``throw_hints``), each loaded,
     built and checked; never raises for a failure of faultmesh (it is
     recorded). Returns a JSON-serialisable dict:
     seed, spec, describe, tags, v2 (hole kinds, fault points), ok (v2 derived,
@@ -2296,7 +2305,8 @@ def evaluate_ground_v2(seed: int, folder=None, ratio_limit: float = V2_RATIO, se
             kept["geo"], kept["ds1"] = geo, ds1
             try:
                 path2 = write_v2(ds1, geo, spec, folder / "v2", section_picks=section_picks,
-                                 fault_form=fault_form, fault_noise=fault_noise, groups=groups)
+                                 fault_form=fault_form, fault_noise=fault_noise, groups=groups,
+                                 throw_hints=throw_hints)
                 out["v2"] = json.loads((folder / "v2" / "v2.json").read_text())
             except Exception as e:
                 return fail("generate:v2", e)
