@@ -56,7 +56,12 @@ EXTRAS: Dict[str, Any] = {
 # drew before it was added: the top layer also picked on a grid (a seismic
 # horizon over holes; the layers below take its shape,
 # derive._conformable_points).
-LAST: Dict[str, Any] = {"top_picks": [False, True]}
+LAST: Dict[str, Any] = {"top_picks": [False, True],
+                        # each fault's throw hint: none, its largest true
+                        # throw, a hair or far too much; with or without its
+                        # kind (the sense of its larger throws)
+                        "hint": [None, None, "true", "tiny", "huge"],
+                        "hint_kind": [False, True]}
 
 
 def _fault_choices():
@@ -298,12 +303,18 @@ def make_case(p: Dict[str, Any]) -> Dataset:
     if r:
         xs, zs, ring = np.round(xs / r) * r, np.round(zs / r) * r, np.round(ring / r) * r
     flts = []
-    for name, P, sticks in faults:
+    hint = _opt(p, "hint")
+    for (name, P, sticks), th in zip(faults, throws):
         P = P + np.append(origin, 0.0)
         if r:
             P = np.round(P / r) * r
         group = _opt(p, "group") if len(faults) > 1 else None
-        flts.append(Fault(name, points=P, sticks=sticks, group=group))
+        # 1 micrometre and 100 km: a hint that moves nothing, and one that
+        # moves a side past every elevation of the study area.
+        size = {None: None, "true": max(abs(th), 0.01), "tiny": 1e-6, "huge": 1e5}[hint]
+        kind = ("normal" if th >= 0.0 else "reverse") if _opt(p, "hint_kind") else None
+        flts.append(Fault(name, kind, points=P, sticks=sticks, group=group,
+                          throw=None if size is None else {"max": size}))
     lays = np.asarray(lays, dtype=str)
     ids = np.asarray(ids, dtype=str)
     points = {}
