@@ -371,7 +371,9 @@ def seeded_params(seed: int) -> Dict[str, Any]:
 # Then 2,441 more: seeds 20000-21499 with every throw "huge" (866 built
 # before the fixes; one MemoryError and 3 stitcher errors of a vertical
 # fault on the boundary, all 4 building since) and 30000-30940 as drawn
-# (562 built before; 1 of the stitcher's, building since).
+# (562 built before; 1 of the stitcher's, building since). With the throw
+# hints (LAST), seeds 91380-91679: 187 of 300 cases with a hint, 156 built,
+# 144 named errors, none other.
 @settings(max_examples=40, deadline=None, derandomize=True, database=None)
 @given(st.integers(0, 2 ** 31))
 def test_fuzz_derive_faults(seed):
