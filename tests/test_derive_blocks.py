@@ -969,6 +969,41 @@ def test_derived_faults_too_close_say_where_their_cutoffs_are_extrapolated():
     assert "a 'throw' hint" in msg
 
 
+@pytest.mark.parametrize("name, f1_throw, hint", [("graben_antithetic_fault_ends_on_the_other.npz", 23.6, 14.0),
+                                                   ("graben_antithetic_fault_picks_past_the_other.npz", 22.9, 27.6)])
+def test_a_throw_hint_gives_a_fault_block_the_side_it_lacks(name, f1_throw, hint):
+    """The Y-graben reproducers below with F2's true throw as its hint (no
+    kind): F2's hanging-wall block (the graben floor) has no pick of L1 and
+    fewer than three of L2, and took that side from the whole layer, F1's
+    footwall across F1, though the hint was given; its throw was minus F1's
+    and no section counted as without data near. A block's lacking side is
+    now its other side shifted by the hint (_hinted_sides), and such a
+    section votes for no sense (its layer's offset at the fault's scale
+    would come from across F1): F2 normal with the hint's throw, F1 as
+    before. With the kind given as well F2 is still derived reverse (its
+    patch, derived apart from F1 with the given kind, does not meet F1's,
+    and it is not grouped: Open)."""
+    ds, truth = _stress_fixture(name)
+    faults = [replace(f, throw={"max": hint}) if f.name == "F2" else f for f in ds.faults]
+    d = derive_faults(replace(ds, faults=faults))
+    assert d.derivation.groups == {"F1+F2": ["F1", "F2"]}
+    f2 = d.derivation.faults["F2"]
+    assert f2.kind == "normal", f2.warnings
+    assert any("no hanging-wall data near the cutoff; used the throw hint" in w for w in f2.warnings)
+    for lay, p in f2.throw.items():
+        t = p["throw"][p["cut"]]
+        assert np.all(np.abs(t - hint) < 0.5), (lay, t)
+    f1 = d.derivation.faults["F1"]
+    assert f1.kind == "normal"
+    for lay, p in f1.throw.items():
+        t = p["throw"][p["cut"]]
+        assert len(t) and np.all(np.abs(t - f1_throw) < 2.0), (lay, t)
+    m = fm.build_model(d, evaluate=False)
+    m.check()
+    for lay in ds.layers:
+        assert _largest_error_at_picks(m, ds, truth, lay) < 1.5, lay
+
+
 @pytest.mark.xfail(strict=True, reason="open: an antithetic fault ending against another whose hanging-wall "
                    "block has no data takes that side from across the other and comes out reverse")
 @pytest.mark.parametrize("name, f1_throw", [("graben_antithetic_fault_ends_on_the_other.npz", 23.6),

@@ -3824,8 +3824,17 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                     # as v2: F1's L3 footwall cutoff beside F2's junction at
                     # z = 221 m where the layer lies at 1 m, its block
                     # having 9 footwall data and 2 hanging-wall ones).
-                    fits["block", key] = _side_surfaces(Db[inblock], {nm: split[nm][inblock] for nm in split},
-                                                        frame, opt.k, fades, fallback=sides)
+                    # With a throw hint, a side the block lacks is its
+                    # other side shifted by the hint, not the whole layer's
+                    # (a Y-graben's antithetic fault ending against the
+                    # master: its hanging wall in the whole layer is the
+                    # master's footwall, across the master, and the fault
+                    # came out reverse though its kind and hint were given).
+                    split_b = {nm: split[nm][inblock] for nm in split}
+                    blk = (_hinted_sides(Db[inblock], split_b, frame, opt.k, hint, fault.kind)
+                           if hint is not None else None)
+                    fits["block", key] = blk if blk is not None else \
+                        _side_surfaces(Db[inblock], split_b, frame, opt.k, fades, fallback=sides)
                 blk = fits["block", key]
                 if blk is None:
                     continue
@@ -4022,11 +4031,20 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         voters = [lay for lay in voters if lay not in cut_by_partner]
     local: Dict[str, List[Tuple[float, float]]] = {}
     regional: Dict[str, List[float]] = {}
+    # A section one of whose sides is only the throw hint (_hinted_sides)
+    # shows no sense: its throw is the hint's, and the layer's offset at the
+    # fault's scale would be taken from data across a partner (a Y-graben's
+    # antithetic fault: the master's footwall). Where only such sections
+    # are cut, the kind is the given one, else normal (the hint's sense).
+    hint_only = False
     for lay, r in res.items():
         if lay not in voters:
             continue
         for i in good:
             if not cut[lay][i] or lines[i].get("end"):
+                continue
+            if any(isinstance(sd, _Shifted) for sd in _sides_of(r, i).values()):
+                hint_only = True
                 continue
             f, h = cutpts[lay][i]
             gap = max(_sides_of(r, i)["foot"].nearest(f[None, :2])[0],
@@ -4039,6 +4057,8 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             regional.setdefault(lay, []).append(t if np.isfinite(t) else throw[lay][i])
     offset = _sense_offset(local, regional, SENSE_GAP_FLOOR * spacing_u)
     kind = None if offset is None else ("normal" if offset > 0 else "reverse")
+    if kind is None and hint_only:
+        kind = fault.kind or "normal"
     if fault.kind is not None and kind is not None and kind != fault.kind:
         if local:
             shown = ", ".join(f"{lay} {t:+.1f} m with data {g:.0f} m off"
