@@ -984,9 +984,10 @@ def _graben_master_kept_and_model_holds(d, ds, truth, f1_throw: float) -> None:
         assert _largest_error_at_picks(m, ds, truth, lay) < 1.5, lay
 
 
+@pytest.mark.parametrize("kind", [None, "normal"])
 @pytest.mark.parametrize("name, f1_throw, hint", [("graben_antithetic_fault_ends_on_the_other.npz", 23.6, 14.0),
                                                    ("graben_antithetic_fault_picks_past_the_other.npz", 22.9, 27.6)])
-def test_a_throw_hint_gives_a_fault_block_the_side_it_lacks(name, f1_throw, hint):
+def test_a_throw_hint_gives_a_fault_block_the_side_it_lacks(name, f1_throw, hint, kind):
     """The Y-graben reproducers below with F2's true throw as its hint (no
     kind): F2's hanging-wall block (the graben floor) has no pick of L1 and
     fewer than three of L2, and took that side from the whole layer, F1's
@@ -995,11 +996,13 @@ def test_a_throw_hint_gives_a_fault_block_the_side_it_lacks(name, f1_throw, hint
     now its other side shifted by the hint (_hinted_sides), and such a
     section votes for no sense (its layer's offset at the fault's scale
     would come from across F1): F2 normal with the hint's throw, F1 as
-    before. With the kind given as well F2 is still derived reverse (its
-    patch, derived apart from F1 with the given kind, does not meet F1's,
-    and it is not grouped: Open)."""
+    before. The same with F2's kind given too: derived apart from F1 its
+    data say reverse, and labelled normal its patch folded, lost the
+    sections that reach F1 and did not meet F1's, so the two were not
+    grouped; the derived fault now has the data's kind (label and geometry
+    alike)."""
     ds, truth = _stress_fixture(name)
-    faults = [replace(f, throw={"max": hint}) if f.name == "F2" else f for f in ds.faults]
+    faults = [replace(f, throw={"max": hint}, kind=kind) if f.name == "F2" else f for f in ds.faults]
     d = derive_faults(replace(ds, faults=faults))
     assert d.derivation.groups == {"F1+F2": ["F1", "F2"]}
     f2 = d.derivation.faults["F2"]

@@ -94,8 +94,8 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
    sections; the sign of the sum of these medians over the layers, each
    weighed by how far its data lie from its cutoffs
    (:func:`_sense_offset`). A given ``kind`` that the
-   data contradict is a warning (the fault keeps the given kind, its
-   geometry follows the data). Sections whose throw has the other sign get
+   data contradict is a warning (the derived fault has the data's kind,
+   label and geometry alike; the report keeps the given one). Sections whose throw has the other sign get
    zero throw (warning). A side with no data within ``near`` of its cutoff
    uses the other side's surface shifted by the fault's ``throw["max"]``
    hint if there is one (warning otherwise).
@@ -4497,7 +4497,15 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         out_traces.append((ln["u"], trace))
         section_of[id(trace)] = i
     out_traces.sort(key=lambda t: t[0])
-    final_kind = fault.kind if fault.kind is not None else (kind or "normal")
+    # The derived fault is of the kind its cutoffs have: the data's where
+    # they show one (a given kind they contradict is a warning above, and
+    # the report keeps it as `given_kind`), else the given one, else
+    # normal. Labelled with a given kind the data contradict, its patch
+    # (faults.layer_patch) folds onto itself: sections were dropped as
+    # crossing (_drop_crossing_sections), and a Y-graben's antithetic fault
+    # given as normal with a throw hint lost the sections that reach the
+    # master fault and so was not grouped with it (_patches_meet).
+    final_kind = kind if kind is not None else (fault.kind or "normal")
     # What the builder consumes: the points, surface and hint were used up
     # (the fault then needs no second derivation).
     new_fault = Fault(fault.name, final_kind, fault.group, np.array(tips).reshape(-1, 2),
