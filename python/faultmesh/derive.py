@@ -95,10 +95,13 @@ JewelSuite derives cutoff lines and Petrel regrids each fault block:
    weighed by how far its data lie from its cutoffs
    (:func:`_sense_offset`). A given ``kind`` that the
    data contradict is a warning (the derived fault has the data's kind,
-   label and geometry alike; the report keeps the given one). Sections whose throw has the other sign get
-   zero throw (warning). A side with no data within ``near`` of its cutoff
-   uses the other side's surface shifted by the fault's ``throw["max"]``
-   hint if there is one (warning otherwise).
+   label and geometry alike; the report keeps the given one). Sections
+   whose throw has the other sign get zero throw (warning). A side with no
+   data within ``near`` of its cutoff uses the other side's surface
+   shifted by the fault's ``throw["max"]`` hint if there is one, less
+   towards a tip (:func:`_hint_share`; warning otherwise); so does a side
+   with fewer than 3 data at all, of a layer or of a fault block
+   (:func:`_hinted_sides`).
 5. **Ends**: an end that reaches the study-area boundary gets no tip (the
    builder extends the patches to the boundary), nor does one that abuts a
    group partner (:func:`_abutted_partners`: a T; the builder carries the
@@ -2311,9 +2314,10 @@ def _hinted_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame,
     its own (:class:`SideSurface`), the other that surface shifted by the
     hint (:class:`_Shifted`) down on the hanging wall of a ``kind`` fault
     (normal where None: the data cannot show the sense). None where both
-    sides lack data. The hint is the fault's largest throw: where the
-    fault's throw fades towards a tip, the derived throw there is too
-    large; a geologist who gives the hint knows no better from the data."""
+    sides lack data, or neither does. The shift is the whole hint; each
+    section's cutoff on that side is then found again with its share of
+    the hint along strike (:func:`_hint_share`), as a cutoff without data
+    near (:class:`_Shifted` has none)."""
     have = {nm: int(np.count_nonzero(split[nm])) for nm in ("foot", "hanging")}
     lacking = [nm for nm in have if have[nm] < 3]
     if len(lacking) != 1:
@@ -4036,7 +4040,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # fault's scale would be taken from data across a partner (a Y-graben's
     # antithetic fault: the master's footwall). Where only such sections
     # are cut, the kind is the given one, else normal (the hint's sense).
-    hint_only = False
+    hinted_sections = False
     for lay, r in res.items():
         if lay not in voters:
             continue
@@ -4044,7 +4048,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             if not cut[lay][i] or lines[i].get("end"):
                 continue
             if any(isinstance(sd, _Shifted) for sd in _sides_of(r, i).values()):
-                hint_only = True
+                hinted_sections = True
                 continue
             f, h = cutpts[lay][i]
             gap = max(_sides_of(r, i)["foot"].nearest(f[None, :2])[0],
@@ -4057,7 +4061,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             regional.setdefault(lay, []).append(t if np.isfinite(t) else throw[lay][i])
     offset = _sense_offset(local, regional, SENSE_GAP_FLOOR * spacing_u)
     kind = None if offset is None else ("normal" if offset > 0 else "reverse")
-    if kind is None and hint_only:
+    if kind is None and hinted_sections:
         kind = fault.kind or "normal"
     if fault.kind is not None and kind is not None and kind != fault.kind:
         if local:
