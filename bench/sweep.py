@@ -44,7 +44,7 @@ import statistics
 import sys
 import time
 from pathlib import Path
-from typing import Any, Dict, List
+from typing import Any, Dict, List, Optional
 
 from _common import ROOT, command_line, machine, today, use_dev_build
 
@@ -53,9 +53,20 @@ use_dev_build()
 QUICK_OUT = ROOT / "bench" / "results" / "quick"
 
 
+#: How a sweep writes each v2 ground: the keyword arguments of
+#: grounds.evaluate_ground_v2 it sets (their defaults), kept in a sweep's
+#: meta under the same names.
+GROUND_OPTIONS = {"fault_form": "sticks", "fault_noise": 0.0, "groups": True, "throw_hints": False}
+
+
+def _ground_options(source: Dict[str, Any]) -> Dict[str, Any]:
+    """The ground options (GROUND_OPTIONS) given in ``source`` (a sweep's
+    meta, or the parsed arguments as a dict), defaults for the rest."""
+    return {k: source.get(k, v) for k, v in GROUND_OPTIONS.items()}
+
+
 def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=False,
-           fault_form: str = "sticks", fault_noise: float = 0.0, groups: bool = True,
-           throw_hints: bool = False) -> None:
+           ground: Optional[Dict[str, Any]] = None) -> None:
     try:
         import resource
         lim = int(mem_gb * 2 ** 30)
@@ -70,8 +81,7 @@ def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=Fal
     warnings.simplefilter("ignore")
     from faultmesh.grounds import evaluate_ground, evaluate_ground_v2
     try:
-        out = (evaluate_ground_v2(seed, section_picks=(v2 != "holes"), fault_form=fault_form,
-                                  fault_noise=fault_noise, groups=groups, throw_hints=throw_hints)
+        out = (evaluate_ground_v2(seed, section_picks=(v2 != "holes"), **(ground or {}))
                if v2 else evaluate_ground(seed))
     except BaseException as e:  # evaluate_ground records failures; this is its own defect
         out = {"seed": seed, "ok": False, "stage": "crash", "error_type": type(e).__name__,
@@ -81,14 +91,14 @@ def _child(seed: int, conn, mem_gb: float, tb_path: str, tb_after: float, v2=Fal
 
 
 def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl: Path = None,
-              v2=False, fault_form: str = "sticks", fault_noise: float = 0.0,
-              groups: bool = True, throw_hints: bool = False) -> List[Dict]:
+              v2=False, ground: Optional[Dict[str, Any]] = None) -> List[Dict]:
     """Outcomes of the seeds, each in its own forked process (``v2``: False,
-    True, or "holes" for v2 grounds without the trace picks; ``fault_form``:
-    how the v2 grounds give their faults, ``grounds.FAULT_FORMS``;
-    ``fault_noise``: their picking error, m; ``groups`` False: the faults
-    written without their groups, which the derivation must find;
-    ``throw_hints``: each fault with its largest true throw as a hint)."""
+    True, or "holes" for v2 grounds without the trace picks; ``ground``: how
+    the v2 grounds are written, GROUND_OPTIONS: ``fault_form``, how they
+    give their faults, ``grounds.FAULT_FORMS``; ``fault_noise``, their
+    picking error, m; ``groups`` False, the faults without their groups,
+    which the derivation must find; ``throw_hints``, each fault with its
+    largest true throw as a hint)."""
     import tempfile
     ctx = mp.get_context("fork")
     tb_dir = tempfile.mkdtemp(prefix="sweep-tb-")
@@ -103,8 +113,7 @@ def run_seeds(seeds: List[int], jobs: int, timeout: float, mem_gb: float, jsonl:
                 s = pending.pop(0)
                 r, w = ctx.Pipe(duplex=False)
                 tb = os.path.join(tb_dir, f"seed{s}.txt")
-                p = ctx.Process(target=_child, args=(s, w, mem_gb, tb, 0.95 * timeout, v2, fault_form,
-                                                      fault_noise, groups, throw_hints),
+                p = ctx.Process(target=_child, args=(s, w, mem_gb, tb, 0.95 * timeout, v2, ground),
                                daemon=True)
                 p.start()
                 w.close()
@@ -460,17 +469,18 @@ def render_v2(outs: List[Dict], meta: Dict[str, Any]) -> str:
     return "\n".join(L).rstrip() + "\n"
 
 
-def _stem(v2, fault_form: str = "sticks", fault_noise: float = 0.0, groups: bool = True,
-          throw_hints: bool = False) -> str:
-    """The file stem of a sweep's outputs."""
+def _stem(v2, ground: Optional[Dict[str, Any]] = None) -> str:
+    """The file stem of a sweep's outputs (``ground``: its ground options,
+    GROUND_OPTIONS)."""
     stem = {False: "sweep", None: "sweep", True: "sweep_v2", "holes": "sweep_v2_holes"}[v2]
-    if v2 and fault_form != "sticks":
-        stem += f"_{fault_form}"
-    if v2 and fault_noise > 0.0:
-        stem += f"_noise{fault_noise:g}"
-    if v2 and not groups:
+    g = _ground_options(ground or {})
+    if v2 and g["fault_form"] != "sticks":
+        stem += f"_{g['fault_form']}"
+    if v2 and g["fault_noise"] > 0.0:
+        stem += f"_noise{g['fault_noise']:g}"
+    if v2 and not g["groups"]:
         stem += "_nogroups"
-    if v2 and throw_hints:
+    if v2 and g["throw_hints"]:
         stem += "_hints"
     return stem
 
@@ -519,16 +529,14 @@ def main(argv=None) -> int:
         text = render_v2(outs, doc["meta"]) if v2 else render(outs, doc["meta"])
         print(text)
         if not args.no_write:
-            out = (args.out or args.render.parent) / (_stem(v2, doc["meta"].get("fault_form", "sticks"),
-                                                              doc["meta"].get("fault_noise", 0.0),
-                                                              doc["meta"].get("groups", True),
-                                                              doc["meta"].get("throw_hints", False)) + ".md")
+            out = (args.out or args.render.parent) / (_stem(v2, doc["meta"]) + ".md")
             out.write_text(text)
             print(f"wrote {out}", file=sys.stderr)
         return 0
     if args.holes_only and not args.v2:
         ap.error("--holes-only goes with --v2")
-    if (args.fault_form != "sticks" or args.fault_noise or args.no_groups or args.throw_hints) and not args.v2:
+    ground = _ground_options({**vars(args), "groups": not args.no_groups})
+    if ground != GROUND_OPTIONS and not args.v2:
         ap.error("--fault-form, --fault-noise, --no-groups and --throw-hints go with --v2")
     if not args.fault_noise >= 0.0:
         ap.error("--fault-noise must be at least 0")
@@ -541,11 +549,9 @@ def main(argv=None) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     seeds = list(range(args.start, args.start + args.seeds))
     t0 = time.perf_counter()
-    stem = _stem(v2, args.fault_form, args.fault_noise, not args.no_groups, args.throw_hints)
+    stem = _stem(v2, ground)
     outs = run_seeds(seeds, args.jobs, args.timeout, args.memory_gb,
-                     jsonl=None if args.no_write else out_dir / f"{stem}.jsonl", v2=v2,
-                     fault_form=args.fault_form, fault_noise=args.fault_noise, groups=not args.no_groups,
-                     throw_hints=args.throw_hints)
+                     jsonl=None if args.no_write else out_dir / f"{stem}.jsonl", v2=v2, ground=ground)
     elapsed = time.perf_counter() - t0
     if not args.v2:
         fill_specs(outs)
@@ -553,8 +559,7 @@ def main(argv=None) -> int:
     meta = {"command": command_line("sweep.py"), "date": today(),
             "machine": machine(numpy=True, faultmesh=True), "jobs": args.jobs, "timeout": args.timeout,
             "memory_gb": args.memory_gb, "elapsed": elapsed, "v2": v2,
-            **({"fault_form": args.fault_form, "fault_noise": args.fault_noise,
-                "groups": not args.no_groups, "throw_hints": args.throw_hints} if args.v2 else {})}
+            **(ground if args.v2 else {})}
     text = render_v2(outs, meta) if args.v2 else render(outs, meta)
     print(text)
     if not args.no_write:

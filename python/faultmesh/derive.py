@@ -2290,14 +2290,21 @@ def _side_frame(fs: "FaultSurface", ring: np.ndarray, pad: float, h: float) -> G
 
 def _side_surfaces(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame,
                    k: int, fades: Optional[Dict[str, Sequence["_PartnerFade"]]] = None,
-                   fallback: Optional[Dict[str, "SideSurface"]] = None
+                   fallback: Optional[Dict[str, "SideSurface"]] = None,
+                   hint: Optional[Tuple[float, Optional[str]]] = None
                    ) -> Optional[Dict[str, "SideSurface"]]:
     """Each side of a layer's data ``D`` (``split``: masks "foot",
     "hanging") on its own (:class:`SideSurface`), or None when a side has
-    fewer than 3 data; with ``fallback`` (per side), that side's surface
-    where it has fewer, None only when both have. ``fades``: per side, the
-    partner faults' fading throws that ``D`` was restored by
+    fewer than 3 data; with ``hint`` (the fault's throw hint and given
+    kind), a side with fewer is the other shifted by it
+    (:func:`_hinted_sides`); else with ``fallback`` (per side), that side's
+    surface where it has fewer, None only when both have. ``fades``: per
+    side, the partner faults' fading throws that ``D`` was restored by
     (:func:`_restored`)."""
+    if hint is not None:
+        hinted = _hinted_sides(D, split, frame, k, *hint)
+        if hinted is not None:
+            return hinted
     enough = {nm: int(np.count_nonzero(split[nm])) >= 3 for nm in ("foot", "hanging")}
     if not all(enough.values()) and (fallback is None or not any(enough.values())):
         return None
@@ -3764,18 +3771,17 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         # derivation of the fault on other sections (_derive_fault) takes
         # them from the memo.
         fits = memo.setdefault(lay, {})
+        hint_kind = None if hint is None else (hint, fault.kind)
         if "sides" not in fits:
-            fits["sides"] = _side_surfaces(D, split, frame, opt.k)
-            if fits["sides"] is None and hint is not None:
-                fits["sides"] = _hinted_sides(D, split, frame, opt.k, hint, fault.kind)
+            fits["sides"] = _side_surfaces(D, split, frame, opt.k, hint=hint_kind)
         sides = fits["sides"]
         if sides is None:
             continue
         # A side that is only the hint (no data of its own): no fading fit
         # and no joint surface across the fault (both need data on it).
-        hint_only = any(isinstance(sd, _Shifted) for sd in sides.values())
+        side_nm = next((nm for nm, sd in sides.items() if isinstance(sd, _Shifted)), None)
+        hint_only = side_nm is not None
         if hint_only:
-            side_nm = next(nm for nm, sd in sides.items() if isinstance(sd, _Shifted))
             warn.append(f"fault {fault.name!r}, layer {lay!r}: {int(np.count_nonzero(split[side_nm]))} "
                         f"{side_nm}-wall data; that wall is the other's surface shifted by the throw hint "
                         f"{hint:g} m as a {fault.kind or 'normal'} fault"
@@ -3834,11 +3840,8 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                     # master: its hanging wall in the whole layer is the
                     # master's footwall, across the master, and the fault
                     # came out reverse though its kind and hint were given).
-                    split_b = {nm: split[nm][inblock] for nm in split}
-                    blk = (_hinted_sides(Db[inblock], split_b, frame, opt.k, hint, fault.kind)
-                           if hint is not None else None)
-                    fits["block", key] = blk if blk is not None else \
-                        _side_surfaces(Db[inblock], split_b, frame, opt.k, fades, fallback=sides)
+                    fits["block", key] = _side_surfaces(Db[inblock], {nm: split[nm][inblock] for nm in split},
+                                                        frame, opt.k, fades, fallback=sides, hint=hint_kind)
                 blk = fits["block", key]
                 if blk is None:
                     continue

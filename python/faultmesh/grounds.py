@@ -2136,10 +2136,10 @@ def write_v2(ds1: Dataset, geo: Geology, spec: GroundSpec, folder, section_picks
         if hint is not None and not hint["max"] > 0.0:
             hint = None
         if fault_form == "surface":
-            V, T = _fault_surface(geo, geo.fault(f.name), ring, z_range, rng, *dec, **noise)
+            V, T = _fault_surface(geo, fm, ring, z_range, rng, *dec, **noise)
             faults.append(Fault(f.name, None, group, surface=(V, T), throw=hint))
             continue
-        P, st = _fault_sticks(geo, geo.fault(f.name), ring, z_range, rng, *dec, **noise)
+        P, st = _fault_sticks(geo, fm, ring, z_range, rng, *dec, **noise)
         faults.append(Fault(f.name, None, group, points=P, sticks=st if fault_form == "sticks" else None,
                             throw=hint))
     tables, kinds = _v2_drillholes(geo, ds1, spec, rng)
