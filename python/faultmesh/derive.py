@@ -2336,6 +2336,31 @@ def _hinted_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame,
     return {kept: base, gone: _Shifted(base, -sgn * hint if gone == "hanging" else sgn * hint)}
 
 
+#: Dip (degrees) below which a fault whose sense no data show is taken as
+#: reverse. In Anderson's (1951) faulting theory the largest principal
+#: stress is vertical for normal faults and horizontal for reverse ones,
+#: and a fault forms about 30 degrees from it: normal faults dip about 60
+#: degrees, reverse faults about 30 (most measured dips lie within 15
+#: degrees of those). 45 is halfway; steep reverse faults (inverted
+#: normal faults) and gentle normal ones (listric, rotated) exist, so this
+#: is only a default, said in a warning; a given ``kind`` wins.
+ANDERSON_DIP = 45.0
+
+
+def _unshown_kind(fault: Fault, fs: FaultSurface) -> Tuple[str, str]:
+    """The kind of a fault whose sense no data show (a side that is only
+    the throw hint, or no layer cut), and why: the given ``kind``, else
+    reverse where the fault surface dips under :data:`ANDERSON_DIP`, else
+    normal."""
+    if fault.kind is not None:
+        return fault.kind, "given"
+    if fs.dip < ANDERSON_DIP:
+        return "reverse", (f"no kind given; no data show it; it dips {fs.dip:.0f} degrees, "
+                           f"under {ANDERSON_DIP:g}, the dip of a reverse fault rather than a normal one")
+    return "normal", (f"no kind given; no data show it; it dips {fs.dip:.0f} degrees, "
+                      f"{ANDERSON_DIP:g} or more, the dip of a normal fault rather than a reverse one")
+
+
 def _hint_share(u: float, ends_u: Sequence[float], tipped: Tuple[bool, bool]) -> float:
     """The share of a fault's throw hint (its largest throw) at strike
     coordinate ``u`` on a fault whose extent runs over ``ends_u`` and dies
@@ -3717,6 +3742,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # Per layer: side surfaces and cutoffs.
     res: Dict[str, Dict[str, Any]] = {}
     hint = (fault.throw or {}).get("max")
+    default_kind, default_why = _unshown_kind(fault, fs)
     # Each layer's data for this fault and their sides, first for every
     # layer: a layer with (nearly) no data on one side borrows that side
     # from another (_borrowed_side).
@@ -3771,7 +3797,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         # derivation of the fault on other sections (_derive_fault) takes
         # them from the memo.
         fits = memo.setdefault(lay, {})
-        hint_kind = None if hint is None else (hint, fault.kind)
+        hint_kind = None if hint is None else (hint, default_kind)
         if "sides" not in fits:
             fits["sides"] = _side_surfaces(D, split, frame, opt.k, hint=hint_kind)
         sides = fits["sides"]
@@ -3784,8 +3810,8 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         if hint_only:
             warn.append(f"fault {fault.name!r}, layer {lay!r}: {int(np.count_nonzero(split[side_nm]))} "
                         f"{side_nm}-wall data; that wall is the other's surface shifted by the throw hint "
-                        f"{hint:g} m as a {fault.kind or 'normal'} fault"
-                        + ("" if fault.kind else " (no kind given; no data show it)"))
+                        f"{hint:g} m as a {default_kind} fault"
+                        + ("" if fault.kind else f" ({default_why})"))
         near = opt.near if opt.near is not None else 4.0 * spacing_data
         tr_all = [traces[i] for i in good]
         roots = {}
@@ -4042,7 +4068,8 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # shows no sense: its throw is the hint's, and the layer's offset at the
     # fault's scale would be taken from data across a partner (a Y-graben's
     # antithetic fault: the master's footwall). Where only such sections
-    # are cut, the kind is the given one, else normal (the hint's sense).
+    # are cut, the kind is the given one, else the one its dip suggests
+    # (_unshown_kind: the hint's sense).
     hinted_sections = False
     for lay, r in res.items():
         if lay not in voters:
@@ -4065,7 +4092,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     offset = _sense_offset(local, regional, SENSE_GAP_FLOOR * spacing_u)
     kind = None if offset is None else ("normal" if offset > 0 else "reverse")
     if kind is None and hinted_sections:
-        kind = fault.kind or "normal"
+        kind = default_kind
     if fault.kind is not None and kind is not None and kind != fault.kind:
         if local:
             shown = ", ".join(f"{lay} {t:+.1f} m with data {g:.0f} m off"
@@ -4080,7 +4107,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     if kind is None:
         warn.append(f"fault {fault.name!r}: no layer is cut within the fault's extent; it gets "
                     "plane traces only")
-    sgn = 1.0 if (kind or fault.kind or "normal") == "normal" else -1.0
+    sgn = 1.0 if (kind or default_kind) == "normal" else -1.0
     # The partner window admits a cutoff past the fault's points because
     # the throw carries it there: past the lower end, a normal fault's
     # hanging wall or a reverse fault's footwall; past the upper end, the
@@ -4123,7 +4150,16 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         warn.append(f"fault {fault.name!r}, layer {lay!r}, section at u={lines[i]['u']:.0f}: {why}")
         return True
 
-    # Throw hint where a side has no data near the fault.
+    # Throw hint where a side has no data near the fault. Where another
+    # layer on the same section has data near both its cutoffs, its throw
+    # there (of the fault's sense, at most the hint: the hint is the
+    # largest) is taken instead: the nearest such layer in the stack, which
+    # is measured where the hint and its share along strike are assumed.
+    layer_rank = {lay: n for n, lay in enumerate(ds.layers)}
+    measured = {lay: np.where(cut[lay] & np.array([nd is None for nd in nodata[lay]])
+                              & (sgn * throw[lay] >= opt.min_throw), throw[lay], np.nan)
+                for lay, r in res.items() if not r["borrowed"] and
+                not any(isinstance(sd, _Shifted) for sd in r["sides"].values())}
     far_from_data: Dict[str, List[Tuple[float, str, float]]] = {}
     for lay, r in res.items():
         for i in good:
@@ -4138,10 +4174,20 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                                "profile" if i in r["joint_secs"] else "extrapolated")
                             + " (give a throw hint to use instead)")
                 continue
-            t = hint * _hint_share(float(lines[i]["u"]), ends_u, (fs.tipped(0), fs.tipped(1)))
-            use_shifted(lay, i, side, -sgn * t if side == "hanging" else sgn * t,
-                        f"no {side}-wall data near the cutoff; used the throw hint {hint:g} m"
-                        + (f" ({t:.1f} m here, towards a tip)" if t < hint else ""))
+            by = sorted((abs(layer_rank[o] - layer_rank[lay]), o) for o in measured
+                        if o != lay and np.isfinite(measured[o][i]))
+            if by:
+                # The layers above and below as near: their mean.
+                nearest = [o for dist, o in by if dist == by[0][0]]
+                t = min(hint, float(np.mean([abs(measured[o][i]) for o in nearest])))
+                why = (f"no {side}-wall data near the cutoff; used the throw of layer "
+                       f"{' and '.join(repr(o) for o in nearest)} on this section, {t:.1f} m "
+                       f"(the throw hint {hint:g} m is the fault's largest)")
+            else:
+                t = hint * _hint_share(float(lines[i]["u"]), ends_u, (fs.tipped(0), fs.tipped(1)))
+                why = (f"no {side}-wall data near the cutoff; used the throw hint {hint:g} m"
+                       + (f" ({t:.1f} m here, towards a tip)" if t < hint else ""))
+            use_shifted(lay, i, side, -sgn * t if side == "hanging" else sgn * t, why)
 
     # Sections whose fading-throw fit says the other sense than the fault's
     # and whose own surfaces say the fault's: the own surfaces back.
@@ -4506,13 +4552,13 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     out_traces.sort(key=lambda t: t[0])
     # The derived fault is of the kind its cutoffs have: the data's where
     # they show one (a given kind they contradict is a warning above, and
-    # the report keeps it as `given_kind`), else the given one, else
-    # normal. Labelled with a given kind the data contradict, its patch
+    # the report keeps it as `given_kind`), else the given one, else the
+    # one its dip suggests (_unshown_kind). Labelled with a given kind the data contradict, its patch
     # (faults.layer_patch) folds onto itself: sections were dropped as
     # crossing (_drop_crossing_sections), and a Y-graben's antithetic fault
     # given as normal with a throw hint lost the sections that reach the
     # master fault and so was not grouped with it (_patches_meet).
-    final_kind = kind if kind is not None else (fault.kind or "normal")
+    final_kind = kind if kind is not None else default_kind
     # What the builder consumes: the points, surface and hint were used up
     # (the fault then needs no second derivation).
     new_fault = Fault(fault.name, final_kind, fault.group, np.array(tips).reshape(-1, 2),
