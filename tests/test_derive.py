@@ -748,6 +748,42 @@ def _without_layer_data(ds: Dataset, layer: str, d_lo: float, d_hi: float) -> Da
                    truth=ds.truth, geology=ds.geology, faults=ds.faults)
 
 
+@pytest.mark.parametrize("hint", [None, {"max": 20.0}])
+def test_a_layer_between_displaced_layers_takes_their_throw(hint):
+    """The middle of three layers has no hanging-wall datum within 800 m of
+    a 20 m normal fault (its other data are as dense as the others'): on
+    each section its hanging-wall cutoff is the footwall's shifted by the
+    throw of the layers above and below (conformable layers), said in a
+    warning, where its own far data extrapolated gave throws under 1 m and
+    left it uncut without a word (error near the fault 2.34 m against 0.17
+    with all data; 0.24 now). A throw hint changes nothing: data-based
+    throws come first."""
+    from faultmesh.grounds import near_fault_errors
+
+    ds = datasets.synthetic(2, kind="normal", dip=60.0, n_boreholes=N_HOLES, n_layers=3, throw=20.0)
+    mid = ds.layers[1]
+    thin = derive.derive_faults(v2_of(_without_layer_data(ds, mid, 0.0, 800.0), throw=hint))
+    fr = thin.derivation.faults["F1"]
+    assert fr.kind == "normal"
+    said = [w for w in fr.warnings if w.startswith(f"fault 'F1', layer '{mid}'")
+            and "the throw of the layers above and below on this section" in w]
+    assert len(said) >= 5, fr.warnings
+    cut = fr.throw[mid]["cut"]
+    t_mid = fr.throw[mid]["throw"]
+    t_nb = 0.5 * (fr.throw[ds.layers[0]]["throw"] + fr.throw[ds.layers[2]]["throw"])
+    assert cut.sum() >= 5
+    both = cut & fr.throw[ds.layers[0]]["cut"] & fr.throw[ds.layers[2]]["cut"]
+    # Within 1 m of its neighbours' mean on most sections (the end sections
+    # have data near and keep their own).
+    assert np.count_nonzero(np.abs(t_mid - t_nb)[both] < 1.0) >= 0.75 * both.sum(), (t_mid, t_nb)
+    full = derive.derive_faults(v2_of(ds))
+    models = [faultmesh.build_model(d, evaluate=False) for d in (full, thin)]
+    for m in models:
+        m.check()
+    e_full, e_thin = near_fault_errors(models, ds.geology, np.asarray(ds.boundary))
+    assert e_thin < 2.0 * e_full + 0.1, (e_full, e_thin)
+
+
 def test_a_throw_hint_gives_way_to_the_throw_of_the_next_layer():
     """The top layer has no hanging-wall datum within 800 m of a 20 m
     normal fault whose throw dies out towards two tips: without a hint its
