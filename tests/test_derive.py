@@ -686,14 +686,24 @@ def _one_side_only(ds: Dataset, keep: str) -> Dataset:
     """``ds`` with every hole on the other side of its fault F1 (and within
     50 m of its trace on this one) taken out: a fault whose ``keep`` wall
     ("foot" or "hanging") alone has data, in every layer."""
-    fm = ds.geology.fault("F1")
-    b = ds.boreholes
-    d_hw = fm.d(*ds.geology.local(b.xy[:, 0], b.xy[:, 1]))
+    d_hw = _hanging_wall_distance(ds)
     drop = d_hw > -50.0 if keep == "foot" else d_hw < 50.0
-    keep_rows = ~np.isin(b.hole_id, np.unique(b.hole_id[drop]))
-    return Dataset(name=f"{keep} only", layers=ds.layers, boundary=ds.boundary,
-                   boreholes=Boreholes(b.hole_id[keep_rows], b.xy[keep_rows], b.layer[keep_rows],
-                                       b.z[keep_rows]),
+    b = ds.boreholes
+    return _with_rows(ds, ~np.isin(b.hole_id, np.unique(b.hole_id[drop])), f"{keep} only")
+
+
+def _hanging_wall_distance(ds: Dataset) -> np.ndarray:
+    """Each borehole row's signed distance from the fault F1 of ``ds``'s
+    truth (positive on its hanging wall)."""
+    b = ds.boreholes
+    return ds.geology.fault("F1").d(*ds.geology.local(b.xy[:, 0], b.xy[:, 1]))
+
+
+def _with_rows(ds: Dataset, keep: np.ndarray, name: str) -> Dataset:
+    """``ds`` with only the borehole rows ``keep`` (bool per row)."""
+    b = ds.boreholes
+    return Dataset(name=name, layers=ds.layers, boundary=ds.boundary,
+                   boreholes=Boreholes(b.hole_id[keep], b.xy[keep], b.layer[keep], b.z[keep]),
                    truth=ds.truth, geology=ds.geology, faults=ds.faults)
 
 
@@ -740,13 +750,9 @@ def test_throw_hint_where_a_side_has_no_data_at_all(kind, keep):
 def _without_layer_data(ds: Dataset, layer: str, d_lo: float, d_hi: float) -> Dataset:
     """``ds`` without the data of ``layer`` whose signed distance from the
     fault F1 (positive on its hanging wall) lies in (d_lo, d_hi)."""
-    fm = ds.geology.fault("F1")
-    b = ds.boreholes
-    d_hw = fm.d(*ds.geology.local(b.xy[:, 0], b.xy[:, 1]))
-    k = ~((b.layer == layer) & (d_hw > d_lo) & (d_hw < d_hi))
-    return Dataset(name=f"{layer} thinned", layers=ds.layers, boundary=ds.boundary,
-                   boreholes=Boreholes(b.hole_id[k], b.xy[k], b.layer[k], b.z[k]),
-                   truth=ds.truth, geology=ds.geology, faults=ds.faults)
+    d_hw = _hanging_wall_distance(ds)
+    return _with_rows(ds, ~((ds.boreholes.layer == layer) & (d_hw > d_lo) & (d_hw < d_hi)),
+                      f"{layer} thinned")
 
 
 @pytest.mark.parametrize("hint", [None, {"max": 20.0}])

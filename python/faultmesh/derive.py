@@ -442,7 +442,16 @@ class GridFrame:
     def roughness(self):
         """Sparse rows whose sum of squares is the thin-plate energy
         integral of (S_uu^2 + 2 S_uw^2 + S_ww^2) over the grid (second
-        differences, each row scaled by its cell area)."""
+        differences, each row scaled by its cell area). Built once per frame:
+        every fit on it (a side's own, and the cross-validation's ten or
+        more, :func:`_noise_smoothing`) takes the same rows, scaled into a
+        new matrix."""
+        cached = self.__dict__.get("_roughness")
+        if cached is None:
+            cached = self.__dict__["_roughness"] = self._roughness_rows()
+        return cached
+
+    def _roughness_rows(self):
         import scipy.sparse as sp
         idx = np.arange(self.n).reshape(self.nu, self.nw)
         h = self.h
@@ -465,7 +474,14 @@ class GridFrame:
         return sp.vstack(blocks).tocsr()
 
     def gradient(self):
-        """Sparse rows whose sum of squares is the integral of |grad S|^2."""
+        """Sparse rows whose sum of squares is the integral of |grad S|^2
+        (built once per frame, as :meth:`roughness`)."""
+        cached = self.__dict__.get("_gradient")
+        if cached is None:
+            cached = self.__dict__["_gradient"] = self._gradient_rows()
+        return cached
+
+    def _gradient_rows(self):
         import scipy.sparse as sp
         idx = np.arange(self.n).reshape(self.nu, self.nw)
         out = []
@@ -2406,6 +2422,13 @@ def _hinted_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame,
 ANDERSON_DIP = 45.0
 
 
+def _shifted_side(sides: Dict[str, Any]) -> Optional[str]:
+    """The side ("foot" or "hanging") of ``sides`` that is only the other
+    shifted (:class:`_Shifted`: a throw hint or another layer's throw), or
+    None."""
+    return next((nm for nm, sd in sides.items() if isinstance(sd, _Shifted)), None)
+
+
 def _unshown_kind(fault: Fault, fs: FaultSurface) -> Tuple[str, str]:
     """The kind of a fault whose sense no data show (a side that is only
     the throw hint, or no layer cut), and why: the given ``kind``, else
@@ -2413,11 +2436,11 @@ def _unshown_kind(fault: Fault, fs: FaultSurface) -> Tuple[str, str]:
     normal."""
     if fault.kind is not None:
         return fault.kind, "given"
-    if fs.dip < ANDERSON_DIP:
-        return "reverse", (f"no kind given; no data show it; it dips {fs.dip:.0f} degrees, "
-                           f"under {ANDERSON_DIP:g}, the dip of a reverse fault rather than a normal one")
-    return "normal", (f"no kind given; no data show it; it dips {fs.dip:.0f} degrees, "
-                      f"{ANDERSON_DIP:g} or more, the dip of a normal fault rather than a reverse one")
+    gentle = fs.dip < ANDERSON_DIP
+    kind, other = ("reverse", "normal") if gentle else ("normal", "reverse")
+    than = f"under {ANDERSON_DIP:g}" if gentle else f"{ANDERSON_DIP:g} or more"
+    return kind, (f"no kind given; no data show it; it dips {fs.dip:.0f} degrees, {than}, "
+                  f"the dip of a {kind} fault rather than a {other} one")
 
 
 def _hint_share(u: float, ends_u: Sequence[float], tipped: Tuple[bool, bool]) -> float:
@@ -3864,7 +3887,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
             continue
         # A side that is only the hint (no data of its own): no fading fit
         # and no joint surface across the fault (both need data on it).
-        side_nm = next((nm for nm, sd in sides.items() if isinstance(sd, _Shifted)), None)
+        side_nm = _shifted_side(sides)
         hint_only = side_nm is not None
         if hint_only:
             warn.append(f"fault {fault.name!r}, layer {lay!r}: {int(np.count_nonzero(split[side_nm]))} "
@@ -4037,8 +4060,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     layer_rank = {lay: n for n, lay in enumerate(ds.layers)}
     measured = {lay: np.where(cut[lay] & np.array([nd is None for nd in nodata[lay]])
                               & (np.abs(throw[lay]) >= opt.min_throw), throw[lay], np.nan)
-                for lay, r in res.items() if not r["borrowed"] and
-                not any(isinstance(sd, _Shifted) for sd in r["sides"].values())}
+                for lay, r in res.items() if not r["borrowed"] and _shifted_side(r["sides"]) is None}
     for lay in res:
         for i in good:
             side = nodata[lay][i]
@@ -4198,7 +4220,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         for i in good:
             if not cut[lay][i] or lines[i].get("end"):
                 continue
-            if any(isinstance(sd, _Shifted) for sd in _sides_of(r, i).values()):
+            if _shifted_side(_sides_of(r, i)) is not None:
                 hinted_sections = True
                 continue
             f, h = cutpts[lay][i]
