@@ -936,6 +936,66 @@ def test_a_repeated_section_gives_the_throw_hint_its_sense(monkeypatch):
                for w in blind.warnings), blind.warnings
 
 
+def test_a_plane_with_a_step_is_undetermined_by_data_on_lines():
+    """The regional plane (and step) of a layer's data: determined by data
+    over an area; not by data on one line, nor by a side on each of two
+    parallel lines with a step between them, whatever the rounding of
+    their coordinates leaves across the lines (there the fits took slopes
+    of 4 to 12 from it, and the side surfaces pulled towards them reached 1
+    km above the layer). The slope along the lines is still the data's, the
+    slope across them none."""
+    rng = np.random.default_rng(7)
+    frame = derive.GridFrame.around(np.array([5e5, 6e6]), (1.0, 0.0), (-100.0, 1100.0), (-100.0, 1100.0), 50.0)
+    t = np.linspace(0.0, 1000.0, 41)
+
+    def layer(x, y):
+        return -200.0 + 0.05 * (x - 5e5) - 0.02 * (y - 6e6)
+
+    # One line along x, y rounded to 1 cm, z to 1 cm.
+    xy = np.c_[5e5 + t, 6e6 + 400.0 + rng.uniform(-0.005, 0.005, len(t))]
+    D = np.c_[np.round(xy, 2), np.round(layer(xy[:, 0], xy[:, 1]) + rng.normal(0, 0.05, len(t)), 2)]
+    coef, determined = derive._plane_step_fit(D, frame)
+    assert not determined
+    slope = derive._regional_slope(D, frame)
+    assert abs(slope[0] - 0.05) < 0.005 and abs(slope[1]) < 0.01, slope
+    # Two parallel lines, the second 300 m off and 20 m down (a fault between).
+    xy2 = xy + [0.0, 300.0]
+    D2 = np.vstack([D, np.c_[np.round(xy2, 2), np.round(layer(xy2[:, 0], xy2[:, 1]) - 20.0, 2)]])
+    hw = np.r_[np.zeros(len(D), bool), np.ones(len(D), bool)]
+    assert not derive._plane_step_fit(D2, frame, hw)[1]
+    assert np.all(np.abs(derive._regional_slope(D2, frame, hw)) < 0.1)
+    # Holes over the area: determined, the plane and the step recovered.
+    P = rng.uniform([5e5, 6e6], [5e5 + 1000.0, 6e6 + 1000.0], (60, 2))
+    h = P[:, 1] > 6e6 + 500.0
+    D3 = np.c_[P, layer(P[:, 0], P[:, 1]) - 20.0 * h]
+    coef, determined = derive._plane_step_fit(D3, frame, h)
+    assert determined
+    np.testing.assert_allclose(coef[1:], [0.05, -0.02, -20.0], atol=1e-6)
+
+
+def test_fault_blocks_with_picks_on_one_line_stay_near_their_layer():
+    """Regression, a probe's ground (tests/data/derive/probe_picks_on_one_line_per_block):
+    four faults (a graben and two more) grouped as they meet, the layers
+    picked on three seismic lines, so that several fault blocks hold the
+    picks of one line only. Their regional plane took its slope across the
+    line from the rounding of the picks' coordinates, and the block's and
+    the fading-throw fit's surfaces followed it: derived polylines down to
+    -1,347 m and up to +1,602 m for layers picked between -389 and -198 m
+    (the model 731 m off). Every derived trace now lies within 100 m of
+    its layer's picks' elevations."""
+    ds = faultmesh.load_dataset(Path(__file__).parent / "data" / "derive" / "probe_picks_on_one_line_per_block"
+                                / "dataset.json")
+    d = derive.derive_faults(ds)
+    for f in d.faults:
+        for tr in f.traces:
+            for lay, sides in tr.layers.items():
+                z = ds.points[lay][:, 2]
+                for side, P in sides.items():
+                    assert z.min() - 100.0 <= P[:, 2].min() and P[:, 2].max() <= z.max() + 100.0, \
+                        (f.name, tr.section, lay, side, P[:, 2].min(), P[:, 2].max(), z.min(), z.max())
+    faultmesh.build_model(d, evaluate=False).check()
+
+
 @pytest.mark.parametrize("seed,fault,kind", [(12, "F1", "reverse"), (15, "F1", "normal")])
 def test_a_sense_the_sparse_holes_do_not_show_is_the_dip_s(seed, fault, kind, tmp_path):
     """Holes-only random grounds as v2 (28 and 78 holes over 4-6 km): the

@@ -2515,25 +2515,65 @@ def _hint_share(u: float, ends_u: Sequence[float], tipped: Tuple[bool, bool]) ->
     return float(max(0.0, 1.0 - x * x))
 
 
+def _plane_step_fit(D: np.ndarray, frame: GridFrame,
+                    hanging: Optional[np.ndarray] = None) -> Tuple[np.ndarray, bool]:
+    """The least-squares plane z = a + b (u - u_m) + c (w - w_m) through
+    the data ``D`` in ``frame``'s coordinates, with a step T on the
+    ``hanging`` ones (bool per datum) where both sides have data: its
+    coefficients (a, b, c[, T]), and whether the data determine every one
+    of them. Columns scaled to unit length; directions in which the data
+    spread by under :data:`REGIONAL_RCOND` of their largest are left out
+    (the least-norm solution) and make it undetermined: data on one seismic
+    line, or a side on each of two parallel lines (the step then stands in
+    for the slope across them), leave the slope across the line(s) to the
+    rounding of the picks' coordinates, which lstsq's default cutoff
+    (machine precision) fitted: a probe's fault blocks with picks on one
+    line each got slopes of 4 to 12, and their side surfaces, pulled
+    towards them by the tension, reached 1 km above and below the layer
+    (cutoffs 250 m off)."""
+    u, w = frame.uw(D[:, :2])
+    cols = [np.ones(len(u)), u - u.mean(), w - w.mean()]
+    if hanging is not None:
+        h = np.asarray(hanging, dtype=bool)
+        if 0 < h.sum() < len(h):
+            cols.append(h.astype(np.float64))
+    A = np.column_stack(cols)
+    norm = np.linalg.norm(A, axis=0)
+    norm[norm == 0] = 1.0
+    coef, _, rank, sv = np.linalg.lstsq(A / norm, D[:, 2], rcond=REGIONAL_RCOND)
+    return coef / norm, bool(rank == A.shape[1])
+
+
 def _regional_slope(D: np.ndarray, frame: GridFrame, hanging: Optional[np.ndarray] = None) -> np.ndarray:
     """(dz/du, dz/dw) in ``frame`` of the least-squares plane through the
-    layer's data in it, both sides. With ``hanging`` (bool per datum) the
-    fit has a step between the sides (the hanging wall's data are the plane
-    minus a constant throw): without it the fault's offset tilts the plane
-    by about throw / frame width down dip, and a side bent towards that
-    slope over the tension length drops (footwall) or rises (hanging wall)
-    towards the fault, taking the throw down with it."""
+    layer's data in it, both sides (:func:`_plane_step_fit`; a direction the
+    data leave undetermined gets no slope). With ``hanging`` (bool per
+    datum) the fit has a step between the sides (the hanging wall's data
+    are the plane minus a constant throw): without it the fault's offset
+    tilts the plane by about throw / frame width down dip, and a side bent
+    towards that slope over the tension length drops (footwall) or rises
+    (hanging wall) towards the fault, taking the throw down with it."""
     inside = frame.inside(D[:, :2])
     if inside.sum() < 3:
         inside = np.ones(len(D), dtype=bool)
-    u, w = frame.uw(D[inside, :2])
-    cols = [np.ones(len(u)), u - u.mean(), w - w.mean()]
-    if hanging is not None:
-        h = np.asarray(hanging, dtype=bool)[inside]
-        if 0 < h.sum() < len(h):
-            cols.append(h.astype(np.float64))
-    coef, *_ = np.linalg.lstsq(np.column_stack(cols), D[inside, 2], rcond=None)
+    h = None if hanging is None else np.asarray(hanging, dtype=bool)[inside]
+    coef, determined = _plane_step_fit(D[inside], frame, h)
+    if not determined and h is not None:
+        # The step and the slope across the data trade (each side on its
+        # own line): the least-norm split between them is arbitrary (a
+        # slope of 0.26 for a layer dipping 0.02 across two lines 300 m
+        # apart with 20 m of throw between them); the plane alone tilts by
+        # the throw over the lines' distance at most.
+        coef = _plane_step_fit(D[inside], frame)[0]
     return coef[1:3]
+
+
+#: Relative singular value under which :func:`_plane_step_fit` takes a
+#: direction of its fit as undetermined. Data on one line whose coordinates
+#: are rounded to 1 cm over a few hundred metres spread across it by about
+#: 1e-5 of their length; holes or picks over an area by 0.1 or more. A
+#: thousandth lies between with two orders of magnitude to spare either way.
+REGIONAL_RCOND = 1e-3
 
 
 def _joint_setup(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, spacing: float,
@@ -2552,6 +2592,15 @@ def _joint_setup(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     inside = frame.inside(D[:, :2])
     hw = split["hanging"] & ~split["foot"]
     if (inside & hw).sum() < 3 or (inside & ~hw).sum() < 3:
+        return None
+    # Data that leave a plane with a step undetermined (each side on one
+    # line, the lines parallel, or all on one line) leave the surface's
+    # slope across them and the throw to trade without bound in these fits
+    # (no tension): the probe's fault blocks with picks on one line each,
+    # a fading-throw fit whose surface reached -1,083 to +2,816 m over data
+    # at -224 m while its throw stayed small. The sections keep their own
+    # sides then.
+    if not _plane_step_fit(D[inside], frame, hw[inside])[1]:
         return None
     sp = _median_spacing(D)
     ell = max(_smoothing_length(sp, frame), smoothing * sp)
