@@ -936,6 +936,42 @@ def test_a_repeated_section_gives_the_throw_hint_its_sense(monkeypatch):
                for w in blind.warnings), blind.warnings
 
 
+@pytest.mark.parametrize("strike_deg", [0.0, 30.0])
+def test_sticks_picked_to_the_edge_of_the_survey_reach_the_boundary(strike_deg):
+    """A fault picked on sticks every 100 m up to within 9 m of the study
+    area's edge (the survey's; the default study area is the data's
+    bounding box) runs out of the area: both ends on the boundary. The end
+    was taken as reaching it only when the median distance of the points
+    of its last tenth (here 400 m of a 4 km fault) was within a stick
+    spacing, which is about half that tenth more than the gap: tips at
+    both ends, and the throw tapered to nothing there (a probe's ground,
+    31.6 m off near the boundary). Sticks that stop 500 m short, where the
+    fault dies out, end at a tip."""
+    a = np.radians(strike_deg)
+    e_s, e_d = np.array([np.sin(a), np.cos(a)]), np.array([np.cos(a), -np.sin(a)])  # strike, dip dir.
+    centre = np.array([512345.67, 6012345.67])
+    half = 2000.0
+
+    def fault(lo: float, hi: float):
+        s_ = np.arange(lo, hi + 1e-9, 100.0)
+        z = np.linspace(-100.0, -500.0, 9)
+        S, Z = np.meshgrid(s_, z, indexing="ij")
+        D = (-300.0 - Z) / np.tan(np.radians(60.0))   # 60 degrees, through the centre at 300 m
+        xy = centre + S.ravel()[:, None] * e_s + D.ravel()[:, None] * e_d
+        return Fault("F", points=np.c_[xy, Z.ravel()], sticks=np.repeat(np.arange(len(s_)), len(z)))
+
+    # The study area: a square of side 2 x half around the centre, turned
+    # with the fault (its edges square to strike at both ends).
+    corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float) * half
+    ring = centre + corners[:, :1] * e_s + corners[:, 1:] * e_d
+    ring = np.round(ring, 2)
+    # Sticks at -1991 ... 1991 m along strike: the last ones 9 m inside.
+    through = derive.fault_surface(fault(-half + 9.0, half - 9.0), ring, (-600.0, 0.0))
+    assert through.ends == ["boundary", "boundary"]
+    tipped = derive.fault_surface(fault(-half + 500.0, half - 9.0), ring, (-600.0, 0.0))
+    assert tipped.ends == ["inside", "boundary"]
+
+
 def test_a_plane_with_a_step_is_undetermined_by_data_on_lines():
     """The regional plane (and step) of a layer's data: determined by data
     over an area; not by data on one line, nor by a side on each of two

@@ -1896,7 +1896,19 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
                 carried[e] = (Qi[ok], moved)
                 continue
             t = _ray_to_ring(Q[:, :2], sgn * strike, ring)
-            if np.isfinite(t).all() and float(np.median(t)) <= reach:
+            # The gap between the end and the boundary: each point's distance
+            # to the boundary along strike less how far it lies behind the
+            # end (the same for all of them where the boundary is square to
+            # strike; the median where it is oblique, and the end's points
+            # lie at several depths, so at several places in map view). The
+            # median of the distances alone is about half the band more: a
+            # fault picked right up to the edge of the survey (the default
+            # study area, the data's bounding box) got tips at both ends and
+            # its throw tapered to nothing there (a probe's ground: one
+            # normal fault with 40 m of throw across the area, sticks within
+            # 9 m of the boundary, 31.6 m off near the boundary).
+            behind = (u[sel] - u.min()) if e == 0 else (u.max() - u[sel])
+            if np.isfinite(t).all() and float(np.median(t - behind)) <= reach:
                 ends[e] = "boundary"
                 # A hair beyond the boundary, so that the extent covers it.
                 moved = Q.copy()
