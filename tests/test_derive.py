@@ -1052,6 +1052,23 @@ def test_a_sense_the_sparse_holes_do_not_show_is_the_dip_s(seed, fault, kind, tm
                for w in fr.warnings), fr.warnings
 
 
+def test_a_given_kind_stands_against_weak_data():
+    """Regression, a probe's ground (tests/data/derive/probe_holes_given_reverse_fault):
+    F4 is given as reverse (the truth: 33 degrees, 12.9 m); the holes'
+    sides, carried 430-530 m to its cutoffs, say +13 to +15 m (normal) in
+    all three layers, 0.03 of the distance per layer, and overruled the
+    given kind (the model 13 m off near it). Such data keep the given kind
+    now, said in a warning; data near the fault still overrule a wrong one
+    (test_given_kind_contradicted_is_a_warning)."""
+    folder = Path(__file__).parent / "data" / "derive" / "probe_holes_given_reverse_fault"
+    d = derive.derive_faults(faultmesh.load_dataset(folder / "dataset.json"))
+    fr = d.derivation.faults["F4"]
+    assert fr.kind == "reverse" and d.fault("F4").kind == "reverse", fr.warnings
+    assert any("what it takes to overrule a given kind): taken as reverse (given)" in w
+               for w in fr.warnings), fr.warnings
+    assert not any("given as reverse but the data say normal" in w for w in fr.warnings)
+
+
 def test_throw_hint_share_falls_to_zero_at_tips():
     share = derive._hint_share
     ends = (-500.0, 500.0)
