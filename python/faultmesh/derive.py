@@ -2570,14 +2570,23 @@ def _regional_slope(D: np.ndarray, frame: GridFrame, hanging: Optional[np.ndarra
         inside = np.ones(len(D), dtype=bool)
     h = None if hanging is None else np.asarray(hanging, dtype=bool)[inside]
     coef, determined = _plane_step_fit(D[inside], frame, h)
-    if not determined and h is not None:
-        # The step and the slope across the data trade (each side on its
-        # own line): the least-norm split between them is arbitrary (a
-        # slope of 0.26 for a layer dipping 0.02 across two lines 300 m
-        # apart with 20 m of throw between them); the plane alone tilts by
-        # the throw over the lines' distance at most.
-        coef = _plane_step_fit(D[inside], frame)[0]
-    return coef[1:3]
+    if determined:
+        return coef[1:3]
+    # The data lie along one direction (one line, or each side on a line
+    # parallel to the other's): the slope along it, none across it. The
+    # least-norm split between the slope across and the step is arbitrary
+    # (0.26 for a layer dipping 0.02 across two lines 300 m apart with 20 m
+    # of throw between them), and the plane without the step tilts by the
+    # throw over the lines' distance (a probe's ground, lines 50-100 m
+    # apart in a fault block: side surfaces 140-240 m off).
+    u, w = frame.uw(D[inside, :2])
+    P = np.column_stack([u - u.mean(), w - w.mean()])
+    along = np.linalg.svd(P, full_matrices=False)[2][0]
+    cols = [np.ones(len(P)), P @ along]
+    if h is not None and 0 < h.sum() < len(h):
+        cols.append(h.astype(np.float64))
+    c = np.linalg.lstsq(np.column_stack(cols), D[inside, 2], rcond=None)[0]
+    return c[1] * along
 
 
 #: Relative singular value under which :func:`_plane_step_fit` takes a
