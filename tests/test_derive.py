@@ -1011,7 +1011,8 @@ def test_a_plane_with_a_step_is_undetermined_by_data_on_lines():
 
 
 @pytest.mark.parametrize("folder", ["probe_picks_on_one_line_per_block",
-                                    "probe_picks_on_three_lines_step_trades_slope"])
+                                    "probe_picks_on_three_lines_step_trades_slope",
+                                    "probe_crossing_faults_picks_on_four_lines"])
 def test_fault_blocks_with_picks_on_one_line_stay_near_their_layer(folder):
     """Regression, a probe's ground (tests/data/derive/probe_picks_on_one_line_per_block):
     four faults (a graben and two more) grouped as they meet, the layers
@@ -1026,16 +1027,26 @@ def test_fault_blocks_with_picks_on_one_line_stay_near_their_layer(folder):
     them that the plane with its step fitted there (0.25 along 3 km of
     data spanning 66 m) is the step's trade, not the layer's: its side
     surfaces went 322 m past their layer's picks until such a slope was
-    dropped."""
+    dropped. The third (seed 42): two crossing faults, four lines; where
+    the fading-throw fit of a section in a fault block said the other
+    sense, the section went back to the whole layer's surfaces instead of
+    its block's, which mix the blocks across F1's 70 m throw: F2's wall
+    polylines 150-280 m off the nearest pick's elevation, 200-590 m off
+    the truth. Every point of a derived polyline lies within 100 m of the
+    elevation of its layer's nearest pick (XY; the three grounds' throws
+    and slopes make up to 71 m of that)."""
+    from scipy.spatial import cKDTree
+
     ds = faultmesh.load_dataset(Path(__file__).parent / "data" / "derive" / folder / "dataset.json")
     d = derive.derive_faults(ds)
     for f in d.faults:
         for tr in f.traces:
             for lay, sides in tr.layers.items():
-                z = ds.points[lay][:, 2]
+                picks = ds.points[lay]
+                tree = cKDTree(picks[:, :2])
                 for side, P in sides.items():
-                    assert z.min() - 100.0 <= P[:, 2].min() and P[:, 2].max() <= z.max() + 100.0, \
-                        (f.name, tr.section, lay, side, P[:, 2].min(), P[:, 2].max(), z.min(), z.max())
+                    dz = np.abs(P[:, 2] - picks[tree.query(P[:, :2])[1], 2])
+                    assert dz.max() <= 100.0, (f.name, tr.section, lay, side, dz.max())
     faultmesh.build_model(d, evaluate=False).check()
 
 

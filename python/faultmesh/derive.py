@@ -3228,7 +3228,8 @@ def _decay_sections(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFram
     :data:`DECAY_NEAR` section spacings along strike, or such data lie on
     both sides of the section along strike: ``sec_sides`` and
     ``roots`` (per side, one per section) updated in place; ``own`` (line
-    index -> the replaced roots of the own surfaces, foot and hanging)
+    index -> the replaced roots of the own surfaces, foot and hanging, and
+    the section's own sides, its block's, or None for the whole layer's)
     filled for :func:`_own_sense_back`. A section of a fault block of
     crossing faults (``sec_block``: line index -> the block's key,
     ``blocks``: key -> its data's mask; its sides already in ``sec_sides``)
@@ -3275,7 +3276,7 @@ def _decay_sections(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFram
             if rr["foot"] is None or rr["hanging"] is None:
                 continue
             if own is not None:
-                own[i] = (roots["foot"][j], roots["hanging"][j])
+                own[i] = (roots["foot"][j], roots["hanging"][j], sec_sides.get(i))
             sec_sides[i] = sd
             for nm in sd:
                 roots[nm][j] = rr[nm]
@@ -3385,7 +3386,7 @@ def _own_sense_back(throw: float, own: tuple, sgn: float) -> bool:
     zero, the three sections were dropped as beyond the tip (5 of 8 left).
     Where the own surfaces have the other sense instead, the fit stays (it
     is what the random grounds' fading throws need)."""
-    f, h = own
+    f, h = own[:2]
     if f is None or h is None:
         return False
     return throw * sgn < 0.0 and float(f[0][2] - h[0][2]) * sgn > 0.0
@@ -4497,11 +4498,18 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                 if cutpts[lay][i] is None or i in r.get("hinted", {}) or \
                         not _own_sense_back(throw[lay][i], own, sgn):
                     continue
-                del r["sec_sides"][i]
+                # Back to the section's own sides: its fault block's where it
+                # is in one (probe ground 42: dropped to the whole layer's,
+                # which mix the blocks across F1, F2's wall polylines between
+                # F1 and the next seismic line were 200-590 m off).
+                if own[2] is None:
+                    del r["sec_sides"][i]
+                else:
+                    r["sec_sides"][i] = own[2]
                 j = good.index(i)
-                for nm, rt in zip(("foot", "hanging"), own):
+                for nm, rt in zip(("foot", "hanging"), own[:2]):
                     r["roots"][nm][j] = rt
-                t, c, pts = _section_cutoffs(traces[i], *own)
+                t, c, pts = _section_cutoffs(traces[i], *own[:2])
                 throw[lay][i], cutpts[lay][i] = t, pts
                 cut[lay][i] = cut[lay][i] and c
 
