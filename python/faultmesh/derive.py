@@ -2545,7 +2545,17 @@ def _plane_step_fit(D: np.ndarray, frame: GridFrame,
     towards them by the tension, reached 1 km above and below the layer
     (cutoffs 250 m off)."""
     u, w = frame.uw(D[:, :2])
-    cols = [np.ones(len(u)), u - u.mean(), w - w.mean()]
+    return _linear_step_fit(np.column_stack([u - u.mean(), w - w.mean()]), D[:, 2], hanging,
+                            REGIONAL_RCOND)
+
+
+def _linear_step_fit(X: np.ndarray, z: np.ndarray, hanging: Optional[np.ndarray],
+                     rcond: Optional[float]) -> Tuple[np.ndarray, bool]:
+    """Least squares z = a + X b [+ T on the ``hanging`` data, where both
+    sides have data], columns scaled to unit length, singular values under
+    ``rcond`` of the largest left out: (a, b..., [T]) and whether the fit
+    used every column."""
+    cols = [np.ones(len(z)), *np.asarray(X, dtype=np.float64).T]
     if hanging is not None:
         h = np.asarray(hanging, dtype=bool)
         if 0 < h.sum() < len(h):
@@ -2553,7 +2563,7 @@ def _plane_step_fit(D: np.ndarray, frame: GridFrame,
     A = np.column_stack(cols)
     norm = np.linalg.norm(A, axis=0)
     norm[norm == 0] = 1.0
-    coef, _, rank, sv = np.linalg.lstsq(A / norm, D[:, 2], rcond=REGIONAL_RCOND)
+    coef, _, rank, _ = np.linalg.lstsq(A / norm, z, rcond=rcond)
     return coef / norm, bool(rank == A.shape[1])
 
 
@@ -2583,10 +2593,7 @@ def _regional_slope(D: np.ndarray, frame: GridFrame, hanging: Optional[np.ndarra
     u, w = frame.uw(D[inside, :2])
     P = np.column_stack([u - u.mean(), w - w.mean()])
     along = np.linalg.svd(P, full_matrices=False)[2][0]
-    cols = [np.ones(len(P)), P @ along]
-    if h is not None and 0 < h.sum() < len(h):
-        cols.append(h.astype(np.float64))
-    c = np.linalg.lstsq(np.column_stack(cols), D[inside, 2], rcond=None)[0]
+    c = _linear_step_fit((P @ along)[:, None], D[inside, 2], h, None)[0]
     # A slope that makes more relief over the data's length than twice what
     # the data span is the step's trade, not theirs (a side at each end of
     # the line, or lines at an angle: a probe's ground, slopes of 0.25 along
