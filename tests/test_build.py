@@ -1854,3 +1854,30 @@ def test_a_datum_that_would_put_a_centroid_into_a_fold_of_its_patch_is_left_out(
     moved = d > 0.0
     d_xy, _ = cKDTree(D[:, :2]).query(new[moved, :2])
     assert np.all(d_xy < 2.5), d_xy.max()
+
+
+def test_a_lower_layer_drawn_above_the_upper_one_at_a_fault_is_a_warning():
+    """The crossing repair orders the continuous TINs, not a fault's patch:
+    hand-drawn (or derived) polylines of the lower layer above the upper
+    layer's on a section put its patch over the upper one. The build
+    reports where (metadata["layer_order"]) and, past LAYER_ORDER_WARNING,
+    warns; the model is still a valid mesh."""
+    from faultmesh.build import LAYER_ORDER_WARNING
+
+    ds = datasets.synthetic(0, n_layers=2)
+    m = build(ds)
+    assert [(r["upper"], r["lower"], r["above"], r["max_m"]) for r in m.metadata["layer_order"]] == \
+        [("L1", "L2", 0, 0.0)]
+    assert not any("lies above" in w for w in m.metadata.get("warnings", []))
+    # L2 raised by 60 m on the middle section: its polylines 26 m above
+    # L1's there.
+    tr = ds.faults[0].traces[2]
+    for side in ("foot", "hanging"):
+        tr.layers["L2"][side][:, 2] += 60.0
+    m = build(ds)
+    m.check()
+    row = m.metadata["layer_order"][0]
+    assert row["max_m"] > LAYER_ORDER_WARNING and row["kind"] in ("patch", "gap")
+    warn = [w for w in m.metadata["warnings"] if "lies above" in w]
+    assert len(warn) == 1 and warn[0].startswith(
+        f"layer 'L2' lies above 'L1', the layer over it, by up to {row['max_m']:.1f} m")

@@ -189,3 +189,49 @@ def test_fit_to_the_data_in_the_model_s_layer_order_after_a_3dt_round_trip(tmp_p
     assert (fit["data"], fit["outside"], fit["off"]) == (1, 1, 1)
     assert fit["max_m"] == pytest.approx(3.0)
     assert fit["worst"] == {"x": 500.0, "y": 500.0, "z": 3.0, "model_z": pytest.approx(0.0)}
+
+
+def _square(z, name, kinds=None):
+    """A 100 m square at elevation z(x, y), its centre a vertex (4 triangles)."""
+    xy = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0], [50.0, 50.0]])
+    V = np.column_stack([xy, [z(x, y) for x, y in xy]])
+    T = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
+    return Surface(name, V, T, kinds=kinds)
+
+
+def test_layer_order_measures_a_lower_layer_over_the_upper_one_at_its_highest():
+    """report.layer_order: the lower layer's highest sheet against the
+    upper's at the vertices of both. A peak of the lower layer 7 m over a
+    flat upper layer is found at its vertex, exactly, with the kind of its
+    triangle; where the upper layer is folded (a reverse fault's two
+    sheets) its highest sheet is the one compared; a place the upper layer
+    does not cover (a normal fault's gap) is not compared."""
+    from faultmesh.report import layer_order
+
+    upper = _square(lambda x, y: 0.0, "A")
+    lower = _square(lambda x, y: 7.0 if (x, y) == (50.0, 50.0) else -10.0, "B",
+                    kinds=np.full(4, 2, dtype=np.int8))
+    rows = layer_order({"A": upper, "B": lower}, ["A", "B"])
+    assert rows == [{"upper": "A", "lower": "B", "points": 5, "above": 1, "max_m": pytest.approx(7.0),
+                     "at": [50.0, 50.0], "kind": "gap"}]
+    # In order: nothing above; a layer without a surface is skipped over.
+    flat = _square(lambda x, y: -10.0, "B")
+    rows = layer_order({"A": upper, "B": flat, "C": None}, ["A", "C", "B"])
+    assert rows == [{"upper": "A", "lower": "B", "points": 5, "above": 0, "max_m": 0.0, "at": None,
+                     "kind": None}]
+    # The upper layer folded: a second sheet 20 m higher over the east half.
+    fold = Surface("A", np.vstack([upper.vertices,
+                                   [[50.0, 0.0, 20.0], [100.0, 0.0, 20.0], [100.0, 100.0, 20.0],
+                                    [50.0, 100.0, 20.0]]]),
+                   np.vstack([upper.triangles, [[5, 6, 7], [5, 7, 8]]]))
+    rows = layer_order({"A": fold, "B": lower}, ["A", "B"])
+    assert rows[0]["above"] == 0 and rows[0]["max_m"] == 0.0
+    # The upper layer only over the west half (a gap east of x = 50): the
+    # lower layer's east corners are not compared.
+    west = Surface("A", np.array([[0.0, 0.0, 0.0], [50.0, 0.0, 0.0], [50.0, 100.0, 0.0], [0.0, 100.0, 0.0]]),
+                   np.array([[0, 1, 2], [0, 2, 3]]))
+    high_east = Surface("B", np.array([[0.0, 0.0, -10.0], [50.0, 0.0, -10.0], [50.0, 100.0, -10.0],
+                                       [0.0, 100.0, -10.0], [100.0, 0.0, 30.0], [100.0, 100.0, 30.0]]),
+                        np.array([[0, 1, 2], [0, 2, 3], [1, 4, 5], [1, 5, 2]]))
+    rows = layer_order({"A": west, "B": high_east}, ["A", "B"])
+    assert rows[0]["above"] == 0 and rows[0]["points"] == 4

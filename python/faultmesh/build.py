@@ -832,6 +832,36 @@ def _stitch_layer(lay: str, tin: LayerTin, patches: List[Tuple[str, List[str], n
 DATA_MISS_WARNING = 5.0
 
 
+#: A layer surface that lies more than this (m) above the one over it
+#: somewhere is a warning of the build (:func:`_layer_order_warnings`). As
+#: for a missed datum (:data:`DATA_MISS_WARNING`): picks and tops are
+#: good to a few metres, and two layers a few metres apart at a fault's
+#: cutoffs can swap by that much where their cutoffs come from different
+#: sections' picks; past it the order is the model's error.
+LAYER_ORDER_WARNING = 5.0
+
+
+def _layer_order_warnings(order: List[Dict[str, Any]]) -> List[str]:
+    """A warning per pair of consecutive layers whose lower surface lies
+    more than :data:`LAYER_ORDER_WARNING` above the upper one somewhere
+    (:func:`faultmesh.report.layer_order`), naming where and on which kind
+    of triangle."""
+    where = {"patch": "in a fault's patch", "gap": "in a stitched gap beside a fault",
+             "layer": "on the layer's own surface"}
+    out = []
+    for row in order:
+        if row["max_m"] <= LAYER_ORDER_WARNING:
+            continue
+        x, y = row["at"]
+        out.append(f"layer {row['lower']!r} lies above {row['upper']!r}, the layer over it, by up to "
+                   f"{row['max_m']:.1f} m (at x={x:.1f}, y={y:.1f}, "
+                   f"{where.get(row['kind'], 'where the layer has no triangle')}); above it at "
+                   f"{row['above']} of the {row['points']} places compared (the vertices of both "
+                   "surfaces): a fault's cutoffs or wall polylines placed past their data, or the "
+                   "layer order")
+    return out
+
+
 def _data_fit(dataset, surfaces: Dict[str, Surface], tins: Dict[str, LayerTin],
               layers: List[str]) -> Tuple[Dict[str, Any], List[str]]:
     """The model's fit to each layer's data (:func:`faultmesh.report.data_fit`)
@@ -1206,6 +1236,8 @@ def build_model(dataset, progress=None, loft_method: str = "min_area", refine: b
     t0 = time.perf_counter()
     meta["quality"] = _report.gap_quality(model)
     meta["data_fit"], warnings = _data_fit(dataset, surfaces, tins, layers)
+    meta["layer_order"] = _report.layer_order(surfaces, layers)
+    warnings += _layer_order_warnings(meta["layer_order"])
     if warnings:
         meta["warnings"] = warnings
     if evaluate and model.truth is not None:

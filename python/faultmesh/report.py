@@ -45,7 +45,8 @@ import numpy as np
 from ._core import ON_OUTLINE
 
 __all__ = ["QualityReport", "quality", "triangle_angles", "min_angles", "evaluate_surface",
-           "vertical_errors", "accuracy_near_faults", "gap_quality", "data_fit", "data_misses"]
+           "vertical_errors", "accuracy_near_faults", "gap_quality", "data_fit", "data_misses",
+           "layer_order"]
 
 THRESHOLDS = (10.0, 20.0)
 
@@ -113,6 +114,59 @@ def data_fit(surfaces, data, tolerance: float = DATA_FIT_TOLERANCE,
             row["worst"] = {"x": float(D[k, 0]), "y": float(D[k, 1]), "z": float(D[k, 2]),
                             "model_z": float(near[k])}
         out[lay] = row
+    return out
+
+
+def layer_order(surfaces, layers: List[str], tolerance: float = DATA_FIT_TOLERANCE
+                ) -> List[Dict[str, Any]]:
+    """Where a layer's surface lies above the one over it: per pair of
+    consecutive ``layers`` (top down) that both have a surface, ``upper``,
+    ``lower``, ``points`` (the XY places compared), ``above`` (how many of
+    them have the lower layer's highest sheet more than ``tolerance`` above
+    the upper's highest sheet), ``max_m`` (the largest such height; 0 with
+    none) and ``at`` (x, y of it, or None).
+
+    The places are the vertices of both surfaces (XY, each once) where both
+    cover the point: the difference of two piecewise-linear surfaces takes
+    its extremes at the vertices of their overlay, which are these and the
+    crossings of their edges, so the largest height is exact up to what
+    lies between edge crossings and the nearest vertex. The highest sheets:
+    where a reverse fault repeats both layers, the upper's hanging wall lies
+    over the lower's; a normal fault's gap leaves the upper layer without a
+    sheet where the lower may have one, a place not compared. The
+    continuous TINs are ordered by the crossing repair
+    (``repair_crossings``); what this finds lies in a fault's patch or
+    gap, whose cutoffs and polylines come from the data or the derivation,
+    or on a layer the repair did not reach. ``kind``: the lower layer's
+    triangle kind at the largest height (``layer``, ``patch`` or ``gap``;
+    None with none)."""
+    from ._core import TriangleKind, nearest_sheet, sample_surface
+
+    out: List[Dict[str, Any]] = []
+    have = [lay for lay in layers if surfaces.get(lay) is not None]
+    for upper, lower in zip(have[:-1], have[1:]):
+        su, sl = surfaces[upper], surfaces[lower]
+        xy = np.unique(np.vstack([np.asarray(su.vertices, dtype=np.float64)[:, :2],
+                                  np.asarray(sl.vertices, dtype=np.float64)[:, :2]]), axis=0)
+        xy = np.ascontiguousarray(xy)
+        zu = np.asarray(sample_surface(su.vertices, su.triangles, xy)[1], dtype=np.float64)
+        zl = np.asarray(sample_surface(sl.vertices, sl.triangles, xy)[1], dtype=np.float64)
+        both = np.isfinite(zu) & np.isfinite(zl)
+        h = np.where(both, zl - zu, -np.inf)
+        above = h > tolerance
+        row: Dict[str, Any] = {"upper": upper, "lower": lower, "points": int(both.sum()),
+                               "above": int(above.sum()), "max_m": 0.0, "at": None, "kind": None}
+        if above.any():
+            k = int(np.argmax(h))
+            # The lower layer's triangle there: layer, patch or gap.
+            tri = np.asarray(nearest_sheet(sl.vertices, sl.triangles,
+                                           np.array([[xy[k, 0], xy[k, 1], zl[k]]]),
+                                           reach=DATA_REACH)[1], dtype=np.int64)[0]
+            kinds = getattr(sl, "kinds", None)
+            if tri >= 0 and kinds is not None and len(kinds):
+                row["kind"] = TriangleKind(int(np.asarray(kinds)[tri])).name
+            row.update(max_m=float(h[k]), at=[float(xy[k, 0]), float(xy[k, 1])])
+        out.append(row)
     return out
 
 
