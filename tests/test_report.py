@@ -213,12 +213,12 @@ def test_layer_order_measures_a_lower_layer_over_the_upper_one_at_its_highest():
                     kinds=np.full(4, 2, dtype=np.int8))
     rows = layer_order({"A": upper, "B": lower}, ["A", "B"])
     assert rows == [{"upper": "A", "lower": "B", "points": 5, "above": 1, "max_m": pytest.approx(7.0),
-                     "at": [50.0, 50.0], "kind": "gap"}]
+                     "at": [50.0, 50.0], "kind": "gap", "upper_kind": None}]
     # In order: nothing above; a layer without a surface is skipped over.
     flat = _square(lambda x, y: -10.0, "B")
     rows = layer_order({"A": upper, "B": flat, "C": None}, ["A", "C", "B"])
     assert rows == [{"upper": "A", "lower": "B", "points": 5, "above": 0, "max_m": 0.0, "at": None,
-                     "kind": None}]
+                     "kind": None, "upper_kind": None}]
     # The upper layer folded: a second sheet 20 m higher over the east half.
     fold = Surface("A", np.vstack([upper.vertices,
                                    [[50.0, 0.0, 20.0], [100.0, 0.0, 20.0], [100.0, 100.0, 20.0],

@@ -845,17 +845,18 @@ def _layer_order_warnings(order: List[Dict[str, Any]]) -> List[str]:
     """A warning per pair of consecutive layers whose lower surface lies
     more than :data:`LAYER_ORDER_WARNING` above the upper one somewhere
     (:func:`faultmesh.report.layer_order`), naming where and on which kind
-    of triangle."""
-    where = {"patch": "in a fault's patch", "gap": "in a stitched gap beside a fault",
-             "layer": "on the layer's own surface"}
+    of triangle of each."""
+    where = {"patch": "a fault's patch", "gap": "a stitched gap beside a fault",
+             "layer": "its own surface"}
     out = []
     for row in order:
         if row["max_m"] <= LAYER_ORDER_WARNING:
             continue
         x, y = row["at"]
         out.append(f"layer {row['lower']!r} lies above {row['upper']!r}, the layer over it, by up to "
-                   f"{row['max_m']:.1f} m (at x={x:.1f}, y={y:.1f}, "
-                   f"{where.get(row['kind'], 'where the layer has no triangle')}); above it at "
+                   f"{row['max_m']:.1f} m (at x={x:.1f}, y={y:.1f}: {row['lower']!r} on "
+                   f"{where.get(row['kind'], 'a triangle of unknown kind')}, {row['upper']!r} on "
+                   f"{where.get(row['upper_kind'], 'a triangle of unknown kind')}); above it at "
                    f"{row['above']} of the {row['points']} places compared (the vertices of both "
                    "surfaces): a fault's cutoffs or wall polylines placed past their data, or the "
                    "layer order")

@@ -137,10 +137,12 @@ def layer_order(surfaces, layers: List[str], tolerance: float = DATA_FIT_TOLERAN
     continuous TINs are ordered by the crossing repair
     (``repair_crossings``); what this finds lies in a fault's patch or
     gap, whose cutoffs and polylines come from the data or the derivation,
-    or on a layer the repair did not reach. ``kind``: the lower layer's
-    triangle kind at the largest height (``layer``, ``patch`` or ``gap``;
-    None with none)."""
-    from ._core import TriangleKind, nearest_sheet, sample_surface
+    or on a layer the repair did not reach. ``kind`` and ``upper_kind``:
+    the lower and the upper layer's triangle kind at the largest height
+    (``layer``, ``patch`` or ``gap``; None with none): a lower layer's own
+    surface under an upper layer's patch is the upper layer's fault zone
+    placed too low."""
+    from ._core import sample_surface
 
     out: List[Dict[str, Any]] = []
     have = [lay for lay in layers if surfaces.get(lay) is not None]
@@ -155,19 +157,28 @@ def layer_order(surfaces, layers: List[str], tolerance: float = DATA_FIT_TOLERAN
         h = np.where(both, zl - zu, -np.inf)
         above = h > tolerance
         row: Dict[str, Any] = {"upper": upper, "lower": lower, "points": int(both.sum()),
-                               "above": int(above.sum()), "max_m": 0.0, "at": None, "kind": None}
+                               "above": int(above.sum()), "max_m": 0.0, "at": None,
+                               "kind": None, "upper_kind": None}
         if above.any():
             k = int(np.argmax(h))
-            # The lower layer's triangle there: layer, patch or gap.
-            tri = np.asarray(nearest_sheet(sl.vertices, sl.triangles,
-                                           np.array([[xy[k, 0], xy[k, 1], zl[k]]]),
-                                           reach=DATA_REACH)[1], dtype=np.int64)[0]
-            kinds = getattr(sl, "kinds", None)
-            if tri >= 0 and kinds is not None and len(kinds):
-                row["kind"] = TriangleKind(int(np.asarray(kinds)[tri])).name
-            row.update(max_m=float(h[k]), at=[float(xy[k, 0]), float(xy[k, 1])])
+            row.update(max_m=float(h[k]), at=[float(xy[k, 0]), float(xy[k, 1])],
+                       kind=_kind_at(sl, xy[k], zl[k]), upper_kind=_kind_at(su, xy[k], zu[k]))
         out.append(row)
     return out
+
+
+def _kind_at(surface, xy: np.ndarray, z: float) -> Optional[str]:
+    """The kind (``layer``, ``patch``, ``gap``) of the triangle of
+    ``surface`` under ``xy`` whose sheet lies at ``z``; None where the
+    surface does not know its kinds."""
+    from ._core import TriangleKind, nearest_sheet
+
+    kinds = getattr(surface, "kinds", None)
+    if kinds is None or not len(kinds):
+        return None
+    tri = int(np.asarray(nearest_sheet(surface.vertices, surface.triangles,
+                                       np.array([[xy[0], xy[1], z]]), reach=DATA_REACH)[1])[0])
+    return TriangleKind(int(np.asarray(kinds)[tri])).name if tri >= 0 else None
 
 
 def triangle_angles(points, triangles) -> np.ndarray:
