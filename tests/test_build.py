@@ -1856,7 +1856,7 @@ def test_a_datum_that_would_put_a_centroid_into_a_fold_of_its_patch_is_left_out(
     assert np.all(d_xy < 2.5), d_xy.max()
 
 
-def test_a_lower_layer_drawn_above_the_upper_one_at_a_fault_is_a_warning():
+def test_a_lower_layer_drawn_above_the_upper_one_at_a_fault_is_a_warning(tmp_path):
     """The crossing repair orders the continuous TINs, not a fault's patch:
     hand-drawn (or derived) polylines of the lower layer above the upper
     layer's on a section put its patch over the upper one. The build
@@ -1881,3 +1881,11 @@ def test_a_lower_layer_drawn_above_the_upper_one_at_a_fault_is_a_warning():
     warn = [w for w in m.metadata["warnings"] if "lies above" in w]
     assert len(warn) == 1 and warn[0].startswith(
         f"layer 'L2' lies above 'L1', the layer over it, by up to {row['max_m']:.1f} m")
+    # The quality report has it from the surfaces, also for a model read
+    # back from a file.
+    m.save(tmp_path / "m.3dt")
+    for model in (m, faultmesh.load_model(tmp_path / "m.3dt")):
+        rep = model.quality()
+        assert [(r["upper"], r["lower"]) for r in rep.layer_order] == [("L1", "L2")]
+        assert rep.layer_order[0]["max_m"] == pytest.approx(row["max_m"], abs=1e-9)
+        assert "## Layer order" in rep.to_markdown() and rep.to_dict()["layer_order"] == rep.layer_order

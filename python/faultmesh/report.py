@@ -403,8 +403,10 @@ class QualityReport:
     fault surface; ``errors``: vertical error per layer and region (empty
     without ground truth); ``data_fit``: per layer, how closely the model
     passes through its data (:func:`data_fit`; from the build's metadata,
-    empty for a model read from a file); ``settings``: how the numbers
-    were made.
+    empty for a model read from a file); ``layer_order``: per pair of
+    consecutive layers, where the lower lies above the upper
+    (:func:`layer_order`, from the model's surfaces); ``settings``: how the
+    numbers were made.
     """
 
     model_name: str
@@ -414,6 +416,7 @@ class QualityReport:
     settings: Dict[str, Any] = field(default_factory=dict)
     notes: List[str] = field(default_factory=list)
     data_fit: List[Dict[str, Any]] = field(default_factory=list)
+    layer_order: List[Dict[str, Any]] = field(default_factory=list)
 
     # -- the paper's tables ---------------------------------------------------
     def _pairs(self) -> Dict[Tuple[str, str], Dict[str, Any]]:
@@ -456,7 +459,7 @@ class QualityReport:
     def to_dict(self) -> Dict[str, Any]:
         return {"model": self.model_name, "settings": self.settings, "notes": self.notes,
                 "tables": self.tables(), "gaps": self.gaps, "surfaces": self.surfaces,
-                "errors": self.errors, "data_fit": self.data_fit}
+                "errors": self.errors, "data_fit": self.data_fit, "layer_order": self.layer_order}
 
     def to_json(self, path=None) -> str:
         """JSON text of :meth:`to_dict` (NaN written as null); written to ``path`` if given."""
@@ -580,6 +583,18 @@ class QualityReport:
             for r in self.data_fit:
                 L.append(f"| {r['layer']} | {r['data']} | {r['off']} | {num(r['max_m'], 3)} | "
                          f"{r.get('lowered', 0)} |")
+        if self.layer_order:
+            L += ["", "## Layer order", "",
+                  "Where a layer's surface lies above the one over it (its highest sheet against the "
+                  "upper one's, at the vertices of both); *kind*: each layer's triangle there.", "",
+                  "| upper | lower | places compared | lower above | largest height (m) | at (x, y) | "
+                  "kind (lower / upper) |",
+                  "|---|---|---:|---:|---:|---|---|"]
+            for r in self.layer_order:
+                at = "" if r["at"] is None else f"{r['at'][0]:.1f}, {r['at'][1]:.1f}"
+                kinds = "" if r["at"] is None else f"{r['kind'] or '?'} / {r['upper_kind'] or '?'}"
+                L.append(f"| {r['upper']} | {r['lower']} | {r['points']} | {r['above']} | "
+                         f"{num(r['max_m'], 3)} | {at} | {kinds} |")
         if self.notes:
             L += ["", "## Notes", ""] + [f"- {n}" for n in self.notes]
         return "\n".join(L) + "\n"
@@ -661,6 +676,7 @@ def quality(model, *, near: float = 150.0, samples: int = 200, truth=None) -> Qu
     # In the model's layer order (a model read from a .3dt has its metadata's keys sorted).
     rep.data_fit = [{"layer": lay, **{k: v for k, v in fit[lay].items() if k != "worst"}}
                     for lay in model.surfaces if lay in fit]
+    rep.layer_order = layer_order(model.surfaces, list(model.surfaces))
     truth = truth if truth is not None else model.truth
     rep.settings = {"angles": "3D headline; XY also given", "thresholds_deg": list(THRESHOLDS)}
     if truth is not None:
