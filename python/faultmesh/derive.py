@@ -2593,14 +2593,14 @@ def _regional_slope(D: np.ndarray, frame: GridFrame, hanging: Optional[np.ndarra
     u, w = frame.uw(D[inside, :2])
     P = np.column_stack([u - u.mean(), w - w.mean()])
     along = np.linalg.svd(P, full_matrices=False)[2][0]
-    c = _linear_step_fit((P @ along)[:, None], D[inside, 2], h, None)[0]
+    s = P @ along
+    c = _linear_step_fit(s[:, None], D[inside, 2], h, None)[0]
     # A slope that makes more relief over the data's length than twice what
     # the data span is the step's trade, not theirs (a side at each end of
     # the line, or lines at an angle: a probe's ground, slopes of 0.25 along
     # 3 km of data spanning 66 m, 11 times, its model 343 m off): none
     # then. Twice: a layer's own slope along its data makes about their
     # span, its noise and bends a little more.
-    s = P @ along
     if abs(c[1]) * float(np.ptp(s)) > 2.0 * float(np.ptp(D[inside, 2])):
         return np.zeros(2)
     return c[1] * along

@@ -171,13 +171,12 @@ def _kind_at(surface, xy: np.ndarray, z: float) -> Optional[str]:
     """The kind (``layer``, ``patch``, ``gap``) of the triangle of
     ``surface`` under ``xy`` whose sheet lies at ``z``; None where the
     surface does not know its kinds."""
-    from ._core import TriangleKind, nearest_sheet
+    from ._core import TriangleKind
 
     kinds = getattr(surface, "kinds", None)
     if kinds is None or not len(kinds):
         return None
-    tri = int(np.asarray(nearest_sheet(surface.vertices, surface.triangles,
-                                       np.array([[xy[0], xy[1], z]]), reach=DATA_REACH)[1])[0])
+    tri = int(data_misses(surface, np.array([[xy[0], xy[1], z]]))[2][0])
     return TriangleKind(int(np.asarray(kinds)[tri])).name if tri >= 0 else None
 
 
