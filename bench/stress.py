@@ -3,6 +3,7 @@
     python bench/stress.py START END [--out FILE]   # seeds START..END, one JSON line each
     python bench/stress.py --one SEED               # one ground, in this process
     python bench/stress.py --summary FILE [FILE ...]
+    python bench/stress.py --compare BASE [BASE ...] -- NEW [NEW ...]   # paired, per seed
 
 Each seed runs in a child process with a timeout of 300 s: stress_ground ->
 derive_faults -> build_model -> check(). A line holds the stage reached
@@ -231,11 +232,83 @@ def summary(paths) -> None:
             for s, r in recs.items() if r.get("model_near") and r["model_near"]["n"]]
     for row in sorted(rows, reverse=True)[:10]:
         print("  ", row)
+    # Between the picks: the grid near the faults, which the picks do not see
+    # (stress ground 17: 0.67 m at most at its picks, 89 m on average there).
+    rows = [(r["grid_near"]["mean"], r["grid_near"]["max"], s, r["grid_near"]["worst"])
+            for s, r in recs.items() if (r.get("grid_near") or {}).get("n")]
+    if rows:
+        means = sorted(x[0] for x in rows)
+        print(f"grid within 200 m of a fault: mean error per seed, median {means[len(means) // 2]:.3f} m, "
+              f"{sum(x[1] > 100.0 for x in rows)} of {len(rows)} seeds over 100 m somewhere")
+        print("worst grid_near (mean, max, seed, worst):")
+        for row in sorted(rows, reverse=True)[:10]:
+            print("  ", row)
+    heights = [_order_height(r) for r in recs.values() if r.get("stage") == "ok"]
+    if heights:
+        print(f"layer-order warnings: {sum(h > 0 for h in heights)} of {len(heights)} models, "
+              f"{sum(h > 20.0 for h in heights)} by over 20 m")
+
+
+def _order_height(rec: dict) -> float:
+    """The largest height of a lower layer over the one above it that the
+    build warned of (0 if none)."""
+    out = 0.0
+    for w in rec.get("build_warnings") or []:
+        m = re.search(r"lies above .* by up to ([0-9.]+) m", w)
+        if m:
+            out = max(out, float(m.group(1)))
+    return out
+
+
+def compare(base_paths, new_paths) -> None:
+    """Paired change per seed between two runs (the same seeds, e.g. main
+    and a branch in the same session): how many build, kinds right, and
+    per measure (at the picks near the faults, on the grid near them, the
+    layer-order height) the mean over seeds and how many seeds got better
+    or worse (by over 0.05 m for means, 1 m for maxima)."""
+    def load(paths):
+        out = {}
+        for path in paths:
+            with open(path) as fh:
+                for line in fh:
+                    r = json.loads(line)
+                    out[r["seed"]] = r
+        return out
+
+    a, b = load(base_paths), load(new_paths)
+    seeds = sorted(set(a) & set(b))
+    print(f"seeds {len(seeds)}: ok {sum(a[s]['stage'] == 'ok' for s in seeds)} -> "
+          f"{sum(b[s]['stage'] == 'ok' for s in seeds)}, kinds right "
+          f"{sum(bool(a[s].get('kinds_ok')) for s in seeds)} -> {sum(bool(b[s].get('kinds_ok')) for s in seeds)}")
+    for s in seeds:
+        if a[s]["stage"] != b[s]["stage"]:
+            print(f"  seed {s}: {a[s]['stage']} -> {b[s]['stage']} {b[s].get('exc', '')[:120]}")
+    both = [s for s in seeds if a[s]["stage"] == b[s]["stage"] == "ok"]
+    measures = [("picks near, mean", lambda r: r["model_near"]["mean"], 0.05),
+                ("picks near, max", lambda r: r["model_near"]["max"], 1.0),
+                ("grid near, mean", lambda r: r["grid_near"]["mean"], 0.05),
+                ("grid near, max", lambda r: r["grid_near"]["max"], 1.0),
+                ("layer order, max", _order_height, 1.0)]
+    for name, get, tol in measures:
+        pairs = [(get(a[s]), get(b[s]), s) for s in both]
+        pairs = [p for p in pairs if p[0] is not None and p[1] is not None]
+        if not pairs:
+            continue
+        x = sum(p[0] for p in pairs) / len(pairs)
+        y = sum(p[1] for p in pairs) / len(pairs)
+        worse = sorted(((p[1] - p[0], p[2]) for p in pairs if p[1] > p[0] + tol), reverse=True)
+        better = sum(p[1] < p[0] - tol for p in pairs)
+        print(f"{name}: mean over {len(pairs)} seeds {x:.3f} -> {y:.3f}; better {better}, worse {len(worse)}"
+              + (f" (most: seeds {[s for _, s in worse[:5]]})" if worse else ""))
 
 
 def main():
     if sys.argv[1] == "--summary":
         summary(sys.argv[2:])
+        return
+    if sys.argv[1] == "--compare":
+        k = sys.argv.index("--")
+        compare(sys.argv[2:k], sys.argv[k + 1:])
         return
     if sys.argv[1] == "--one":
         force = json.loads(sys.argv[3]) if len(sys.argv) > 3 else None
