@@ -202,16 +202,23 @@ def one(seed: int, force=None) -> dict:
     return rec
 
 
-def summary(paths) -> None:
-    """The seeds of the result files, by outcome, and the worst of them."""
-    from collections import defaultdict
-
+def _load(paths) -> dict:
+    """The records of result files (one JSON line per seed), by seed; a
+    later file's line for a seed replaces an earlier one's."""
     recs = {}
     for path in paths:
         with open(path) as fh:
             for line in fh:
                 r = json.loads(line)
                 recs[r["seed"]] = r
+    return recs
+
+
+def summary(paths) -> None:
+    """The seeds of the result files, by outcome, and the worst of them."""
+    from collections import defaultdict
+
+    recs = _load(paths)
     print("seeds:", len(recs))
     groups = defaultdict(list)
     for s, r in sorted(recs.items()):
@@ -266,16 +273,7 @@ def compare(base_paths, new_paths) -> None:
     per measure (at the picks near the faults, on the grid near them, the
     layer-order height) the mean over seeds and how many seeds got better
     or worse (by over 0.05 m for means, 1 m for maxima)."""
-    def load(paths):
-        out = {}
-        for path in paths:
-            with open(path) as fh:
-                for line in fh:
-                    r = json.loads(line)
-                    out[r["seed"]] = r
-        return out
-
-    a, b = load(base_paths), load(new_paths)
+    a, b = _load(base_paths), _load(new_paths)
     seeds = sorted(set(a) & set(b))
     print(f"seeds {len(seeds)}: ok {sum(a[s]['stage'] == 'ok' for s in seeds)} -> "
           f"{sum(b[s]['stage'] == 'ok' for s in seeds)}, kinds right "
