@@ -2681,6 +2681,15 @@ def _held_past(knots: np.ndarray, T: np.ndarray, seen_u: np.ndarray) -> np.ndarr
     return np.interp(np.clip(knots, np.min(seen_u), np.max(seen_u)), knots, T)
 
 
+def _shown_throw(knots: np.ndarray, T: np.ndarray, seen_u: np.ndarray) -> np.ndarray:
+    """The throw T on ``knots`` within the strike range of the hanging-wall
+    data that show it (``seen_u``), or all of it where none lie there."""
+    if not len(seen_u):
+        return T
+    shown = (knots >= seen_u.min()) & (knots <= seen_u.max())
+    return T[shown] if shown.any() else T
+
+
 def _joint_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, k: int,
                  spacing: float) -> Optional[Dict[str, "SideSurface"]]:
     """Both sides of a layer from the data of both (used where neither
@@ -2705,8 +2714,9 @@ def _joint_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     their data farther out say, not the difference of two extrapolations);
     it assumes the offset does not die out away from the fault within the
     frame, so it is not used where the sides have data near the fault.
-    None when a side has fewer than 3 data or the hanging wall's data leave
-    the throw undetermined (:class:`SingularFit`)."""
+    None when a side has fewer than 3 data, the hanging wall's data leave
+    the throw undetermined (:class:`SingularFit`) or the throw where they
+    lie exceeds :data:`THROW_RANGE` times the data's elevation range."""
     setup = _joint_setup(D, split, frame, spacing)
     if setup is None:
         return None
@@ -2722,7 +2732,16 @@ def _joint_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
     # differences continue the trend they end with (random ground 340 as
     # v2: F1's last sections in the block beyond its partner F2, 346 and 492
     # m where the truth has 29-32 m, cutoffs up to 353 m off).
-    T = _held_past(knots, T, frame.uw(D[inside & hw, :2])[0])
+    seen_u = frame.uw(D[inside & hw, :2])[0]
+    T = _held_past(knots, T, seen_u)
+    # A throw beyond THROW_RANGE times the elevation range of the data in
+    # the fit is no fit, as the fading fit's (_decay_sides): S and T trade
+    # where the data leave them undetermined (the third probe's ground 81,
+    # a graben's 3.6 m fault F1 in its block between the master faults: T
+    # -207 to -577 m over 46-66 data, its L3 and L4 cutoffs 108-215 m off).
+    # The sections keep their own sides.
+    if float(np.abs(_shown_throw(knots, T, seen_u)).max()) > THROW_RANGE * float(np.ptp(D[inside, 2])):
+        return None
     return {"foot": SideSurface(foot, k, frame, ell, nodes=nodes),
             "hanging": SideSurface(hang, k, frame, ell, nodes=nodes, throw=(knots, T))}
 
@@ -3026,12 +3045,10 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
         # extent's edge (_tip_taper).
         seen = hw[inside] & (_decay_share(d, prof) >= 0.5)
         seen_u = frame.uw(Di[seen, :2])[0]
-        shown = np.ones(len(knots), dtype=bool)
         if len(seen_u):
             T = _held_past(knots, T, seen_u) * \
                 _tip_taper(fs, knots, seen_u, ends)
-            shown = (knots >= seen_u.min()) & (knots <= seen_u.max())
-        T_shown = T[shown] if shown.any() else T
+        T_shown = _shown_throw(knots, T, seen_u)
         # A throw beyond THROW_RANGE times the elevation range of the
         # layer's data in the fit is no fit (THROW_RANGE): the layer's
         # sections keep their own sides.
@@ -3051,9 +3068,10 @@ def _decay_sides(D: np.ndarray, split: Dict[str, np.ndarray], frame: GridFrame, 
             "hanging": hs}
 
 
-#: A fading-throw fit (:func:`_decay_sides`) whose throw, where the
-#: hanging-wall data show it, exceeds this many times the elevation range
-#: of the layer's data in the fit is no fit. Those data show at least half
+#: A fading-throw fit (:func:`_decay_sides`) or a joint fit across a data
+#: gap (:func:`_joint_sides`) whose throw, where the hanging-wall data show
+#: it, exceeds this many times the elevation range of the layer's data in
+#: the fit is no fit. Those data show at least half
 #: the throw (the profile's share where they count as showing it) below a
 #: smooth S that passes through the footwall's data: an honest throw is at
 #: most twice the offset the data span. Beyond that S and T trade where the
