@@ -498,16 +498,22 @@ def _stress_fixture(name: str):
     return ds, truth
 
 
+def _sheet_error(model, lay: str, xy: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """|dz| of layer ``lay``'s surface against ``z`` at the places ``xy``
+    (the nearer sheet where a reverse fault folds it); NaN where the model
+    does not cover a place."""
+    from faultmesh.report import evaluate_surface
+
+    xy = np.asarray(xy)
+    lo, hi, _ = evaluate_surface(model.surfaces[lay], xy[:, 0], xy[:, 1])
+    return np.minimum(np.abs(lo - z), np.abs(hi - z))
+
+
 def _largest_error_at_picks(model, ds, truth, lay: str) -> float:
     """The largest |dz| of the model at a layer's picks against the
     noise-free truth (the nearer sheet where a reverse fault folds it);
     infinity if the model does not cover one."""
-    from faultmesh.report import evaluate_surface
-
-    P = np.asarray(ds.points[lay])
-    z, _ = truth[lay]
-    lo, hi, _ = evaluate_surface(model.surfaces[lay], P[:, 0], P[:, 1])
-    err = np.minimum(np.abs(lo - z), np.abs(hi - z))
+    err = _sheet_error(model, lay, ds.points[lay], truth[lay][0])
     return float(err.max()) if np.all(np.isfinite(err)) else np.inf
 
 
@@ -536,15 +542,11 @@ def _error_near_faults(model, ds, truth, near: float = 200.0) -> np.ndarray:
     """|dz| of the model at the picks within ``near`` m (horizontally) of a
     true fault, against the noise-free truth (the nearer of the surface's
     sheets where a reverse fault folds it)."""
-    from faultmesh.report import evaluate_surface
-
     out = []
     for lay in ds.layers:
-        P = np.asarray(ds.points[lay])
         z, dist = truth[lay]
         sel = dist <= near
-        lo, hi, _ = evaluate_surface(model.surfaces[lay], P[sel, 0], P[sel, 1])
-        out.append(np.minimum(np.abs(lo - z[sel]), np.abs(hi - z[sel])))
+        out.append(_sheet_error(model, lay, np.asarray(ds.points[lay])[sel], z[sel]))
     return np.concatenate(out)
 
 
@@ -987,14 +989,11 @@ def _error_on_grid(model, ds, name: str) -> np.ndarray:
     faults (``grid_<layer>``: x, y, true z on a grid within 200 m of a true
     fault, away from the picks as much as at them), the nearer sheet where
     a reverse fault folds the surface; infinity where the model has none."""
-    from faultmesh.report import evaluate_surface
-
     f = np.load(Path(__file__).parent / "data" / "derive" / name)
     out = []
     for lay in ds.layers:
         G = f["grid_" + lay]
-        lo, hi, _ = evaluate_surface(model.surfaces[lay], G[:, 0], G[:, 1])
-        err = np.minimum(np.abs(lo - G[:, 2]), np.abs(hi - G[:, 2]))
+        err = _sheet_error(model, lay, G, G[:, 2])
         out.append(np.where(np.isfinite(err), err, np.inf))
     return np.concatenate(out)
 
