@@ -168,6 +168,26 @@ TEST(PatchData, ADatumMovedOntoAnEdgeOfARampIsHonouredAtItsOwnXY) {
     expect_conforming(V, T, r);
 }
 
+TEST(PatchData, ADatumMovedBesideTheLineToAnotherDatumIsHonouredAtItsOwnXY) {
+    // Regression (stress ground 207, tests/test_derive_blocks.py): a datum
+    // 0.5 m from the edge x = 0 (the triangle's height over it 100 m) goes
+    // onto the edge; a second datum of the triangle, inside it, lies so
+    // that the line from the corner (0, 300) through it passes 0.05 m from
+    // the first datum's XY. The fan through the edge's new vertex put that
+    // line between the vertex and the XY (its weight there 0.09), the
+    // vertex kept the datum's z and the patch missed the datum by 8.0 m;
+    // the edge opposite the vertex is flipped (flip_towards_moved_data) and
+    // the datum honoured at its own XY.
+    const std::vector<double> V{0, 0, 0, 100, 0, 0, 0, 300, 0};
+    const std::vector<std::int64_t> T{0, 1, 2};
+    const std::vector<double> P{2.2, 100, 5, 0.5, 250, 10};
+    const auto r = fm::insert_patch_data(V.data(), 3, T.data(), 1, P.data(), 2,
+                                         std::numeric_limits<double>::infinity());
+    ASSERT_EQ(r.placed.size(), 2u);
+    for (int i = 0; i < 2; ++i) EXPECT_NEAR(sheet_z(r, true, &P[3 * i]), P[3 * i + 2], 1e-9) << "datum " << i;
+    expect_conforming(V, T, r);
+}
+
 TEST(PatchData, FoldedPatchTakesTheNearestSheet) {
     // Two sheets over the same square, 20 m apart, the lower one clockwise in
     // XY (a fold seen from above), as a reverse fault repeats a layer.
