@@ -66,6 +66,36 @@ constexpr double kMinOwnWeight = 2.0 / 3.0;
 // 16 by 65536 (a metre's error to 15 micrometres).
 constexpr int kThroughPasses = 16;
 
+// Of the triangles `rows` (rows of out.triangles, each with the vertex v),
+// those of the sheet's orientation (ccw or not, in XY), the one that holds
+// q with the largest least barycentric weight: its row (out.triangles.size()
+// / 3 if none), v's corner in it, the weights (v's first) and the least.
+struct Holder {
+    std::size_t row;
+    int own = -1;
+    double w[3] = {0.0, 0.0, 0.0};
+    double least = -std::numeric_limits<double>::infinity();
+};
+
+Holder holding_triangle(const PatchDataResult& out, const std::vector<std::size_t>& rows, std::int64_t v,
+                        bool ccw, const double* q) {
+    auto V = [&](std::int64_t i) { return out.vertices.data() + 3 * i; };
+    Holder h{out.triangles.size() / 3};
+    for (std::size_t t : rows) {
+        const std::int64_t* r = &out.triangles[3 * t];
+        const double o = orient2d(V(r[0]), V(r[1]), V(r[2]));
+        if (o == 0.0 || (o > 0.0) != ccw) continue;
+        double w[3];
+        for (int c = 0; c < 3; ++c) w[c] = orient2d(V(r[(c + 1) % 3]), V(r[(c + 2) % 3]), q) / o;
+        const double least = std::min({w[0], w[1], w[2]});
+        if (least <= h.least) continue;
+        const int own = r[0] == v ? 0 : r[1] == v ? 1 : 2;
+        h.row = t, h.own = own, h.least = least;
+        h.w[0] = w[own], h.w[1] = w[(own + 1) % 3], h.w[2] = w[(own + 2) % 3];
+    }
+    return h;
+}
+
 // A moved datum whose XY lies in a new triangle of its sheet where its own
 // vertex weighs under kMinOwnWeight has the edge opposite its vertex flipped,
 // where the triangle across that edge (of the same orientation, the edge's
@@ -88,23 +118,13 @@ void flip_towards_moved_data(PatchDataResult& out, const std::int64_t* triangles
         const double* q = points + 3 * md.datum;
         const std::int64_t* r0 = triangles + 3 * md.triangle;
         const bool sheet_ccw = orient2d(V(r0[0]), V(r0[1]), V(r0[2])) > 0.0;
-        // The datum's triangle at its vertex: the one holding q with the largest least weight.
-        std::size_t hold = m;
-        int own = -1;
-        double best = -std::numeric_limits<double>::infinity(), own_w = 0.0;
-        for (std::size_t t = 0; t < m; ++t) {
-            const std::int64_t* r = T + 3 * t;
-            const int c = r[0] == md.vertex ? 0 : r[1] == md.vertex ? 1 : r[2] == md.vertex ? 2 : -1;
-            if (c < 0) continue;
-            const double o = orient2d(V(r[0]), V(r[1]), V(r[2]));
-            if (o == 0.0 || (o > 0.0) != sheet_ccw) continue;
-            double w[3];
-            for (int k = 0; k < 3; ++k) w[k] = orient2d(V(r[(k + 1) % 3]), V(r[(k + 2) % 3]), q) / o;
-            const double least = std::min({w[0], w[1], w[2]});
-            if (least <= best) continue;
-            best = least, hold = t, own = c, own_w = w[c];
-        }
-        if (hold == m || own_w >= kMinOwnWeight || best < 0.0) continue;
+        std::vector<std::size_t> at_vertex;
+        for (std::size_t t = 0; t < m; ++t)
+            if (T[3 * t] == md.vertex || T[3 * t + 1] == md.vertex || T[3 * t + 2] == md.vertex) at_vertex.push_back(t);
+        const Holder h = holding_triangle(out, at_vertex, md.vertex, sheet_ccw, q);
+        if (h.row == m || h.w[0] >= kMinOwnWeight || h.least < 0.0) continue;
+        const std::size_t hold = h.row;
+        const int own = h.own;
         std::int64_t* r = T + 3 * hold;
         const std::int64_t b = r[own], x = r[(own + 1) % 3], y = r[(own + 2) % 3];
         // Only an edge inside the datum's input triangle: one on its outline
@@ -189,22 +209,13 @@ void through_moved_data(PatchDataResult& out, const std::int64_t* triangles, con
         const double* q = points + 3 * moved[k].datum;
         const std::int64_t* r0 = triangles + 3 * moved[k].triangle;
         const bool sheet_ccw = orient2d(V(r0[0]), V(r0[1]), V(r0[2])) > 0.0;
-        double best = -std::numeric_limits<double>::infinity();
-        for (std::size_t t : incident[k]) {
-            const std::int64_t* r = &out.triangles[3 * t];
-            const double o = orient2d(V(r[0]), V(r[1]), V(r[2]));
-            if (o == 0.0 || (o > 0.0) != sheet_ccw) continue;
-            double w[3];
-            for (int c = 0; c < 3; ++c) w[c] = orient2d(V(r[(c + 1) % 3]), V(r[(c + 2) % 3]), q) / o;
-            const double least = std::min({w[0], w[1], w[2]});
-            if (least <= best) continue;
-            best = least;
-            const int own = r[0] == moved[k].vertex ? 0 : r[1] == moved[k].vertex ? 1 : 2;
-            rows[k] = {{r[(own + 1) % 3], r[(own + 2) % 3]}, {w[own], w[(own + 1) % 3], w[(own + 2) % 3]}};
-            // A datum the projection left where it was keeps its z exactly.
-            const double* v = V(moved[k].vertex);
-            solve[k] = w[own] >= kMinOwnWeight && (v[0] != q[0] || v[1] != q[1]);
-        }
+        const Holder h = holding_triangle(out, incident[k], moved[k].vertex, sheet_ccw, q);
+        if (h.row == m) continue;
+        const std::int64_t* r = &out.triangles[3 * h.row];
+        rows[k] = {{r[(h.own + 1) % 3], r[(h.own + 2) % 3]}, {h.w[0], h.w[1], h.w[2]}};
+        // A datum the projection left where it was keeps its z exactly.
+        const double* v = V(moved[k].vertex);
+        solve[k] = h.w[0] >= kMinOwnWeight && (v[0] != q[0] || v[1] != q[1]);
     }
     for (int pass = 0; pass < kThroughPasses; ++pass)
         for (std::size_t k = 0; k < moved.size(); ++k) {
