@@ -1856,6 +1856,33 @@ def test_a_datum_that_would_put_a_centroid_into_a_fold_of_its_patch_is_left_out(
     assert np.all(d_xy < 2.5), d_xy.max()
 
 
+def test_a_flip_towards_a_moved_datum_makes_no_sliver():
+    """Regression (tests/data/patches/normal_patch_flip_sliver_stress91.npz,
+    stress ground 91's L5 patch of F1): a datum moved onto a patch edge
+    whose vertex weighs little at its XY has the edge opposite it flipped
+    (patch_data.cpp, flip_towards_moved_data); here another datum placed
+    on the edge lay 3.6e-8 (orient2d) off the new diagonal, the flip made
+    a triangle of 1e-11 of the pair's area, and the stitcher refused the
+    patch ("does not cover its XY image once"): the ground did not build.
+    A flip that would leave either triangle under a hundredth of the
+    pair's area is not made; every datum still becomes a vertex."""
+    from faultmesh import build, faults as fm
+    from faultmesh._core import insert_patch_data, orient2d
+
+    z = np.load(Path(__file__).parent / "data" / "patches" / "normal_patch_flip_sliver_stress91.npz")
+    V, T, D = z["vertices"], z["triangles"], z["data"]
+    area = fm.as_study_area(z["ring"])
+    assert not len(fm._unfit_triangles(V, T, area)) and not fm.folds(V, T)
+    V2, T2, placed, _ = insert_patch_data(V, T, D)
+    assert len(placed) == len(D) - 4
+    assert not len(fm._unfit_triangles(V2, T2, area))
+    o = np.abs(orient2d(V2[T2[:, 0], :2], V2[T2[:, 1], :2], V2[T2[:, 2], :2]))
+    assert o.min() > 1e-3, o.min()
+    D = D[np.argsort(D[:, 0], kind="stable")]
+    V3, T3, n = build._honour_layer_data(V, T, D, area)
+    assert n == len(placed) and not len(fm._unfit_triangles(V3, T3, area))
+
+
 def test_a_lower_layer_drawn_above_the_upper_one_at_a_fault_is_a_warning(tmp_path):
     """The crossing repair orders the continuous TINs, not a fault's patch:
     hand-drawn (or derived) polylines of the lower layer above the upper

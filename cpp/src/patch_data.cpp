@@ -156,8 +156,14 @@ void flip_towards_moved_data(PatchDataResult& out, const std::int64_t* triangles
         const int sb = orient2d_sign(V(x), V(y), V(b)), sw = orient2d_sign(V(x), V(y), V(w));
         const int sx = orient2d_sign(V(b), V(w), V(x)), sy = orient2d_sign(V(b), V(w), V(y));
         if (sb * sw >= 0 || sx * sy >= 0) continue;
-        // (b, x, w) and (b, w, y) keep the orientation of (b, x, y); q in one of them.
+        // (b, x, w) and (b, w, y) keep the orientation of (b, x, y); q in one
+        // of them. Neither may be a sliver: each at least kMinShare of the
+        // quadrilateral's area (a third datum on the edge nearly on the line
+        // b-w made one of 1e-11 of it, which the stitcher's cover test then
+        // refused: stress ground 91's L5).
         const std::int64_t t1[3] = {b, x, w}, t2[3] = {b, w, y};
+        const double o1 = orient2d(V(b), V(x), V(w)), o2 = orient2d(V(b), V(w), V(y));
+        if (std::min(std::fabs(o1), std::fabs(o2)) < kMinShare * (std::fabs(o1) + std::fabs(o2))) continue;
         double gain = 0.0;
         for (const std::int64_t* tt : {t1, t2}) {
             const double o = orient2d(V(tt[0]), V(tt[1]), V(tt[2]));
