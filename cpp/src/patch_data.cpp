@@ -110,16 +110,13 @@ Holder holding_triangle(const PatchDataResult& out, const std::vector<std::size_
 // weight 0.07; the vertex kept the pick's z and the patch passed 22 m under
 // the pick). Taken only where the flip raises the own weight to
 // kMinOwnWeight; otherwise the triangles stay as they are.
+// at: per vertex, the triangles at it (rows of out.triangles), kept up to
+// date by the flips.
 void flip_towards_moved_data(PatchDataResult& out, const std::int64_t* triangles, const double* points,
-                             const std::vector<MovedDatum>& moved) {
+                             const std::vector<MovedDatum>& moved, std::vector<std::vector<std::size_t>>& at) {
     auto V = [&](std::int64_t v) { return out.vertices.data() + 3 * v; };
     std::int64_t* T = out.triangles.data();
     const std::size_t m = out.triangles.size() / 3;
-    // Per vertex, the triangles at it (kept up to date by the flips): one
-    // pass over the triangles, not one per moved datum.
-    std::vector<std::vector<std::size_t>> at(out.vertices.size() / 3);
-    for (std::size_t t = 0; t < m; ++t)
-        for (int c = 0; c < 3; ++c) at[static_cast<std::size_t>(T[3 * t + c])].push_back(t);
     auto has = [&](std::size_t t, std::int64_t v) { return T[3 * t] == v || T[3 * t + 1] == v || T[3 * t + 2] == v; };
     for (const MovedDatum& md : moved) {
         const double* q = points + 3 * md.datum;
@@ -205,16 +202,18 @@ void flip_towards_moved_data(PatchDataResult& out, const std::int64_t* triangles
 void through_moved_data(PatchDataResult& out, const std::int64_t* triangles, const double* points,
                         const std::vector<MovedDatum>& moved) {
     if (moved.empty()) return;
-    flip_towards_moved_data(out, triangles, points, moved);
-    std::map<std::int64_t, std::size_t> slot;  // new vertex -> row of moved
-    for (std::size_t k = 0; k < moved.size(); ++k) slot[moved[k].vertex] = k;
-    std::vector<std::vector<std::size_t>> incident(moved.size());
+    // Per vertex, the triangles at it: one pass over the triangles, for the
+    // flips and then the solve (each list in row order again after them).
     const std::size_t m = out.triangles.size() / 3;
+    std::vector<std::vector<std::size_t>> at(out.vertices.size() / 3);
     for (std::size_t t = 0; t < m; ++t)
-        for (int c = 0; c < 3; ++c) {
-            const auto it = slot.find(out.triangles[3 * t + static_cast<std::size_t>(c)]);
-            if (it != slot.end()) incident[it->second].push_back(t);
-        }
+        for (int c = 0; c < 3; ++c) at[static_cast<std::size_t>(out.triangles[3 * t + c])].push_back(t);
+    flip_towards_moved_data(out, triangles, points, moved, at);
+    std::vector<std::vector<std::size_t>> incident(moved.size());
+    for (std::size_t k = 0; k < moved.size(); ++k) {
+        incident[k] = std::move(at[static_cast<std::size_t>(moved[k].vertex)]);
+        std::sort(incident[k].begin(), incident[k].end());
+    }
     auto V = [&](std::int64_t v) { return out.vertices.data() + 3 * v; };
     // Per moved datum: the two other corners of its triangle and the three weights (own first).
     struct Row {
