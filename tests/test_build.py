@@ -1883,6 +1883,53 @@ def test_a_flip_towards_a_moved_datum_makes_no_sliver():
     assert n == len(placed) and not len(fm._unfit_triangles(V3, T3, area))
 
 
+def _patch_z_at(V, T, xy, z):
+    """The z of the patch (V, T) at xy nearest to z, over every triangle
+    whose closed XY projection holds xy (numpy's barycentric coordinates,
+    within 1e-9 of the triangle's)."""
+    best = np.inf
+    for s in T:
+        M = np.array([V[s, 0], V[s, 1], [1.0, 1.0, 1.0]])
+        w = np.linalg.solve(M, np.r_[xy, 1.0])
+        if w.min() >= -1e-9 and abs(w @ V[s, 2] - z) < abs(best - z):
+            best = w @ V[s, 2]
+    return best
+
+
+@pytest.mark.parametrize("case", [0, 1, 2, 3])
+def test_a_datum_moved_onto_an_edge_is_reached_by_a_walk_of_flips(case):
+    """Regression (tests/data/patches/moved_data_walk.npz: random patches of
+    a search over 20,000, z spread +-15 m over 100 m triangles): a datum
+    within a hundredth of a triangle's height of an edge goes onto the edge,
+    and its vertex's z is solved so that the patch passes through it at its
+    own XY -- where that XY lies in a new triangle at the vertex that gives
+    it enough weight. Other data placed in the same triangle stood in the
+    way: (0, 1) the XY nearly on the edge of the fan's triangle opposite
+    the vertex, own weight 0.05 and 0 (18.8 and 15.5 m off; case 1 at
+    UTM coordinates 1,000 times the size), (2) a pick of a seismic line
+    through a patch corner whose one flip gave it 0.665, under the 2/3
+    then asked (8.4 m off), (3) the XY in no triangle at the vertex (1.1 m
+    off). Now the edge opposite
+    the vertex is flipped again and again towards the XY, and 1/2 is enough
+    (patch_data.cpp, flip_towards_moved_data, kMinOwnWeight): each is
+    honoured; the XY area is kept and no edge is used thrice."""
+    from collections import Counter
+
+    from faultmesh._core import insert_patch_data, orient2d
+
+    z = np.load(Path(__file__).parent / "data" / "patches" / "moved_data_walk.npz")
+    V, T, P, i = z[f"vertices_{case}"], z[f"triangles_{case}"], z[f"data_{case}"], int(z[f"datum_{case}"])
+    V2, T2, placed, tri = insert_patch_data(V, T, P)
+    k = list(placed).index(i)
+    assert not np.array_equal(V2[len(V) + k, :2], P[i, :2])      # moved onto an edge
+    assert abs(_patch_z_at(V2, T2, P[i, :2], P[i, 2]) - P[i, 2]) < 1e-6
+    o_old = orient2d(V[T[:, 0], :2], V[T[:, 1], :2], V[T[:, 2], :2])
+    o_new = orient2d(V2[T2[:, 0], :2], V2[T2[:, 1], :2], V2[T2[:, 2], :2])
+    assert (o_new != 0).all() and abs(o_new.sum() - o_old.sum()) <= 1e-9 * abs(o_old.sum())
+    edges = np.sort(np.vstack([T2[:, [0, 1]], T2[:, [1, 2]], T2[:, [2, 0]]]), axis=1)
+    assert Counter(map(tuple, edges)).most_common(1)[0][1] <= 2
+
+
 def test_a_lower_layer_drawn_above_the_upper_one_at_a_fault_is_a_warning(tmp_path):
     """The crossing repair orders the continuous TINs, not a fault's patch:
     hand-drawn (or derived) polylines of the lower layer above the upper

@@ -1312,6 +1312,14 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
         assert abs(a - b) <= 1e-9 * max(abs(a), 1.0) * max(1.0, offset * scale)
     edges = np.sort(np.vstack([T2[:, [0, 1]], T2[:, [1, 2]], T2[:, [2, 0]]]), axis=1)
     assert Counter(map(tuple, edges)).most_common(1)[0][1] <= 2
+    # The data moved onto an edge (their vertices come after the data
+    # placed inside a triangle, whose z are their own).
+    edge_placed = set()
+    for k, i in enumerate(placed):
+        A, B, C = V[T[tri[i]]]
+        M = np.array([[A[0], B[0], C[0]], [A[1], B[1], C[1]], [1.0, 1.0, 1.0]])
+        if np.linalg.solve(M, np.r_[new[k, :2], 1.0]).min() < 0.005:   # inside: at least 0.01
+            edge_placed.add(len(V) + k)
     for k, i in enumerate(placed):  # in the sheet nearest to it, within max_dz
         j = tri[i]
         A, B, C = V[T[j]]
@@ -1325,11 +1333,13 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
             # Moved onto an edge of that triangle, at most a hundredth of its height.
             wn = np.linalg.solve(M, np.r_[new[k, :2], 1.0])
             assert (wn > -tol).all() and np.min(np.abs(wn)) <= tol and np.min(w) <= 0.01 + tol, (w, wn)
-            # Its vertex's z puts its sheet through it at its own XY (the new
-            # triangles round it of its triangle's orientation, the one that
-            # holds its XY best), or it is its own where its weight there is
-            # under 2/3 (patch_data.cpp, kMinOwnWeight; after the flip that
-            # raises it where it can, flip_towards_moved_data).
+            # Its vertex's z puts its sheet through it at its own XY where
+            # the new triangle round it (of its triangle's orientation) that
+            # holds its XY best gives the vertex at least 1/2 of the weight
+            # there and the other moved data at most half of that
+            # (patch_data.cpp, kMinOwnWeight and solvable; after the walk of
+            # flips towards it, flip_towards_moved_data); elsewhere the
+            # vertex's z is the datum's own.
             v = len(V) + k
             S = T2[(T2 == v).any(axis=1) & (np.sign(o_new) == np.sign(o_old[j]))]
             best, z_at = -np.inf, None
@@ -1337,10 +1347,19 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
                 Ms = np.array([V2[s, 0], V2[s, 1], [1.0, 1.0, 1.0]])
                 ws = np.linalg.solve(Ms, np.r_[P[i, :2], 1.0])
                 if ws.min() > best:
-                    best, own, z_at = ws.min(), ws[list(s).index(v)], ws @ V2[s, 2]
+                    best, z_at = ws.min(), ws @ V2[s, 2]
+                    own = ws[list(s).index(v)]
+                    coupled = sum(ws[c] for c in range(3) if s[c] != v and s[c] in edge_placed)
+                    # How far outside it the XY lies (0 inside): a weight
+                    # times the height over the opposite edge.
+                    area2 = abs(np.linalg.det(Ms))
+                    outside = max(0.0, *(-ws[c] * area2 / np.hypot(*(V2[s[(c + 2) % 3], :2] - V2[s[(c + 1) % 3], :2]))
+                                         for c in range(3)))
             assert z_at is not None
             zscale = 1.0 + np.abs(V[T[j], 2]).max() + abs(P[i, 2])
-            if own >= 2.0 / 3.0:
+            # Clear of the rule's thresholds (a micrometre outside:
+            # kOnOutline) by more than rounding.
+            if outside < 0.5e-6 and own >= 0.5 + tol and coupled <= 0.5 * own - tol:
                 assert abs(z_at - P[i, 2]) <= 1e-6 * zscale + tol * zscale, (z_at, P[i, 2])
-            else:
+            elif outside > 2e-6 or own < 0.5 - tol or coupled > 0.5 * own + tol:
                 assert new[k, 2] == P[i, 2]

@@ -188,6 +188,44 @@ TEST(PatchData, ADatumMovedBesideTheLineToAnotherDatumIsHonouredAtItsOwnXY) {
     expect_conforming(V, T, r);
 }
 
+TEST(PatchData, ADatumWhoseXYLiesInNoTriangleAtItsVertexIsReachedByAWalkOfFlips) {
+    // Regression (tests/data/patches/moved_data_walk.npz, case 3: a random
+    // patch of one 100 m triangle at UTM coordinates, 16 data within
+    // +-15 m): datum 7 lies 0.96 m from the edge y = 7800000 and goes onto
+    // it; the data placed inside the triangle before it left its XY in a
+    // triangle without its vertex, and the patch missed it by 1.1 m. The
+    // edges between are flipped one after another (flip_towards_moved_data)
+    // until its XY lies in a triangle at its vertex that gives it weight.
+    const std::vector<double> V{7800000.0, 7800000.0, 0.0, 7800100.0, 7800000.0, 10.0,
+                                7800000.0, 7800100.0, 0.0};
+    const std::vector<std::int64_t> T{0, 1, 2};
+    const std::vector<double> P{
+        7800094.034699231, 7799997.58935476, -2.907140295094335,
+        7800061.979143877, 7799996.70798523, -6.0417862680602905,
+        7800083.619380488, 7800085.2175355675, 5.613260637954529,
+        7800047.293032369, 7800001.530177416, -14.728325056981056,
+        7800010.529800806, 7800036.861099368, 0.471804009350997,
+        7799994.592818077, 7800041.9148837775, 0.914788516320364,
+        7800005.689642285, 7800072.245557871, 1.6024659426868624,
+        7800082.571110011, 7800000.962341263, 4.3158849103844545,
+        7800091.578482755, 7800011.424295635, 13.351611638331008,
+        7800007.56560962, 7800041.832197904, -0.9195872184205953,
+        7800038.395419625, 7800058.861818689, -11.129277445452159,
+        7800055.6652774215, 7800083.199702892, 10.802352068079742,
+        7800007.918783607, 7800087.34236542, 7.961471512827892,
+        7800059.945977012, 7800004.180451296, 0.5798460910081342,
+        7800034.507969169, 7800044.841368891, 8.167790684230063,
+        7800013.956486386, 7800077.691510028, 11.973728373847926};
+    const auto r = fm::insert_patch_data(V.data(), 3, T.data(), 1, P.data(), P.size() / 3,
+                                         std::numeric_limits<double>::infinity());
+    std::size_t k = 0;
+    while (k < r.placed.size() && r.placed[k] != 7) ++k;
+    ASSERT_LT(k, r.placed.size());
+    EXPECT_EQ(r.vertices[3 * (3 + k) + 1], 7800000.0);  // on the edge
+    EXPECT_NEAR(sheet_z(r, true, &P[3 * 7]), P[3 * 7 + 2], 1e-6);
+    expect_conforming(V, T, r);
+}
+
 TEST(PatchData, FoldedPatchTakesTheNearestSheet) {
     // Two sheets over the same square, 20 m apart, the lower one clockwise in
     // XY (a fold seen from above), as a reverse fault repeats a layer.

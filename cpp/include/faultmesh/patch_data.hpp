@@ -29,9 +29,10 @@
 // edge, at its projection (moved at most that far in XY), with the z that
 // makes its sheet pass through the datum at the datum's own XY (on a steep
 // ramp the move would otherwise cost the slope times it; where a neighbour
-// on the edge is as near, its own z; where another datum placed in the
-// triangle leaves the new vertex little weight at that XY, the edge
-// opposite the vertex is flipped first, if that gives it the weight):
+// on the edge is as near, its own z; where other data placed in the
+// triangle stand between the new vertex and that XY, the edges between are
+// flipped first, one after another, if that gives the vertex at least half
+// the weight there):
 // every triangle with the edge -- on both sheets where the edge is a fold --
 // is fanned from its third corner through the edge's new points (picks on a
 // seismic line lie on the edges of a patch whose sections a derivation put
