@@ -845,6 +845,22 @@ def test_a_pick_next_to_the_boundary_in_a_fault_zone_is_honoured():
     assert _largest_error_at_picks(model, ds, truth, "L4") <= 2.0
 
 
+@pytest.mark.parametrize("lay, x, y", [("L2", 510178.4, 6903539.4), ("L3", 510178.4, 6903539.4),
+                                       ("L3", 509997.0, 6903655.3)])
+def test_a_pick_near_a_patch_vertex_gives_the_vertex_its_z(lay, x, y):
+    """Stress ground 91 (tests/data/derive/normal_fault_picks_near_loft_vertices.npz):
+    picks of L2 and L3 lie within a hundredth of their patch triangle's
+    size of a loft vertex (weights 0.986-0.990), where a new vertex would
+    make slivers; they were left out and the patch passed 28-40 m under
+    them (the vertices 32-42 m under). The vertex now takes the nearest
+    such datum: its z puts the patch through the datum at the datum's own
+    XY (patch_data.cpp, take_corner_data)."""
+    ds, _ = _stress_fixture("normal_fault_picks_near_loft_vertices.npz")
+    model = fm.build_model(derive_faults(ds), evaluate=False)
+    model.check()
+    assert _miss_at_pick(model, ds, lay, x, y) < 0.01
+
+
 def test_picks_under_the_fault_zones_of_the_layers_above_are_not_lowered():
     """Stress ground 10 (tests/data/derive/normal_fault_picks_under_upper_patches.npz):
     ten layers cut by one normal fault of 104.5 m at 51 degrees, picked on

@@ -1264,7 +1264,8 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
     of it, on the edge, with the z that puts its sheet through it at its
     own XY), the XY area of each sheet is kept with its
     orientation, every edge is used twice at most, no triangle is flat in
-    XY; hostile data (NaN, beyond the coordinate limit) are a ValueError
+    XY, a patch vertex changes z only where a datum left out lies near it
+    (a corner takes such a datum); hostile data (NaN, beyond the coordinate limit) are a ValueError
     naming the function."""
     rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
     n = data.draw(st.integers(3, 12))
@@ -1320,6 +1321,25 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
         M = np.array([[A[0], B[0], C[0]], [A[1], B[1], C[1]], [1.0, 1.0, 1.0]])
         if np.linalg.solve(M, np.r_[new[k, :2], 1.0]).min() < 0.005:   # inside: at least 0.01
             edge_placed.add(len(V) + k)
+    # A patch vertex changes z only where a datum left out lies near it
+    # (within a hundredth of two edges of a triangle at it: the corner took
+    # the datum, patch_data.cpp take_corner_data).
+    near_left_out = set()
+    for i in np.flatnonzero(tri < 0):
+        if not np.isfinite(P[i]).all():
+            continue
+        for s in T:
+            Ms = np.array([V[s, 0], V[s, 1], [1.0, 1.0, 1.0]])
+            if abs(np.linalg.det(Ms)) == 0.0:
+                continue
+            ws = np.linalg.solve(Ms, np.r_[P[i, :2], 1.0])
+            if ws.min() > -1e-6 and ws.max() >= 0.98 - 1e-6:
+                near_left_out.add(int(s[np.argmax(ws)]))
+    changed = set(np.flatnonzero(V2[:len(V), 2] != V[:, 2]).tolist())
+    assert changed <= near_left_out, (changed, near_left_out)
+    # A vertex at a datum's own XY that took it has its z (set, not solved).
+    at_datum = {c for c in changed
+                if any((P[j, :2] == V[c, :2]).all() and P[j, 2] == V2[c, 2] for j in np.flatnonzero(tri < 0))}
     for k, i in enumerate(placed):  # in the sheet nearest to it, within max_dz
         j = tri[i]
         A, B, C = V[T[j]]
@@ -1349,7 +1369,13 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
                 if ws.min() > best:
                     best, z_at = ws.min(), ws @ V2[s, 2]
                     own = ws[list(s).index(v)]
-                    coupled = sum(ws[c] for c in range(3) if s[c] != v and s[c] in edge_placed)
+                    # The corners solved too: surely (moved, or a patch
+                    # vertex that changed), at most (or one near a datum
+                    # left out: it may have taken it and kept its z).
+                    surely = sum(ws[c] for c in range(3)
+                                 if s[c] != v and (s[c] in edge_placed or s[c] in changed - at_datum))
+                    coupled = surely + sum(ws[c] for c in range(3)
+                                           if s[c] != v and s[c] in near_left_out - changed)
                     # How far outside it the XY lies (0 inside): a weight
                     # times the height over the opposite edge.
                     area2 = abs(np.linalg.det(Ms))
@@ -1361,5 +1387,5 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
             # kOnOutline) by more than rounding.
             if outside < 0.5e-6 and own >= 0.5 + tol and coupled <= 0.5 * own - tol:
                 assert abs(z_at - P[i, 2]) <= 1e-6 * zscale + tol * zscale, (z_at, P[i, 2])
-            elif outside > 2e-6 or own < 0.5 - tol or coupled > 0.5 * own + tol:
+            elif outside > 2e-6 or own < 0.5 - tol or surely > 0.5 * own + tol:
                 assert new[k, 2] == P[i, 2]

@@ -226,6 +226,28 @@ TEST(PatchData, ADatumWhoseXYLiesInNoTriangleAtItsVertexIsReachedByAWalkOfFlips)
     expect_conforming(V, T, r);
 }
 
+TEST(PatchData, ADatumNearACornerGivesTheCornerItsZ) {
+    // Two triangles, z = 0. Datum 0 lies 0.5 m and 0.4 m from the two edges
+    // at corner 0 (under a hundredth of the heights, 100 m): a new vertex
+    // would make slivers, so corner 0 takes it -- its z puts the patch
+    // through the datum at the datum's XY. Datum 1, as near the same
+    // corner, is not taken (the first in row order is); datum 2 lies at
+    // corner 3's XY and gives it its z. No new vertex, no datum "placed".
+    const std::vector<double> V{0, 0, 0, 100, 0, 0, 0, 100, 0, 100, 100, 0};
+    const std::vector<std::int64_t> T{0, 1, 2, 1, 3, 2};
+    const std::vector<double> P{0.5, 0.4, 7, 0.3, 0.6, -5, 100, 100, 3};
+    const auto r = fm::insert_patch_data(V.data(), 4, T.data(), 2, P.data(), 3,
+                                         std::numeric_limits<double>::infinity());
+    EXPECT_TRUE(r.placed.empty());
+    EXPECT_EQ(r.vertices.size(), V.size());
+    EXPECT_EQ(r.triangle, (std::vector<std::int64_t>{-1, -1, -1}));
+    EXPECT_NEAR(sheet_z(r, true, &P[0]), 7.0, 1e-9);
+    EXPECT_NEAR(r.vertices[2], 7.0 / (1.0 - 0.005 - 0.004), 1e-9);
+    EXPECT_EQ(r.vertices[3 * 3 + 2], 3.0);
+    for (int k : {1, 2}) EXPECT_EQ(r.vertices[3 * k + 2], 0.0);  // the other corners stay
+    expect_conforming(V, T, r);
+}
+
 TEST(PatchData, FoldedPatchTakesTheNearestSheet) {
     // Two sheets over the same square, 20 m apart, the lower one clockwise in
     // XY (a fold seen from above), as a reverse fault repeats a layer.

@@ -36,10 +36,12 @@
 // every triangle with the edge -- on both sheets where the edge is a fold --
 // is fanned from its third corner through the edge's new points (picks on a
 // seismic line lie on the edges of a patch whose sections a derivation put
-// on that line). A datum within a hundredth of two edges (near a corner),
-// or as near another datum placed in the same triangle or on the same edge
-// (the earlier row wins), is not placed: it would make a sliver
-// (patch_data.cpp, kMinShare).
+// on that line). A datum as near another datum placed in the same triangle
+// or on the same edge (the earlier row wins) is not placed: it would make a
+// sliver (patch_data.cpp, kMinShare). Nor is a datum within a hundredth of
+// two edges (near a corner), but the corner takes the first such datum:
+// its z becomes the one that puts the sheet through the datum at the
+// datum's own XY (its XY stays; `triangle` is -1 for that datum).
 #pragma once
 
 #include <cstddef>
@@ -64,8 +66,8 @@ struct PatchDataResult {
     std::vector<std::int64_t> triangles;   // 3 per triangle: the patch's (rows kept), then new ones
     std::vector<std::int64_t> placed;      // per new vertex: the row of its datum
     // Per datum: the patch triangle (input row) it was placed in or on an
-    // edge of, or -1 (not under the patch, near a vertex, beyond max_dz, a
-    // duplicate).
+    // edge of, or -1 (not under the patch, near a vertex -- which may have
+    // taken its z --, beyond max_dz, a duplicate).
     std::vector<std::int64_t> triangle;
 };
 
