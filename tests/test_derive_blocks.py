@@ -846,7 +846,7 @@ def test_a_pick_next_to_the_boundary_in_a_fault_zone_is_honoured():
 
 
 @pytest.mark.parametrize("lay, x, y", [("L2", 510178.4, 6903539.4), ("L3", 510178.4, 6903539.4),
-                                       ("L3", 509997.0, 6903655.3)])
+                                       ("L3", 509997.0, 6903655.3), ("L5", 510178.4, 6903539.4)])
 def test_a_pick_near_a_patch_vertex_gives_the_vertex_its_z(lay, x, y):
     """Stress ground 91 (tests/data/derive/normal_fault_picks_near_loft_vertices.npz):
     picks of L2 and L3 lie within a hundredth of their patch triangle's
@@ -854,7 +854,11 @@ def test_a_pick_near_a_patch_vertex_gives_the_vertex_its_z(lay, x, y):
     make slivers; they were left out and the patch passed 28-40 m under
     them (the vertices 32-42 m under). The vertex now takes the nearest
     such datum: its z puts the patch through the datum at the datum's own
-    XY (patch_data.cpp, take_corner_data)."""
+    XY (patch_data.cpp, take_corner_data). L5's pick there lies 4.9 m from
+    an edge of a 490 m triangle and 9.6 m from the edge's end, and goes
+    onto the edge; another datum far off in the triangle left its vertex
+    0.18 of the weight at the pick's XY and the end 0.77 (the patch passed
+    19.9 m off it): the end takes it (through_moved_data)."""
     ds, _ = _stress_fixture("normal_fault_picks_near_loft_vertices.npz")
     model = fm.build_model(derive_faults(ds), evaluate=False)
     model.check()

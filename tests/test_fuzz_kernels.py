@@ -1265,7 +1265,9 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
     own XY), the XY area of each sheet is kept with its
     orientation, every edge is used twice at most, no triangle is flat in
     XY, a patch vertex changes z only where a datum left out lies near it
-    (a corner takes such a datum); hostile data (NaN, beyond the coordinate limit) are a ValueError
+    (a corner takes such a datum) or beside a datum moved onto an edge
+    (a neighbour takes it where the datum's own vertex weighs too little);
+    hostile data (NaN, beyond the coordinate limit) are a ValueError
     naming the function."""
     rng = np.random.default_rng(data.draw(st.integers(0, 2 ** 32 - 1)))
     n = data.draw(st.integers(3, 12))
@@ -1335,6 +1337,13 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
             ws = np.linalg.solve(Ms, np.r_[P[i, :2], 1.0])
             if ws.min() > -1e-6 and ws.max() >= 0.98 - 1e-6:
                 near_left_out.add(int(s[np.argmax(ws)]))
+    # Or where a datum moved onto an edge whose own vertex weighs too
+    # little at its XY lies nearer that vertex's neighbour (it takes the
+    # datum).
+    moved_v = np.array([len(V) + k for k, i in enumerate(placed) if not np.array_equal(new[k, :2], P[i, :2])],
+                       dtype=np.int64)
+    beside_moved = set(T2[np.isin(T2, moved_v).any(axis=1)].ravel().tolist()) - set(range(len(V), len(V2)))
+    near_left_out |= beside_moved
     changed = set(np.flatnonzero(V2[:len(V), 2] != V[:, 2]).tolist())
     assert changed <= near_left_out, (changed, near_left_out)
     # A vertex at a datum's own XY that took it has its z (set, not solved).

@@ -32,7 +32,8 @@
 // on the edge is as near, its own z; where other data placed in the
 // triangle stand between the new vertex and that XY, the edges between are
 // flipped first, one after another, if that gives the vertex at least half
-// the weight there):
+// the weight there; if not, a patch vertex of the triangle holding the XY
+// that weighs half there takes the datum's z instead):
 // every triangle with the edge -- on both sheets where the edge is a fold --
 // is fanned from its third corner through the edge's new points (picks on a
 // seismic line lie on the edges of a patch whose sections a derivation put
