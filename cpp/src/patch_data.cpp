@@ -84,9 +84,14 @@ constexpr int kMaxWalkFlips = 16;
 constexpr int kWalkRounds = 3;
 
 // Of the triangles `rows` (rows of out.triangles, each with the vertex v),
-// those of the sheet's orientation (ccw or not, in XY), the one that holds
-// q with the largest least barycentric weight: its row (out.triangles.size()
-// / 3 if none), v's corner in it, the weights (v's first) and the least.
+// those of the sheet's orientation (ccw or not, in XY): with wedge false,
+// the one that holds q with the largest least barycentric weight; with
+// wedge true, the one whose wedge at v holds the direction from v to q
+// (both other corners' weights at least 0; of two -- q on the ray through
+// a corner -- the one that gives v the more weight; v's own weight is
+// negative where q lies beyond the edge opposite v). Its row
+// (out.triangles.size() / 3 if none), v's corner in it, the weights (v's
+// first) and the least.
 struct Holder {
     std::size_t row;
     int own = -1;
@@ -94,21 +99,23 @@ struct Holder {
     double least = -std::numeric_limits<double>::infinity();
 };
 
-Holder holding_triangle(const PatchDataResult& out, const std::vector<std::size_t>& rows, std::int64_t v,
-                        bool ccw, const double* q) {
+Holder triangle_at(const PatchDataResult& out, const std::vector<std::size_t>& rows, std::int64_t v, bool ccw,
+                   const double* q, bool wedge) {
     auto V = [&](std::int64_t i) { return out.vertices.data() + 3 * i; };
-    Holder h{out.triangles.size() / 3};
+    const std::size_t none = out.triangles.size() / 3;
+    Holder h{none};
     for (std::size_t t : rows) {
         const std::int64_t* r = &out.triangles[3 * t];
         const double o = orient2d(V(r[0]), V(r[1]), V(r[2]));
         if (o == 0.0 || (o > 0.0) != ccw) continue;
-        double w[3];
-        for (int c = 0; c < 3; ++c) w[c] = orient2d(V(r[(c + 1) % 3]), V(r[(c + 2) % 3]), q) / o;
-        const double least = std::min({w[0], w[1], w[2]});
-        if (least <= h.least) continue;
         const int own = r[0] == v ? 0 : r[1] == v ? 1 : 2;
+        double w[3];
+        for (int c = 0; c < 3; ++c)
+            w[c] = orient2d(V(r[(own + c + 1) % 3]), V(r[(own + c + 2) % 3]), q) / o;
+        const double least = std::min({w[0], w[1], w[2]});
+        if (wedge ? std::min(w[1], w[2]) < 0.0 || (h.row != none && w[0] <= h.w[0]) : least <= h.least) continue;
         h.row = t, h.own = own, h.least = least;
-        h.w[0] = w[own], h.w[1] = w[(own + 1) % 3], h.w[2] = w[(own + 2) % 3];
+        std::copy(w, w + 3, h.w);
     }
     return h;
 }
@@ -133,31 +140,6 @@ bool solvable(const PatchDataResult& out, const Holder& h, const std::vector<cha
         if (c > 0 && solved[static_cast<std::size_t>(r[(h.own + c) % 3])]) coupled += h.w[c];
     }
     return coupled <= 0.5 * h.w[0];
-}
-
-// The triangle at v (one of `rows`, of the sheet's orientation) whose wedge
-// at v holds the direction from v to q: its row (out.triangles.size() / 3
-// if none), v's corner, the weights of q in it (v's first; v's own is
-// negative where q lies beyond the edge opposite v) and the least.
-Holder wedge_triangle(const PatchDataResult& out, const std::vector<std::size_t>& rows, std::int64_t v, bool ccw,
-                      const double* q) {
-    auto V = [&](std::int64_t i) { return out.vertices.data() + 3 * i; };
-    Holder h{out.triangles.size() / 3};
-    for (std::size_t t : rows) {
-        const std::int64_t* r = &out.triangles[3 * t];
-        const double o = orient2d(V(r[0]), V(r[1]), V(r[2]));
-        if (o == 0.0 || (o > 0.0) != ccw) continue;
-        const int own = r[0] == v ? 0 : r[1] == v ? 1 : 2;
-        double w[3];
-        for (int c = 0; c < 3; ++c)
-            w[c] = orient2d(V(r[(own + c + 1) % 3]), V(r[(own + c + 2) % 3]), q) / o;
-        // In the wedge: both other corners' weights at least 0; of two (q on
-        // the ray through a corner), the one that gives v the more weight.
-        if (std::min(w[1], w[2]) < 0.0 || (h.row != out.triangles.size() / 3 && w[0] <= h.w[0])) continue;
-        h.row = t, h.own = own, h.least = std::min({w[0], w[1], w[2]});
-        std::copy(w, w + 3, h.w);
-    }
-    return h;
 }
 
 // A moved datum's XY must lie in a new triangle of its sheet at its own
@@ -246,7 +228,7 @@ void flip_towards_moved_data(PatchDataResult& out, const std::int64_t* triangles
             // walk ends; the bound only caps the work for a datum among many.
             for (int step = 0; step <= kMaxWalkFlips; ++step) {
                 const Holder h =
-                    wedge_triangle(out, at[static_cast<std::size_t>(md.vertex)], md.vertex, sheet_ccw, q);
+                    triangle_at(out, at[static_cast<std::size_t>(md.vertex)], md.vertex, sheet_ccw, q, true);
                 if (h.row == m) break;
                 if (solvable(out, h, solved)) {
                     reached = true;
@@ -335,7 +317,7 @@ void through_moved_data(PatchDataResult& out, const std::int64_t* triangles, con
         const double* q = points + 3 * moved[k].datum;
         const std::int64_t* r0 = triangles + 3 * moved[k].triangle;
         const bool sheet_ccw = orient2d(V(r0[0]), V(r0[1]), V(r0[2])) > 0.0;
-        const Holder h = holding_triangle(out, incident[k], moved[k].vertex, sheet_ccw, q);
+        const Holder h = triangle_at(out, incident[k], moved[k].vertex, sheet_ccw, q, false);
         holder[k] = h;
         // A datum the projection left where it was keeps its z exactly.
         const double* v = V(moved[k].vertex);
