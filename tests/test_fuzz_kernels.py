@@ -1357,7 +1357,12 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
         # offset over the triangle's size.
         tol = 1e-9 + 1e-13 * offset / scale
         w = np.linalg.solve(M, np.r_[P[i, :2], 1.0])
-        assert (w > -tol).all() and abs(w @ [A[2], B[2], C[2]] - P[i, 2]) <= max_dz + 1e-6
+        # In it, or at most a micrometre outside an edge (patch_data.hpp,
+        # kOnOutline): a weight of -1e-6 m over the height on that edge.
+        area2 = abs(np.linalg.det(M))
+        edge = np.hypot(*(np.array([[B[0] - C[0], B[1] - C[1]], [C[0] - A[0], C[1] - A[1]],
+                                    [A[0] - B[0], A[1] - B[1]]])).T)
+        assert (w > -tol - 1.01e-6 * edge / area2).all() and abs(w @ [A[2], B[2], C[2]] - P[i, 2]) <= max_dz + 1e-6
         if not np.array_equal(new[k, :2], P[i, :2]):
             # Moved onto an edge of that triangle, at most a hundredth of its height.
             wn = np.linalg.solve(M, np.r_[new[k, :2], 1.0])
