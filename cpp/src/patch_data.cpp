@@ -93,12 +93,13 @@ constexpr int kWalkRounds = 3;
 // a corner -- the one that gives v the more weight; v's own weight is
 // negative where q lies beyond the edge opposite v). Its row
 // (out.triangles.size() / 3 if none), v's corner in it, the weights (v's
-// first) and the least.
+// first), the least, and twice the triangle's area (|orient2d|).
 struct Holder {
     std::size_t row;
     int own = -1;
     double w[3] = {0.0, 0.0, 0.0};
     double least = -std::numeric_limits<double>::infinity();
+    double area2 = 0.0;
 };
 
 Holder triangle_at(const PatchDataResult& out, const std::vector<std::size_t>& rows, std::int64_t v, bool ccw,
@@ -116,7 +117,7 @@ Holder triangle_at(const PatchDataResult& out, const std::vector<std::size_t>& r
             w[c] = orient2d(V(r[(own + c + 1) % 3]), V(r[(own + c + 2) % 3]), q) / o;
         const double least = std::min({w[0], w[1], w[2]});
         if (wedge ? std::min(w[1], w[2]) < 0.0 || (h.row != none && w[0] <= h.w[0]) : least <= h.least) continue;
-        h.row = t, h.own = own, h.least = least;
+        h.row = t, h.own = own, h.least = least, h.area2 = std::fabs(o);
         std::copy(w, w + 3, h.w);
     }
     return h;
@@ -131,7 +132,7 @@ bool solvable(const PatchDataResult& out, const Holder& h, const std::vector<cha
     if (h.row == out.triangles.size() / 3 || h.w[0] < kMinOwnWeight) return false;
     const std::int64_t* r = &out.triangles[3 * h.row];
     auto V = [&](std::int64_t i) { return out.vertices.data() + 3 * i; };
-    const double o = std::fabs(orient2d(V(r[0]), V(r[1]), V(r[2])));
+    const double o = h.area2;
     double coupled = 0.0;
     for (int c = 0; c < 3; ++c) {
         const std::int64_t a = r[(h.own + c + 1) % 3], b = r[(h.own + c + 2) % 3];
@@ -484,18 +485,10 @@ void take_corner_data(PatchDataResult& out, const std::int64_t* triangles, const
     std::vector<char> taken(out.vertices.size() / 3, 0);
     auto V = [&](std::int64_t v) { return out.vertices.data() + 3 * v; };
     for (const EdgeDatumRef& e : near_corner) {
-        const std::int64_t* r = triangles + 3 * e.triangle;
         const double* q = points + 3 * e.datum;
-        // The corner: the largest barycentric weight (exact signs; the
-        // datum lies within kMinShare of the other two edges).
-        const double o = orient2d(V(r[0]), V(r[1]), V(r[2]));
-        int corner = 0;
-        double best = -std::numeric_limits<double>::infinity();
-        for (int k = 0; k < 3; ++k) {
-            const double w = orient2d(V(r[(k + 1) % 3]), V(r[(k + 2) % 3]), q) / o;
-            if (w > best) best = w, corner = k;
-        }
-        const std::int64_t c = r[corner];
+        // The corner (the largest barycentric weight; the datum lies within
+        // kMinShare of the other two edges).
+        const std::int64_t c = triangles[3 * e.triangle + e.edge];
         if (taken[static_cast<std::size_t>(c)]) continue;
         taken[static_cast<std::size_t>(c)] = 1;
         if (V(c)[0] == q[0] && V(c)[1] == q[1]) {
@@ -549,10 +542,11 @@ PatchDataResult insert_patch_data(const double* vertices, std::size_t n_vertices
     // (on it, too), onto that edge; near a corner, nowhere.
     std::map<std::int64_t, std::vector<std::int64_t>> by_triangle;  // ascending rows: deterministic
     std::vector<EdgeDatumRef> on_edge;  // edge: the triangle's edge (r[edge], r[edge + 1])
-    std::vector<EdgeDatumRef> near_corner;  // within kMinShare of two edges (edge unused)
+    std::vector<EdgeDatumRef> near_corner;  // within kMinShare of two edges; edge: the corner (r[edge])
     // Per datum, every covering triangle with its distance in z and where
-    // the datum lies in it (-1: inside; 0-2: near that edge only; 3: near a
-    // corner); one buffer for all.
+    // the datum lies in it (-1: inside; 0-2: near that edge only; 3 + k:
+    // near corner k, the one of the largest barycentric weight); one buffer
+    // for all.
     std::vector<std::tuple<double, std::int64_t, int>> cover;
     for (std::size_t i = 0; i < n_points; ++i) {
         const double* q = points + 3 * i;
@@ -563,7 +557,7 @@ PatchDataResult insert_patch_data(const double* vertices, std::size_t n_vertices
             if (o == 0.0) return;
             const std::int64_t* r = triangles + 3 * t;
             double w[3];
-            int near_edges = 0, edge = -1;
+            int near_edges = 0, edge = -1, corner = 0;
             for (int k = 0; k < 3; ++k) {
                 const double* a = P(r[(k + 1) % 3]);
                 const double* b = P(r[(k + 2) % 3]);
@@ -576,10 +570,11 @@ PatchDataResult insert_patch_data(const double* vertices, std::size_t n_vertices
                     ++near_edges;
                     edge = (k + 1) % 3;
                 }
+                if (w[k] / o > w[corner] / o) corner = k;
             }
             // The decisions above are exact; z is the plane's value (rounded).
             const double z = (w[0] * P(r[0])[2] + w[1] * P(r[1])[2] + w[2] * P(r[2])[2]) / (w[0] + w[1] + w[2]);
-            cover.emplace_back(std::fabs(z - q[2]), t, near_edges == 0 ? -1 : near_edges == 1 ? edge : 3);
+            cover.emplace_back(std::fabs(z - q[2]), t, near_edges == 0 ? -1 : near_edges == 1 ? edge : 3 + corner);
         });
         if (cover.empty()) continue;
         // The nearest sheet; among its triangles (those within kSameSheet of
@@ -607,7 +602,7 @@ PatchDataResult insert_patch_data(const double* vertices, std::size_t n_vertices
         else if (best_edge < 3)
             on_edge.push_back({static_cast<std::int64_t>(i), best, best_edge});
         else
-            near_corner.push_back({static_cast<std::int64_t>(i), best, -1});
+            near_corner.push_back({static_cast<std::int64_t>(i), best, best_edge - 3});
     }
 
     for (const auto& [t, data] : by_triangle) {
