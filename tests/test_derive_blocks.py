@@ -865,6 +865,32 @@ def test_a_pick_near_a_patch_vertex_gives_the_vertex_its_z(lay, x, y):
     assert _miss_at_pick(model, ds, lay, x, y) < 0.01
 
 
+def test_a_layer_between_two_cut_layers_stays_cut_whatever_its_borrowed_throw():
+    """Stress ground 113 (tests/data/derive/normal_fault_layer_between_cut_layers.npz):
+    a normal fault of 53.4 m at 24 degrees cuts all ten layers. L3 has no
+    footwall datum near it; its footwall is L5's shifted by the thickness
+    between them (the true one, 57.4 m), which gives L3 a throw of 37 m
+    against L5's 62 m, beyond the 25 % a borrowed side must agree by
+    (derive.BORROW_AGREE, which keeps a fault that dies out between two
+    layers from cutting the upper one). L3 was left uncut: its continuous
+    TIN took the hanging wall's level into the footwall, 63 m under the
+    truth, and the crossing repair lowered an L4 top there 28 m under it
+    (missed by 21 m). L2 and L4 above and below it are cut, so L3 is too:
+    the borrowed side stands on the sections where both are."""
+    ds, _ = _stress_fixture("normal_fault_layer_between_cut_layers.npz")
+    grid = np.load(Path(__file__).parent / "data" / "derive" / "normal_fault_layer_between_cut_layers.npz")["grid_L3"]
+    derived = derive_faults(ds)
+    assert any("L3" in t.layers for t in derived.fault("F1").traces)
+    assert any("'F1', layer 'L3'" in w and "kept on the" in w for w in derived.derivation.warnings)
+    model = fm.build_model(derived, evaluate=False)
+    model.check()
+    assert _miss_at_pick(model, ds, "L4", 1143.51, 940.81) < 0.01
+    # Uncut: mean 4.67 m, largest 63.0 m on the 300 true places within
+    # 200 m of a fault; cut: 1.54 and 13.2 m (L1's, cut, are 1.59 / 13.2).
+    err = _sheet_error(model, "L3", grid[:, :2], grid[:, 2])
+    assert np.nanmean(err) < 2.5 and np.nanmax(err) < 20.0
+
+
 def test_picks_under_the_fault_zones_of_the_layers_above_are_not_lowered():
     """Stress ground 10 (tests/data/derive/normal_fault_picks_under_upper_patches.npz):
     ten layers cut by one normal fault of 104.5 m at 51 degrees, picked on

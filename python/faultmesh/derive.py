@@ -4383,6 +4383,15 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # is a guess (held-out ground 164: F2, 8.5 m, displaces L5 and L6
     # only; L3's footwall from L5's with a thickness of 194 m, whose
     # samples spread by tens of metres, came out with L5's 7 m).
+    # Except on the sections where a layer above and a layer below it stay
+    # cut: a fault that displaces both displaces every layer between them,
+    # so the borrowed side stands there whatever its throw (stress ground
+    # 113: F1, normal, 53 m, cuts L1-L10; L3's footwall, with no datum,
+    # borrowed from L5's with the true thickness, gave 37 m against L5's
+    # 62 m, and L3 left uncut lay on the hanging wall's level 61 m under
+    # the truth in the footwall, where the crossing repair then lowered an
+    # L4 top 28 m under it).
+    refused: Dict[str, Tuple[str, bool]] = {}
     for lay, r in res.items():
         for nm, (src, thick, spread, have) in list(r["borrowed"].items()):
             # The sections where both layers are cut with a throw (none if
@@ -4401,14 +4410,28 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                             f"between the two ({thick:+.1f} m, measured where both have data, away "
                             f"from the fault): throw {t_lay:+.1f} m where {src!r} has {t_src:+.1f} m")
                 continue
-            if both.any():
-                warn.append(said + f"that of layer {src!r} shifted by the thickness between the two "
+            # The warning's start, and whether the throws were compared.
+            refused[lay] = (said + f"that of layer {src!r} shifted by the thickness between the two "
                             f"({thick:+.1f} m, spread {spread:.1f} m) gives a throw of {t_lay:+.1f} m "
-                            f"where {src!r} has {t_src:+.1f} m: not known to be conformable; the "
-                            "layer is left uncut")
-            cut[lay][:] = False
-            r["borrowed"] = {}
+                            f"where {src!r} has {t_src:+.1f} m: not known to be conformable; "
+                            if both.any() else said + f"that of layer {src!r} has no throw to compare; ",
+                            bool(both.any()))
             break
+    standing = [o for o in res if o not in refused and cut[o].any()]
+    for lay, (said, compared) in refused.items():
+        above = [cut[o] for o in standing if layer_rank[o] < layer_rank[lay]]
+        below = [cut[o] for o in standing if layer_rank[o] > layer_rank[lay]]
+        between = cut[lay] & np.any(above, axis=0) & np.any(below, axis=0) if above and below \
+            else np.zeros_like(cut[lay])
+        if between.any():
+            warn.append(said + f"kept on the {int(between.sum())} section(s) where layers above and "
+                        "below it are cut (a fault displaces the layers between two it displaces)")
+            cut[lay] = between
+            continue
+        if compared:
+            warn.append(said + "the layer is left uncut")
+        cut[lay][:] = False
+        res[lay]["borrowed"] = {}
     # A layer whose one side is borrowed from another layer
     # (_borrowed_side) votes only where no other does: its throw is the
     # other layer's assumed conformable, no evidence of the sense (v2
