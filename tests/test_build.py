@@ -500,6 +500,36 @@ def test_data_the_crossing_repair_lowers_are_named_in_a_warning(bump):
     assert fit["in_patch"] == fit["in_gap"] == 0
 
 
+def test_a_top_missing_from_a_hole_between_tops_above_and_below_yields_to_the_lower_top():
+    """A hole without B's top, between A's and C's in that hole: B's TIN
+    there interpolates B's neighbours 40 m off, which miss a dome 20 m
+    wide that every layer follows, and lies under C's top in that hole.
+    B's own data are near (under UPPER_DATA_GAP of its spacings), so the
+    hole alone did not make B undecided, and the crossing repair lowered
+    C's top 4.6 m under B. A's top in the same hole lies over both
+    (nearer than BRACKET_SHARE of B's nearest datum): B is raised to C's
+    top there and the model honours every top (stress grounds 59, 68 and
+    113: picks on seismic lines where a layer was not picked, missed by
+    5.2, 12.5 and 10.8 m)."""
+    ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], float)
+    g = np.linspace(20.0, 980.0, 25)
+    X, Y = (a.ravel() for a in np.meshgrid(g, g))
+    dome = 15.0 * np.exp(-((X - 500.0) ** 2 + (Y - 500.0) ** 2) / 20.0 ** 2)
+    missing = (X == 500.0) & (Y == 500.0)
+    tops = [("A", 0.0, np.ones_like(missing)), ("B", -10.0, ~missing), ("C", -20.0, np.ones_like(missing))]
+    ids = np.array([f"H{i}" for i in range(len(X))])
+    bh = Boreholes(np.concatenate([ids[k] for _, _, k in tops]),
+                   np.vstack([np.c_[X, Y][k] for _, _, k in tops]),
+                   np.concatenate([[lay] * int(k.sum()) for lay, _, k in tops]),
+                   np.concatenate([(z0 + dome)[k] for _, z0, k in tops]))
+    m = build(Dataset("dome", ["A", "B", "C"], ring, bh))
+    assert m.metadata["tins"]["B"]["raised_over_data"] == 1
+    fit = m.metadata["data_fit"]
+    assert all(fit[lay]["off"] == 0 for lay in "ABC"), fit
+    zB = surface_z(m.surfaces["B"].vertices, m.surfaces["B"].triangles, np.array([[500.0, 500.0]]))
+    assert zB[0] == pytest.approx(-20.0 + 15.0)
+
+
 def test_a_layer_extrapolated_across_a_hole_in_its_data_yields_to_the_data_under_it():
     """Where the upper layer has no datum near (a hole in its picks: no
     datum within UPPER_DATA_GAP of its spacings) and the lower layer's data

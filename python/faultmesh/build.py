@@ -146,6 +146,13 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
 #: of the layer under it is extrapolated there (_raise_over_data).
 UPPER_DATA_GAP = 4.0
 
+#: A datum of a layer above a layer's TIN is bracketed (_raise_over_data)
+#: where a datum of a layer further up, at least as high, lies within this
+#: share of the distance to the layer's own nearest datum: the column there
+#: (one hole, one place on a seismic line, where a layer was not picked)
+#: says where the layer lies, ten times nearer than its own data do.
+BRACKET_SHARE = 0.1
+
 
 def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
                      data: Dict[str, np.ndarray], dataset=None,
@@ -164,7 +171,11 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
     (:func:`_across_fault_zones`), the datum outside every such footprint;
     or where the datum lies inside such a footprint no higher than the
     patch's highest sheet there (the patch, not the TIN, is the upper layer
-    there, and the datum does not cross it). With the datum's point go the
+    there, and the datum does not cross it); or where the datum is
+    bracketed, outside every such footprint: a datum of a layer further up,
+    at least as high, lies within :data:`BRACKET_SHARE` of the distance to
+    the upper layer's nearest datum (one hole, one place on a seismic
+    line, where the upper layer was not picked). With the datum's point go the
     upper layer's boundary vertices whose nearest datum of the lower layer
     is one raised, at the lower layer's elevation there where that is
     above them and undecided too. Then up the stack: each layer over the
@@ -209,6 +220,7 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
     added: Dict[str, int] = {}
     near_of: Dict[str, Tuple[Any, float]] = {}
     zones_of: Dict[str, List[Tuple[np.ndarray, np.ndarray]]] = {}
+    over_of: Dict[int, Tuple[Any, np.ndarray]] = {}
 
     def undecided(lay: str, P: np.ndarray) -> np.ndarray:
         # Per point P (k, 3) under layer lay: whether lay's own data decide
@@ -227,6 +239,28 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
             out[near] = _upper_layer_undecided(zones_of[lay], P[near], data[lay], tree, gap)
             if stack is None:
                 out[out == 2] = 0
+        # Bracketed: a datum of a layer further up lies over the point,
+        # much nearer than the layer's own data (BRACKET_SHARE), outside
+        # the layer's fault patches (under one, the patch is the layer).
+        cand = np.flatnonzero(out == 0)
+        rank = layers.index(lay)
+        if rank not in over_of:
+            A = np.vstack([data[o].reshape(-1, 3) for o in layers[:rank]] or [np.empty((0, 3))])
+            over_of[rank] = (cKDTree(A[:, :2]) if len(A) else None, A[:, 2])
+        tree_a, z_a = over_of[rank]
+        if len(cand) and tree_a is not None:
+            hits = tree_a.query_ball_point(P[cand, :2], BRACKET_SHARE * far[cand])
+            i = np.repeat(np.arange(len(cand)), [len(h) for h in hits])
+            j = np.fromiter((k for h in hits for k in h), dtype=np.int64, count=len(i))
+            bracketed = np.zeros(len(cand), dtype=bool)
+            bracketed[i[z_a[j] >= P[cand[i], 2]]] = True
+            cand = cand[bracketed]
+            if len(cand) and dataset is not None and area is not None and dataset.faults:
+                if lay not in zones_of:
+                    zones_of[lay] = [(V, T) for _, V, T in _fault_zone_patches(dataset, lay, area)]
+                for V, T in zones_of[lay]:
+                    cand = cand[~_in_footprint(V, T, np.ascontiguousarray(P[cand, :2]))]
+            out[cand] = 1
         return out
 
     def insert(lay: str, P: np.ndarray, kind: np.ndarray, n_stack: int) -> None:
