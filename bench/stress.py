@@ -125,6 +125,10 @@ def one(seed: int, force=None) -> dict:
         rec["data_miss"] = {lay: round(r["max_m"], 3) for lay, r in m.metadata["data_fit"].items()
                             if r["off"]}
         rec["build_warnings"] = [w[:300] for w in m.metadata.get("warnings", [])]
+        # whether the crossing repair failed and the TINs were built again
+        # (without the raise's stack rule, perhaps with the picks under the
+        # derived patches left out): build_model's retries
+        rec["repair_retry"] = m.metadata.get("repair_retry", "")[:300]
         rec["stage"] = "check"
         m.check()
         rec["stage"] = "ok"
