@@ -4388,9 +4388,9 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     # so the borrowed side stands there whatever its throw (stress ground
     # 113: F1, normal, 53 m, cuts L1-L10; L3's footwall, with no datum,
     # borrowed from L5's with the true thickness, gave 37 m against L5's
-    # 62 m, and L3 left uncut lay on the hanging wall's level 61 m under
-    # the truth in the footwall, where the crossing repair then lowered an
-    # L4 top 28 m under it).
+    # 62 m, and L3 left uncut lay on the hanging wall's level, up to 63 m
+    # under the truth in the footwall, where the crossing repair then
+    # lowered an L4 top 28 m under it).
     refused: Dict[str, Tuple[str, bool]] = {}
     for lay, r in res.items():
         for nm, (src, thick, spread, have) in list(r["borrowed"].items()):
