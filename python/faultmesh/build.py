@@ -225,7 +225,8 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
     def undecided(lay: str, P: np.ndarray) -> np.ndarray:
         # Per point P (k, 3) under layer lay: whether lay's own data decide
         # its TIN there (0), do not (1: none near, or all across a fault),
-        # or P lies under lay's fault patch (2, _upper_layer_undecided).
+        # or P lies under lay's fault patch (2, _upper_layer_undecided);
+        # bracketed outside its patches is undecided too (1).
         if lay not in near_of:
             U = data[lay]
             near_of[lay] = (cKDTree(U[:, :2]), UPPER_DATA_GAP * _median_spacing(U))
@@ -233,34 +234,32 @@ def _raise_over_data(tins: Dict[str, LayerTin], layers: List[str],
         far, _ = tree.query(P[:, :2])
         out = (far > gap).astype(np.int8)
         near = np.flatnonzero(out == 0)
+        bracket = bracketed(lay, P[near], far[near])
         if len(near) and dataset is not None and area is not None and dataset.faults:
             if lay not in zones_of:
                 zones_of[lay] = [(V, T) for _, V, T in _fault_zone_patches(dataset, lay, area)]
-            out[near] = _upper_layer_undecided(zones_of[lay], P[near], data[lay], tree, gap)
+            out[near] = _upper_layer_undecided(zones_of[lay], P[near], data[lay], tree, gap, bracket)
             if stack is None:
                 out[out == 2] = 0
-        # Bracketed: a datum of a layer further up lies over the point,
-        # much nearer than the layer's own data (BRACKET_SHARE), outside
-        # the layer's fault patches (under one, the patch is the layer).
-        cand = np.flatnonzero(out == 0)
+        else:
+            out[near[bracket]] = 1
+        return out
+
+    def bracketed(lay: str, P: np.ndarray, far: np.ndarray) -> np.ndarray:
+        # Per point P (k, 3) under layer lay, its nearest datum of lay
+        # ``far`` off: a datum of a layer further up, at least as high, lies
+        # within BRACKET_SHARE of that distance.
         rank = layers.index(lay)
         if rank not in over_of:
             A = np.vstack([data[o].reshape(-1, 3) for o in layers[:rank]] or [np.empty((0, 3))])
             over_of[rank] = (cKDTree(A[:, :2]) if len(A) else None, A[:, 2])
         tree_a, z_a = over_of[rank]
-        if len(cand) and tree_a is not None:
-            hits = tree_a.query_ball_point(P[cand, :2], BRACKET_SHARE * far[cand])
-            i = np.repeat(np.arange(len(cand)), [len(h) for h in hits])
+        out = np.zeros(len(P), dtype=bool)
+        if len(P) and tree_a is not None:
+            hits = tree_a.query_ball_point(P[:, :2], BRACKET_SHARE * far)
+            i = np.repeat(np.arange(len(P)), [len(h) for h in hits])
             j = np.fromiter((k for h in hits for k in h), dtype=np.int64, count=len(i))
-            bracketed = np.zeros(len(cand), dtype=bool)
-            bracketed[i[z_a[j] >= P[cand[i], 2]]] = True
-            cand = cand[bracketed]
-            if len(cand) and dataset is not None and area is not None and dataset.faults:
-                if lay not in zones_of:
-                    zones_of[lay] = [(V, T) for _, V, T in _fault_zone_patches(dataset, lay, area)]
-                for V, T in zones_of[lay]:
-                    cand = cand[~_in_footprint(V, T, np.ascontiguousarray(P[cand, :2]))]
-            out[cand] = 1
+            out[i[z_a[j] >= P[i, 2]]] = True
         return out
 
     def insert(lay: str, P: np.ndarray, kind: np.ndarray, n_stack: int) -> None:
@@ -365,12 +364,13 @@ def _lower_back(tins: Dict[str, LayerTin], under_patches: Dict[str, List[np.ndar
 
 
 def _upper_layer_undecided(zones: List[Tuple[np.ndarray, np.ndarray]], P: np.ndarray, U: np.ndarray,
-                           tree, radius: float) -> np.ndarray:
+                           tree, radius: float, bracketed: Optional[np.ndarray] = None) -> np.ndarray:
     """Per point ``P`` (k, 3) under a layer whose fault patches are
     ``zones`` (:func:`_fault_zone_patches`) and whose data are ``U`` (in the
     cKDTree ``tree``), int8: 1 where it lies outside the map-view footprint
     of every patch and each datum within ``radius`` lies across a fault
-    from it (:func:`_across_fault_zones`), 2 where it lies inside such a
+    from it (:func:`_across_fault_zones`) or it is ``bracketed`` (per
+    point, :func:`_raise_over_data`), 2 where it lies inside such a
     footprint no higher than the patch's highest sheet there, else 0."""
     xy = np.ascontiguousarray(P[:, :2])
     nb = tree.query_ball_point(xy, radius)
@@ -386,6 +386,8 @@ def _upper_layer_undecided(zones: List[Tuple[np.ndarray, np.ndarray]], P: np.nda
         _, top, hits = sample_surface(V, T, xy)
         inside |= _in_footprint(V, T, xy, hits)
         under |= (np.asarray(hits) > 0) & (P[:, 2] <= np.asarray(top))
+    if bracketed is not None:
+        same &= ~bracketed
     return np.where(under, 2, np.where(~same & ~inside, 1, 0)).astype(np.int8)
 
 
