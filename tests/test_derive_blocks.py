@@ -876,12 +876,26 @@ def test_a_layer_between_two_cut_layers_stays_cut_whatever_its_borrowed_throw():
     TIN took the hanging wall's level into the footwall, 63 m under the
     truth, and the crossing repair lowered an L4 top there 28 m under it
     (missed by 21 m). L2 and L4 above and below it are cut, so L3 is too:
-    the borrowed side stands on the sections where both are."""
+    the borrowed side stands on the sections where both are.
+
+    Since the side surfaces keep to their block of the reverse fault 0.9 km
+    away (derive._beside_others), L3's borrowed throw (50.1 m against L5's
+    45.7 m) agrees; the rule is held to here with the agreement asked
+    tightened to 5 %, which refuses it."""
+    import faultmesh.derive as derive_module
+
     ds, _ = _stress_fixture("normal_fault_layer_between_cut_layers.npz")
     grid = np.load(Path(__file__).parent / "data" / "derive" / "normal_fault_layer_between_cut_layers.npz")["grid_L3"]
     derived = derive_faults(ds)
     assert any("L3" in t.layers for t in derived.fault("F1").traces)
-    assert any("'F1', layer 'L3'" in w and "kept on the" in w for w in derived.derivation.warnings)
+    strict = pytest.MonkeyPatch()
+    strict.setattr(derive_module, "BORROW_AGREE", 0.05)
+    try:
+        kept = derive_faults(ds)
+    finally:
+        strict.undo()
+    assert any("L3" in t.layers for t in kept.fault("F1").traces)
+    assert any("'F1', layer 'L3'" in w and "kept on the" in w for w in kept.derivation.warnings)
     model = fm.build_model(derived, evaluate=False)
     model.check()
     assert _miss_at_pick(model, ds, "L4", 1143.51, 940.81) < 0.01
@@ -889,6 +903,31 @@ def test_a_layer_between_two_cut_layers_stays_cut_whatever_its_borrowed_throw():
     # 200 m of a fault; cut: 1.54 and 13.2 m (L1's, cut, are 1.59 / 13.2).
     err = _sheet_error(model, "L3", grid[:, :2], grid[:, 2])
     assert np.nanmean(err) < 2.5 and np.nanmax(err) < 20.0
+
+
+def test_a_fault_block_picked_on_one_line_takes_the_layers_dip_from_the_other_blocks():
+    """Stress ground 267 (tests/data/derive/two_normal_faults_blocks_on_one_line_each.npz):
+    two normal faults dipping the same way 1 km apart; the block between
+    them and the one beyond F2 have their picks on one seismic line each,
+    so their side surfaces take the slope across the line from the layer's
+    regional slope. That plane's fit had a step across F2 only: F1's 57 m
+    throw tilted it across strike twice as steep as the layer, and F2's
+    footwall was fitted through the line between the faults together with
+    the picks across F1. F2 came out reverse, every layer 11-16 m off on
+    average near the faults (largest 56 m). Now the regional plane steps
+    across every fault and a side surface keeps to its fault block of the
+    other faults (derive._beside_others): F2 normal, means 0.6-1.9 m."""
+    name = "two_normal_faults_blocks_on_one_line_each.npz"
+    ds, _ = _stress_fixture(name)
+    grids = np.load(Path(__file__).parent / "data" / "derive" / name)
+    derived = derive_faults(ds)
+    assert derived.fault("F2").kind == "normal"
+    model = fm.build_model(derived, evaluate=False)
+    model.check()
+    for lay in ds.layers:
+        g = grids["grid_" + lay]
+        err = _sheet_error(model, lay, g[:, :2], g[:, 2])
+        assert np.nanmean(err) < 3.0, lay
 
 
 def test_picks_under_the_fault_zones_of_the_layers_above_are_not_lowered():
@@ -1079,10 +1118,23 @@ def test_derived_faults_too_close_say_where_their_cutoffs_are_extrapolated():
     that layer without data of which side within how far, and that data
     nearer the fault or a throw hint place those cutoffs. (Since the joint
     fit across a data gap chooses its smoothing by cross-validation, L1's
-    cutoffs there no longer overlap; L2's, extrapolated as far, do.)"""
+    cutoffs there no longer overlap; L2's, extrapolated as far, did.)
+
+    Since each fault's side surfaces keep to their block of the other
+    (derive._beside_others), the ground builds and passes check(); the
+    message is held to with the sides fitted through both blocks as
+    before."""
+    import faultmesh.derive as derive_module
+
     ds, _ = _stress_fixture("two_faults_sparse_lines.npz")
-    with pytest.raises(fm.DatasetError) as err:
-        fm.build_model(ds, evaluate=False)
+    fm.build_model(ds, evaluate=False).check()
+    both_blocks = pytest.MonkeyPatch()
+    both_blocks.setattr(derive_module, "_beside_others", lambda fs, others, D, ext: np.ones(len(D), dtype=bool))
+    try:
+        with pytest.raises(fm.DatasetError) as err:
+            fm.build_model(ds, evaluate=False)
+    finally:
+        both_blocks.undo()
     msg = str(err.value)
     m = re.match(r"faults too close: fault 'F1' and fault 'F2' overlap in layer '(L\d+)'", msg)
     assert m, msg
