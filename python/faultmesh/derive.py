@@ -2616,7 +2616,9 @@ def _regional_slope(D: np.ndarray, frame: GridFrame, hanging: Optional[np.ndarra
     are the plane minus a constant throw): without it the fault's offset
     tilts the plane by about throw / frame width down dip, and a side bent
     towards that slope over the tension length drops (footwall) or rises
-    (hanging wall) towards the fault, taking the throw down with it."""
+    (hanging wall) towards the fault, taking the throw down with it. With
+    ``blocks`` ((n, f) keys of :func:`_block_keys`) a step between the
+    fault blocks of those faults too, for the same reason."""
     inside = frame.inside(D[:, :2])
     if inside.sum() < 3:
         inside = np.ones(len(D), dtype=bool)
