@@ -1324,8 +1324,9 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
         if np.linalg.solve(M, np.r_[new[k, :2], 1.0]).min() < 0.005:   # inside: at least 0.01
             edge_placed.add(len(V) + k)
     # A patch vertex changes z only where a datum left out lies near it
-    # (within a hundredth of two edges of a triangle at it: the corner took
-    # the datum, patch_data.cpp take_corner_data).
+    # (within a hundredth of two edges of a triangle at it, or of one edge
+    # by its end: the corner took the datum, patch_data.cpp
+    # take_corner_data).
     near_left_out = set()
     for i in np.flatnonzero(tri < 0):
         if not np.isfinite(P[i]).all():
@@ -1337,6 +1338,17 @@ def test_fuzz_insert_patch_data(data, scale, offset, fold, hostile):
             ws = np.linalg.solve(Ms, np.r_[P[i, :2], 1.0])
             if ws.min() > -1e-6 and ws.max() >= 0.98 - 1e-6:
                 near_left_out.add(int(s[np.argmax(ws)]))
+            if ws.min() <= -1e-6:
+                continue
+            # Within a hundredth of one edge, projecting within a hundredth
+            # of its length of an end: that end's corner (place_on_edges).
+            for k in np.flatnonzero(ws < 0.01 + 1e-6):
+                a, b = V[s[(k + 1) % 3], :2], V[s[(k + 2) % 3], :2]
+                par = np.clip((P[i, :2] - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+                if par <= 0.01 + 1e-6:
+                    near_left_out.add(int(s[(k + 1) % 3]))
+                if par >= 0.99 - 1e-6:
+                    near_left_out.add(int(s[(k + 2) % 3]))
     # Or where a datum moved onto an edge whose own vertex weighs too
     # little at its XY lies nearer that vertex's neighbour (it takes the
     # datum).

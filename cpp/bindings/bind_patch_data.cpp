@@ -39,7 +39,9 @@ void bind_patch_data(py::module_& m) {
         "other triangles are untouched. A datum within a hundredth of the triangle's height of\n"
         "one edge goes onto that edge at its projection, with the z that puts its sheet through\n"
         "it at its own XY, and every triangle with the edge is fanned through it; one within\n"
-        "that of two edges, or of a datum placed before, is not placed (it would make a sliver).\n\n"
+        "that of a datum placed before is not placed (it would make a sliver), and the corner\n"
+        "nearest to one within that of two edges (or of one, by its end) takes the first such\n"
+        "datum's z (its XY stays; triangle -1).\n\n"
         "Returns (vertices (k + p, 3), triangles (m + 2p or more, 3), placed int64 (p,) the\n"
         "datum of each new vertex, triangle int64 (n,) the input triangle each datum went into\n"
         "or -1).");

@@ -248,6 +248,27 @@ TEST(PatchData, ADatumNearACornerGivesTheCornerItsZ) {
     expect_conforming(V, T, r);
 }
 
+TEST(PatchData, ADatumNearOneEdgeByItsEndGivesThatCornerItsZ) {
+    // A sliver whose far corner A lies beyond C along edge BC. The datum lies
+    // within a hundredth of the triangle's height of edge BC (weight 0.0069
+    // of A) but not of edge CA (0.036 of B), and its projection onto BC falls
+    // past C: no place on the edge away from its ends, so corner C takes it
+    // (stress ground 113's L5 pick, 3.3 m from such a corner of an 830 m
+    // long patch triangle, was left out and missed by 6.5 m).
+    const std::vector<double> V{0, 0, 0, 100, 0, 0, 1000, 20, 0};  // B, C, A
+    const std::vector<std::int64_t> T{0, 1, 2};
+    const std::vector<double> P{0.0069 * 1000 + 0.957 * 100, 0.0069 * 20, 5};
+    const auto r = fm::insert_patch_data(V.data(), 3, T.data(), 1, P.data(), 1,
+                                         std::numeric_limits<double>::infinity());
+    EXPECT_TRUE(r.placed.empty());
+    EXPECT_EQ(r.vertices.size(), V.size());
+    EXPECT_EQ(r.triangle, (std::vector<std::int64_t>{-1}));
+    EXPECT_NEAR(sheet_z(r, true, &P[0]), 5.0, 1e-9);
+    EXPECT_NE(r.vertices[3 * 1 + 2], 0.0);                                      // C took it
+    for (int k : {0, 2}) EXPECT_EQ(r.vertices[3 * k + 2], 0.0);  // the other corners stay
+    expect_conforming(V, T, r);
+}
+
 TEST(PatchData, FoldedPatchTakesTheNearestSheet) {
     // Two sheets over the same square, 20 m apart, the lower one clockwise in
     // XY (a fold seen from above), as a reverse fault repeats a layer.

@@ -709,7 +709,9 @@ def insert_patch_data(vertices: typing.Any, triangles: typing.Any, points: typin
     other triangles are untouched. A datum within a hundredth of the triangle's height of
     one edge goes onto that edge at its projection, with the z that puts its sheet through
     it at its own XY, and every triangle with the edge is fanned through it; one within
-    that of two edges, or of a datum placed before, is not placed (it would make a sliver).
+    that of a datum placed before is not placed (it would make a sliver), and the corner
+    nearest to one within that of two edges (or of one, by its end) takes the first such
+    datum's z (its XY stays; triangle -1).
     
     Returns (vertices (k + p, 3), triangles (m + 2p or more, 3), placed int64 (p,) the
     datum of each new vertex, triangle int64 (n,) the input triangle each datum went into

@@ -40,7 +40,9 @@
 // on that line). A datum as near another datum placed in the same triangle
 // or on the same edge (the earlier row wins) is not placed: it would make a
 // sliver (patch_data.cpp, kMinShare). Nor is a datum within a hundredth of
-// two edges (near a corner), but the corner takes the first such datum:
+// two edges (near a corner), or of one edge where it projects within a
+// hundredth of that edge's length of its end, but the corner takes the
+// first such datum:
 // its z becomes the one that puts the sheet through the datum at the
 // datum's own XY (its XY stays; `triangle` is -1 for that datum).
 #pragma once
