@@ -899,6 +899,10 @@ def test_a_layer_between_two_cut_layers_stays_cut_whatever_its_borrowed_throw():
     model = fm.build_model(derived, evaluate=False)
     model.check()
     assert _miss_at_pick(model, ds, "L4", 1143.51, 940.81) < 0.01
+    # An L5 pick 3.3 m from the corner of an 830 m long triangle of F1's
+    # patch, by the edge there but projecting past its end: the corner
+    # takes it (patch_data.cpp place_on_edges; was left out, 6.5 m).
+    assert _miss_at_pick(model, ds, "L5", 1707.03, 2380.28) < 0.01
     # Uncut: mean 4.67 m, largest 63.0 m on the 300 true places within
     # 200 m of a fault; cut: 1.54 and 13.2 m (L1's, cut, are 1.59 / 13.2).
     err = _sheet_error(model, "L3", grid[:, :2], grid[:, 2])
@@ -1129,7 +1133,7 @@ def test_derived_faults_too_close_say_where_their_cutoffs_are_extrapolated():
     ds, _ = _stress_fixture("two_faults_sparse_lines.npz")
     fm.build_model(ds, evaluate=False).check()
     both_blocks = pytest.MonkeyPatch()
-    both_blocks.setattr(derive_module, "_beside_others", lambda fs, others, D, ext: np.ones(len(D), dtype=bool))
+    both_blocks.setattr(derive_module, "_beside_others", lambda faced, D, ext: np.ones(len(D), dtype=bool))
     try:
         with pytest.raises(fm.DatasetError) as err:
             fm.build_model(ds, evaluate=False)

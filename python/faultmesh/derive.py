@@ -3678,14 +3678,31 @@ def _in_own_block(D: np.ndarray, fs: FaultSurface, others: Sequence[FaultSurface
     return keep
 
 
-def _beside_others(fs: FaultSurface, others: Sequence[FaultSurface], D: np.ndarray,
+def _faced_sides(fs: FaultSurface, others: Sequence[FaultSurface]) -> List[Tuple[FaultSurface, int]]:
+    """(other fault, this fault's side of it: +1 hanging wall, -1 footwall)
+    for each of ``others`` that this fault faces (:func:`_beside_others`):
+    the side of this fault's own part. A fault it crosses (its own part on
+    both sides: ground 2 without groups, F1 and F3 crossing where neither
+    displaces a layer) or lies beyond the end of (on neither) has no block
+    of it to keep to."""
+    faced = []
+    for o in others:
+        mine = np.unique(_along_sides(o, fs.own[0]))
+        mine = mine[mine != 0]
+        if len(mine) == 1:
+            faced.append((o, int(mine[0])))
+    return faced
+
+
+def _beside_others(faced: Sequence[Tuple[FaultSurface, int]], D: np.ndarray,
                    ext: np.ndarray) -> np.ndarray:
     """Mask (n,) of the layer data ``D`` (n, 3; ``ext`` their side of this
     fault, :func:`_data_sides`) that this fault's side surfaces use: on
     each side, those on this fault's side of every other fault (of no
-    group with it), where at least :data:`BORROW_BELOW` are; else that
-    side's data all, as a surface needs them. A side surface through data
-    of two blocks of another fault bends by that fault's throw between
+    group with it) that it faces (``faced``, :func:`_faced_sides`), where
+    at least :data:`BORROW_BELOW` are; else that side's data all, as a
+    surface needs them. A side surface through data of two blocks of
+    another fault bends by that fault's throw between
     them (stress ground 267: F2's footwall, 42 picks on one seismic line
     between F1 and F2 and 270 across F1, 57 m higher, lay 45 m under the
     truth at F2's cutoffs, and F2 came out reverse).
@@ -3698,19 +3715,11 @@ def _beside_others(fs: FaultSurface, others: Sequence[FaultSurface], D: np.ndarr
     area: 0.58x the true cutoffs' error near the faults kept, 1.05x
     parted)."""
     keep = np.ones(len(D), dtype=bool)
-    if not others or not len(D):
+    if not faced or not len(D):
         return keep
     across = np.zeros(len(D), dtype=bool)
-    for o in others:
-        # This fault's side of the other: that of its own part. A fault it
-        # crosses (its own part on both sides: ground 2 without groups, F1
-        # and F3 crossing where neither displaces a layer) or lies beyond
-        # the end of (on neither) has no block of it to keep to.
-        mine = np.unique(_along_sides(o, fs.own[0]))
-        mine = mine[mine != 0]
-        if len(mine) != 1:
-            continue
-        across |= _along_sides(o, D) == -mine[0]
+    for o, mine in faced:
+        across |= _along_sides(o, D) == -mine
     for side in (ext <= 0, ext >= 0):
         if np.count_nonzero(side & ~across) >= BORROW_BELOW:
             keep &= ~(side & across)
@@ -4121,6 +4130,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
     prep: Dict[str, Tuple[np.ndarray, np.ndarray, float]] = {}
     frames: Dict[str, GridFrame] = {}
     slopes: Dict[str, np.ndarray] = {}
+    faced = _faced_sides(fs, others)
     for lay in ds.layers:
         # With the points of a sparse layer made conformable
         # (Dataset.derived_points, _conformable_points).
@@ -4142,7 +4152,7 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         # 0.112 where the layer dips 0.055, and F2's sides on their lines
         # took that tilt over 1 km to its cutoffs).
         slopes[lay] = _regional_slope(D, frame, ext >= 0, _block_keys(list(partners) + list(others), D))
-        keep = _beside_others(fs, others, D, ext)
+        keep = _beside_others(faced, D, ext)
         D, ext = D[keep], ext[keep]
         prep[lay] = (D, ext, spacing_data)
         frames[lay] = frame
