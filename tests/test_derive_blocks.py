@@ -1133,7 +1133,7 @@ def test_derived_faults_too_close_say_where_their_cutoffs_are_extrapolated():
     ds, _ = _stress_fixture("two_faults_sparse_lines.npz")
     fm.build_model(ds, evaluate=False).check()
     both_blocks = pytest.MonkeyPatch()
-    both_blocks.setattr(derive_module, "_beside_others", lambda faced, D, ext: np.ones(len(D), dtype=bool))
+    both_blocks.setattr(derive_module, "_beside_others", lambda faced, D, ext, keys: np.ones(len(D), dtype=bool))
     try:
         with pytest.raises(fm.DatasetError) as err:
             fm.build_model(ds, evaluate=False)

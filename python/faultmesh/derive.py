@@ -3678,28 +3678,31 @@ def _in_own_block(D: np.ndarray, fs: FaultSurface, others: Sequence[FaultSurface
     return keep
 
 
-def _faced_sides(fs: FaultSurface, others: Sequence[FaultSurface]) -> List[Tuple[FaultSurface, int]]:
-    """(other fault, this fault's side of it: +1 hanging wall, -1 footwall)
-    for each of ``others`` that this fault faces (:func:`_beside_others`):
+def _faced_sides(fs: FaultSurface, others: Sequence[FaultSurface]) -> List[Tuple[int, FaultSurface, int]]:
+    """(index in ``others``, other fault, this fault's side of it: +1
+    hanging wall, -1 footwall) for each of ``others`` that this fault faces
+    (:func:`_beside_others`):
     the side of this fault's own part. A fault it crosses (its own part on
     both sides: ground 2 without groups, F1 and F3 crossing where neither
     displaces a layer) or lies beyond the end of (on neither) has no block
     of it to keep to."""
     faced = []
-    for o in others:
+    for i, o in enumerate(others):
         mine = np.unique(_along_sides(o, fs.own[0]))
         mine = mine[mine != 0]
         if len(mine) == 1:
-            faced.append((o, int(mine[0])))
+            faced.append((i, o, int(mine[0])))
     return faced
 
 
-def _beside_others(faced: Sequence[Tuple[FaultSurface, int]], D: np.ndarray,
-                   ext: np.ndarray) -> np.ndarray:
+def _beside_others(faced: Sequence[Tuple[int, FaultSurface, int]], D: np.ndarray,
+                   ext: np.ndarray, keys: np.ndarray) -> np.ndarray:
     """Mask (n,) of the layer data ``D`` (n, 3; ``ext`` their side of this
     fault, :func:`_data_sides`) that this fault's side surfaces use: on
     each side, those on this fault's side of every other fault (of no
-    group with it) that it faces (``faced``, :func:`_faced_sides`), where
+    group with it) that it faces (``faced``, :func:`_faced_sides`; ``keys``
+    (n, len(others)) the data's sides of those faults continued,
+    :func:`_block_keys`, which the regional slope takes too), where
     at least :data:`BORROW_BELOW` are; else that side's data all, as a
     surface needs them. A side surface through data of two blocks of
     another fault bends by that fault's throw between
@@ -3718,23 +3721,24 @@ def _beside_others(faced: Sequence[Tuple[FaultSurface, int]], D: np.ndarray,
     if not faced or not len(D):
         return keep
     across = np.zeros(len(D), dtype=bool)
-    for o, mine in faced:
-        across |= _along_sides(o, D) == -mine
+    for i, o, mine in faced:
+        across |= _along_sides(o, D, keys[:, i]) == -mine
     for side in (ext <= 0, ext >= 0):
         if np.count_nonzero(side & ~across) >= BORROW_BELOW:
             keep &= ~(side & across)
     return keep
 
 
-def _along_sides(o: FaultSurface, P: np.ndarray) -> np.ndarray:
+def _along_sides(o: FaultSurface, P: np.ndarray, extended: Optional[np.ndarray] = None) -> np.ndarray:
     """Side (n,) of the points ``P`` (n, 3) of fault ``o``'s surface
     continued (+1 hanging wall, -1 footwall, exact test), 0 past an end of
     its extent along strike that does not reach the study-area boundary
-    (:func:`_beside_others`)."""
+    (:func:`_beside_others`). ``extended``: the points' sides of the
+    continued surface, where the caller has them (:func:`_block_keys`)."""
     u = o.u(P[:, :2])
     along = ((u >= o.u_range[0]) | (o.ends[0] == "boundary")) & \
         ((u <= o.u_range[1]) | (o.ends[1] == "boundary"))
-    return np.where(along, o.side(P)[1], 0)
+    return np.where(along, o.side(P)[1] if extended is None else extended, 0)
 
 
 #: Where the extra section at an end on the study-area boundary goes: this
@@ -4151,8 +4155,10 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
         # through both of its blocks as one, tilted it across strike by
         # 0.112 where the layer dips 0.055, and F2's sides on their lines
         # took that tilt over 1 km to its cutoffs).
-        slopes[lay] = _regional_slope(D, frame, ext >= 0, _block_keys(list(partners) + list(others), D))
-        keep = _beside_others(faced, D, ext)
+        # One side test of the data against every other fault, for both.
+        keys = _block_keys(list(partners) + list(others), D)
+        slopes[lay] = _regional_slope(D, frame, ext >= 0, keys)
+        keep = _beside_others(faced, D, ext, keys[:, len(partners):])
         D, ext = D[keep], ext[keep]
         prep[lay] = (D, ext, spacing_data)
         frames[lay] = frame
