@@ -522,6 +522,19 @@ def test_fault_crossing_the_area_at_one_cut_gets_sections_a_cut_step_apart():
     faultmesh.build_model(d, evaluate=False).check()
 
 
+def test_a_derived_fault_that_cuts_no_layer_meets_no_other_fault_s_patches():
+    """Regression (the test above on a fresh install, numpy 2.4.6 and scipy
+    1.17.1): F2 cuts no layer, so derive gives it no traces, and the check
+    whether the patches of two faults that meet touch (derive._patches_meet)
+    asked for its ends first: "GeometryError: fault 'F2' has no trace" out
+    of derive_faults. A fault with no layer in common with the other has no
+    patch to meet."""
+    ring = np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 800.0], [0.0, 800.0]])
+    a = Fault("F1", kind="normal", derived=True)
+    b = Fault("F2", kind="reverse", derived=True)
+    assert derive._patches_meet(a, b, ring) is None
+
+
 # Its derived faults cut no layer: derive took the largest throw of layers
 # with only NaN throws through np.nanmax, which warned "All-NaN slice
 # encountered" (now without the warning).

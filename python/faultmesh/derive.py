@@ -5627,8 +5627,13 @@ def _patches_meet(a: Fault, b: Fault, ring: np.ndarray) -> Optional[str]:
 
     cut_a = {lay for tr in a.traces for lay in tr.layers}
     cut_b = {lay for tr in b.traces for lay in tr.layers}
+    both = sorted(cut_a & cut_b)
+    if not both:
+        # A derived fault that cuts no layer has no traces (and no patch):
+        # fault_ends would refuse it.
+        return None
     ends_a, ends_b = fm.fault_ends(a), fm.fault_ends(b)
-    for lay in sorted(cut_a & cut_b):
+    for lay in both:
         try:
             pa = fm.layer_patch(a, lay, ends_a, ring, None)
             pb = fm.layer_patch(b, lay, ends_b, ring, None)
