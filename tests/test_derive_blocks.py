@@ -946,8 +946,9 @@ def test_picks_under_the_fault_zones_of_the_layers_above_are_not_lowered():
     m), and raising L6 alone was capped by L5, low there too. Each layer
     above that lies under the datum, under its own patch's top sheet there,
     is raised with it (build._raise_over_data): the ground's mean error near
-    the fault 2.12 -> 0.32 m. L10 still misses a pick by 11 m, 28 m from an
-    L9 datum (a conflict of the data there, which the repair resolves)."""
+    the fault 2.12 -> 0.32 m. L10 still misses a pick by 5.0 m, 28 m from
+    an L9 datum (a conflict of the data there, which the repair resolves;
+    11 m before build._cascade_pins)."""
     ds, truth = _stress_fixture("normal_fault_picks_under_upper_patches.npz")
     model = fm.build_model(derive_faults(ds), evaluate=False)
     model.check()
@@ -955,6 +956,32 @@ def test_picks_under_the_fault_zones_of_the_layers_above_are_not_lowered():
     for lay in ("L7", "L9"):
         assert _miss_at_pick(model, ds, lay, 2604.01, 1869.5) <= 0.5, lay
     _assert_picks_honoured(model, ds, truth, ds.layers[:9], 2.0, 100, 0.5)
+
+
+def test_a_datum_is_not_lowered_under_a_layer_the_repair_lowered_past_it(monkeypatch):
+    """Stress ground 103 (tests/data/derive/low_angle_normal_fault_hole_cuts_out_a_layer.npz):
+    eight thin layers cut by a low-angle normal fault of 41.7 m. One place
+    10 m inside the study area has picks of L1-L3 and L5-L8 but none of L4
+    (the fault cuts it out there). L4's TIN lay at -835.1 m there, above
+    the L5 pick (-836.9 m); L3's TIN, bridging the fault, has vertices of
+    both walls (-824 and -851 m) within 1-10 m of its pick, the repair gave
+    L4 vertices at -851 m round the place, and L4 there fell to -849.6 m
+    though L3 stayed at -824.0 m; the L5 pick went down with it, missed by
+    12.0 m. Built again with L4 pinned at its elevation before the repair
+    there (build._cascade_pins), every pick is honoured."""
+    import faultmesh.build as build_module
+
+    ds, truth = _stress_fixture("low_angle_normal_fault_hole_cuts_out_a_layer.npz")
+    derived = derive_faults(ds)
+    model = fm.build_model(derived, evaluate=False)
+    model.check()
+    assert _miss_at_pick(model, ds, "L5", 746.45, 2488.21) <= 1e-3
+    assert all(r["max_m"] <= 1e-3 for r in model.metadata["data_fit"].values()), model.metadata["data_fit"]
+    assert model.metadata["tins"]["L4"]["cascade_pins"] >= 1
+    # Without the pins the cascade is there (the test's ground still shows it).
+    monkeypatch.setattr(build_module, "_cascade_pins", lambda *a: {})
+    unpinned = fm.build_model(derived, evaluate=False)
+    assert _miss_at_pick(unpinned, ds, "L5", 746.45, 2488.21) > 10.0
 
 
 def test_a_repair_that_fails_after_the_stack_raise_builds_with_the_upper_layer_alone():

@@ -62,7 +62,8 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
                  every_derived_patch: bool = False,
                  left_out: Optional[Dict[str, np.ndarray]] = None,
                  raise_stack: bool = True,
-                 raise_report: Optional[Dict[str, Any]] = None) -> Tuple[Dict[str, LayerTin], Dict[str, Any]]:
+                 raise_report: Optional[Dict[str, Any]] = None,
+                 pins: Optional[Dict[str, np.ndarray]] = None) -> Tuple[Dict[str, LayerTin], Dict[str, Any]]:
     """Steps 2 and 3: the continuous TIN of every layer over the study area
     (:class:`faultmesh.LayerTin`), then, top down, each layer made to lie
     nowhere above the one over it (:func:`faultmesh.repair_crossings`).
@@ -78,6 +79,10 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
     fault patches); ``raise_report``: a dict that gets, before the repair,
     ``"stack_points"`` (how many points that rule added; :func:`build_model`
     builds again without it where the repair then fails).
+    ``pins``: per layer, points (k, 3) put into its TIN before the repair
+    (:func:`_cascade_pins`; the build makes them itself when the repair
+    lowers a datum under a layer that lay above it before, and counts
+    them in ``metadata["tins"][layer]["cascade_pins"]``).
     Returns (layer -> LayerTin, metadata with per-layer counts)."""
     prog = _progress_fn(progress)
     layers = list(dataset.layers)
@@ -114,13 +119,16 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
             filled[lay] = len(fill)
             if len(fill):
                 t.insert(fill)
+    for lay, P in (pins or {}).items():
+        tins[lay].insert(np.ascontiguousarray(P))
     prog("stratum TINs", len(layers), len(layers))
     meta: Dict[str, Any] = {"tins": {lay: {"data_points": int(t.n_data), "outside_ignored": int(t.n_outside),
                                            "boundary_data": int(t.n_boundary_data),
                                            "shared_vertices": int(t.n_shared),
                                            "boundary_spacing": float(t.spacing),
                                            "hole_fill_points": filled.get(lay, 0),
-                                           "points_in_fault_patches": in_patches.get(lay, 0)}
+                                           "points_in_fault_patches": in_patches.get(lay, 0),
+                                           "cascade_pins": len((pins or {}).get(lay, ()))}
                                      for lay, t in tins.items()},
                             "repair": {}}
     if repair:
@@ -134,12 +142,63 @@ def stratum_tins(dataset, area: StudyArea, spacing: Optional[float] = None, repa
         # everywhere?) run at once on the threads (repair_stack).
         prog("layer repair", 0, len(layers) - 1)
         rounds = min(max_repair_rounds, STACK_REPAIR_ROUNDS) if stack and stack["points"] else max_repair_rounds
+        before = {lay: np.asarray(tins[up].interpolate(np.ascontiguousarray(data[lay][:, :2])), dtype=np.float64)
+                  for up, lay in zip(layers, layers[1:]) if len(data[lay])}
         counts = repair_stack([tins[lay] for lay in layers], rounds, threads=_threads(threads, len(layers)))
         if stack:
             _lower_back(tins, stack["under_patches"])
         meta["repair"] = dict(zip(layers[1:], counts))
         prog("layer repair", len(layers) - 1, len(layers) - 1)
+        if pins is None:
+            more = _cascade_pins(tins, layers, data, before)
+            if more:
+                return stratum_tins(dataset, area, spacing, repair, max_repair_rounds, progress, threads,
+                                    fill_holes, every_derived_patch, left_out, raise_stack, raise_report,
+                                    pins=more)
     return tins, meta
+
+
+def _cascade_pins(tins: Dict[str, LayerTin], layers: List[str], data: Dict[str, np.ndarray],
+                  before: Dict[str, np.ndarray]) -> Dict[str, np.ndarray]:
+    """After the crossing repair: per layer, a point at the XY of each datum
+    of the layer under it that the repair lowered (by more than
+    :data:`faultmesh.report.DATA_FIT_TOLERANCE`) though this layer lay at
+    or above it there before the repair, at this layer's elevation there
+    before the repair (``before``: per lower layer, the upper TIN at its
+    data). Built again with these points as vertices, the layer keeps that
+    elevation unless the layer over it lies lower there (rule 1 then
+    lowers it, and the datum with it: a conflict the fit report names).
+
+    Why: the repair lowers a layer wherever the one over it lies lower, and
+    a datum of the layer under it between the lowered vertices goes down
+    with the surface they span. In a fault zone the continuous TINs
+    bridge the fault with vertices of both walls a metre apart: stress
+    ground 103 (a low-angle normal fault of 41.7 m), L3's TIN had vertices
+    at -824 and -851 m within 1-10 m of a hole's L3 top; the repair gave L4
+    vertices at -851 m round the hole, L4 there went from -835.1 to -849.6 m
+    though L3 stayed at -824.0 m, and the hole's L5 top at -836.9 m, under
+    L4 before, was lowered 12.7 m under it."""
+    from . import report as _report
+
+    out: Dict[str, np.ndarray] = {}
+    for up, lay in zip(layers, layers[1:]):
+        if lay not in before:
+            continue
+        D = data[lay]
+        zl = np.asarray(tins[lay].interpolate(np.ascontiguousarray(D[:, :2])), dtype=np.float64)
+        zu = before[lay]
+        hit = np.isfinite(zl) & np.isfinite(zu) & (D[:, 2] - zl > _report.DATA_FIT_TOLERANCE) & (zu >= D[:, 2])
+        if hit.any():
+            # Not at a vertex of the upper layer (a datum of it in the same
+            # hole): a point there would set that vertex's z, and a datum
+            # given a z stops counting as measured (LayerTin.insert).
+            V = np.asarray(tins[up].vertices)[:, :2]
+            at = np.concatenate([V, D[hit, :2]])
+            _, inv = np.unique(at, axis=0, return_inverse=True)
+            hit[np.flatnonzero(hit)[np.isin(inv.reshape(-1)[len(V):], inv.reshape(-1)[:len(V)])]] = False
+        if hit.any():
+            out[up] = np.column_stack([D[hit, :2], zu[hit]])
+    return out
 
 
 #: A layer with no datum within this many of its data spacings of a datum
