@@ -188,14 +188,14 @@ def _cascade_pins(tins: Dict[str, LayerTin], layers: List[str], data: Dict[str, 
         zl = np.asarray(tins[lay].interpolate(np.ascontiguousarray(D[:, :2])), dtype=np.float64)
         zu = before[lay]
         hit = np.isfinite(zl) & np.isfinite(zu) & (D[:, 2] - zl > _report.DATA_FIT_TOLERANCE) & (zu >= D[:, 2])
-        if hit.any():
-            # Not at a vertex of the upper layer (a datum of it in the same
-            # hole): a point there would set that vertex's z, and a datum
-            # given a z stops counting as measured (LayerTin.insert).
-            V = np.asarray(tins[up].vertices)[:, :2]
-            at = np.concatenate([V, D[hit, :2]])
-            _, inv = np.unique(at, axis=0, return_inverse=True)
-            hit[np.flatnonzero(hit)[np.isin(inv.reshape(-1)[len(V):], inv.reshape(-1)[:len(V)])]] = False
+        if not hit.any():
+            continue
+        # Not at a vertex of the upper layer (a datum of it in the same
+        # hole): a point there would set that vertex's z, and a datum given
+        # a z stops counting as measured (LayerTin.insert).
+        V = np.asarray(tins[up].vertices)[:, :2]
+        inv = np.unique(np.concatenate([V, D[:, :2]]), axis=0, return_inverse=True)[1].reshape(-1)
+        hit &= ~np.isin(inv[len(V):], inv[:len(V)])
         if hit.any():
             out[up] = np.column_stack([D[hit, :2], zu[hit]])
     return out
