@@ -191,6 +191,64 @@ def test_surface_errors_name_the_file(tmp_path):
         read_fault_surface(tmp_path / "missing.ts", label="fault 'F2' surface")
 
 
+_ONE_TRIANGLE = ("GOCAD TSurf 1\nHEADER {\nname:F1\n}\nPROPERTIES a b\nTFACE\n"
+                 "PVRTX 1 0 0 0 1 2\nPVRTX 2 100 0 -50 1 2\nPVRTX 3 0 100 0 1 2\nTRGL 1 2 3\nEND\n")
+
+
+@pytest.mark.parametrize("change", [
+    ("PVRTX 2 100 0 -50 1 2", "PVRTX 2 100 0 -50 -1.#IND 2"),   # MSVC's NaN
+    ("PVRTX 2 100 0 -50 1 2", "PVRTX 2 100 0 -50 1"),           # a value short
+    ("PVRTX 2 100 0 -50 1 2", "PVRTX 2 100 0 -50 n/a 2"),       # text
+    ("TFACE", "ESIZES 2 1\nTFACE"),                            # more than given
+], ids=["msvc_nan", "short", "text", "esizes"])
+def test_a_fault_surface_s_property_columns_cannot_refuse_it(tmp_path, change):
+    """Regression (fuzz of GOCAD exports): a property value the fault never
+    uses -- MSVC's '-1.#IND', one missing, text -- refused the fault's file."""
+    f = tmp_path / "f1.ts"
+    f.write_text(_ONE_TRIANGLE.replace(*change))
+    v, t = read_fault_surface(f)
+    assert v.tolist() == [[0, 0, 0], [100, 0, -50], [0, 100, 0]] and t.tolist() == [[0, 1, 2]]
+
+
+def test_a_vertex_id_past_int64_is_a_named_error_not_an_overflow(tmp_path):
+    """Regression (fuzz): an id of 20 digits raised OverflowError out of the
+    loader (numpy's int64 conversion of the triangles' ids)."""
+    f = tmp_path / "f1.ts"
+    f.write_text(_ONE_TRIANGLE.replace("TRGL 1 2 3", "TRGL 1 2 99999999999999999999"))
+    with pytest.raises(DatasetError, match=re.escape(f"{f}, line 10: TRGL vertex id") + ".*out of range"):
+        read_fault_surface(f)
+    f.write_text(_ONE_TRIANGLE.replace("PVRTX 1 ", "PVRTX 10000000000000000000 "))
+    with pytest.raises(DatasetError, match=re.escape(f"{f}, line 7: PVRTX id") + ".*out of range"):
+        read_fault_surface(f)
+
+
+def test_a_header_closed_on_its_last_key_line_reads_and_one_never_closed_is_named(tmp_path):
+    """Regression (fuzz): a header closed on its last key line
+    ('*solid*color:1 0 0 1 }') swallowed the geometry and the error named
+    the end of the file; now it is read, and a header never closed is named
+    by the line that opened it."""
+    f = tmp_path / "f1.ts"
+    f.write_text(_ONE_TRIANGLE.replace("name:F1\n}", "name:F1\n*solid*color:1 0 0 1 }"))
+    v, t = read_fault_surface(f)
+    assert len(v) == 3 and t.tolist() == [[0, 1, 2]]
+    f.write_text(_ONE_TRIANGLE.replace("name:F1\n}", "name:F1"))
+    with pytest.raises(DatasetError, match=re.escape(f"{f}, line 4: the HEADER block opened at line 2 "
+                                                     "has no closing '}' before this PROPERTIES line")):
+        read_fault_surface(f)
+
+
+def test_an_underscore_in_a_coordinate_is_refused_and_a_trailing_ctrl_z_ignored(tmp_path):
+    """Regressions (fuzz): Python's float() read '100_000' as 100000 (the
+    datasets' CSVs refuse it); a DOS end-of-file byte after END was read as
+    the start of another object."""
+    f = tmp_path / "f1.ts"
+    f.write_text(_ONE_TRIANGLE.replace("PVRTX 2 100 ", "PVRTX 2 1_00 "))
+    with pytest.raises(DatasetError, match=re.escape(f"{f}, line 8: expected a number for x")):
+        read_fault_surface(f)
+    f.write_text(_ONE_TRIANGLE + "\x1a")
+    assert read_fault_surface(f)[1].tolist() == [[0, 1, 2]]
+
+
 # A quad of two triangles, 0-1-2 and 1-3-2 wound alike (both clockwise in
 # map view), 1 km along strike, 300 m down dip.
 _QUAD_V = "VRTX 1 0 0 0\nVRTX 2 1000 0 0\nVRTX 3 0 200 -300\nVRTX 4 1000 200 -300\n"

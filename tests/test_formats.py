@@ -612,6 +612,24 @@ def test_gocad_keywords_end_at_any_white_space_and_an_open_crs_block_is_named(tm
         load_model(p)
 
 
+def test_gocad_property_values_msvc_nan_read_and_ragged_rows_named(tmp_path):
+    """Regressions (fuzz of GOCAD exports): MSVC's '-1.#IND' / '1.#INF' in a
+    property column refused the file; property rows of different lengths
+    (ESIZES changed between PVRTX lines) leaked numpy's "inhomogeneous
+    shape" with no line."""
+    p = tmp_path / "t.ts"
+    p.write_text("GOCAD TSurf 1\nHEADER {\nname:s\n}\nPROPERTIES a\nTFACE\nPVRTX 1 0 0 0 -1.#IND\n"
+                 "PVRTX 2 1 0 0 1.#INF\nPVRTX 3 0 1 0 2.5\nTRGL 1 2 3\nEND\n")
+    (s,) = load_model(p).surfaces.values()
+    a = s.metadata["vertex_properties"]["a"]
+    assert np.isnan(a[0]) and a[1] == np.inf and a[2] == 2.5
+    p.write_text(p.read_text().replace("PVRTX 2 1 0 0 1.#INF\n", "ESIZES 2\nPVRTX 2 1 0 0 1 2\n")
+                 .replace("2.5", "2.5 3"))
+    with pytest.raises(ModelFileError, match=r"line 9: this vertex has 2 property value\(s\) where the "
+                                             r"first PVRTX \(line 7\) has 1"):
+        load_model(p)
+
+
 # --------------------------------------------------------------------------
 # no foreign file makes faultmesh exit
 # --------------------------------------------------------------------------

@@ -166,7 +166,8 @@ def read_fault_surface(path, *, ctx: Optional[_Ctx] = None,
     # FIFO -- which must not be opened --, a dangling symlink ...).
     _read_regular_file(file, f"{(ctx if ctx is not None else _Ctx(file)).file}: {label}")
     try:
-        model = read_ts(file, atoms="merge")
+        # The geometry alone: a property column is no business of a fault's.
+        model = read_ts(file, atoms="merge", properties=False)
     except ModelFileError as e:
         # The GOCAD reader quotes the line it could not read; a dataset's
         # messages quote no line of a file (the path may name a file that is

@@ -29,8 +29,9 @@ Writing (docs/formats.md, "GOCAD"):
 Reading accepts what other tools write (SKUA/GOCAD, SCEC CFM, OpenGeode,
 RMS): ``.ts``, ``.ml`` and ``.pl`` by content, not by suffix. ``PVRTX`` with
 properties named by ``PROPERTIES`` (GOCAD quoting, ``" default property"``),
-sized by ``ESIZES``, ``NO_DATA_VALUES`` read as NaN, trailing flags such as
-``CNXYZ`` ignored; ``ATOM``/``PATOM`` (a new vertex id on the position of an
+sized by ``ESIZES``, ``NO_DATA_VALUES`` and MSVC's ``-1.#IND``/``1.#INF``
+read as NaN and infinity, trailing flags such as ``CNXYZ`` ignored
+(``properties=False`` skips the values: a fault surface's reader); ``ATOM``/``PATOM`` (a new vertex id on the position of an
 existing one: copied by default so the file's topology is kept, or merged with
 ``atoms="merge"``); several ``TFACE`` parts (one surface); ``ZPOSITIVE
 Depth`` (z negated to elevations); ``AXIS_UNIT`` other than metres (feet,
@@ -41,7 +42,12 @@ gives a fault (``normal_fault``/``reverse_fault`` set ``metadata["kind"]``),
 they are listed in ``model.metadata["gocad_boundary_surfaces"]`` and left out;
 every other type is a layer. ``#`` comments, brace blocks, ``BSTONE``,
 ``BORDER``, ``REGION``, ``ARI`` blocks and any unknown keyword are ignored;
-objects of other types (``VSet``, ``GSurf``, ...) are skipped.
+objects of other types (``VSet``, ``GSurf``, ...) are skipped; a header
+closed on its last key line (``*solid*color:1 0 0 1 }``) is closed there; a
+trailing DOS end-of-file byte (Ctrl-Z) is ignored. Refused naming the line:
+a vertex id beyond int64, a number with ``_`` in it (``1_000``, which
+Python's ``float`` takes), a header never closed (naming the line that
+opened it), property rows of different lengths.
 """
 from __future__ import annotations
 
@@ -372,19 +378,49 @@ class _Object:
         return len(self.prop_names)
 
 
-def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
+# Vertex ids are stored as int64 (numpy's id arrays); a larger one in a file
+# is refused by name rather than overflowing in the conversion.
+_ID_MIN, _ID_MAX = -(1 << 63), (1 << 63) - 1
+
+# Windows' C runtime (MSVC before 2015) printed NaN and infinity so; GOCAD
+# exports of that age carry them in property columns.
+_MSVC_SPECIAL = {"1.#inf": np.inf, "-1.#inf": -np.inf, "1.#ind": np.nan, "-1.#ind": np.nan,
+                 "1.#qnan": np.nan, "-1.#qnan": np.nan, "1.#snan": np.nan, "-1.#snan": np.nan}
+
+
+def _property_value(tok: str) -> float:
+    """A property value: a number, or one of MSVC's spellings of NaN and
+    infinity; ValueError otherwise."""
+    special = _MSVC_SPECIAL.get(tok.lower())
+    if special is not None:
+        return float(special)
+    if "_" in tok:   # float() takes "1_000"; no GOCAD writer does
+        raise ValueError(tok)
+    return float(tok)
+
+
+def _parse(path: Path, text: str, atoms: str, properties: bool = True) -> List[_Object]:
+    """The objects of a GOCAD file. ``properties``: read the PVRTX/PATOM
+    property values (False: a reader of the geometry alone ignores them, so
+    a property column it does not use cannot refuse the file)."""
     objects: List[_Object] = []
     obj: Optional[_Object] = None
     block_end: Optional[str] = None   # inside HEADER {...} or another brace block
+    block_line = 0                    # the line that opened it
+    last_header_key = ""              # the key of the block's last key:value line
     in_crs = False
     skip_until: Optional[str] = None  # e.g. BEGIN_ATOM_REGION_INDICATORS ... END_...
-    lines = split_lines(text)
+    # A trailing Ctrl-Z (DOS's end-of-file byte, left by old Windows tools)
+    # is no content.
+    lines = split_lines(text.rstrip("\x1a"))
 
     def err(msg: str, no: int) -> ModelFileError:
         return ModelFileError(path, msg, no)
 
     def number(tok: str, no: int, what: str) -> float:
         try:
+            if "_" in tok:   # float() takes "1_000"; the datasets' CSVs refuse it
+                raise ValueError(tok)
             v = float(tok)
         except ValueError:
             raise err(f"expected a number for {what}, got {tok!r}", no) from None
@@ -394,9 +430,14 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
 
     def ident(tok: str, no: int, what: str) -> int:
         try:
-            return int(tok)
+            if "_" in tok:
+                raise ValueError(tok)
+            v = int(tok)
         except ValueError:
             raise err(f"expected an integer {what}, got {tok!r}", no) from None
+        if not _ID_MIN <= v <= _ID_MAX:
+            raise err(f"{what} {tok!r} is out of range (at most {_ID_MAX})", no)
+        return v
 
     def values(toks: Sequence[str], no: int, key: str) -> List[float]:
         """The property values of a PVRTX/PATOM: the first n_props tokens."""
@@ -405,7 +446,7 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
             raise err(f"{key}: expected {n} property value(s) after the coordinates "
                       f"(PROPERTIES {' '.join(obj.prop_names)}), got {len(toks)}", no)
         try:
-            return [float(t) for t in toks[:n]]
+            return [_property_value(t) for t in toks[:n]]
         except ValueError:
             raise err(f"{key}: property values must be numbers, got {list(toks[:n])}", no) from None
 
@@ -450,13 +491,28 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
             closes = body.startswith("}")
             if closes:
                 body = ""
-            if block_end == "HEADER" and body:
-                key, sep, val = body.partition(":")
-                if sep:
-                    obj.header[key.strip()] = _unquote(val)
-            if closes:
+            key = _keyword(s)[0]
+            if not closes and key in _NOT_IN_CRS:
+                # The object's geometry (or its END) inside the block: the
+                # block was closed on its last key line ("color:1 0 0 1 }",
+                # as some writers do) or not at all -- which would swallow
+                # the object.
+                last = obj.header.get(last_header_key, "") if block_end == "HEADER" else ""
+                if not (last_header_key and last.rstrip().endswith("}")):
+                    raise err(f"the {'HEADER' if block_end == 'HEADER' else 'brace'} block opened "
+                              f"at line {block_line} has no closing '}}' before this {key} line",
+                              no)
+                obj.header[last_header_key] = _unquote(last.rstrip()[:-1])
                 block_end = None
-            continue
+            else:
+                if block_end == "HEADER" and body:
+                    hkey, sep, val = body.partition(":")
+                    if sep:
+                        last_header_key = hkey.strip()
+                        obj.header[last_header_key] = _unquote(val)
+                if closes:
+                    block_end = None
+                continue
         if in_crs:
             key, val = _keyword(s)
             if key == "END_ORIGINAL_COORDINATE_SYSTEM":
@@ -478,7 +534,8 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
             if len(tok) < 4:
                 raise err(f"{key}: expected 'id x y z', got {s[:80]!r}", no)
             try:  # fast path; the checks below name the bad field
-                vid = int(tok[0])
+                if "_" in rest or not _ID_MIN <= (vid := int(tok[0])) <= _ID_MAX:
+                    raise ValueError(rest)
                 xyz = (float(tok[1]), float(tok[2]), float(tok[3]))
             except ValueError:
                 vid = ident(tok[0], no, f"{key} id")
@@ -490,7 +547,8 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
             obj.xyz.append(xyz)
             obj.vlines.append(no)
             # VRTX carries no properties (trailing tokens are flags such as CNXYZ).
-            obj.props.append(values(tok[4:], no, key) if key == "PVRTX" and obj.prop_names else [])
+            obj.props.append(values(tok[4:], no, key)
+                             if properties and key == "PVRTX" and obj.prop_names else [])
         elif key in ("ATOM", "PATOM"):
             tok = rest.split()
             if len(tok) < 2:
@@ -512,14 +570,18 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
                 obj.ids.append(vid)
                 obj.xyz.append(obj.xyz[ref_row])
                 obj.vlines.append(no)
-                own = values(tok[2:], no, key) if key == "PATOM" and obj.prop_names else []
+                own = (values(tok[2:], no, key)
+                       if properties and key == "PATOM" and obj.prop_names else [])
                 obj.props.append(own or list(obj.props[ref_row]))
         elif key == "TRGL":
             tok = rest.split()
             if len(tok) < 3:
                 raise err(f"TRGL: expected three vertex ids, got {s[:80]!r}", no)
             try:
-                obj.tri_ids.append((int(tok[0]), int(tok[1]), int(tok[2])))
+                tri = (int(tok[0]), int(tok[1]), int(tok[2]))
+                if "_" in rest or not (_ID_MIN <= min(tri) and max(tri) <= _ID_MAX):
+                    raise ValueError(rest)
+                obj.tri_ids.append(tri)
             except ValueError:
                 obj.tri_ids.append((ident(tok[0], no, "TRGL vertex id"),
                                     ident(tok[1], no, "TRGL vertex id"),
@@ -538,6 +600,7 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
             if not s.count("{"):
                 raise err("HEADER: expected '{'", no)
             block_end = "HEADER" if key == "HEADER" else "OTHER"
+            block_line, last_header_key = no, ""
             if inner.strip():
                 closes = inner.strip().endswith("}")
                 body = inner.strip()[:-1] if closes else inner
@@ -584,6 +647,9 @@ def _parse(path: Path, text: str, atoms: str) -> List[_Object]:
             raise err(f"'GOCAD {rest}' starts a new object, but the {obj.kind} object started at "
                       f"line {obj.line} has no END", no)
         # Anything else (BSTONE, BORDER, GEOLOGICAL_FEATURE, REGION, ...) is ignored.
+    if block_end is not None:
+        raise err(f"unexpected end of file: the {'HEADER' if block_end == 'HEADER' else 'brace'} "
+                  f"block opened at line {block_line} has no closing '}}'", len(lines))
     if obj is not None:
         raise err(f"unexpected end of file: the {obj.kind} object started at line {obj.line} "
                   f"has no END", len(lines))
@@ -629,9 +695,16 @@ def _xyz(path: Path, obj: _Object) -> np.ndarray:
     return xyz
 
 
-def _properties(obj: _Object) -> Dict[str, np.ndarray]:
+def _properties(path: Path, obj: _Object) -> Dict[str, np.ndarray]:
     if not obj.prop_names or not obj.props or not all(len(p) for p in obj.props):
         return {}
+    counts = np.array([len(p) for p in obj.props])
+    if np.any(counts != counts[0]):
+        # ESIZES (or PROPERTIES) changed between the PVRTX lines.
+        r = int(np.flatnonzero(counts != counts[0])[0])
+        raise ModelFileError(path, f"this vertex has {counts[r]} property value(s) where the "
+                                   f"first PVRTX (line {obj.vlines[0]}) has {counts[0]}",
+                             obj.vlines[r])
     sizes = obj.esizes if len(obj.esizes) == len(obj.prop_names) else [1] * len(obj.prop_names)
     allp = np.array(obj.props, dtype=np.float64).reshape(len(obj.props), -1)
     if allp.shape[1] != sum(sizes):
@@ -657,7 +730,7 @@ def _boundary_from(path: Path, objects: List[_Object]) -> Optional[np.ndarray]:
     return None
 
 
-def read_gocad(path, atoms: str = "copy"):
+def read_gocad(path, atoms: str = "copy", properties: bool = True):
     """Read the ``TSurf`` objects of a GOCAD ``.ts`` or ``.ml`` file into a
     :class:`faultmesh.Model` (see the module docstring for what is accepted).
 
@@ -665,13 +738,15 @@ def read_gocad(path, atoms: str = "copy"):
     referenced position, as the file's topology says; ``"merge"`` makes it the
     same vertex as the one it references. The study boundary comes from a
     faultmesh boundary PLine in the file or in ``<stem>_boundary.pl`` beside it.
+    ``properties=False`` reads the geometry alone: PVRTX property values are
+    not read (nor checked).
     """
     from ..model import Model, Surface
 
     if atoms not in ("copy", "merge"):
         raise ValueError(f"read_gocad: atoms must be 'copy' or 'merge', got {atoms!r}")
     path = Path(path)
-    objects = _parse(path, read_text(path), atoms)
+    objects = _parse(path, read_text(path), atoms, properties)
     layers: List[Tuple[float, int, Surface]] = []
     faults: List[Tuple[float, int, Surface]] = []
     skipped: List[Dict[str, object]] = []
@@ -715,7 +790,7 @@ def read_gocad(path, atoms: str = "copy"):
         meta: Dict[str, object] = {}
         if obj.parts > 1:
             meta["tface_parts"] = obj.parts
-        props = _properties(obj)
+        props = _properties(path, obj)
         if props:
             meta["vertex_properties"] = props
         kind = obj.header.get("faultmesh_kind") or ("fault" if "fault" in gtype else "layer")
