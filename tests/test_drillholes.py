@@ -296,6 +296,28 @@ def test_a_layer_list_given_bottom_to_top_is_named_as_the_cause(tmp_path):
         load_drillholes(c, s, i, ["C", "B", "A"])
 
 
+def test_surveys_with_dips_positive_downwards_are_named_as_a_possible_cause(tmp_path):
+    """Regression (fuzz of drillhole tables): surveys written with dips
+    positive downwards (+60 for a hole going down at 60 degrees) send the
+    holes up; the error asked only whether 'layers' was bottom to top.
+    Now it also names the dip convention, with how many contacts lie where
+    the holes go up."""
+    c, s, i = tables(tmp_path, "hole_id,x,y,z\nH1,0,0,50\nH2,100,0,50\n",
+                     "hole_id,depth,azimuth,dip\nH1,0,90,60\nH2,0,90,60\n",
+                     "hole_id,from,to,unit\nH1,0,10,A\nH1,10,30,B\nH1,30,40,C\n"
+                     "H2,0,12,A\nH2,12,25,B\nH2,25,40,C\n")
+    with pytest.raises(DatasetError, match=r"4 of the 4 contacts.*bottom to top.*dips positive "
+                                           r"downwards\? 4 of these contacts lie where the hole goes up"):
+        load_drillholes(c, s, i, ["A", "B", "C"])
+    # Down-going holes with the list reversed: no word of the dips.
+    c, s, i = tables(tmp_path, "hole_id,x,y,z\nH1,0,0,50\nH2,100,0,50\n",
+                     "hole_id,depth,azimuth,dip\nH1,0,90,-60\nH2,0,90,-60\n",
+                     "hole_id,from,to,unit\nH1,0,10,A\nH1,10,30,B\nH1,30,40,C\n"
+                     "H2,0,12,A\nH2,12,25,B\nH2,25,40,C\n")
+    with pytest.raises(DatasetError, match=r"bottom to top instead of top to bottom\?$"):
+        load_drillholes(c, s, i, ["C", "B", "A"])
+
+
 def test_tops_of_a_deviated_hole_have_their_own_xy(tmp_path):
     # Straight hole at az 90, dip -60: depth d is at (x0 + d/2, y0, z0 - d sqrt3/2).
     c, s, i = tables(tmp_path, "hole_id,x,y,z\nD1,300,200,40\n",

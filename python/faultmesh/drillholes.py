@@ -753,6 +753,12 @@ class Drillholes:
         inverted = is_contact & ((down & (pr > cr)) | (up & (cr > pr)))
         n_inv, n_ok = int(inverted.sum()), int((top_down | top_up).sum())
         if n_inv >= 3 and n_inv > n_ok:
+            # Holes that go up at most of these contacts: the surveys' dips
+            # written positive downwards (a common other convention).
+            n_up = int((inverted & up).sum())
+            dips_hint = (f" Or are the surveys' dips positive downwards? {n_up} of these contacts "
+                         "lie where the hole goes up; here a dip is from the horizontal, -90 "
+                         "straight down") if 2 * n_up > n_inv else ""
             k = int(rows[cand[inverted]][np.argmin(it.lines[rows[cand[inverted]]])])
             j = int(np.flatnonzero(rows[cand] == k)[0])
             above, below = layers[int(pr[j])], layers[int(cr[j])]
@@ -763,7 +769,7 @@ class Drillholes:
                 f"put a layer below one that 'layers' lists under it (e.g. row {it.lines[k]}, hole "
                 f"{_r(it.hole_id[k])}: {below!r} below {above!r}; 'layers' is {layers}); such "
                 "a contact gives no top. Is 'layers' listed bottom to top instead of top to "
-                "bottom?")
+                "bottom?" + dips_hint)
         top_collar = ~is_contact & down
         keep = top_down | top_up | top_collar
         unit_rank = np.where(top_up, pr, cr)[keep]
