@@ -2734,3 +2734,22 @@ def test_noisy_picks_on_lines_are_smoothed_not_followed():
     near = truth[:, 3] <= 150.0
     assert np.all(np.isfinite(err)), "the model misses truth places"
     assert np.median(err[near]) < 1.2 and err.max() < 30.0, (np.median(err[near]), err.max())
+
+
+def test_a_fault_surface_folded_by_a_no_data_vertex_names_a_triangle_at_it():
+    """Regression (fuzz of GOCAD exports): a fault TSurf with one vertex at
+    z = -99999 (a no-data value) was refused as folded with no word of
+    where; the error now gives a triangle of the fewer orientation, whose
+    corners show the vertex."""
+    from scipy.spatial import Delaunay
+    ys, zs = np.meshgrid(np.linspace(0, 1000, 6), np.linspace(-500, 0, 6))
+    x = 500 + (-zs) / np.tan(np.radians(60))
+    V = np.column_stack([x.ravel(), ys.ravel(), zs.ravel()])
+    T = Delaunay(V[:, 1:]).simplices.astype(np.int64)
+    ring = np.array([[0, 0], [1000, 0], [1000, 1000], [0, 1000]], float)
+    fs = derive.fault_surface(Fault("F", surface=(V.copy(), T)), ring, (-500.0, 0.0))
+    assert fs.dip == pytest.approx(60.0, abs=0.5)
+    V[14, 2] = -99999.0
+    with pytest.raises(faultmesh.GeometryError, match=r"fault 'F': the surface folds over .*triangle \d+ of 50, "
+                                            r"corners .*-99999\).*faces the other way"):
+        derive.fault_surface(Fault("F", surface=(V, T)), ring, (-500.0, 0.0))

@@ -1945,9 +1945,16 @@ def fault_surface(fault: Fault, ring: np.ndarray, z_range: Tuple[float, float], 
         Q2 = np.ascontiguousarray(P[:, [iu, iv]])
         o = np.sign(orient2d(Q2[T[:, 0]], Q2[T[:, 1]], Q2[T[:, 2]]))
         if (o > 0).any() and (o < 0).any() and _consistent_winding(T):
+            # A triangle of the fewer orientation shows where: a vertex at a
+            # no-data value (z = -99999) folds the triangles round it.
+            few = o > 0 if (o > 0).sum() <= (o < 0).sum() else o < 0
+            k = int(np.flatnonzero(few)[0])
+            corners = ", ".join("(" + ", ".join(f"{c:.10g}" for c in P[v]) + ")" for v in T[k])
             raise GeometryError(f"derive: fault {fault.name!r}: the surface folds over in the "
                                 f"projection along {'xyz'[axis]} (dip {dip:.0f} degrees): it is not "
-                                "a function there")
+                                f"a function there (e.g. its triangle {k} of {len(T)}, corners "
+                                f"{corners}, faces the other way than {int((~few & (o != 0)).sum())} "
+                                "others)")
         u = (P[:, :2] - centre[:2]) @ strike
         for e in (0, 1):
             sel = (u <= u.min() + 0.1 * max(length, 1e-9)) if e == 0 else \
