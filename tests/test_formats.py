@@ -669,6 +669,199 @@ def test_vtk_with_string_arrays_written_by_pyvista_loads(tmp_path):
 
 
 # --------------------------------------------------------------------------
+# readers fed files of real tools (fuzz 47 findings)
+# --------------------------------------------------------------------------
+
+def test_obj_negative_indices_count_back_from_the_vertices_read_so_far(tmp_path):
+    """Regression: with v/f interleaved per object (as many exporters write),
+    'f -3 -2 -1' of object A counted back from the file's last vertex and
+    gave A the triangle of B."""
+    p = tmp_path / "neg.obj"
+    p.write_text("o A\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n"
+                 "o B\nv 0 0 -5\nv 1 0 -5\nv 0 1 -5\nf -3 -2 -1\n")
+    m = load_model(p)
+    assert m.surfaces["A"].vertices[:, 2].tolist() == [0.0, 0.0, 0.0]
+    assert m.surfaces["B"].vertices[:, 2].tolist() == [-5.0, -5.0, -5.0]
+    # a negative index before enough vertices are read is named with its line
+    p.write_text("v 0 0 0\nf -1 -2 -3\nv 1 0 0\nv 0 1 0\n")
+    with pytest.raises(ModelFileError, match=r"line 2: .*-1\.\.-1"):
+        load_model(p)
+
+
+def test_obj_tab_after_keyword_and_inline_comments_are_read(tmp_path):
+    """Regression: 'v\t0 0 0' was not a vertex (no vertices at all) and
+    'f 1 2 3 # tri' a face of 5 vertices."""
+    p = tmp_path / "t.obj"
+    p.write_text("v\t0 0 0\nv\t1 0 0  # corner\nv 0 1 0\nf\t1 2 3 # tri\n")
+    (s,) = load_model(p).surfaces.values()
+    assert s.vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    assert s.triangles.tolist() == [[0, 1, 2]]
+
+
+_STL_TRI = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+
+
+def test_stl_keywords_in_any_case_load(tmp_path):
+    """Regression: SOLID/FACET/VERTEX (and mixed case) loaded as an empty surface."""
+    p = tmp_path / "u.stl"
+    p.write_text("SOLID X\n FACET NORMAL 0 0 1\n  OUTER LOOP\n   VERTEX 0 0 0\n   Vertex 1 0 0\n"
+                 "   VERTEX 0 1 0\n  ENDLOOP\n ENDFACET\nENDSOLID X\n")
+    (s,) = load_model(p).surfaces.values()
+    assert sorted(s.vertices.tolist()) == sorted(_STL_TRI) and s.n_triangles == 1
+
+
+def _binary_stl(header: bytes, corners, count=None, tail: bytes = b"") -> bytes:
+    import struct
+
+    rec = np.zeros(len(corners), np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")]))
+    rec["v"] = corners
+    n = len(corners) if count is None else count
+    return header.ljust(80) + struct.pack("<I", n) + rec.tobytes() + tail
+
+
+def test_binary_stl_with_a_solid_header_and_trailing_bytes_loads(tmp_path):
+    """Regression: a binary STL whose header starts with 'solid' (SolidWorks,
+    many CAD exporters) and whose size is not exactly 84 + 50 n loaded empty."""
+    p = tmp_path / "b.stl"
+    p.write_bytes(_binary_stl(b"solid part", [_STL_TRI], tail=b"\0"))
+    (s,) = load_model(p).surfaces.values()
+    assert sorted(s.vertices.tolist()) == sorted(_STL_TRI) and s.n_triangles == 1
+    p.write_bytes(_binary_stl(b"solid part", [_STL_TRI]))   # exact size, same result
+    assert load_model(p).surfaces["b"].n_triangles == 1
+
+
+def test_truncated_binary_stl_names_the_file_and_the_counts(tmp_path):
+    p = tmp_path / "cut.stl"
+    p.write_bytes(_binary_stl(b"solid part", [_STL_TRI, _STL_TRI])[:150])
+    with pytest.raises(ModelFileError, match=r"cut\.stl: binary STL: the header announces 2 "
+                                             r"facets \(84 \+ 50 x 2 = 184 bytes\), the file "
+                                             r"has 150 bytes"):
+        load_model(p)
+
+
+@pytest.mark.parametrize("name, text", [
+    ("nan.vtk", "# vtk DataFile Version 4.2\nx\nASCII\nDATASET POLYDATA\nPOINTS 3 double\n"
+                "0 0 0 1 0 nan 0 1 0\nPOLYGONS 1 4\n3 0 1 2\n"),
+    ("inf.vtp", '<?xml version="1.0"?>\n<VTKFile type="PolyData" version="0.1">\n<PolyData>\n'
+                '<Piece NumberOfPoints="3" NumberOfPolys="1">\n<Points><DataArray type="Float64" '
+                'NumberOfComponents="3" format="ascii">0 0 0 1 0 inf 0 1 0</DataArray></Points>\n'
+                '<Polys><DataArray type="Int64" Name="connectivity" format="ascii">0 1 2'
+                '</DataArray><DataArray type="Int64" Name="offsets" format="ascii">3</DataArray>'
+                '</Polys>\n</Piece>\n</PolyData>\n</VTKFile>\n')])
+def test_vtk_non_finite_point_is_refused_naming_the_point(tmp_path, name, text):
+    """Regression: NaN/inf coordinates loaded as they were (and failed later,
+    far from the file); refused like the GOCAD and STL readers do."""
+    p = tmp_path / name
+    p.write_text(text)
+    with pytest.raises(ModelFileError, match=rf"{re.escape(name)}: point 1 has non-finite"):
+        load_model(p)
+
+
+def test_vtk_non_finite_point_no_triangle_uses_is_dropped(tmp_path):
+    p = tmp_path / "unused.vtk"
+    p.write_text("# vtk DataFile Version 4.2\nx\nASCII\nDATASET POLYDATA\nPOINTS 4 double\n"
+                 "0 0 0 nan nan nan 1 0 0 0 1 0\nPOLYGONS 1 4\n3 0 2 3\n")
+    (s,) = load_model(p).surfaces.values()
+    assert s.vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    assert s.triangles.tolist() == [[0, 1, 2]]
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".ts", ".ml", ".3dt", ".vtu", ".vtp", ".vtk", ".ply"])
+def test_convert_of_an_empty_surface_writes_it(tmp_path, suffix, capsys):
+    """Regression: an empty surface (an empty .vtp as VTK writes it: the
+    readers of VTK, STL and geoh5 keep it) made convert fail in format_floats
+    with "cannot reshape array of size 0" and no file named."""
+    pv = pytest.importorskip("pyvista")
+    src = tmp_path / "empty.vtp"
+    pv.PolyData().save(src)
+    assert main(["convert", str(src), str(tmp_path / f"out{suffix}")]) == 0
+    if suffix == ".obj":
+        # OBJ has no empty objects: its reader refuses a file without vertices.
+        with pytest.raises(ModelFileError, match="no vertices"):
+            load_model(tmp_path / "out.obj")
+        return
+    (s,) = surfaces(load_model(tmp_path / f"out{suffix}"))
+    assert (s.name, s.n_vertices, s.n_triangles) == ("empty", 0, 0)
+
+
+def test_vtp_with_base64_appended_data_says_so(tmp_path):
+    """Regression: VTK's default XML writer (appended, base64-encoded) got
+    "appended array without a valid offset" instead of the documented message."""
+    pytest.importorskip("vtkmodules.vtkIOXML")
+    from vtkmodules.vtkFiltersSources import vtkPlaneSource
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
+
+    src = vtkPlaneSource()
+    src.Update()
+    w = vtkXMLPolyDataWriter()
+    w.SetInputData(src.GetOutput())
+    w.SetFileName(str(tmp_path / "d.vtp"))
+    w.SetDataModeToAppended()
+    w.EncodeAppendedDataOn()      # VTK's default: base64 appended data
+    assert w.Write() == 1
+    with pytest.raises(ModelFileError, match="appended base64 data is not supported"):
+        load_model(tmp_path / "d.vtp")
+
+
+def _epc(tmp_path, name, points, **crs):
+    """A one-surface .epc written by resqpy with a CRS of the given keywords."""
+    import resqpy.crs as rqc
+    import resqpy.model as rq
+    import resqpy.surface as rqs
+
+    rm = rq.new_model(str(tmp_path / f"{name}.epc"))
+    c = rqc.Crs(rm, **crs)
+    c.create_xml()
+    s = rqs.Surface(rm, crs_uuid=c.uuid, title="H1")
+    s.set_from_triangles_and_points(np.array([[0, 1, 2]]), np.asarray(points, float))
+    s.write_hdf5()
+    s.create_xml()
+    rm.store_epc()
+    return tmp_path / f"{name}.epc"
+
+
+_LOCAL = [[0.0, 0.0, 1000.0], [10.0, 0.0, 1000.0], [0.0, 10.0, 1000.0]]
+
+
+def test_resqml_missing_h5_names_the_epc_and_the_h5(tmp_path):
+    """Regression: resqpy's FileNotFoundError escaped."""
+    p = _epc(tmp_path, "noh5", _LOCAL)
+    (tmp_path / "noh5.h5").unlink()
+    with pytest.raises(ModelFileError, match=r"noh5\.epc: .*noh5\.h5.* is missing"):
+        load_model(p)
+
+
+def test_resqml_crs_in_feet_is_read_in_metres(tmp_path):
+    """Regression: a depth CRS in feet (z_units ft) gave z in feet; xy_units
+    are converted too, as the GOCAD reader does for AXIS_UNIT."""
+    p = _epc(tmp_path, "ft", _LOCAL, z_inc_down=True, xy_units="ft", z_units="ft")
+    (s,) = load_model(p).surfaces.values()
+    # 1 ft = 0.3048 m exactly; a few ulp for the multiplication
+    assert np.allclose(s.vertices, np.array(_LOCAL) * [0.3048, 0.3048, -0.3048], rtol=1e-15, atol=0)
+
+
+def test_resqml_crs_offset_and_rotation_give_global_coordinates(tmp_path):
+    """Regression: any offset or rotation gave "TypeError: len() of unsized
+    object" (resqpy's local_to_global_array works in place, returns None)."""
+    # z up with an x offset: shifted, z kept as is (a z-up CRS is not flipped)
+    p = _epc(tmp_path, "xoff", _LOCAL, z_inc_down=False, x_offset=512000.0)
+    (s,) = load_model(p).surfaces.values()
+    assert s.vertices.tolist() == [[512000.0, 0.0, 1000.0], [512010.0, 0.0, 1000.0],
+                                   [512000.0, 10.0, 1000.0]]
+    # depth CRS rotated 30 degrees (local axes clockwise from east/north),
+    # offsets in x, y and z: expected from the RESQML definition, not resqpy
+    p = _epc(tmp_path, "rot", _LOCAL, z_inc_down=True, x_offset=500000.0, y_offset=7000000.0,
+             z_offset=100.0, rotation=30.0, rotation_units="dega")
+    (s,) = load_model(p).surfaces.values()
+    a = np.radians(30.0)
+    x, y, z = np.array(_LOCAL).T
+    want = np.column_stack([500000.0 + x * np.cos(a) + y * np.sin(a),
+                            7000000.0 - x * np.sin(a) + y * np.cos(a), -(z + 100.0)])
+    # 1e-6 m: rotation by a cos/sin of 30 degrees at 7e6 m (about 1e-9 m of rounding)
+    assert np.allclose(s.vertices, want, rtol=0, atol=1e-6)
+
+
+# --------------------------------------------------------------------------
 # fuzz targets: mutated and truncated files load or raise ModelFileError
 # --------------------------------------------------------------------------
 

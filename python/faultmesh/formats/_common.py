@@ -169,6 +169,10 @@ def format_floats(a: np.ndarray) -> List[str]:
     scalars would print as ``np.float64(...)``).
     """
     a = np.asarray(a, dtype=np.float64)
+    if not len(a):
+        # An empty surface (no vertices) is a valid model part: no rows. (numpy
+        # cannot reshape size 0 to (0, -1).)
+        return []
     if a.size and not np.all(np.isfinite(a)):
         bad = int(np.flatnonzero(~np.all(np.isfinite(a.reshape(len(a), -1)), axis=1))[0])
         raise ValueError(f"cannot write non-finite coordinates (row {bad}: {a[bad].tolist()})")
@@ -178,6 +182,8 @@ def format_floats(a: np.ndarray) -> List[str]:
 
 def format_ints(a: np.ndarray, offset: int = 0) -> List[str]:
     a = np.asarray(a, dtype=np.int64)
+    if not len(a):
+        return []   # an empty surface: no rows (see format_floats)
     return [" ".join(map(str, row)) for row in (a.reshape(len(a), -1) + offset).tolist()]
 
 
@@ -452,7 +458,7 @@ def split_merged(path, points: np.ndarray, triangles: np.ndarray,
         surf = Surface(name=path.stem, vertices=P, triangles=T,
                        metadata=meta(np.arange(len(P)), np.arange(len(T))))
         return Model(name=stem, surfaces={surf.name: surf}, crs=crs)
-    sid = np.asarray(sid).reshape(len(P), -1)[:, 0]
+    sid = np.asarray(sid).reshape(len(P), -1)[:, 0] if len(P) else np.zeros(0, np.int64)
     if not np.all(np.isfinite(sid)) or not np.array_equal(sid, np.round(sid)):
         raise ModelFileError(path, "point array surface_id holds values that are not integers")
     sid = sid.astype(np.int64)
@@ -465,6 +471,10 @@ def split_merged(path, points: np.ndarray, triangles: np.ndarray,
     faults: Dict[str, Surface] = {}
     ids = np.unique(sid).tolist()
     use_names = names is not None and len(names) > (max(ids) if ids else -1) and min(ids + [0]) >= 0
+    if use_names:
+        # Every named surface, also one without vertices: an empty surface
+        # written by faultmesh comes back (empty) instead of vanishing.
+        ids = list(range(len(names)))
     for k in ids:
         vsel = np.flatnonzero(sid == k)
         remap = np.full(len(P), -1, dtype=np.int64)

@@ -4,10 +4,13 @@ Written: one object per surface (``o <name>``, as Blender and MeshLab list
 them), its vertices (``v x y z``, shortest round-trip decimals: exact) and
 triangles (``f a b c``, 1-based, counter-clockwise as in the model); comments
 ``# faultmesh_model <name>`` and ``# faultmesh_surface <kind>`` keep what OBJ
-has no place for. Read: ``v`` and ``f`` (``i``, ``i/t``, ``i//n``, ``i/t/n``,
-negative = relative indices); ``o`` (or, in a file without ``o``, ``g``)
-starts a new surface with its own vertices; every other statement is ignored.
-Faces of more than three vertices are refused (triangulate first).
+has no place for. Read: ``v`` and ``f`` (``i``, ``i/t``, ``i//n``, ``i/t/n``;
+a negative index counts back from the last vertex read so far, as the OBJ
+spec says, so files that interleave ``v`` and ``f`` per object are exact);
+keywords may be followed by spaces or tabs, and ``#`` starts a comment on a
+``v`` or ``f`` line too; ``o`` (or, in a file without ``o``, ``g``) starts a
+new surface with its own vertices; every other statement is ignored. Faces
+of more than three vertices are refused (triangulate first).
 """
 from __future__ import annotations
 
@@ -59,6 +62,7 @@ def read(path, fmt: str = "obj"):
     v_nos: List[int] = []
     f_lines: List[str] = []
     f_nos: List[int] = []
+    f_seen: List[int] = []         # vertices read before each face (negative indices)
     groups: List[tuple] = []       # (name, kind, first face, line)
     g_groups: List[tuple] = []
     model_name, crs, pending_kind = "", "", None
@@ -66,13 +70,18 @@ def read(path, fmt: str = "obj"):
         s = raw.strip()
         if not s:
             continue
-        key, _, rest = s.partition(" ")
+        # Any whitespace ends the keyword: exporters write 'v\t0 0 0' too.
+        key, *more = s.split(None, 1)
+        rest = more[0] if more else ""
         if key == "v":
-            v_lines.append(rest)
+            # An inline '# ...' after the numbers is a comment (the spec and
+            # every common reader allow it); names on o/g lines keep their '#'.
+            v_lines.append(rest.partition("#")[0])
             v_nos.append(no)
         elif key == "f":
-            f_lines.append(rest)
+            f_lines.append(rest.partition("#")[0])
             f_nos.append(no)
+            f_seen.append(len(v_lines))
         elif key == "o":
             groups.append((rest.strip() or f"object_{len(groups)}", pending_kind, len(f_lines), no))
             pending_kind = None
@@ -89,7 +98,7 @@ def read(path, fmt: str = "obj"):
     if not v_lines:
         raise ModelFileError(path, "no vertices ('v x y z' lines) in this OBJ file")
     V = _numbers(path, v_lines, v_nos, "vertex")
-    F = _faces(path, f_lines, f_nos, len(V))
+    F = _faces(path, f_lines, f_nos, len(V), np.array(f_seen, np.int64))
     if not groups:
         groups = g_groups or [(path.stem, None, 0, 0)]
         if groups[0][2] > 0:
@@ -135,7 +144,9 @@ def _numbers(path, lines, nos, what) -> np.ndarray:
     raise ModelFileError(path, "vertices have an unexpected number of values", nos[0])
 
 
-def _faces(path, lines, nos, nv) -> np.ndarray:
+def _faces(path, lines, nos, nv, seen) -> np.ndarray:
+    """Faces as 0-based indices; ``seen[i]`` is the number of vertices read
+    before face ``i`` (what its negative indices count back from)."""
     if not lines:
         return np.zeros((0, 3), np.int64)
     joined = _SLASH.sub("", " ".join(lines))
@@ -154,12 +165,13 @@ def _faces(path, lines, nos, nv) -> np.ndarray:
             except ValueError:
                 raise ModelFileError(path, f"expected vertex numbers in 'f {ln.strip()}'", no) from None
         raise  # pragma: no cover
-    # 1-based; negative numbers count back from the last vertex defined (here:
-    # all vertices, which is exact for files that define vertices first).
-    idx = np.where(idx > 0, idx - 1, np.where(idx < 0, nv + idx, -1))
+    # 1-based; a negative number counts back from the last vertex read before
+    # this face line (OBJ spec), not from the file's last vertex: with v/f
+    # interleaved per object, '-1' is this object's last vertex.
+    idx = np.where(idx > 0, idx - 1, np.where(idx < 0, seen[:, None] + idx, -1))
     badrow = np.flatnonzero(((idx < 0) | (idx >= nv)).any(axis=1))
     if len(badrow):
         i = int(badrow[0])
-        raise ModelFileError(path, f"face refers to a vertex outside 1..{nv}: "
-                                   f"'f {lines[i].strip()}'", nos[i])
+        raise ModelFileError(path, f"face refers to a vertex outside 1..{nv} (negative: "
+                                   f"-1..-{seen[i]} at this line): 'f {lines[i].strip()}'", nos[i])
     return idx

@@ -8,8 +8,11 @@ title, and as its EPSG code when it is ``EPSG:<n>``), and per surface a
 ``FaultInterpretation`` of a ``TectonicBoundaryFeature`` (faults, ``is_normal``
 from the fault's metadata kind). Both files appear together: the ``.epc``
 refers to ``<stem>.h5`` by name. Read: every TriangulatedSetRepresentation,
-points in the global frame of its CRS (offsets and rotation applied; depths
-turned into elevations), a fault when it represents a FaultInterpretation.
+points in the global frame of its CRS (offsets and rotation applied), in
+metres (x, y from the CRS's ``xy_units``, z from its ``z_units``, as the
+GOCAD reader does for ``AXIS_UNIT``), depths turned into elevations, a fault
+when it represents a FaultInterpretation. A missing ``.h5`` is a
+ModelFileError naming the ``.epc`` and the ``.h5``.
 """
 from __future__ import annotations
 
@@ -87,11 +90,46 @@ def write(model, path, fmt: str = "epc", files: Optional[AtomicFiles] = None) ->
     return [path, h5]
 
 
+def _to_global_metres(path: Path, crs, P: np.ndarray, title) -> np.ndarray:
+    """Local CRS coordinates ``P`` as global x, y, elevation in metres."""
+    import resqpy.weights_and_measures as wam
+
+    # resqpy converts in place (and returns None): rotation, then the offsets
+    # (RESQML gives them in the CRS's own units, so before the unit change),
+    # then the axis order. global_z_inc_down=the CRS's own: resqpy does not
+    # flip z here; the one flip (depth -> elevation) is below, after units.
+    crs.local_to_global_array(P, global_z_inc_down=bool(crs.z_inc_down))
+    for cols, units in ((slice(0, 2), crs.xy_units), (slice(2, 3), crs.z_units)):
+        if units in (None, "", "m"):
+            continue
+        try:
+            P[:, cols] = wam.convert_lengths(P[:, cols], str(units), "m")
+        except Exception:  # noqa: BLE001 (resqpy raises assorted types for a unit it lacks)
+            raise ModelFileError(path, f"surface {title!r}: CRS length unit {units!r} "
+                                       "cannot be converted to metres") from None
+    if crs.z_inc_down:
+        P[:, 2] = -P[:, 2]
+    return P
+
+
+def _check_h5(path: Path, rmodel) -> None:
+    """The .h5 the .epc names must exist: say so (resqpy's FileNotFoundError
+    would otherwise surface from deep inside an array read)."""
+    try:
+        h5 = rmodel.h5_file_name(file_must_exist=False)
+    except Exception:  # noqa: BLE001 (no external part: nothing to check here)
+        return
+    if h5 and not Path(h5).exists():
+        raise ModelFileError(path, f"its HDF5 file {str(h5)!r} (which holds the coordinates) "
+                                   "is missing: keep the .h5 beside the .epc")
+
+
 def _read(path: Path):
     from ..model import Model, Surface
 
     rq, rqc, rqo, rqs = _rq()
     rmodel = rq.Model(str(path))
+    _check_h5(path, rmodel)
     layers, faults = {}, {}
     crs_name = ""
     for uuid in rmodel.uuids(obj_type="TriangulatedSetRepresentation"):
@@ -101,10 +139,7 @@ def _read(path: Path):
         P = np.asarray(P, np.float64).reshape(-1, 3).copy()
         if rs.crs_uuid is not None:
             crs = rqc.Crs(rmodel, uuid=rs.crs_uuid)
-            if crs.x_offset or crs.y_offset or crs.z_offset or crs.rotation:
-                P = np.asarray(crs.local_to_global_array(P.copy()), np.float64)
-            if crs.z_inc_down:
-                P[:, 2] = -P[:, 2]
+            P = _to_global_metres(path, crs, P, rs.title)
             crs_name = crs_name or (f"EPSG:{crs.epsg_code}" if crs.epsg_code else
                                     ("" if crs.title in (None, "faultmesh local") else str(crs.title)))
         kind, meta = "layer", {}
@@ -137,4 +172,10 @@ def _read(path: Path):
 def read(path, fmt: str = "epc"):
     path = Path(path)
     _rq()
-    return guarded(path, "reading it as RESQML (resqpy)", _read, path)
+    try:
+        return guarded(path, "reading it as RESQML (resqpy)", _read, path)
+    except FileNotFoundError as e:
+        if not path.exists():
+            raise   # the .epc itself: io reports a missing file as such
+        # Another file the .epc refers to (an .h5 not named as the main one).
+        raise ModelFileError(path, f"a file it refers to is missing: {e}") from None

@@ -357,9 +357,12 @@ class _Xml:
             raw = self._inline(el.text or "")
         elif fmt == "appended":
             try:
-                raw = self._appended(int(el.get("offset", "")))
+                offset = int(el.get("offset", ""))
             except ValueError:
                 raise self.err(f"array {name!r}: appended array without a valid offset") from None
+            # Outside the try: _appended's own ModelFileError (a ValueError,
+            # e.g. "base64 appended data not supported") must reach the user.
+            raw = self._appended(offset)
         else:
             raise self.err(f"array {name!r}: format {fmt!r} is not ascii, binary or appended")
         dt = np.dtype(self.order + code)
@@ -527,13 +530,35 @@ def _assemble(path, P, T, PA, CA, fields):
             keys &= set(d)
         return {k: np.concatenate([np.asarray(d[k]) for d in dicts]) for k in sorted(keys)}
 
+    sizes = [len(p) for p in P]
+    P = np.vstack(P) if P else np.zeros((0, 3))
+    T = np.vstack(T) if T else np.zeros((0, 3), np.int64)     # indices into the stacked P
+    pa = common(PA)
+    # NaN/inf coordinates make no surface (every quantity derived from the
+    # triangles touching them is NaN) and no writer can store them: a point a
+    # triangle uses is refused, naming it, as the GOCAD and STL readers do;
+    # one no triangle uses (a placeholder some tools write) is dropped.
+    bad = ~np.all(np.isfinite(P), axis=1)
+    if bad.any():
+        used = np.zeros(len(P), bool)
+        used[T.reshape(-1)] = True
+        hit = np.flatnonzero(bad & used)
+        if len(hit):
+            j = int(hit[0])
+            piece = int(np.searchsorted(np.cumsum(sizes), j, side="right"))
+            where = f"point {j - sum(sizes[:piece])}" + (f" of piece {piece}" if len(sizes) > 1
+                                                           else "")
+            raise ModelFileError(path, f"{where} has non-finite coordinates {P[j].tolist()} "
+                                       f"({len(hit)} such points used by triangles)")
+        keep = ~bad
+        remap = np.cumsum(keep) - 1
+        P, T = P[keep], remap[T]
+        pa = {k: np.asarray(v)[keep] for k, v in pa.items()}
     names = fields.get("surface_names")
     kinds = fields.get("surface_kinds")
     mname = fields.get("model_name") or [""]
     crs = fields.get("crs") or [""]
-    return split_merged(path, np.vstack(P) if P else np.zeros((0, 3)),
-                        np.vstack(T) if T else np.zeros((0, 3), np.int64),
-                        common(PA), common(CA),
+    return split_merged(path, P, T, pa, common(CA),
                         [str(s) for s in names] if names else None,
                         [str(s) for s in kinds] if kinds else None,
                         str(mname[0]) if mname else "", str(crs[0]) if crs else "")
