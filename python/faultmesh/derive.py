@@ -2539,25 +2539,35 @@ def _unshown_kind(fault: Fault, fs: FaultSurface,
 
 
 def _hint_share(u: float, ends_u: Sequence[float], tipped: Tuple[bool, bool]) -> float:
-    """The share of a fault's throw hint (its largest throw) at strike
-    coordinate ``u`` on a fault whose extent runs over ``ends_u`` and dies
-    out at the ends ``tipped``: a fault's throw is largest near its middle
-    and falls to zero at its tips (Walsh and Watterson 1988; an elliptical
-    or parabolic profile along strike), here 1 - x^2 with x the distance
-    from the largest throw over the distance to the tip: in the middle of
-    a fault with two tips, at the untipped end of a fault with one (its
-    largest throw may lie beyond the study area), 1 along a fault with no
-    tip (it crosses the study area, or ends on other faults)."""
+    """The share of a fault's largest throw at strike coordinate ``u``
+    (:func:`_throw_profile` at one point)."""
+    return float(_throw_profile(np.array([u], dtype=np.float64), ends_u, tipped)[0])
+
+
+def _throw_profile(u: np.ndarray, ends_u: Sequence[float], tipped: Tuple[bool, bool]) -> np.ndarray:
+    """The share of a fault's largest throw at strike coordinates ``u``
+    on a fault whose extent runs over ``ends_u`` and dies out at the ends
+    ``tipped``: a fault's throw is largest near its middle and falls to
+    zero at its tips (Walsh and Watterson 1988; an elliptical or parabolic
+    profile along strike, concave: the straight line from a throw to zero
+    at the tip lies under it), here 1 - x^2 with x the distance from the
+    largest throw over the distance to the tip: in the middle of a fault
+    with two tips, at the untipped end of a fault with one (its largest
+    throw may lie beyond the study area), 1 along a fault with no tip (it
+    crosses the study area, or ends on other faults). Used for a throw
+    hint, and for the shape of a throw carried past the data towards a
+    tip (the cutoff throws' taper, :func:`_tip_taper`)."""
+    u = np.asarray(u, dtype=np.float64)
     u0, u1 = float(ends_u[0]), float(ends_u[1])
     if not (u1 > u0) or not any(tipped):
-        return 1.0
+        return np.ones(len(u))
     if tipped[0] and tipped[1]:
         x = (u - 0.5 * (u0 + u1)) / (0.5 * (u1 - u0))
     elif tipped[1]:
         x = (u - u0) / (u1 - u0)
     else:
         x = (u1 - u) / (u1 - u0)
-    return float(max(0.0, 1.0 - x * x))
+    return np.maximum(0.0, 1.0 - x * x)
 
 
 def _plane_step_fit(D: np.ndarray, frame: GridFrame,
@@ -3154,9 +3164,10 @@ def _tip_taper(fs: FaultSurface, u: np.ndarray, seen_u: np.ndarray,
     """Share (k,) of a throw held beyond the data that show it (strike
     coordinates ``seen_u``) kept at strike coordinates ``u``: 1 between
     those data and towards an end that does not die out (on the boundary, on
-    a partner), falling straight to 0 at the extent's edge towards a tip --
-    the fading-throw fit's counterpart of the cutoff throws' taper
-    (:data:`TAPER_SUPPORT`). Held whole up to a tip, the fit's hanging wall
+    a partner), falling to 0 at the extent's edge towards a tip along the
+    fault's throw profile (:func:`_throw_profile`, scaled to 1 at the
+    outermost datum) -- the fading-throw fit's counterpart of the cutoff
+    throws' taper (:data:`TAPER_SUPPORT`). Held whole up to a tip, the fit's hanging wall
     kept the whole throw where the fault dies out: far from the fault its
     surface is the layer without the throw, fitted to hanging-wall data
     near the tip that it lowered (raised) by the whole throw. ``ends``
@@ -3166,11 +3177,14 @@ def _tip_taper(fs: FaultSurface, u: np.ndarray, seen_u: np.ndarray,
     throw was tapered towards F1's tip beyond F2)."""
     u = np.asarray(u, dtype=np.float64)
     (u0, u1), lo, hi = fs.u_range, float(np.min(seen_u)), float(np.max(seen_u))
+    tipped = (fs.tipped(0), fs.tipped(1))
+    profile = _throw_profile(u, (u0, u1), tipped)
     w = np.ones(len(u))
-    if ends[0] and fs.tipped(0) and lo > u0:
-        w = np.minimum(w, np.clip((u - u0) / (lo - u0), 0.0, 1.0))
-    if ends[1] and fs.tipped(1) and hi < u1:
-        w = np.minimum(w, np.clip((u1 - u) / (u1 - hi), 0.0, 1.0))
+    for e, edge, past, inside in ((0, lo, u < lo, lo > u0), (1, hi, u > hi, hi < u1)):
+        at_edge = _hint_share(edge, (u0, u1), tipped)
+        if ends[e] and tipped[e] and inside and np.any(past):
+            share = profile / at_edge if at_edge > 0 else np.zeros(len(u))
+            w[past] = np.minimum(w[past], np.clip(share[past], 0.0, 1.0))
     return w
 
 
@@ -4841,8 +4855,11 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
 
     # Towards an end inside the study area, past the last section with a
     # cutoff that has data of its side within TAPER_SUPPORT section
-    # spacings: a cutoff throw larger than the line from that section's
-    # throw to zero at the extent's edge is cut down to it. The hanging
+    # spacings: a cutoff throw larger than that section's throw carried to
+    # zero at the extent's edge along the fault's throw profile
+    # (_throw_profile: concave, so above the straight line to the tip, which
+    # left v2 random_ground(89)'s F1 L5 throws past the data 3.8-7.9 m
+    # short of the truth's; now within 0.7 m) is cut down to it. The hanging
     # wall's cutoff becomes the footwall's surface shifted by it (the
     # hanging wall is the side the displacement moves; the footwall
     # continues the layer's regional trend, where the hanging wall returns
@@ -4877,8 +4894,10 @@ def _derive_sections(ds: Dataset, fault: Fault, opt: _Options, z_range: Tuple[fl
                 t0, u_a = throw[lay][anchor], lines[anchor]["u"]
                 if sgn * t0 < opt.min_throw:
                     continue
+                tipped = (fs.tipped(0), fs.tipped(1))
+                at_anchor = _hint_share(u_a, ends_u, tipped)
                 for i in seq[:first]:
-                    share = (lines[i]["u"] - ends_u[e]) / (u_a - ends_u[e]) if u_a != ends_u[e] else 0.0
+                    share = _hint_share(lines[i]["u"], ends_u, tipped) / at_anchor if at_anchor > 0 else 0.0
                     cap = t0 * float(np.clip(share, 0.0, 1.0))
                     if sgn * throw[lay][i] <= sgn * cap or i in r.get("hinted", {}):
                         continue
