@@ -68,11 +68,10 @@ def read(path, fmt: str = "stl"):
     if is_text and data.lstrip()[:5].lower() == b"solid":
         corners = _ascii(path, data)
         if corners is None:
-            # Text without facets. A binary count in bytes 80-84 of text is
-            # >= 0x09090909 facets, so it never fits: an empty ASCII solid.
-            fits = len(data) >= 84 and 84 + 50 * int(np.frombuffer(data[80:84], "<u4")[0]) \
-                <= len(data)
-            corners = _binary(path, data) if fits else np.zeros((0, 3))
+            # Text without facets: an empty ASCII solid. (It cannot be a
+            # binary STL: a facet count read from text bytes, >= 0x09090909,
+            # never fits the file.)
+            corners = np.zeros((0, 3))
     elif is_text:
         raise ModelFileError(path, "not an STL file: text that does not start with 'solid'")
     elif len(data) < 84:
