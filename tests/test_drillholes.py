@@ -272,6 +272,12 @@ def test_tops_reverse_fault_repeats_a_layer(tmp_path):
     np.testing.assert_array_equal(b.xy, [[100.0, 200.0]] * 5)
 
 
+# Two holes 100 m apart, each logged A, B, C from its collar down.
+_TWO_COLLARS = "hole_id,x,y,z\nH1,0,0,50\nH2,100,0,50\n"
+_TWO_HOLES_A_B_C = ("hole_id,from,to,unit\nH1,0,10,A\nH1,10,30,B\nH1,30,40,C\n"
+                    "H2,0,12,A\nH2,12,25,B\nH2,25,40,C\n")
+
+
 def test_a_layer_list_given_bottom_to_top_is_named_as_the_cause(tmp_path):
     """Regression (fuzz of the v2 input): holes logged A, B, C with 'layers'
     given as [C, B, A] gave no tops at all (every contact against the order)
@@ -279,9 +285,7 @@ def test_a_layer_list_given_bottom_to_top_is_named_as_the_cause(tmp_path):
     why. Now the tops refuse it, naming the file, a row and the order; a
     hole going up is judged by the way it goes. One reverse fault in one
     hole (above) is no such case."""
-    intervals = ("hole_id,from,to,unit\nH1,0,10,A\nH1,10,30,B\nH1,30,40,C\n"
-                 "H2,0,12,A\nH2,12,25,B\nH2,25,40,C\n")
-    c, s, i = tables(tmp_path, "hole_id,x,y,z\nH1,0,0,50\nH2,100,0,50\n", None, intervals)
+    c, s, i = tables(tmp_path, _TWO_COLLARS, None, _TWO_HOLES_A_B_C)
     with pytest.raises(DatasetError, match=r"intervals\.csv: 4 of the 4 contacts between layers "
                                            r".*row 3, hole 'H1': 'B' below 'A'.*bottom to top"):
         load_drillholes(c, s, i, ["C", "B", "A"])
@@ -302,18 +306,14 @@ def test_surveys_with_dips_positive_downwards_are_named_as_a_possible_cause(tmp_
     holes up; the error asked only whether 'layers' was bottom to top.
     Now it also names the dip convention, with how many contacts lie where
     the holes go up."""
-    c, s, i = tables(tmp_path, "hole_id,x,y,z\nH1,0,0,50\nH2,100,0,50\n",
-                     "hole_id,depth,azimuth,dip\nH1,0,90,60\nH2,0,90,60\n",
-                     "hole_id,from,to,unit\nH1,0,10,A\nH1,10,30,B\nH1,30,40,C\n"
-                     "H2,0,12,A\nH2,12,25,B\nH2,25,40,C\n")
+    c, s, i = tables(tmp_path, _TWO_COLLARS, "hole_id,depth,azimuth,dip\nH1,0,90,60\nH2,0,90,60\n",
+                     _TWO_HOLES_A_B_C)
     with pytest.raises(DatasetError, match=r"4 of the 4 contacts.*bottom to top.*dips positive "
                                            r"downwards\? 4 of these contacts lie where the hole goes up"):
         load_drillholes(c, s, i, ["A", "B", "C"])
     # Down-going holes with the list reversed: no word of the dips.
-    c, s, i = tables(tmp_path, "hole_id,x,y,z\nH1,0,0,50\nH2,100,0,50\n",
-                     "hole_id,depth,azimuth,dip\nH1,0,90,-60\nH2,0,90,-60\n",
-                     "hole_id,from,to,unit\nH1,0,10,A\nH1,10,30,B\nH1,30,40,C\n"
-                     "H2,0,12,A\nH2,12,25,B\nH2,25,40,C\n")
+    c, s, i = tables(tmp_path, _TWO_COLLARS, "hole_id,depth,azimuth,dip\nH1,0,90,-60\nH2,0,90,-60\n",
+                     _TWO_HOLES_A_B_C)
     with pytest.raises(DatasetError, match=r"bottom to top instead of top to bottom\?$"):
         load_drillholes(c, s, i, ["C", "B", "A"])
 
