@@ -766,20 +766,19 @@ def test_vtk_non_finite_point_no_triangle_uses_is_dropped(tmp_path):
     assert s.triangles.tolist() == [[0, 1, 2]]
 
 
-@pytest.mark.parametrize("suffix", [".obj", ".ts", ".ml", ".3dt", ".vtu", ".vtp", ".vtk", ".ply"])
+@pytest.mark.parametrize("suffix", [".obj", ".ts", ".ml", ".3dt", ".vtu", ".vtp", ".vtk", ".ply",
+                                    ".omf"])
 def test_convert_of_an_empty_surface_writes_it(tmp_path, suffix, capsys):
     """Regression: an empty surface (an empty .vtp as VTK writes it: the
     readers of VTK, STL and geoh5 keep it) made convert fail in format_floats
-    with "cannot reshape array of size 0" and no file named."""
+    with "cannot reshape array of size 0" and no file named; .omf failed in
+    omf's validation; .obj was written and refused when read back."""
     pv = pytest.importorskip("pyvista")
+    if suffix == ".omf":
+        pytest.importorskip("omf")
     src = tmp_path / "empty.vtp"
     pv.PolyData().save(src)
     assert main(["convert", str(src), str(tmp_path / f"out{suffix}")]) == 0
-    if suffix == ".obj":
-        # OBJ has no empty objects: its reader refuses a file without vertices.
-        with pytest.raises(ModelFileError, match="no vertices"):
-            load_model(tmp_path / "out.obj")
-        return
     (s,) = surfaces(load_model(tmp_path / f"out{suffix}"))
     assert (s.name, s.n_vertices, s.n_triangles) == ("empty", 0, 0)
 
@@ -801,6 +800,171 @@ def test_vtp_with_base64_appended_data_says_so(tmp_path):
     assert w.Write() == 1
     with pytest.raises(ModelFileError, match="appended base64 data is not supported"):
         load_model(tmp_path / "d.vtp")
+
+
+def _empty(name, kind="layer"):
+    return faultmesh.Surface(name, np.zeros((0, 3)), np.zeros((0, 3), np.int64), kind=kind)
+
+
+def test_obj_empty_surfaces_come_back_empty_with_their_names(tmp_path):
+    """Regression: a model of empty surfaces was written as OBJ (an 'o' line
+    each) and its reader refused the file ("no vertices"); an empty surface
+    among others vanished on reading."""
+    allempty = faultmesh.Model(name="e", surfaces={"a b": _empty("a b"), "c": _empty("c")},
+                               faults={"F": _empty("F", "fault")})
+    mixed = make_model()
+    mixed.surfaces = {"top soil": mixed.surfaces["top soil"], "gone": _empty("gone"),
+                      "coal 8": mixed.surfaces["coal 8"]}
+    for m in (allempty, mixed):
+        m.save(tmp_path / "m.obj")
+        assert_same_geometry(m, load_model(tmp_path / "m.obj"))
+    # A surface with vertices but no triangles is written as an empty object.
+    lonely = faultmesh.Model(name="l", surfaces={"lonely": faultmesh.Surface(
+        "lonely", np.eye(3), np.zeros((0, 3), np.int64))})
+    lonely.save(tmp_path / "l.obj")
+    assert [(s.name, s.n_vertices) for s in surfaces(load_model(tmp_path / "l.obj"))] == [
+        ("lonely", 0)]
+    # An object with vertices but no faces (points, a line) is still no surface.
+    (tmp_path / "pts.obj").write_text("o points\nv 5 5 5\nl 1 1\no tri\nv 0 0 0\nv 1 0 0\n"
+                                      "v 0 1 0\nf 2 3 4\n")
+    assert [s.name for s in surfaces(load_model(tmp_path / "pts.obj"))] == ["tri"]
+
+
+def test_omf_empty_surface_is_an_empty_grid_that_omf_reads(tmp_path):
+    """Regression: writing an empty surface to .omf failed inside omf's
+    validation (SurfaceGeometry takes the min of its triangles); it is
+    written as a SurfaceElement with a grid of no cells, and read back empty."""
+    omf = pytest.importorskip("omf")
+    m = make_model()
+    m.surfaces["empty one"] = _empty("empty one")
+    m.faults["F0"] = _empty("F0", "fault")
+    m.save(tmp_path / "m.omf")
+    proj = omf.OMFReader(str(tmp_path / "m.omf")).get_project()
+    proj.validate()
+    by_name = {el.name: el for el in proj.elements}
+    assert list(by_name) == ["top soil", "coal 8", "empty one", "F22", "F0"]
+    for name in ("empty one", "F0"):
+        assert type(by_name[name].geometry).__name__ == "SurfaceGridGeometry"
+        assert by_name[name].geometry.num_cells == 0
+    assert_same_geometry(m, load_model(tmp_path / "m.omf"))
+
+
+def _ply(fmt: str, faces, vertex_props=(("uint64", "Q"), ("int64", "q")),
+         index=("uint64", "Q")) -> bytes:
+    """A PLY file per the spec (the header, then the elements' records) with
+    four vertices, the given vertex properties (default int64/uint64), an
+    index list of type ``index`` (default uint64), a uchar after it, and an
+    'edge' element after the faces."""
+    o = {"binary_little_endian": "<", "binary_big_endian": ">"}.get(fmt)
+    props = [f"property {t} p{i}" for i, (t, _) in enumerate(vertex_props)]
+    head = ["ply", f"format {fmt} 1.0", "element vertex 4", "property double x",
+            "property double y", "property double z", *props, f"element face {len(faces)}",
+            f"property list uchar {index[0]} vertex_indices", "property uchar red",
+            "element edge 1", "property int vertex1", "property int vertex2", "end_header", ""]
+    V = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (1.0, 1.0, 0.5)]
+    big = [2 ** 63 + 3, -(2 ** 62) - 5]          # values float64 cannot hold exactly
+    if o is None:
+        body = "".join(" ".join(map(str, [*v, *big[:len(props)]])) + "\n" for v in V)
+        body += "".join(" ".join(map(str, [len(f), *f, 7])) + "\n" for f in faces) + "0 1\n"
+        return "\n".join(head).encode() + body.encode()
+    import struct
+
+    codes = "".join(c for _, c in vertex_props)
+    body = b"".join(struct.pack(o + "ddd" + codes, *v, *big[:len(props)]) for v in V)
+    body += b"".join(struct.pack(f"{o}B{len(f)}{index[1]}B", len(f), *f, 7) for f in faces)
+    return "\n".join(head).encode() + body + struct.pack(o + "ii", 0, 1)
+
+
+@pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian", "binary_big_endian"])
+def test_ply_int64_and_uint64_properties_are_read(tmp_path, fmt):
+    """Regression: 'property uint64 ...'/'int64' (Open3D, trimesh, plyfile)
+    was refused as a bad property line."""
+    p = tmp_path / "m.ply"
+    p.write_bytes(_ply(fmt, [[0, 1, 2], [1, 3, 2]]))
+    (s,) = load_model(p).surfaces.values()
+    assert s.vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.5]]
+    assert s.triangles.tolist() == [[0, 1, 2], [1, 3, 2]]
+    vp = s.metadata["vertex_properties"]
+    if fmt != "ascii":     # binary: the integers as written, bit for bit
+        assert vp["p0"].dtype == np.uint64 and vp["p0"].tolist() == [2 ** 63 + 3] * 4
+        assert vp["p1"].dtype == np.int64 and vp["p1"].tolist() == [-(2 ** 62) - 5] * 4
+    else:
+        assert np.allclose(vp["p0"], 2.0 ** 63) and np.allclose(vp["p1"], -(2.0 ** 62))
+
+
+@pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian", "binary_big_endian"])
+def test_ply_faces_of_fewer_than_3_vertices_are_ignored_larger_ones_named(tmp_path, fmt):
+    """Regression: a line (a face of 2 vertices) in the face list was refused
+    (ascii: "announces 4 records, the file ends first"; binary: every later
+    record misread). As the VTK reader treats vertices and lines, faces of
+    fewer than 3 vertices are ignored; one of more is refused naming it."""
+    p = tmp_path / "m.ply"
+    p.write_bytes(_ply(fmt, [[0, 1], [0, 1, 2], [3], [], [1, 3, 2], [0, 1]], (), ("int", "i")))
+    (s,) = load_model(p).surfaces.values()
+    assert s.triangles.tolist() == [[0, 1, 2], [1, 3, 2]]
+    assert s.n_vertices == 4
+    p.write_bytes(_ply(fmt, [[0, 1, 2], [0, 1], [0, 1, 3, 2]], (), ("int", "i")))
+    with pytest.raises(ModelFileError, match=r"m\.ply: expected a triangle mesh, found 1 other "
+                                             r"face\(s\), the first a polygon of 4 points \(face 2\)"):
+        load_model(p)
+
+
+def test_vtm_of_pyvista_reads_each_block_as_a_surface(tmp_path):
+    """Regression: no reader of .vtm (VTK XML multiblock). Blocks are read by
+    the XML reader, named after the block (or the 'name' field data that
+    to_pyvista writes), in file order, nested blocks too; a missing block
+    file names the .vtm and the block's file."""
+    import pyvista as pv
+    from faultmesh.formats import vtk
+
+    mb = pv.MultiBlock()
+    mb["top one"] = pv.Sphere(theta_resolution=6, phi_resolution=5)
+    inner = pv.MultiBlock()
+    inner["base"] = pv.Plane(i_resolution=2, j_resolution=2).triangulate()
+    mb["group"] = inner
+    mb["nothing"] = None
+    mb.save(tmp_path / "mb.vtm")
+    m = load_model(tmp_path / "mb.vtm")
+    assert [(s.name, s.kind, s.n_vertices, s.n_triangles) for s in surfaces(m)] == [
+        ("top one", "layer", mb["top one"].n_points, mb["top one"].n_cells),
+        ("base", "layer", 9, 8)]
+    # faultmesh's own MultiBlock: names, kinds, fault type, model name, CRS
+    model = rich_model()
+    model.to_pyvista().save(tmp_path / "fm.vtm")
+    back = vtk.read_vtm(tmp_path / "fm.vtm")
+    assert_same_geometry(model, back)
+    assert (back.name, back.crs) == (model.name, model.crs)
+    assert back.faults["F22"].metadata["kind"] == "normal"
+    assert np.array_equal(back.surfaces["coal 8"].metadata["vertex_properties"]["thickness m"],
+                          model.surfaces["coal 8"].metadata["vertex_properties"]["thickness m"])
+    block = tmp_path / "mb" / "mb_1.vtp"
+    block.unlink()
+    with pytest.raises(ModelFileError, match=rf"mb\.vtm: block 'base': its file .*"
+                                             rf"{re.escape(str(block))} does not exist"):
+        vtk.read_vtm(tmp_path / "mb.vtm")
+
+
+@pytest.mark.parametrize("suffix", [".vtp", ".vtk"])
+def test_vtk_triangle_strips_with_polygons_match_vtk_and_keep_cell_data(tmp_path, suffix):
+    """Regression: a .vtp with strips and polygons gave the strips' triangles
+    first (VTK numbers cells verts, lines, polys, strips), and cell data was
+    dropped whenever strips were present. The triangles are those of VTK's
+    triangulate() in its order; each takes the cell data of its cell."""
+    pv = pytest.importorskip("pyvista")
+    pts = np.array([[0, 0, 0], [0, 1, 0], [1, 0, 0], [1, 1, 0.5], [2, 0, 0], [2, 1, 0.2],
+                    [3, 0, 1], [10, 0, 0], [11, 0, 0], [10, 1, 0], [11, 1, 0]], float)
+    mesh = pv.PolyData(pts, faces=np.array([3, 7, 8, 9, 3, 8, 10, 9]), lines=np.array([2, 0, 6]),
+                       strips=np.array([6, 0, 1, 2, 3, 4, 5, 3, 4, 5, 6]))
+    mesh.cell_data["cid"] = np.arange(mesh.n_cells, dtype=np.int32)   # line, 2 polys, 2 strips
+    p = tmp_path / f"s{suffix}"
+    mesh.save(p)
+    ref = pv.read(p).triangulate()
+    F = np.asarray(ref.faces).reshape(-1, 4)[:, 1:]
+    (s,) = load_model(p).surfaces.values()
+    assert np.array_equal(s.vertices[s.triangles], np.asarray(ref.points)[F])
+    # strip (0..5) gives (0 1 2) (2 1 3) (2 3 4) (4 3 5): orientation alternates
+    assert s.triangles[2:6].tolist() == [[0, 1, 2], [2, 1, 3], [2, 3, 4], [4, 3, 5]]
+    assert s.metadata["triangle_properties"]["cid"].tolist() == [1, 2, 3, 3, 3, 3, 4]
 
 
 def _epc(tmp_path, name, points, **crs):

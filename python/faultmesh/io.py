@@ -15,6 +15,8 @@ suffix     format                                            keeps
 ``.vtu``   VTK XML unstructured grid, merged                 names, kinds, arrays
 ``.vtp``   VTK XML poly data, merged                         names, kinds, arrays
 ``.vtk``   VTK legacy (binary), merged                       names, kinds, arrays
+``.vtm``   VTK XML multiblock of ``.vtp``/``.vtu`` blocks    names (block names),
+           (read only; pyvista's ``MultiBlock.save``)        kinds, arrays
 ``.obj``   Wavefront OBJ, one object per surface             names, kinds
 ``.ply``   PLY binary, merged (one mesh in viewers)          names, kinds
 ``.stl``   STL (read only)                                   one surface
@@ -66,6 +68,7 @@ FILE_FORMATS = {
     ".vtu": (lambda m, p, files=None: vtk.write(m, p, "vtu", files), vtk.read_xml),
     ".vtp": (lambda m, p, files=None: vtk.write(m, p, "vtp", files), vtk.read_xml),
     ".vtk": (lambda m, p, files=None: vtk.write(m, p, "vtk", files), vtk.read_legacy),
+    ".vtm": (None, vtk.read_vtm),
     ".obj": (obj.write, obj.read),
     ".ply": (ply.write, ply.read),
     ".stl": (None, stl.read),

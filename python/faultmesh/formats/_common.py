@@ -190,6 +190,22 @@ def format_ints(a: np.ndarray, offset: int = 0) -> List[str]:
 _SLUG = re.compile(r"[^A-Za-z0-9._-]+")
 
 
+def free_name(name: str, taken) -> str:
+    """``name``, or ``name (2)``, ``name (3)``... the first not in ``taken``:
+    readers keep two surfaces of one name (a file may repeat one) apart."""
+    out, n = name, 2
+    while out in taken:
+        out, n = f"{name} ({n})", n + 1
+    return out
+
+
+def surface_kind(text: Optional[str]) -> str:
+    """``layer`` or ``fault`` from a file's kind field (``fault`` when it
+    names a fault: ``Fault``, ``fault_surface``...; else ``layer``)."""
+    k = (text or "layer").strip().lower()
+    return k if k in ("layer", "fault") else ("fault" if "fault" in k else "layer")
+
+
 def slug(name: str) -> str:
     """A file-name-safe form of a surface or model name (other characters -> ``_``)."""
     s = _SLUG.sub("_", str(name)).strip("._")

@@ -16,7 +16,7 @@ from typing import Optional
 
 import numpy as np
 
-from ._common import (AtomicFiles, ModelFileError, _Shared, guarded, model_surfaces,
+from ._common import (AtomicFiles, ModelFileError, _Shared, free_name, guarded, model_surfaces,
                       optional_import, vertex_properties)
 
 SUFFIXES = (".geoh5",)
@@ -108,9 +108,7 @@ def _read(path: Path):
                     props[str(d.name)] = np.asarray(vals, np.float64)
             target = faults if kind == "fault" else layers
             name = str(obj.name)
-            base, n = name, 2
-            while name in target:
-                name, n = f"{base} ({n})", n + 1
+            name = free_name(name, target)
             if T.size and (T.min() < 0 or T.max() >= len(V)):
                 raise ModelFileError(path, f"surface {name!r}: triangle vertex index outside "
                                            f"0..{len(V) - 1}")

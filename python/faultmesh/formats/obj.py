@@ -9,8 +9,10 @@ a negative index counts back from the last vertex read so far, as the OBJ
 spec says, so files that interleave ``v`` and ``f`` per object are exact);
 keywords may be followed by spaces or tabs, and ``#`` starts a comment on a
 ``v`` or ``f`` line too; ``o`` (or, in a file without ``o``, ``g``) starts a
-new surface with its own vertices; every other statement is ignored. Faces
-of more than three vertices are refused (triangulate first).
+new surface with its own vertices; an ``o`` object with neither vertices nor
+faces is an empty surface (what the writer writes for one), an object or
+group with vertices but no faces is not a surface; every other statement is
+ignored. Faces of more than three vertices are refused (triangulate first).
 """
 from __future__ import annotations
 
@@ -39,6 +41,10 @@ def obj_lines(model) -> List[str]:
     off = 1
     for surf, kind in model_surfaces(model):
         out += [f"# faultmesh_surface {kind}", f"o {_bare(surf.name)}"]
+        if not surf.n_triangles:
+            # An object without vertices or faces, which the reader takes for
+            # an empty surface (vertices no face uses are never read back).
+            continue
         out.extend("v " + row for row in format_floats(surf.vertices))
         out.extend(f"f {a} {b} {c}" for a, b, c in (surf.triangles + off).tolist())
         off += surf.n_vertices
@@ -63,7 +69,7 @@ def read(path, fmt: str = "obj"):
     f_lines: List[str] = []
     f_nos: List[int] = []
     f_seen: List[int] = []         # vertices read before each face (negative indices)
-    groups: List[tuple] = []       # (name, kind, first face, line)
+    groups: List[tuple] = []       # (name, kind, first face, first vertex)
     g_groups: List[tuple] = []
     model_name, crs, pending_kind = "", "", None
     for no, raw in enumerate(lines, start=1):
@@ -83,10 +89,12 @@ def read(path, fmt: str = "obj"):
             f_nos.append(no)
             f_seen.append(len(v_lines))
         elif key == "o":
-            groups.append((rest.strip() or f"object_{len(groups)}", pending_kind, len(f_lines), no))
+            groups.append((rest.strip() or f"object_{len(groups)}", pending_kind, len(f_lines),
+                           len(v_lines)))
             pending_kind = None
         elif key == "g":
-            g_groups.append((rest.strip() or f"group_{len(g_groups)}", None, len(f_lines), no))
+            g_groups.append((rest.strip() or f"group_{len(g_groups)}", None, len(f_lines),
+                             len(v_lines)))
         elif key == "#":
             p = rest.split(None, 1)
             if p and p[0] == "faultmesh_model" and len(p) > 1:
@@ -95,10 +103,11 @@ def read(path, fmt: str = "obj"):
                 crs = p[1].strip()
             elif p and p[0] == "faultmesh_surface" and len(p) > 1:
                 pending_kind = p[1].strip()
-    if not v_lines:
+    if not v_lines and not groups:
         raise ModelFileError(path, "no vertices ('v x y z' lines) in this OBJ file")
-    V = _numbers(path, v_lines, v_nos, "vertex")
+    V = _numbers(path, v_lines, v_nos, "vertex") if v_lines else np.zeros((0, 3))
     F = _faces(path, f_lines, f_nos, len(V), np.array(f_seen, np.int64))
+    objects = bool(groups)
     if not groups:
         groups = g_groups or [(path.stem, None, 0, 0)]
         if groups[0][2] > 0:
@@ -106,10 +115,14 @@ def read(path, fmt: str = "obj"):
     elif groups[0][2] > 0:
         groups.insert(0, (path.stem, None, 0, 0))
     bounds = [g[2] for g in groups] + [len(F)]
+    vbounds = [g[3] for g in groups[1:]] + [len(V)]
     layers, faults = {}, {}
-    for (name, kind, start, _), end in zip(groups, bounds[1:]):
+    for (name, kind, start, vstart), end, vend in zip(groups, bounds[1:], vbounds):
         tris = F[start:end]
-        if not len(tris):
+        # An 'o' object with neither vertices nor faces is an empty surface
+        # (the writer's form of one, since OBJ has no other); an object or a
+        # group with vertices but no faces (points, lines) is no surface.
+        if not len(tris) and not (objects and vend == vstart):
             continue
         used, inv = np.unique(tris.reshape(-1), return_inverse=True)
         target = faults if kind == "fault" else layers

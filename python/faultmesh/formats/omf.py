@@ -5,11 +5,14 @@ Written: one ``SurfaceElement`` per surface (layers top to bottom, then
 faults) named after it, its vertices (float64, exact) and triangles, the
 layer colours of faultmesh's pictures, the surface's vertex properties as
 ``ScalarData`` on the vertices, and ``description`` ``faultmesh kind=<layer|
-fault> [fault_kind=<normal|reverse>]`` (OMF v1 has no surface type). Read:
-every ``SurfaceElement`` (geometry and project origins added), a fault when
-its description says ``kind=fault`` (or its name contains "fault"), vertex
-``ScalarData`` as vertex properties; other elements (points, lines, volumes)
-are skipped.
+fault> [fault_kind=<normal|reverse>]`` (OMF v1 has no surface type). An
+empty surface (no triangles) is a ``SurfaceElement`` with an empty grid
+(``SurfaceGridGeometry`` of no cells): omf refuses a ``SurfaceGeometry``
+without triangles. Read: every ``SurfaceElement`` (geometry and project
+origins added), a grid surface without cells as an empty surface (other grid
+surfaces are skipped), a fault when its description says ``kind=fault`` (or
+its name contains "fault"), vertex ``ScalarData`` as vertex properties; other
+elements (points, lines, volumes) are skipped.
 """
 from __future__ import annotations
 
@@ -47,6 +50,14 @@ def _project(model):
             desc += f" fault_kind={sub}"
         rgb = to_rgb(layer_color(order[kind], n_layers)) if kind == "layer" else (0.55, 0.1, 0.1)
         order[kind] += 1
+        if not surf.n_triangles:
+            # omf's SurfaceGeometry validator takes the min of the triangles
+            # (fails on none); an empty grid is a SurfaceElement of no cells.
+            elements.append(omf.SurfaceElement(
+                name=str(surf.name), description=desc,
+                color=[int(round(255 * c)) for c in rgb],
+                geometry=omf.SurfaceGridGeometry(tensor_u=np.zeros(0), tensor_v=np.zeros(0))))
+            continue
         data = []
         for name, a in vertex_properties(surf).items():
             a = np.asarray(a, np.float64).reshape(surf.n_vertices, -1)
@@ -90,11 +101,16 @@ def read(path, fmt: str = "omf"):
         if type(el).__name__ != "SurfaceElement":
             continue
         geo = el.geometry
-        if type(geo).__name__ != "SurfaceGeometry":
-            continue   # a grid surface (SurfaceGridGeometry): no triangles to take
-        V = np.asarray(geo.vertices, np.float64).reshape(-1, 3) + \
-            np.asarray(geo.origin, np.float64) + origin
-        T = np.asarray(geo.triangles, np.int64).reshape(-1, 3)
+        if type(geo).__name__ == "SurfaceGeometry":
+            V = np.asarray(geo.vertices, np.float64).reshape(-1, 3) + \
+                np.asarray(geo.origin, np.float64) + origin
+            T = np.asarray(geo.triangles, np.int64).reshape(-1, 3)
+        elif type(geo).__name__ == "SurfaceGridGeometry" and not (
+                len(geo.tensor_u) and len(geo.tensor_v)):
+            # a grid of no cells: an empty surface (how faultmesh writes one)
+            V, T = np.zeros((0, 3)), np.zeros((0, 3), np.int64)
+        else:
+            continue   # a grid surface with cells: no triangles to take
         if T.size and (T.min() < 0 or T.max() >= len(V)):
             raise ModelFileError(path, f"element {el.name!r}: triangle vertex index outside "
                                        f"0..{len(V) - 1}")

@@ -4,6 +4,11 @@ ParaView) show it as one object; the ``surface_id`` vertex property and the
 ``comment faultmesh_surface <id> <kind> <name>`` header lines let faultmesh
 read the surfaces back with their names and kinds. For one object per surface
 in a viewer use ``.obj``, ``.vtu`` or a folder (one ``.ply`` per surface).
+
+Read: the spec's types and their aliases, and ``int64``/``uint64`` (Open3D,
+trimesh, plyfile write them); faces of fewer than 3 vertices (points, lines)
+are ignored, and faces of more are refused naming the first, as the VTK
+reader treats cells.
 """
 from __future__ import annotations
 
@@ -57,7 +62,9 @@ def write(model, path, fmt: str = "ply", files: Optional[AtomicFiles] = None) ->
 _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2",
               "int16": "i2", "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4",
               "uint": "u4", "uint32": "u4", "float": "f4", "float32": "f4", "double": "f8",
-              "float64": "f8"}
+              "float64": "f8",
+              # not in the PLY spec, written by Open3D, trimesh, plyfile and others
+              "int64": "i8", "uint64": "u8"}
 
 
 class _Element:
@@ -100,11 +107,15 @@ def _parse_header(path: Path, data: bytes):
             if not elements:
                 raise ModelFileError(path, "a property before any element", no)
             if len(p) >= 5 and p[1] == "list" and p[2] in _PLY_TYPES and p[3] in _PLY_TYPES:
-                elements[-1].props.append((p[4], ("list", p[2], p[3])))
+                prop = (p[4], ("list", p[2], p[3]))
             elif len(p) >= 3 and p[1] in _PLY_TYPES:
-                elements[-1].props.append((p[2], p[1]))
+                prop = (p[2], p[1])
             else:
                 raise ModelFileError(path, f"bad property line {s!r}", no)
+            if prop[0] in (name for name, _ in elements[-1].props):
+                raise ModelFileError(path, f"the {elements[-1].name} element has two properties "
+                                           f"named {prop[0]!r}", no)
+            elements[-1].props.append(prop)
     if fmt is None:
         raise ModelFileError(path, "the PLY header has no format line")
     return fmt, elements, comments, body
@@ -131,89 +142,168 @@ def _faultmesh_comments(comments):
     return None, None, model_name, crs
 
 
-def _read_binary(path, data, pos, el, order):
-    """One element of a binary PLY: a structured read when its lists are all
-    triangles (the usual case)."""
-    fields = []
+def _shape_at(path, el, data, tokens, pos, order):
+    """The lengths of the lists of the record at ``pos`` (a byte offset in
+    ``data`` for binary, a token index in ``tokens`` for ascii)."""
+    shape = []
     for name, t in el.props:
-        if isinstance(t, tuple):
-            fields += [(f"{name}__n", order + _PLY_TYPES[t[1]]), (name, order + _PLY_TYPES[t[2]], (3,))]
+        if tokens is None:
+            if not isinstance(t, tuple):
+                pos += np.dtype(_PLY_TYPES[t]).itemsize
+                continue
+            dt = np.dtype(order + _PLY_TYPES[t[1]])
+            if pos + dt.itemsize > len(data):
+                raise ModelFileError(path, f"the {el.name} element announces {el.count} "
+                                           "records, the file ends first (truncated?)")
+            v = float(np.frombuffer(data, dt, 1, pos)[0])
+            n = int(v) if np.isfinite(v) and v == int(v) else -1
+            pos += dt.itemsize + max(n, 0) * np.dtype(_PLY_TYPES[t[2]]).itemsize
         else:
-            fields.append((name, order + _PLY_TYPES[t]))
-    dt = np.dtype(fields)
-    n = el.count * dt.itemsize
-    if pos + n > len(data):
-        raise ModelFileError(path, f"the {el.name} element announces {el.count} records, the "
-                                   "file ends first (truncated?)")
-    rec = np.frombuffer(data[pos:pos + n], dt)
-    for name, t in el.props:
-        if isinstance(t, tuple) and el.count and np.any(rec[f"{name}__n"] != 3):
-            raise ModelFileError(path, f"{el.name} {name}: a list with other than 3 entries "
-                                       "(faultmesh reads triangle meshes; triangulate first)")
-    return rec, pos + n
+            if not isinstance(t, tuple):
+                pos += 1
+                continue
+            if pos >= len(tokens):
+                raise ModelFileError(path, f"the {el.name} element announces {el.count} "
+                                           "records, the file ends first")
+            try:
+                v = float(tokens[pos])
+            except ValueError:
+                raise ModelFileError(path, f"{el.name} {name}: a list length "
+                                           f"{tokens[pos].decode('latin-1')!r} is not a "
+                                           "number") from None
+            n = int(v) if np.isfinite(v) and v == int(v) else -1
+            pos += 1 + max(n, 0)
+        if n < 0:
+            raise ModelFileError(path, f"{el.name} {name}: a list of negative or fractional "
+                                       "length")
+        if pos > (len(data) if tokens is None else len(tokens)):
+            raise ModelFileError(path, f"the {el.name} element announces {el.count} records, "
+                                       f"the file ends first (a list of {n} entries)")
+        shape.append(n)
+    return shape
 
 
-def _read_ascii(path, tokens, pos, el):
-    width = 0
-    for name, t in el.props:
-        width += 4 if isinstance(t, tuple) else 1
-    need = el.count * width
-    if pos + need > len(tokens):
-        raise ModelFileError(path, f"the {el.name} element announces {el.count} records, the "
-                                   "file ends first (or a list has other than 3 entries)")
-    try:
-        a = np.array(tokens[pos:pos + need], dtype=np.float64).reshape(el.count, width)
-    except ValueError:
-        raise ModelFileError(path, f"the {el.name} element holds values that are not "
-                                   "numbers") from None
-    out, c = {}, 0
-    for name, t in el.props:
-        if isinstance(t, tuple):
-            if el.count and np.any(a[:, c] != 3):
-                raise ModelFileError(path, f"{el.name} {name}: a list with other than 3 entries "
-                                           "(faultmesh reads triangle meshes; triangulate first)")
-            out[name] = a[:, c + 1:c + 4]
-            c += 4
-        else:
-            out[name] = a[:, c]
-            c += 1
-    return out, pos + need
+def _read_element(path, el, data, tokens, pos, order):
+    """One element (``tokens`` is None for binary data, else the ascii body's
+    tokens): ({scalar property: (count,) array}, {list property: (lengths,
+    values one list after the other)}, position after it).
+
+    Read in runs of records of one shape (the lengths of their lists): within
+    a run the records have one size and are read at once, a structured view
+    of the binary data or a reshape of the ascii numbers, in windows that
+    double until a record of another shape starts the next run. A triangle
+    mesh is one run; one with a few other faces a few more."""
+    scal = {name: [] for name, t in el.props if not isinstance(t, tuple)}
+    lists = {name: ([], []) for name, t in el.props if isinstance(t, tuple)}
+    if not el.props:
+        return scal, lists, pos
+    done = 0
+    while done < el.count:
+        shape = _shape_at(path, el, data, tokens, pos, order)
+        # binary: the record's dtype (fields by position: n<i> the length of
+        # list i, p<i> property i); ascii: the columns of the list lengths
+        fields, cols, c, it = [], [], 0, iter(shape)
+        for i, (name, t) in enumerate(el.props):
+            if isinstance(t, tuple):
+                n = next(it)
+                fields += [(f"n{i}", order + _PLY_TYPES[t[1]]),
+                           (f"p{i}", order + _PLY_TYPES[t[2]], (n,))]
+                cols.append(c)
+                c += 1 + n
+            else:
+                fields.append((f"p{i}", order + _PLY_TYPES[t]))
+                c += 1
+        dt, width = np.dtype(fields), c
+        size = dt.itemsize if tokens is None else width
+        chunks, r, w = [], 0, 64
+        while done + r < el.count:
+            want = min(w, el.count - done - r)
+            a = pos + r * size
+            if tokens is None:
+                k = max(0, min(want, (len(data) - a) // size))
+                chunk = np.frombuffer(data, dt, k, a)
+                counts = [chunk[f"n{i}"] for i, (_, t) in enumerate(el.props)
+                          if isinstance(t, tuple)]
+            else:
+                k = max(0, min(want, (len(tokens) - a) // width))
+                try:
+                    chunk = np.array(tokens[a:a + k * width], np.float64).reshape(k, width)
+                except ValueError:
+                    raise ModelFileError(path, f"the {el.name} element holds values that are "
+                                               "not numbers") from None
+                counts = [chunk[:, j] for j in cols]
+            ok = np.ones(k, bool)
+            for cnt, n in zip(counts, shape):
+                ok &= cnt == n
+            good = int(np.argmin(ok)) if not ok.all() else k
+            chunks.append(chunk[:good])
+            r += good
+            if good < want:       # a record of another shape, or the end of the data
+                break
+            w *= 2
+        if not r:
+            raise ModelFileError(path, f"the {el.name} element announces {el.count} records, "
+                                       "the file ends first (truncated?)")
+        run = np.frombuffer(data, dt, r, pos) if tokens is None else \
+            (chunks[0] if len(chunks) == 1 else np.concatenate(chunks))
+        c, it = 0, iter(shape)
+        for i, (name, t) in enumerate(el.props):
+            if tokens is None:
+                col = run[f"p{i}"]
+                col = col.astype(col.dtype.newbyteorder("="), copy=False)
+            if isinstance(t, tuple):
+                n = next(it)
+                vals = col if tokens is None else run[:, c + 1:c + 1 + n]
+                lists[name][0].append(np.full(r, n, np.int64))
+                lists[name][1].append(vals.reshape(-1))
+                c += 1 + n
+            else:
+                scal[name].append(col if tokens is None else run[:, c])
+                c += 1
+        pos += r * size
+        done += r
+
+    def cat(parts, dtype=np.float64):
+        return parts[0] if len(parts) == 1 else np.concatenate(parts) if parts else \
+            np.zeros(0, dtype)
+
+    return ({k: cat(v) for k, v in scal.items()},
+            {k: (cat(v[0], np.int64), cat(v[1])) for k, v in lists.items()}, pos)
 
 
 def read(path, fmt: str = "ply"):
-    """Read a PLY file (ascii or binary) holding vertices and triangle faces."""
-    from .vtk import _read_bytes
+    """Read a PLY file (ascii or binary) holding vertices and triangle faces.
+    Faces of fewer than 3 vertices (points, lines) are ignored and faces of
+    more are refused naming the first, as the VTK reader does with cells."""
+    from .vtk import _cells_from_offsets, _read_bytes
 
     path = Path(path)
     data = _read_bytes(path)
     fmt_, elements, comments, pos = _parse_header(path, data)
     verts = faces = None
     tokens = data[pos:].split() if fmt_ == "ascii" else None
-    tpos = 0
+    if tokens is not None:
+        pos = 0
     order = "<" if fmt_ == "binary_little_endian" else ">"
     for el in elements:
-        if fmt_ == "ascii":
-            rec, tpos = _read_ascii(path, tokens, tpos, el)
-            get = rec.get
-        else:
-            rec, pos = _read_binary(path, data, pos, el, order)
-            get = (lambda r: (lambda k: r[k] if k in r.dtype.names else None))(rec)
+        scal, lists, pos = _read_element(path, el, data, tokens, pos, order)
         if el.name == "vertex":
-            xyz = [get(c) for c in ("x", "y", "z")]
-            if any(v is None for v in xyz[:2]):
+            if "x" not in scal or "y" not in scal:
                 raise ModelFileError(path, "the vertex element has no x and y properties")
-            z = xyz[2] if xyz[2] is not None else np.zeros(el.count)
-            verts = (np.column_stack([np.asarray(xyz[0], np.float64), np.asarray(xyz[1], np.float64),
+            z = scal["z"] if "z" in scal else np.zeros(el.count)
+            verts = (np.column_stack([np.asarray(scal["x"], np.float64),
+                                      np.asarray(scal["y"], np.float64),
                                       np.asarray(z, np.float64)]),
-                     {name: np.asarray(get(name)) for name, t in el.props
-                      if name not in ("x", "y", "z") and not isinstance(t, tuple)})
+                     {k: v for k, v in scal.items() if k not in ("x", "y", "z")})
         elif el.name == "face":
-            lists = [name for name, t in el.props if isinstance(t, tuple)]
             if not lists:
                 raise ModelFileError(path, "the face element has no vertex index list")
             key = "vertex_indices" if "vertex_indices" in lists else \
-                ("vertex_index" if "vertex_index" in lists else lists[0])
-            faces = np.asarray(get(key), np.int64).reshape(-1, 3)
+                ("vertex_index" if "vertex_index" in lists else next(iter(lists)))
+            sizes, idx = lists[key]
+            faces = _cells_from_offsets(path, np.asarray(idx, np.int64),
+                                        np.concatenate([[0], np.cumsum(sizes)]), None,
+                                        f"{el.name} {key}", noun="face")[0]
     if verts is None:
         raise ModelFileError(path, "no vertex element in this PLY file")
     P, pa = verts

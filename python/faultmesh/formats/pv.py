@@ -19,7 +19,7 @@ from typing import Dict, Optional
 
 import numpy as np
 
-from ._common import (model_surfaces, optional_import, split_merged, triangle_arrays,
+from ._common import (free_name, model_surfaces, optional_import, split_merged, surface_kind, triangle_arrays,
                       vertex_properties)
 
 _OWN_FIELDS = ("name", "kind", "fault_kind", "order")
@@ -133,9 +133,7 @@ def from_pyvista(obj, name: Optional[str] = None):
             label = obj.get_block_name(i) or f"surface_{i}"
             mesh, V, T = _triangles(block, f"block {label!r}")
             sname = _field_str(mesh, "name") or label
-            kind = _field_str(mesh, "kind") or "layer"
-            if kind not in ("layer", "fault"):
-                kind = "fault" if "fault" in kind.lower() else "layer"
+            kind = surface_kind(_field_str(mesh, "kind"))
             meta: Dict[str, object] = {}
             fk = _field_str(mesh, "fault_kind")
             if fk:
@@ -156,9 +154,7 @@ def from_pyvista(obj, name: Optional[str] = None):
             entries.append((kind, order, i, Surface(sname, V, T, kind=kind, metadata=meta)))
         for kind, _, _, s in sorted(entries, key=lambda e: (e[0] == "fault", e[1], e[2])):
             target = faults if kind == "fault" else layers
-            base, n = s.name, 2
-            while s.name in target:
-                s.name, n = f"{base} ({n})", n + 1
+            s.name = free_name(s.name, target)
             target[s.name] = s
         if not layers and not faults:
             raise ValueError("from_pyvista: the MultiBlock holds no mesh")

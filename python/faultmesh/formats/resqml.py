@@ -24,7 +24,7 @@ from typing import List, Optional
 
 import numpy as np
 
-from ._common import (AtomicFiles, ModelFileError, _Shared, guarded, model_surfaces,
+from ._common import (AtomicFiles, ModelFileError, _Shared, free_name, guarded, model_surfaces,
                       optional_import)
 
 SUFFIXES = (".epc",)
@@ -156,9 +156,7 @@ def _read(path: Path):
                     meta["kind"] = "reverse"
         target = faults if kind == "fault" else layers
         name = str(rs.title or f"surface_{len(layers) + len(faults)}")
-        base, n = name, 2
-        while name in target:
-            name, n = f"{base} ({n})", n + 1
+        name = free_name(name, target)
         if T.size and (T.min() < 0 or T.max() >= len(P)):
             raise ModelFileError(path, f"surface {name!r}: triangle vertex index outside "
                                        f"0..{len(P) - 1}")

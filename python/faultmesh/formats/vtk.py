@@ -19,9 +19,13 @@ Read: ``.vtu``, ``.vtp`` (ascii, inline binary or appended raw/base64 data,
 uncompressed or zlib/lzma compressed, UInt32/UInt64 headers, either byte
 order) and legacy ``.vtk`` (ASCII or BINARY, versions 2 to 5.1, POLYDATA or
 UNSTRUCTURED_GRID) as written by VTK, ParaView, PyVista, meshio and us.
-Triangles are kept; vertices, lines and poly-lines are ignored; any other
-cell (quads, polygons, volumes) is an error naming it. Every problem raises
-:class:`ModelFileError` naming the file (and the line in legacy headers).
+Triangles are kept, and so are triangle strips, as the triangles VTK makes of
+them (orientation alternating along the strip), each with the cell data of
+its strip; vertices, lines and poly-lines are ignored; any other cell (quads,
+polygons, volumes) is an error naming it. A ``.vtm`` (XML multiblock) of
+``.vtp``/``.vtu`` blocks is read by :func:`read_vtm`, one block after another.
+Every problem raises :class:`ModelFileError` naming the file (and the line in
+legacy headers).
 """
 from __future__ import annotations
 
@@ -33,7 +37,7 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-from ._common import AtomicFiles, Merged, ModelFileError, _Shared, split_merged
+from ._common import AtomicFiles, Merged, ModelFileError, _Shared, free_name, split_merged, surface_kind
 
 SUFFIXES = (".vtu", ".vtp", ".vtk")
 VTK_TRIANGLE = 5
@@ -384,9 +388,11 @@ def _arrays(x: _Xml, el) -> Dict[str, np.ndarray]:
 
 
 def _cells_from_offsets(path: Path, conn: np.ndarray, offsets: np.ndarray, types=None,
-                        what: str = "cells") -> np.ndarray:
+                        what: str = "cells", noun: str = "cell") -> Tuple[np.ndarray, np.ndarray]:
     """Triangles from a connectivity/offsets pair (``offsets`` the end of each
-    cell, or starting with 0 as in legacy 5.1); other cells ignored or refused."""
+    cell, or starting with 0 as in legacy 5.1) and, for each, the index of
+    its cell; other cells ignored (vertices, lines: also any cell of fewer
+    than 3 points without ``types``) or refused naming the first."""
     conn = np.asarray(conn, np.int64).reshape(-1)
     offsets = np.asarray(offsets, np.int64).reshape(-1)
     if len(offsets) and offsets[0] == 0 and types is None and len(offsets) >= 1:
@@ -410,38 +416,51 @@ def _cells_from_offsets(path: Path, conn: np.ndarray, offsets: np.ndarray, types
         i = int(np.flatnonzero(bad)[0])
         t = int(types[i])
         raise ModelFileError(path, f"expected a triangle mesh, found {int(bad.sum())} other "
-                                   f"cell(s), the first a {_CELL_NAMES.get(t, f'VTK type {t}')} "
-                                   f"of {int(size[i])} points (cell {i}); triangulate it first "
+                                   f"{noun}(s), the first a {_CELL_NAMES.get(t, f'VTK type {t}')} "
+                                   f"of {int(size[i])} points ({noun} {i}); triangulate it first "
                                    "(ParaView: Triangulate)")
     keep = tri | poly3
     if np.any(size[keep] != 3):
         i = int(np.flatnonzero(keep & (size != 3))[0])
-        raise ModelFileError(path, f"{what}: triangle cell {i} has {int(size[i])} points")
-    s = starts[keep]
-    return np.column_stack([conn[s], conn[s + 1], conn[s + 2]]) if len(s) else \
-        np.zeros((0, 3), np.int64)
+        raise ModelFileError(path, f"{what}: triangle {noun} {i} has {int(size[i])} points")
+    if keep.all() and len(size) and starts[0] == 0 and ends[-1] == 3 * len(size):
+        # only triangles, one after the other (the usual file): a reshape
+        return conn[:ends[-1]].reshape(-1, 3), np.arange(len(size))
+    src = np.flatnonzero(keep)
+    s = starts[src]
+    return np.column_stack([conn[s], conn[s + 1], conn[s + 2]]).reshape(-1, 3), src
 
 
-def _strips(path: Path, conn: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Triangles of triangle strips (alternate orientation, as VTK does)."""
-    conn = np.asarray(conn, np.int64)
-    ends = np.asarray(offsets, np.int64)
-    starts = np.concatenate([[0], ends[:-1]])
-    tris = []
-    for s, e in zip(starts.tolist(), ends.tolist()):   # one iteration per strip
-        if e - s < 3:
-            continue
-        i = np.arange(s, e - 2)
-        even = (i - s) % 2 == 0
-        a = np.where(even, conn[i], conn[i + 1])
-        b = np.where(even, conn[i + 1], conn[i])
-        tris.append(np.column_stack([a, b, conn[i + 2]]))
-    return np.vstack(tris) if tris else np.zeros((0, 3), np.int64)
+def _strips(path: Path, conn: np.ndarray, offsets: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """Triangles of triangle strips, as VTK makes them (vtkTriangleStrip):
+    triangle i of the strip p0..pn is (p_i, p_i+1, p_i+2) for even i and
+    (p_i+1, p_i, p_i+2) for odd i, so that all turn one way; and for each
+    triangle the index of its strip. A strip of fewer than 3 points has none."""
+    conn = np.asarray(conn, np.int64).reshape(-1)
+    ends = np.asarray(offsets, np.int64).reshape(-1)
+    starts = np.concatenate([[0], ends[:-1]]) if len(ends) else ends
+    if len(ends) and (np.any(ends < starts) or ends[-1] > len(conn)):
+        raise ModelFileError(path, f"Strips: offsets are not increasing within the "
+                                   f"{len(conn)} connectivity entries")
+    n = np.maximum(ends - starts - 2, 0)
+    strip = np.repeat(np.arange(len(n)), n)
+    local = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    i = starts[strip] + local
+    even = local % 2 == 0
+    tri = np.column_stack([np.where(even, conn[i], conn[i + 1]),
+                           np.where(even, conn[i + 1], conn[i]), conn[i + 2]])
+    return tri.reshape(-1, 3), strip
 
 
 def read_xml(path, fmt: Optional[str] = None):
     """Read a ``.vtu`` or ``.vtp`` file into a :class:`faultmesh.Model`."""
     path = Path(path)
+    return _assemble(path, *_xml_parts(path))
+
+
+def _xml_parts(path: Path):
+    """The pieces of a ``.vtu``/``.vtp`` file: points, triangles, point and
+    cell arrays per piece, and the field data (name -> list)."""
     data = _read_bytes(path)
     x = _Xml(path, data)
     grid_type = x.root.get("type", "")
@@ -479,14 +498,16 @@ def read_xml(path, fmt: Optional[str] = None):
             c = _arrays(x, cells) if cells is not None else {}
             if len(pts) and not {"connectivity", "offsets", "types"} <= set(c):
                 raise ModelFileError(path, "Cells: expected connectivity, offsets and types arrays")
-            tri = _cells_from_offsets(path, c.get("connectivity", []), c.get("offsets", []),
-                                      c.get("types", []), "Cells")
+            tri, src = _cells_from_offsets(path, c.get("connectivity", []),
+                                           c.get("offsets", []), c.get("types", []), "Cells")
             n_cells = len(c.get("types", []))
-            keep_cells = np.isin(np.asarray(c.get("types", []), np.int64).reshape(-1), [5, 7])
         else:
-            tri_parts, keep_parts = [], []
+            # VTK numbers the cells of a PolyData verts, lines, polys, strips
+            # (whatever the order of the elements in the file); cell data
+            # follows that order.
+            tri_parts, src_parts = [], []
             n_cells = 0
-            for tag in ("Verts", "Lines", "Strips", "Polys"):
+            for tag in ("Verts", "Lines", "Polys", "Strips"):
                 el = piece.find(tag)
                 c = _arrays(x, el) if el is not None else {}
                 cnt = int(piece.get(f"NumberOf{tag}", "0") or 0)
@@ -494,33 +515,83 @@ def read_xml(path, fmt: Optional[str] = None):
                     continue
                 if not {"connectivity", "offsets"} <= set(c):
                     raise ModelFileError(path, f"{tag}: expected connectivity and offsets arrays")
-                if tag == "Polys":
-                    t = _cells_from_offsets(path, c["connectivity"], c["offsets"], None, tag)
+                if tag in ("Polys", "Strips"):
+                    t, i = (_cells_from_offsets(path, c["connectivity"], c["offsets"], None, tag)
+                            if tag == "Polys" else _strips(path, c["connectivity"], c["offsets"]))
                     tri_parts.append(t)
-                    keep_parts.append(np.ones(cnt, bool) if len(t) == cnt else None)
-                elif tag == "Strips":
-                    tri_parts.append(_strips(path, c["connectivity"], c["offsets"]))
-                    keep_parts.append(None)
-                else:
-                    keep_parts.append(np.zeros(cnt, bool))
+                    src_parts.append(i + n_cells)
                 n_cells += cnt
             tri = np.vstack(tri_parts) if tri_parts else np.zeros((0, 3), np.int64)
-            keep_cells = np.concatenate(keep_parts) if keep_parts and all(
-                k is not None for k in keep_parts) else None
+            src = np.concatenate(src_parts) if src_parts else np.zeros(0, np.int64)
         if tri.size and (tri.min() < 0 or tri.max() >= len(pts)):
             raise ModelFileError(path, f"a cell refers to point {int(tri.max())}, the piece has "
                                        f"{len(pts)} points")
         pa = {k: v for k, v in _arrays(x, piece.find("PointData")).items() if len(v) == len(pts)}
-        ca = {}
-        if keep_cells is not None and len(keep_cells) == n_cells:
-            ca = {k: v[keep_cells] for k, v in _arrays(x, piece.find("CellData")).items()
-                  if len(v) == n_cells}
+        # each triangle takes the values of its cell (the strip it is part of)
+        ca = {k: v[src] for k, v in _arrays(x, piece.find("CellData")).items()
+              if len(v) == n_cells}
         P.append(pts)
         T.append(tri + off)
         PA.append(pa)
         CA.append(ca)
         off += len(pts)
-    return _assemble(path, P, T, PA, CA, fields)
+    return P, T, PA, CA, fields
+
+
+def read_vtm(path, fmt: Optional[str] = None):
+    """Read a ``.vtm`` (VTK XML multiblock: PyVista's ``MultiBlock.save``,
+    ParaView) whose blocks are ``.vtp``/``.vtu`` files, each through the XML
+    reader, in the order of the file (nested blocks too). A block of one mesh
+    is one surface named after its ``name`` field data (as
+    :func:`faultmesh.formats.pv.to_pyvista` writes it), else the block's
+    name, else its file's; ``kind``/``fault_kind`` field data give a fault
+    and its type. A block that is a faultmesh merged file keeps its
+    surfaces' names and kinds. A block without a file (an empty block) is
+    skipped. Block files are found relative to the ``.vtm``'s folder."""
+    from ..model import Model
+
+    path = Path(path)
+    x = _Xml(path, _read_bytes(path))
+    if x.root.get("type") != "vtkMultiBlockDataSet":
+        raise ModelFileError(path, f"VTK XML type {x.root.get('type', '')!r}: a .vtm is a "
+                                   "vtkMultiBlockDataSet")
+    # the MultiBlock's own field data (PyVista and VTK 9 write it)
+    fd = x.root.find("FieldData")
+    own = {a.get("Name", ""): x.array(a).tolist() for a in fd} if fd is not None else {}
+    layers: Dict[str, object] = {}
+    faults: Dict[str, object] = {}
+    crs = str((own.get("crs") or [""])[0])
+    for ds in x.root.iter("DataSet"):
+        rel = ds.get("file")
+        if not rel:
+            continue
+        block = path.parent / rel
+        label = ds.get("name") or block.stem
+        if block.suffix.lower() not in (".vtp", ".vtu"):
+            raise ModelFileError(path, f"block {label!r}: {block} is not a .vtp or .vtu file "
+                                       "(faultmesh reads surface blocks)")
+        if not block.is_file():
+            raise ModelFileError(path, f"block {label!r}: its file {block} does not exist")
+        parts = _xml_parts(block)
+        fields = parts[-1]
+        sub = _assemble(block, *parts)
+        crs = crs or sub.crs or ""
+        inside = list(sub.surfaces.values()) + list(sub.faults.values())
+        if "surface_names" not in fields and len(inside) == 1:
+            s = inside[0]
+            s.name = str((fields.get("name") or [label])[0])
+            s.kind = surface_kind(str((fields.get("kind") or ["layer"])[0]))
+            fk = str((fields.get("fault_kind") or [""])[0]).lower()
+            if s.kind == "fault" and fk in ("normal", "reverse"):
+                s.metadata["kind"] = fk
+        for s in inside:
+            target = faults if s.kind == "fault" else layers
+            s.name = free_name(s.name, target)
+            target[s.name] = s
+    if not layers and not faults:
+        raise ModelFileError(path, "no block with a file (.vtp/.vtu) in this multiblock")
+    return Model(name=str((own.get("model_name") or [path.stem])[0]), surfaces=layers,
+                 faults=faults, crs=crs)
 
 
 def _assemble(path, P, T, PA, CA, fields):
@@ -857,9 +928,10 @@ def read_legacy(path, fmt: Optional[str] = None):
         raise r.err(f"DATASET {p[1]}: faultmesh reads POLYDATA and UNSTRUCTURED_GRID")
     fields: Dict[str, object] = {}
     pts = None
-    conn_t, strips, types = [], [], None
+    # PolyData cells by kind: (triangles, index of the cell within its kind, count)
+    poly_cells: Dict[str, List[Tuple[np.ndarray, np.ndarray, int]]] = {}
+    types = None
     ucells = None
-    ignored_cells = 0
     pa: Dict[str, np.ndarray] = {}
     ca: Dict[str, np.ndarray] = {}
     s = r.next_line()
@@ -879,11 +951,12 @@ def read_legacy(path, fmt: Optional[str] = None):
         elif key in ("VERTICES", "LINES", "POLYGONS", "TRIANGLE_STRIPS") and dtype == "POLYDATA":
             conn, ends = _legacy_cells(r, p, key)
             if key == "POLYGONS":
-                conn_t.append(_cells_from_offsets(path, conn, ends, None, key))
+                tri, src = _cells_from_offsets(path, conn, ends, None, key)
             elif key == "TRIANGLE_STRIPS":
-                strips.append(_strips(path, conn, ends))
+                tri, src = _strips(path, conn, ends)
             else:
-                ignored_cells += len(ends)
+                tri, src = np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
+            poly_cells.setdefault(key, []).append((tri, src, len(ends)))
         elif key == "CELLS" and dtype == "UNSTRUCTURED_GRID":
             ucells = _legacy_cells(r, p, key)
         elif key == "CELL_TYPES":
@@ -903,27 +976,29 @@ def read_legacy(path, fmt: Optional[str] = None):
         s = r.next_line()
     if pts is None:
         raise r.err("no POINTS in this file")
-    cell_keep = None
+    tri, src = np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
     if dtype == "UNSTRUCTURED_GRID":
-        if ucells is None:
-            tri = np.zeros((0, 3), np.int64)
-        else:
+        n_cells = 0 if ucells is None else len(ucells[1])
+        if ucells is not None:
             if types is None:
                 raise r.err("CELLS without CELL_TYPES")
-            tri = _cells_from_offsets(path, ucells[0], ucells[1], types, "CELLS")
-            cell_keep = np.isin(types, [5, 7])
+            tri, src = _cells_from_offsets(path, ucells[0], ucells[1], types, "CELLS")
     else:
-        n_poly = sum(len(t) for t in conn_t)
-        tri = np.vstack(conn_t + strips) if conn_t or strips else np.zeros((0, 3), np.int64)
-        if not strips and not ignored_cells:
-            cell_keep = np.ones(n_poly, bool)
-        elif not strips:
-            cell_keep = np.concatenate([np.zeros(ignored_cells, bool), np.ones(n_poly, bool)])
+        # VTK numbers the cells verts, lines, polys, strips, whatever the
+        # order of the blocks in the file; CELL_DATA follows that order.
+        tris, srcs, n_cells = [], [], 0
+        for key in ("VERTICES", "LINES", "POLYGONS", "TRIANGLE_STRIPS"):
+            for t, i, n in poly_cells.get(key, []):
+                tris.append(t)
+                srcs.append(i + n_cells)
+                n_cells += n
+        if tris:
+            tri, src = np.vstack(tris), np.concatenate(srcs)
     if tri.size and (tri.min() < 0 or tri.max() >= len(pts)):
         raise ModelFileError(path, f"a cell refers to point {int(tri.max())}; the file has "
                                    f"{len(pts)} points")
-    ca = {k: v[cell_keep] for k, v in ca.items() if cell_keep is not None
-          and len(v) == len(cell_keep)}
+    # each triangle takes the values of its cell (the strip it is part of)
+    ca = {k: v[src] for k, v in ca.items() if len(v) == n_cells}
     sfields = {k: v for k, v in fields.items() if isinstance(v, list)}
     return _assemble(path, [pts], [tri], [pa], [ca], sfields)
 
