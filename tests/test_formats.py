@@ -1107,3 +1107,465 @@ test_fuzz_stl_reader = _fuzz(".stl", 60)
 test_fuzz_omf_reader = _fuzz(".omf", 40)
 test_fuzz_geoh5_reader = _fuzz(".geoh5", 25)
 test_fuzz_epc_reader = _fuzz(".epc", 25)
+
+
+# --------------------------------------------------------------------------
+# reader defects found by the model-reader fuzz (pf48): each test builds its
+# file per the spec and fails on the readers before the fix
+# --------------------------------------------------------------------------
+
+_QUAD = "0 0 0 1 0 0 0 1 0 1 1 0"          # four points, two triangles 0 1 2 / 1 3 2
+
+
+def _legacy(body: str, version: str = "4.2", kind: str = "POLYDATA") -> str:
+    return f"# vtk DataFile Version {version}\nx\nASCII\nDATASET {kind}\nPOINTS 4 double\n" \
+           f"{_QUAD}\n{body}"
+
+
+def _vtp(polys_conn: str, polys_off: str, n_polys="2", extra_piece="", cell_data="",
+         points_attrs='type="Float64" NumberOfComponents="3"', points=_QUAD) -> str:
+    return ('<?xml version="1.0"?>\n<VTKFile type="PolyData" version="0.1">\n<PolyData>\n'
+            f'<Piece NumberOfPoints="4" NumberOfPolys="{n_polys}"{extra_piece}>\n'
+            f'<Points><DataArray {points_attrs} format="ascii">{points}</DataArray></Points>\n'
+            f'<CellData>{cell_data}</CellData>\n'
+            f'<Polys><DataArray type="Int64" Name="connectivity" format="ascii">{polys_conn}'
+            f'</DataArray><DataArray type="Int64" Name="offsets" format="ascii">{polys_off}'
+            '</DataArray></Polys>\n</Piece>\n</PolyData>\n</VTKFile>\n')
+
+
+@pytest.mark.parametrize("binary", [False, True])
+@pytest.mark.parametrize("block, n, size, cells, msg", [
+    ("POLYGONS", 10 ** 12, 4, [3, 0, 1, 2], r"1000000000000 cells announced in 4 entries"),
+    ("LINES", 30_000_000, 2, [-1, 0], r"30000000 cells announced in 2 entries"),
+    ("POLYGONS", 2, 5, [3, 0, 1, 2, -1], r"cell 1 has a negative point count -1"),
+    ("POLYGONS", 2, 6, [2, 0, 1, 7, 0, 1], r"cell 1 announces 7 points, past the end"),
+    ("TRIANGLE_STRIPS", 3, 7, [2, 0, 1, 3, 0, 1, 2], r"3 cells announced, the list ends after 2")])
+def test_legacy_vtk_cell_counts_are_checked_against_the_data_first(tmp_path, binary, block, n,
+                                                                  size, cells, msg):
+    """Regression (D1): a header count of cells was allocated and walked
+    before the data were checked: POLYGONS 1e12 raised a MemoryError out of
+    load_model; LINES 3e7 over a cell of size -1 took 12 s and 500 MB. Now
+    refused at once, naming the file, the block and what does not fit."""
+    head = f"# vtk DataFile Version 4.2\nx\n{'BINARY' if binary else 'ASCII'}\n" \
+           "DATASET POLYDATA\nPOINTS 4 double\n"
+    pts = np.array(_QUAD.split(), float)
+    data = head.encode() + (pts.astype(">f8").tobytes() + b"\n" if binary else
+                            (_QUAD + "\n").encode())
+    data += f"{block} {n} {size}\n".encode()
+    data += np.array(cells, ">i4").tobytes() + b"\n" if binary else \
+        (" ".join(map(str, cells)) + "\n").encode()
+    p = tmp_path / "big.vtk"
+    p.write_bytes(data)
+    import time
+
+    t = time.perf_counter()
+    with pytest.raises(ModelFileError, match=rf"big\.vtk, line \d+: {block}: {msg}"):
+        load_model(p)
+    assert time.perf_counter() - t < 2.0
+
+
+def test_legacy_vtk_cells_of_mixed_sizes_are_walked_without_a_loop(tmp_path):
+    """The vectorised walk of a legacy cell list of mixed sizes (a line, an
+    empty cell, two triangles) gives VTK's cells and their cell data."""
+    p = tmp_path / "mixed.vtk"
+    p.write_text(_legacy("POLYGONS 4 12\n2 0 1\n0\n3 0 1 2\n3 1 3 2\nCELL_DATA 4\n"
+                         "SCALARS c double 1\nLOOKUP_TABLE default\n10 20 30 40\n"))
+    (s,) = load_model(p).surfaces.values()
+    assert s.triangles.tolist() == [[0, 1, 2], [1, 3, 2]]
+    assert s.metadata["triangle_properties"]["c"].tolist() == [30, 40]
+
+
+def test_a_memory_error_in_a_reader_becomes_a_model_file_error(tmp_path, monkeypatch):
+    """Regression (D1): a MemoryError from a reader escaped load_model as it
+    was; now a ModelFileError naming the file ("too large to read").
+    KeyboardInterrupt still passes through."""
+    from faultmesh import io
+
+    p = tmp_path / "m.ply"
+    p.write_bytes(b"ply\n")
+
+    def boom(path):
+        raise MemoryError("Unable to allocate 7.28 TiB")
+
+    monkeypatch.setitem(io.FILE_FORMATS, ".ply", (None, boom))
+    with pytest.raises(ModelFileError, match=r"m\.ply: reading it as \.ply failed: too large "
+                                             r"to read .*7\.28 TiB"):
+        load_model(p)
+
+    def interrupt(path):
+        raise KeyboardInterrupt
+
+    monkeypatch.setitem(io.FILE_FORMATS, ".ply", (None, interrupt))
+    with pytest.raises(KeyboardInterrupt):
+        load_model(p)
+
+
+def _ply_bytes(fmt: str, header_extra=(), vertices=((0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0)),
+               faces=((0, 1, 2), (1, 3, 2)), n_vertices=None, n_faces=None,
+               index_type=("int", "i"), lists=None, tail=b"", comment="") -> bytes:
+    """A PLY file per the spec: double x y z vertices, a face element with
+    'vertex_indices' (or the ``lists``: [(name, type, struct code, values per
+    face)]), optional header lines and bytes after the data."""
+    o = {"binary_little_endian": "<", "binary_big_endian": ">"}.get(fmt)
+    lists = lists or [("vertex_indices", index_type[0], index_type[1], list(faces))]
+    head = ["ply", f"format {fmt} 1.0", *([f"comment {comment}"] if comment else []),
+            f"element vertex {len(vertices) if n_vertices is None else n_vertices}",
+            "property double x", "property double y", "property double z",
+            f"element face {len(lists[0][3]) if n_faces is None else n_faces}",
+            *[f"property list uchar {t} {name}" for name, t, _, _ in lists], *header_extra,
+            "end_header", ""]
+    nf = len(lists[0][3])
+    if o is None:
+        body = "".join(" ".join(map(str, v)) + "\n" for v in vertices)
+        body += "".join(" ".join(" ".join(map(str, [len(vals[i]), *vals[i]]))
+                                 for _, _, _, vals in lists) + "\n" for i in range(nf))
+        return "\n".join(head).encode() + body.encode() + tail
+    import struct
+
+    body = b"".join(struct.pack(o + "ddd", *v) for v in vertices)
+    for i in range(nf):
+        for _, _, code, vals in lists:
+            body += struct.pack(f"{o}B{len(vals[i])}{code}", len(vals[i]), *vals[i])
+    return "\n".join(head).encode() + body + tail
+
+
+_PLY_FORMATS = ["ascii", "binary_little_endian", "binary_big_endian"]
+
+
+@pytest.mark.parametrize("fmt", _PLY_FORMATS)
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), -float("inf")])
+def test_ply_non_finite_vertex_is_refused_naming_it_unused_ones_dropped(tmp_path, fmt, bad):
+    """Regression (D2): NaN/inf PLY coordinates were loaded (the VTK, GOCAD
+    and STL readers refuse them) and failed later in a writer. Refused naming
+    the vertex when a triangle uses it, dropped when none does (as VTK)."""
+    p = tmp_path / "m.ply"
+    V = [(0, 0, 0), (bad, 0, 0), (0, 1, 0), (1, 1, 0), (1, bad, 2)]
+    p.write_bytes(_ply_bytes(fmt, vertices=V))
+    with pytest.raises(ModelFileError, match=r"m\.ply: vertex 1 has non-finite coordinates"):
+        load_model(p)
+    p.write_bytes(_ply_bytes(fmt, vertices=[(0, 0, 0), (bad, 0, 0), (1, 0, 0), (0, 1, 0)],
+                             faces=[(0, 2, 3)]))
+    (s,) = load_model(p).surfaces.values()
+    assert s.vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+    assert s.triangles.tolist() == [[0, 1, 2]]
+
+
+@pytest.mark.parametrize("fmt", _PLY_FORMATS)
+def test_ply_header_ends_only_at_an_end_header_line(tmp_path, fmt):
+    """Regression (D3): the header ended at the first bytes 'end_header'
+    anywhere, also inside a comment ("no vertex element in this PLY file"
+    for a valid file). Only a line that is exactly end_header ends it (white
+    space and a CR around it allowed)."""
+    p = tmp_path / "m.ply"
+    p.write_bytes(_ply_bytes(fmt, comment="exported before end_header was fixed",
+                             header_extra=["element end_header_notes 0", "property int a"]))
+    (s,) = load_model(p).surfaces.values()
+    assert s.triangles.tolist() == [[0, 1, 2], [1, 3, 2]]
+    p.write_bytes(_ply_bytes(fmt).replace(b"\nend_header\n", b"\n end_header \r\n"))
+    assert load_model(p).surfaces[p.stem].n_triangles == 2
+
+
+@pytest.mark.parametrize("name, text", [
+    ("e.vtp", _vtp("0 1 2 1 3 2", "0 3 6", n_polys="3",
+                   cell_data='<DataArray type="Float64" Name="c" format="ascii">10 20 30'
+                             '</DataArray>')),
+    ("e42.vtk", _legacy("POLYGONS 3 9\n0\n3 0 1 2\n3 1 3 2\nCELL_DATA 3\nSCALARS c double 1\n"
+                        "LOOKUP_TABLE default\n10 20 30\n")),
+    ("e51.vtk", _legacy("POLYGONS 4 6\nOFFSETS vtktypeint64\n0 0 3 6\nCONNECTIVITY vtktypeint64\n"
+                        "0 1 2 1 3 2\nCELL_DATA 3\nSCALARS c double 1\nLOOKUP_TABLE default\n"
+                        "10 20 30\n", version="5.1"))])
+def test_vtk_empty_first_polygon_keeps_each_triangle_its_cell_data(tmp_path, name, text):
+    """Regression (D4): end offsets starting with 0 (an empty first polygon)
+    were taken for the start-offsets form, so each triangle got the cell
+    data of the cell before it (c = 10, 20 instead of VTK's 20, 30)."""
+    p = tmp_path / name
+    p.write_text(text)
+    (s,) = load_model(p).surfaces.values()
+    assert s.triangles.tolist() == [[0, 1, 2], [1, 3, 2]]
+    assert s.metadata["triangle_properties"]["c"].tolist() == [20, 30]
+
+
+@pytest.mark.parametrize("n_polys, extra, msg", [
+    ("1", "", r"piece 0: NumberOfPolys=1 but the Polys offsets array has 2 entries"),
+    ("2", ' NumberOfStrips="1"', r"piece 0: NumberOfStrips=1 but <Strips> has no connectivity "
+                                 r"and offsets arrays")])
+def test_vtp_cell_counts_must_match_the_offsets(tmp_path, n_polys, extra, msg):
+    """Regression (D6): NumberOfPolys/NumberOfStrips were not checked against
+    the offsets arrays: all offsets were read as cells but the cell data
+    numbered by the attribute (the 2nd poly and a strip got the same value)."""
+    p = tmp_path / "n.vtp"
+    p.write_text(_vtp("0 1 2 1 3 2", "3 6", n_polys=n_polys, extra_piece=extra))
+    with pytest.raises(ModelFileError, match=rf"n\.vtp: {msg}"):
+        load_model(p)
+
+
+@pytest.mark.parametrize("fmt", _PLY_FORMATS)
+def test_ply_data_left_after_the_last_element_is_refused(tmp_path, fmt):
+    """Regression (D10): data after the last element were ignored, so a wrong
+    count in the header gave a wrong model silently. Refused naming what is
+    left; a trailing newline (and, binary, a few NUL bytes) is tolerated."""
+    p = tmp_path / "m.ply"
+    p.write_bytes(_ply_bytes(fmt, n_faces=1))
+    left = r"4 value\(s\)" if fmt == "ascii" else r"13 byte\(s\)"
+    with pytest.raises(ModelFileError, match=rf"m\.ply: {left} left after the last element"):
+        load_model(p)
+    for tail in (b"\n", b"\r\n") + ((b"\0\0\n", b"\0" * 8) if fmt != "ascii" else (b"  \n\n",)):
+        p.write_bytes(_ply_bytes(fmt, tail=tail))
+        assert load_model(p).surfaces["m"].n_triangles == 2
+    if fmt != "ascii":
+        p.write_bytes(_ply_bytes(fmt, tail=b"\0" * 9))
+        with pytest.raises(ModelFileError, match=r"9 byte\(s\) left after the last element"):
+            load_model(p)
+
+
+@pytest.mark.parametrize("fmt", _PLY_FORMATS)
+def test_ply_face_list_without_vertex_indices_is_the_only_integer_list(tmp_path, fmt):
+    """Regression (D11): without vertex_indices the first list was taken,
+    float texture coordinates included (0 triangles, silently). The only
+    integer list is taken; else an error naming the lists."""
+    tex = [(0.5, 0.25), (0.125, 1.0)]
+    p = tmp_path / "m.ply"
+    p.write_bytes(_ply_bytes(fmt, lists=[("texcoord", "float", "f", tex),
+                                         ("indices", "int", "i", [(0, 1, 2), (1, 3, 2)])]))
+    assert load_model(p).surfaces["m"].triangles.tolist() == [[0, 1, 2], [1, 3, 2]]
+    p.write_bytes(_ply_bytes(fmt, lists=[("a", "int", "i", [(0, 1, 2), (1, 3, 2)]),
+                                         ("b", "uint", "I", [(0, 1, 2), (1, 3, 2)])]))
+    with pytest.raises(ModelFileError, match=r"m\.ply: the face element has no vertex_indices "
+                                             r"list .*\(lists: a \(int\), b \(uint\)\)"):
+        load_model(p)
+
+
+@pytest.mark.parametrize("fmt", _PLY_FORMATS)
+def test_ply_fractional_vertex_index_is_refused_naming_the_face(tmp_path, fmt):
+    """Regression (D7): a fractional index (ascii 1.5, or a float/double
+    index list) was truncated silently into another triangle."""
+    p = tmp_path / "m.ply"
+    p.write_bytes(_ply_bytes(fmt, faces=[(0, 1, 2), (1, 3, 1.5)], index_type=("double", "d")))
+    with pytest.raises(ModelFileError, match=r"m\.ply: face 1: vertex index 1\.5 is not an "
+                                             r"integer"):
+        load_model(p)
+    if fmt == "ascii":   # an int list holding a fraction in the text
+        p.write_bytes(_ply_bytes(fmt).replace(b"3 1 3 2\n", b"3 1 3 2.5\n"))
+        with pytest.raises(ModelFileError, match=r"face 1: vertex index 2\.5 is not an integer"):
+            load_model(p)
+    p.write_bytes(_ply_bytes(fmt, faces=[(0, 1, 2), (1, 3, -1)]))
+    with pytest.raises(ModelFileError, match=r"m\.ply: face 1: vertex index -1 is outside the 4 "
+                                             r"vertices"):
+        load_model(p)
+
+
+def test_ply_huge_list_length_is_named_exactly(tmp_path):
+    """Regression (D8c): a list length 2^64 - 1 was reported (through a
+    float) as 18446744073709551616."""
+    p = tmp_path / "m.ply"
+    p.write_bytes(_ply_bytes("ascii", index_type=("uint64", "Q")).replace(
+        b"\n3 0 1 2\n", b"\n18446744073709551615 0 1 2\n").replace(b"list uchar", b"list uint64"))
+    with pytest.raises(ModelFileError, match=r"a list of 18446744073709551615 entries"):
+        load_model(p)
+
+
+@pytest.mark.parametrize("name, text, msg", [
+    ("neg.vtp", _vtp("0 1 2 1 3 -1", "3 6"),
+     r"cell 1 refers to point -1; the piece has 4 points \(0\.\.3\)"),
+    ("huge.vtk", _legacy("POLYGONS 1 4\n3 0 1 99999999999\n"),
+     r"POLYGONS: value '99999999999' \(number 3\) is not an integer of type int32"),
+    ("types.vtk", _legacy("CELLS 1 4\n3 0 1 2\nCELL_TYPES 1\n99999999999\n",
+                          kind="UNSTRUCTURED_GRID"),
+     r"CELL_TYPES: value '99999999999' \(number 0\) is not an integer"),
+    ("frac.vtk", _legacy("POLYGONS 1 4\n3 0 1 1.9\n"), r"value '1\.9' \(number 3\) is not an "
+                                                       r"integer"),
+    ("two.vtp", _vtp("0 1 2 1 3 2", "3 6", n_polys="two"),
+     r"piece 0: NumberOfPolys='two' is not a count"),
+    ("huge.vtp", _vtp("0 1 2 1 3 2", "3 6", n_polys="99999999999999999999999"),
+     r"piece 0: NumberOfPolys='99999999999999999999999' is not a count \(too large\)"),
+    ("comp.vtp", _vtp("0 1 2 1 3 2", "3 6", points_attrs='type="Float64" '
+                                                        'NumberOfComponents="three"'),
+     r"piece 0 Points: NumberOfComponents='three' is not a count"),
+    ("str.vtp", _vtp("0 1 2 1 3 2", "3 6", points_attrs='type="String" NumberOfComponents="3"'),
+     r"piece 0: Points of type 'String', expected a numeric type"),
+    ("comp2.vtp", _vtp("0 1 2 1 3 2", "3 6", points_attrs='type="Float64" NumberOfComponents="2"',
+                       points="0 0 1 0 0 1 1 1 0 0 1 0"),
+     r"piece 0: Points have NumberOfComponents=2, expected 3")])
+def test_vtk_messages_name_the_bad_value_and_where_it_is(tmp_path, name, text, msg):
+    """Regression (D8, D9, D13): a -1 index was reported as 'refers to point
+    3' (a valid point); 99999999999 overflowed int32 into a valid index or a
+    negative cell type; a fraction was truncated; a NumberOf* attribute that
+    is no count, String-typed Points gave 'failed: ValueError: ...' without
+    the attribute; 2-component Points were read as 3-D (VTK refuses them)."""
+    p = tmp_path / name
+    p.write_text(text)
+    with pytest.raises(ModelFileError, match=rf"{re.escape(name)}(, line \d+)?: .*{msg}"):
+        load_model(p)
+
+
+def test_vtm_block_that_is_not_a_readable_file_is_named(tmp_path):
+    """Regression (D8d, D9): a block path that is a directory was reported as
+    'does not exist', a name too long as 'failed: OSError', an internal
+    error inside a block named only the .vtm. Each names the block and its
+    file, and what is wrong with it."""
+    def vtm(rel):
+        (tmp_path / "m.vtm").write_text(
+            '<?xml version="1.0"?>\n<VTKFile type="vtkMultiBlockDataSet" version="1.0">\n'
+            f'<vtkMultiBlockDataSet><DataSet index="0" name="b" file="{rel}"/>'
+            '</vtkMultiBlockDataSet>\n</VTKFile>\n')
+        return tmp_path / "m.vtm"
+
+    (tmp_path / "d.vtp").mkdir()
+    with pytest.raises(ModelFileError, match=r"m\.vtm: block 'b': its file .*d\.vtp is a "
+                                             r"directory"):
+        load_model(vtm("d.vtp"))
+    with pytest.raises(ModelFileError, match=r"m\.vtm: block 'b': its file .* cannot be opened "
+                                             r"\(File name too long\)"):
+        load_model(vtm("a" * 300 + ".vtp"))
+
+
+def test_vtm_of_many_blocks_of_one_name_names_them_in_linear_time(tmp_path):
+    """Regression (D12a): free_name tried 'name (2)', 'name (3)'... from 2 for
+    every block: 5,000 blocks of one name took 9 s. With a counter per
+    target the look-ups are linear; the names are unchanged."""
+    from faultmesh.formats._common import free_name
+
+    class Counting(dict):
+        looks = 0
+
+        def __contains__(self, key):
+            Counting.looks += 1
+            return super().__contains__(key)
+
+    taken, counters = Counting(), {}
+    for _ in range(2000):
+        name = free_name("b", taken, counters)
+        taken[name] = None
+    assert list(taken)[:3] == ["b", "b (2)", "b (3)"] and len(taken) == 2000
+    assert Counting.looks < 3 * 2000
+    taken["c (2)"] = None            # a name already taken is skipped, not reused
+    assert [free_name("c", taken, counters) for _ in range(1)] == ["c"]
+    taken["c"] = None
+    assert free_name("c", taken, counters) == "c (3)"
+    # through a .vtm: 300 blocks naming one file, one name
+    pv = pytest.importorskip("pyvista")
+    pv.Plane(i_resolution=1, j_resolution=1).triangulate().save(tmp_path / "s.vtp")
+    blocks = "".join(f'<DataSet index="{i}" name="b" file="s.vtp"/>' for i in range(300))
+    (tmp_path / "m.vtm").write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="vtkMultiBlockDataSet" version="1.0">\n'
+        f"<vtkMultiBlockDataSet>{blocks}</vtkMultiBlockDataSet>\n</VTKFile>\n")
+    m = load_model(tmp_path / "m.vtm")
+    assert list(m.surfaces)[:3] == ["b", "b (2)", "b (3)"] and len(m.surfaces) == 300
+    assert all(s.n_triangles == 2 for s in m.surfaces.values())
+    m.surfaces["b"].vertices[0, 0] = 99.0      # each block its own arrays
+    assert m.surfaces["b (2)"].vertices[0, 0] != 99.0
+
+
+def test_split_by_surface_id_is_one_group_by(tmp_path, monkeypatch):
+    """Regression (D12b): splitting a merged mesh by surface_id scanned every
+    vertex per id (a PLY of 50,000 ids took 4 s). Now one sort: no scan per
+    surface, and each surface its own vertices and triangles as before."""
+    from faultmesh.formats import _common
+
+    n = 500
+    rng = np.random.default_rng(0)
+    P = rng.random((3 * n, 3))
+    sid = np.repeat(rng.permutation(n), 3)
+    T = np.arange(3 * n).reshape(n, 3)[:, ::-1]
+    calls = []
+    real = np.flatnonzero
+    monkeypatch.setattr(np, "flatnonzero", lambda *a, **k: calls.append(1) or real(*a, **k))
+    m = _common.split_merged(tmp_path / "x.ply", P, T, {"surface_id": sid}, {})
+    monkeypatch.undo()
+    assert len(calls) < 10
+    assert list(m.surfaces) == [f"surface_{k}" for k in range(n)]
+    for k in (0, 7, n - 1):
+        rows = np.flatnonzero(sid == k)
+        s = m.surfaces[f"surface_{k}"]
+        assert np.array_equal(s.vertices, P[rows]) and s.triangles.tolist() == [[2, 1, 0]]
+
+
+def test_vtu_triangle_strip_cells_are_read_as_vtk_triangulates_them(tmp_path):
+    """Regression (D15): the docs say strips are kept, but a triangle-strip
+    cell (type 6) in a .vtu was refused; now its triangles (as VTK's
+    triangulate() makes them) in cell order, each with its cell's data."""
+    pv = pytest.importorskip("pyvista")
+    pts = np.array([[0, 0, 0], [0, 1, 0], [1, 0, 0], [1, 1, 0.5], [2, 0, 0], [2, 1, 0]], float)
+    cells = np.array([3, 0, 1, 4, 5, 0, 1, 2, 3, 4, 3, 3, 5, 4])
+    g = pv.UnstructuredGrid(cells, np.array([5, 6, 5], np.uint8), pts)
+    g.cell_data["cid"] = np.array([7, 8, 9], np.int32)
+    p = tmp_path / "s.vtu"
+    g.save(p)
+    ref = pv.read(p).triangulate()
+    (s,) = load_model(p).surfaces.values()
+    F = np.asarray(ref.cells).reshape(-1, 4)[:, 1:]
+    assert np.array_equal(s.vertices[s.triangles], np.asarray(ref.points)[F])
+    assert s.metadata["triangle_properties"]["cid"].tolist() == [7, 8, 8, 8, 9]
+
+
+@pytest.mark.parametrize("name, text, msg", [
+    ("lines.vtp", _vtp("0 1 2 1 3 2", "3 6", extra_piece=' NumberOfLines="1"').replace(
+        "<Polys>", '<Lines><DataArray type="Int64" Name="connectivity" format="ascii">0 1'
+                   '</DataArray><DataArray type="Int64" Name="offsets" format="ascii">99'
+                   '</DataArray></Lines><Polys>'),
+     r"piece 0: Lines: offsets are not increasing within the 2 connectivity entries"),
+    ("lidx.vtp", _vtp("0 1 2 1 3 2", "3 6", extra_piece=' NumberOfLines="1"').replace(
+        "<Polys>", '<Lines><DataArray type="Int64" Name="connectivity" format="ascii">0 '
+                   '1099511627776</DataArray><DataArray type="Int64" Name="offsets" '
+                   'format="ascii">2</DataArray></Lines><Polys>'),
+     r"piece 0: Lines: a cell refers to point 1099511627776; the piece has 4 points"),
+    ("short.vtp", _vtp("0 1 2 1 3 2", "3 6", cell_data='<DataArray type="Float64" Name="c" '
+                                                       'format="ascii">1 2 3</DataArray>'),
+     r"piece 0 CellData: array 'c' has 3 tuples for the 2 cells"),
+    ("float51.vtk", _legacy("POLYGONS 3 6\nOFFSETS float\n0 3.7 6\nCONNECTIVITY vtktypeint64\n"
+                            "0 1 2 1 3 2\n", version="5.1"),
+     r"OFFSETS: data type 'float' is not an integer type")])
+def test_vtk_hostile_cell_arrays_are_refused(tmp_path, name, text, msg):
+    """Regression (D13): Verts/Lines offsets and indices were never checked
+    (past the end, 2^40 accepted); a cell array of the wrong length was
+    dropped silently; legacy 5.1 float OFFSETS were truncated."""
+    p = tmp_path / name
+    p.write_text(text)
+    with pytest.raises(ModelFileError, match=rf"{re.escape(name)}(, line \d+)?: {msg}"):
+        load_model(p)
+
+
+def test_legacy_vtk_second_block_of_a_kind_replaces_the_first(tmp_path):
+    """Regression (D13): two POLYGONS blocks were both kept; VTK's reader
+    keeps the last (and numbers the cells by it)."""
+    p = tmp_path / "twice.vtk"
+    p.write_text(_legacy("POLYGONS 1 4\n3 0 1 2\nPOLYGONS 1 4\n3 1 3 2\nCELL_DATA 1\n"
+                         "SCALARS c double 1\nLOOKUP_TABLE default\n5\n"))
+    (s,) = load_model(p).surfaces.values()
+    assert s.vertices[s.triangles].tolist() == [[[1, 0, 0], [1, 1, 0], [0, 1, 0]]]
+    assert s.metadata["triangle_properties"]["c"].tolist() == [5]
+
+
+def test_vtp_compressed_block_inflating_past_its_header_is_refused(tmp_path):
+    """Regression (D14): the block sizes of a zlib header were not used: a
+    2 MB file whose one '96-byte' block inflates to gigabytes took seconds
+    and 2 GB before failing. The output is capped at the announced size."""
+    import base64
+    import zlib
+
+    def arr(attrs, raw: bytes, inflate_to=None):
+        z = zlib.compress(raw if inflate_to is None else bytes(inflate_to))
+        head = np.array([1, len(raw), len(raw), len(z)], "<u4").tobytes()
+        return (f'<DataArray {attrs} format="binary">{base64.b64encode(head).decode()}'
+                f'{base64.b64encode(z).decode()}</DataArray>')
+
+    pts = np.array(_QUAD.split(), "<f8").tobytes()
+    conn = np.array([0, 1, 2, 1, 3, 2], "<i8").tobytes()
+    off = np.array([3, 6], "<i8").tobytes()
+
+    def vtp(inflate_to=None):
+        return ('<?xml version="1.0"?>\n<VTKFile type="PolyData" version="0.1" '
+                'byte_order="LittleEndian" compressor="vtkZLibDataCompressor">\n<PolyData>\n'
+                '<Piece NumberOfPoints="4" NumberOfPolys="2">\n<Points>'
+                + arr('type="Float64" NumberOfComponents="3"', pts, inflate_to) + '</Points>\n'
+                '<Polys>' + arr('type="Int64" Name="connectivity"', conn)
+                + arr('type="Int64" Name="offsets"', off) + '</Polys>\n</Piece>\n</PolyData>\n'
+                '</VTKFile>\n')
+
+    p = tmp_path / "z.vtp"
+    p.write_text(vtp())
+    assert load_model(p).surfaces["z"].n_triangles == 2
+    p.write_text(vtp(inflate_to=50_000_000))
+    with pytest.raises(ModelFileError, match=r"z\.vtp: compressed block 0 holds more than the "
+                                             r"96 bytes its header announces"):
+        load_model(p)

@@ -8,16 +8,21 @@ in a viewer use ``.obj``, ``.vtu`` or a folder (one ``.ply`` per surface).
 Read: the spec's types and their aliases, and ``int64``/``uint64`` (Open3D,
 trimesh, plyfile write them); faces of fewer than 3 vertices (points, lines)
 are ignored, and faces of more are refused naming the first, as the VTK
-reader treats cells.
+reader treats cells. The header ends at a line that is exactly
+``end_header``; the indices are ``vertex_indices``/``vertex_index`` or the
+face element's only integer list; a fractional or out-of-range index, a
+non-finite vertex a face uses, and data left after the last element are
+errors naming what is wrong (docs/formats.md).
 """
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Optional
 
 import numpy as np
 
-from ._common import AtomicFiles, Merged, ModelFileError, _Shared, split_merged
+from ._common import AtomicFiles, Merged, ModelFileError, _Shared, drop_non_finite, split_merged
 
 SUFFIXES = (".ply",)
 
@@ -67,6 +72,10 @@ _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short":
               "int64": "i8", "uint64": "u8"}
 
 
+# a line holding only end_header; the data start after its newline
+_END_HEADER = re.compile(rb"(?:^|\n)[ \t\r]*(end_header)[ \t\r]*(?:\n|\Z)")
+
+
 class _Element:
     def __init__(self, name: str, count: int) -> None:
         self.name = name
@@ -76,14 +85,17 @@ class _Element:
 
 def _parse_header(path: Path, data: bytes):
     """The PLY header: format, elements, faultmesh comments, data offset. A
-    header that never ends (a truncated file) is an error, not a hang."""
-    end = data.find(b"end_header")
-    if not data.startswith(b"ply") or end < 0:
+    header that never ends (a truncated file) is an error, not a hang. The
+    header ends at the first line that is ``end_header`` and nothing else
+    (white space and a CR aside): the text inside a comment, an element or
+    a property name does not end it."""
+    m = _END_HEADER.search(data)
+    if not data.startswith(b"ply") or m is None:
         raise ModelFileError(path, "not a PLY file (no 'ply' ... 'end_header' header)"
                              if not data.startswith(b"ply") else
-                             "the PLY header has no end_header (truncated file?)")
-    nl = data.find(b"\n", end)
-    body = nl + 1 if nl >= 0 else len(data)
+                             "the PLY header has no end_header line (truncated file?)")
+    end = m.start(1)
+    body = m.end()
     fmt, elements, comments = None, [], []
     for no, raw in enumerate(data[:end].split(b"\n"), start=1):
         s = raw.decode("utf-8", "replace").strip()
@@ -155,8 +167,12 @@ def _shape_at(path, el, data, tokens, pos, order):
             if pos + dt.itemsize > len(data):
                 raise ModelFileError(path, f"the {el.name} element announces {el.count} "
                                            "records, the file ends first (truncated?)")
-            v = float(np.frombuffer(data, dt, 1, pos)[0])
-            n = int(v) if np.isfinite(v) and v == int(v) else -1
+            raw = np.frombuffer(data, dt, 1, pos)[0]
+            if dt.kind in "iu":
+                n = int(raw)          # exact, also a uint64 near 2^64
+            else:
+                v = float(raw)
+                n = int(v) if np.isfinite(v) and v == int(v) else -1
             pos += dt.itemsize + max(n, 0) * np.dtype(_PLY_TYPES[t[2]]).itemsize
         else:
             if not isinstance(t, tuple):
@@ -166,12 +182,15 @@ def _shape_at(path, el, data, tokens, pos, order):
                 raise ModelFileError(path, f"the {el.name} element announces {el.count} "
                                            "records, the file ends first")
             try:
-                v = float(tokens[pos])
+                n = int(tokens[pos])      # exact, also 2^64 - 1
             except ValueError:
-                raise ModelFileError(path, f"{el.name} {name}: a list length "
-                                           f"{tokens[pos].decode('latin-1')!r} is not a "
-                                           "number") from None
-            n = int(v) if np.isfinite(v) and v == int(v) else -1
+                try:
+                    v = float(tokens[pos])
+                except ValueError:
+                    raise ModelFileError(path, f"{el.name} {name}: a list length "
+                                               f"{tokens[pos].decode('latin-1')!r} is not a "
+                                               "number") from None
+                n = int(v) if np.isfinite(v) and v == int(v) else -1
             pos += 1 + max(n, 0)
         if n < 0:
             raise ModelFileError(path, f"{el.name} {name}: a list of negative or fractional "
@@ -271,6 +290,68 @@ def _read_element(path, el, data, tokens, pos, order):
             {k: (cat(v[0], np.int64), cat(v[1])) for k, v in lists.items()}, pos)
 
 
+def _face_list(path, el, lists):
+    """The face element's index list: ``vertex_indices`` (the spec's name)
+    or ``vertex_index``, else its only list of an integer type; else an
+    error naming the lists found (a list of float texture coordinates is no
+    index list)."""
+    for key in ("vertex_indices", "vertex_index"):
+        if key in lists:
+            return key
+    types = {name: t for name, t in el.props if isinstance(t, tuple)}
+    ints = [name for name, t in types.items() if np.dtype(_PLY_TYPES[t[2]]).kind in "iu"]
+    if len(ints) == 1:
+        return ints[0]
+    found = ", ".join(f"{name} ({t[2]})" for name, t in types.items()) or "none"
+    raise ModelFileError(path, f"the {el.name} element has no vertex_indices list and "
+                               f"{'no' if not ints else 'more than one'} integer list to take "
+                               f"for it (lists: {found})")
+
+
+def _check_face_indices(path, idx: np.ndarray, sizes: np.ndarray, n_vertices: int) -> np.ndarray:
+    """The index values as int64, after refusing a fractional one (ascii
+    values are read as float64; a float index list may be declared) or one
+    outside the vertices, naming the face and the value."""
+    idx = np.asarray(idx)
+    if idx.dtype.kind == "f":
+        bad = ~np.isfinite(idx) | (idx != np.floor(idx))
+        if bad.any():
+            j = int(np.flatnonzero(bad)[0])
+            face = int(np.searchsorted(np.cumsum(sizes), j, side="right"))
+            raise ModelFileError(path, f"face {face}: vertex index {float(idx[j])!r} is not an "
+                                       "integer")
+    out = (idx < 0) | (idx >= n_vertices)
+    if out.any():
+        j = int(np.flatnonzero(out)[0])
+        face = int(np.searchsorted(np.cumsum(sizes), j, side="right"))
+        v = idx[j].item()
+        raise ModelFileError(path, f"face {face}: vertex index {int(v) if v == int(v) else v} "
+                                   f"is outside the {n_vertices} vertices (0..{n_vertices - 1})")
+    return idx.astype(np.int64)
+
+
+# A binary file may end with a few bytes after the last element: some
+# writers add a newline (or pad with NULs). More than that, or anything
+# else, means the header's counts do not describe the data.
+_BINARY_TAIL_OK = 8
+
+
+def _check_rest(path, data: bytes, tokens, pos: int) -> None:
+    """PLY allows nothing after the last element. ascii: white space only
+    (the tokens hold none); binary: at most a few NUL/newline bytes. More
+    means a count of the header is wrong (e.g. a vertex count too large
+    reads the first face as a vertex): refused, naming what is left."""
+    if tokens is not None:
+        if pos < len(tokens):
+            raise ModelFileError(path, f"{len(tokens) - pos} value(s) left after the last element "
+                                       f"(the header's element counts do not match the data)")
+        return
+    rest = data[pos:]
+    if len(rest) > _BINARY_TAIL_OK or rest.strip(b"\0\r\n"):
+        raise ModelFileError(path, f"{len(rest)} byte(s) left after the last element (the "
+                                   "header's element counts or types do not match the data)")
+
+
 def read(path, fmt: str = "ply"):
     """Read a PLY file (ascii or binary) holding vertices and triangle faces.
     Faces of fewer than 3 vertices (points, lines) are ignored and faces of
@@ -280,7 +361,7 @@ def read(path, fmt: str = "ply"):
     path = Path(path)
     data = _read_bytes(path)
     fmt_, elements, comments, pos = _parse_header(path, data)
-    verts = faces = None
+    verts = face_lists = None
     tokens = data[pos:].split() if fmt_ == "ascii" else None
     if tokens is not None:
         pos = 0
@@ -298,15 +379,17 @@ def read(path, fmt: str = "ply"):
         elif el.name == "face":
             if not lists:
                 raise ModelFileError(path, "the face element has no vertex index list")
-            key = "vertex_indices" if "vertex_indices" in lists else \
-                ("vertex_index" if "vertex_index" in lists else next(iter(lists)))
-            sizes, idx = lists[key]
-            faces = _cells_from_offsets(path, np.asarray(idx, np.int64),
-                                        np.concatenate([[0], np.cumsum(sizes)]), None,
-                                        f"{el.name} {key}", noun="face")[0]
+            key = _face_list(path, el, lists)
+            face_lists = (key, lists[key])
+    _check_rest(path, data, tokens, pos)
     if verts is None:
         raise ModelFileError(path, "no vertex element in this PLY file")
     P, pa = verts
-    T = faces if faces is not None else np.zeros((0, 3), np.int64)
+    T = np.zeros((0, 3), np.int64)
+    if face_lists is not None:
+        key, (sizes, idx) = face_lists
+        idx = _check_face_indices(path, idx, sizes, len(P))
+        T = _cells_from_offsets(path, idx, np.cumsum(sizes), None, f"face {key}", noun="face")[0]
+    P, T, pa = drop_non_finite(path, P, T, pa, noun="vertex")
     names, kinds, model_name, crs = _faultmesh_comments(comments)
     return split_merged(path, P, T, pa, {}, names, kinds, model_name, crs)

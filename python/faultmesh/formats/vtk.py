@@ -19,9 +19,10 @@ Read: ``.vtu``, ``.vtp`` (ascii, inline binary or appended raw/base64 data,
 uncompressed or zlib/lzma compressed, UInt32/UInt64 headers, either byte
 order) and legacy ``.vtk`` (ASCII or BINARY, versions 2 to 5.1, POLYDATA or
 UNSTRUCTURED_GRID) as written by VTK, ParaView, PyVista, meshio and us.
-Triangles are kept, and so are triangle strips, as the triangles VTK makes of
-them (orientation alternating along the strip), each with the cell data of
-its strip; vertices, lines and poly-lines are ignored; any other cell (quads,
+Triangles are kept, and so are triangle strips (PolyData strips and strip
+cells of an unstructured grid), as the triangles VTK makes of them
+(orientation alternating along the strip), each with the cell data of its
+strip; vertices, lines and poly-lines are ignored; any other cell (quads,
 polygons, volumes) is an error naming it. A ``.vtm`` (XML multiblock) of
 ``.vtp``/``.vtu`` blocks is read by :func:`read_vtm`, one block after another.
 Every problem raises :class:`ModelFileError` naming the file (and the line in
@@ -30,17 +31,21 @@ legacy headers).
 from __future__ import annotations
 
 import base64
+import copy
 import re
+import stat
 import zlib
 from pathlib import Path
 from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-from ._common import AtomicFiles, Merged, ModelFileError, _Shared, free_name, split_merged, surface_kind
+from ._common import (AtomicFiles, Merged, ModelFileError, _Shared, drop_non_finite, free_name,
+                      split_merged, surface_kind)
 
 SUFFIXES = (".vtu", ".vtp", ".vtk")
 VTK_TRIANGLE = 5
+VTK_TRIANGLE_STRIP = 6
 # Cells faultmesh ignores when reading: vertex, poly-vertex, line, poly-line.
 _IGNORED_CELLS = {1, 2, 3, 4}
 _CELL_NAMES = {6: "triangle strip", 7: "polygon", 8: "pixel", 9: "quad", 10: "tetra",
@@ -253,11 +258,11 @@ class _Xml:
         comp = self.root.get("compressor", "")
         self.decompress = None
         if comp == "vtkZLibDataCompressor":
-            self.decompress = zlib.decompress
+            self.decompress = lambda b, n: zlib.decompressobj().decompress(b, n)
         elif comp == "vtkLZMADataCompressor":
             import lzma
 
-            self.decompress = lzma.decompress
+            self.decompress = lambda b, n: lzma.LZMADecompressor().decompress(b, n)
         elif comp:
             raise ModelFileError(path, f"compressor {comp} is not supported (zlib and lzma are); "
                                        "save the file uncompressed or with zlib")
@@ -272,12 +277,21 @@ class _Xml:
         sizes = head[3:3 + nb].astype(np.int64)
         if len(sizes) != nb or int(sizes.sum()) > len(body):
             raise self.err("compressed data shorter than its header says")
+        # the uncompressed size of each block: the header's block size, the
+        # last one its own (0: a full block). The output is capped at it, so
+        # a stream inflating to more (a zlib bomb) stops there, refused.
+        full, last = int(head[1]), int(head[2])
         out, pos = [], 0
-        for s in sizes.tolist():
+        for i, s in enumerate(sizes.tolist()):
+            want = last if i == nb - 1 and last else full
             try:
-                out.append(self.decompress(body[pos:pos + s]))
+                block = self.decompress(body[pos:pos + s], want + 1)
             except Exception as e:
                 raise self.err(f"compressed data cannot be uncompressed: {e}") from None
+            if len(block) > want:
+                raise self.err(f"compressed block {i} holds more than the {want} bytes its "
+                               "header announces")
+            out.append(block)
             pos += s
         return b"".join(out)
 
@@ -335,7 +349,7 @@ class _Xml:
         t = el.get("type", "")
         name = el.get("Name", "")
         fmt = el.get("format", "ascii")
-        ncomp = int(el.get("NumberOfComponents", "1") or 1)
+        ncomp = _count_attr(self.path, el, "NumberOfComponents", f"array {name!r}", 1)
         if t == "String":
             raw = self._raw(el, fmt, "i1")
             parts = raw.tobytes().split(b"\0")
@@ -375,6 +389,22 @@ class _Xml:
         return np.frombuffer(raw, dt).astype(dt.newbyteorder("="))
 
 
+def _count_attr(path: Path, el, attr: str, where: str, default: int = 0) -> int:
+    """The count attribute ``attr`` of ``el`` (NumberOfPolys, NumberOfComponents...),
+    or a ModelFileError naming ``where``, the attribute and its value."""
+    text = el.get(attr)
+    if text is None or not text.strip():
+        return default
+    try:
+        v = int(text)
+    except ValueError:
+        raise ModelFileError(path, f"{where}: {attr}={text!r} is not a count") from None
+    if v < 0 or v >= 2 ** 62:
+        raise ModelFileError(path, f"{where}: {attr}={text!r} is not a count "
+                                   f"({'negative' if v < 0 else 'too large'})")
+    return v
+
+
 def _arrays(x: _Xml, el) -> Dict[str, np.ndarray]:
     out: Dict[str, np.ndarray] = {}
     if el is None:
@@ -390,16 +420,18 @@ def _arrays(x: _Xml, el) -> Dict[str, np.ndarray]:
 def _cells_from_offsets(path: Path, conn: np.ndarray, offsets: np.ndarray, types=None,
                         what: str = "cells", noun: str = "cell") -> Tuple[np.ndarray, np.ndarray]:
     """Triangles from a connectivity/offsets pair (``offsets`` the end of each
-    cell, or starting with 0 as in legacy 5.1) and, for each, the index of
-    its cell; other cells ignored (vertices, lines: also any cell of fewer
-    than 3 points without ``types``) or refused naming the first."""
+    cell, one per cell: a caller holding the legacy 5.1 / PLY form starting
+    with 0 drops that 0) and, for each, the index of its cell; other cells
+    ignored (vertices, lines: also any cell of fewer than 3 points without
+    ``types``) or refused naming the first. Triangle strips (type 6) become
+    the triangles VTK makes of them, each with the index of its strip.
+
+    The form of ``offsets`` is the caller's to say, never guessed from the
+    values: end offsets starting with 0 are those of an empty first cell,
+    whose cell data must not move to the next one."""
     conn = np.asarray(conn, np.int64).reshape(-1)
-    offsets = np.asarray(offsets, np.int64).reshape(-1)
-    if len(offsets) and offsets[0] == 0 and types is None and len(offsets) >= 1:
-        starts, ends = offsets[:-1], offsets[1:]
-    else:
-        ends = offsets
-        starts = np.concatenate([[0], offsets[:-1]]) if len(offsets) else offsets
+    ends = np.asarray(offsets, np.int64).reshape(-1)
+    starts = np.concatenate([[0], ends[:-1]]) if len(ends) else ends
     if len(ends) and (np.any(ends < starts) or ends[-1] > len(conn) or starts[0] < 0):
         raise ModelFileError(path, f"{what}: offsets are not increasing within the "
                                    f"{len(conn)} connectivity entries")
@@ -409,6 +441,17 @@ def _cells_from_offsets(path: Path, conn: np.ndarray, offsets: np.ndarray, types
     types = np.asarray(types).reshape(-1)
     if len(types) != len(size):
         raise ModelFileError(path, f"{what}: {len(types)} cell types for {len(size)} cells")
+    strip = types == VTK_TRIANGLE_STRIP
+    if strip.any():
+        # strips (a .vtu or legacy UNSTRUCTURED_GRID may hold them as cells):
+        # their triangles join the others in cell order, as VTK's
+        # triangulate() gives them
+        t1, s1 = _cells_from_offsets(path, conn, ends, np.where(strip, 3, types), what, noun)
+        which = np.flatnonzero(strip)
+        t2, s2 = _strips(path, conn, ends[which], starts[which], what)
+        src = np.concatenate([s1, which[s2]])
+        order = np.argsort(src, kind="stable")
+        return np.vstack([t1, t2])[order], src[order]
     tri = types == VTK_TRIANGLE
     poly3 = (types == 7) & (size == 3)
     bad = ~(tri | poly3 | np.isin(types, list(_IGNORED_CELLS)))
@@ -431,16 +474,21 @@ def _cells_from_offsets(path: Path, conn: np.ndarray, offsets: np.ndarray, types
     return np.column_stack([conn[s], conn[s + 1], conn[s + 2]]).reshape(-1, 3), src
 
 
-def _strips(path: Path, conn: np.ndarray, offsets: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+def _strips(path: Path, conn: np.ndarray, offsets: np.ndarray, starts=None,
+            what: str = "Strips") -> Tuple[np.ndarray, np.ndarray]:
     """Triangles of triangle strips, as VTK makes them (vtkTriangleStrip):
     triangle i of the strip p0..pn is (p_i, p_i+1, p_i+2) for even i and
     (p_i+1, p_i, p_i+2) for odd i, so that all turn one way; and for each
-    triangle the index of its strip. A strip of fewer than 3 points has none."""
+    triangle the index of its strip. A strip of fewer than 3 points has none.
+    ``offsets`` are the strips' ends; ``starts`` their starts when the strips
+    are not one after the other (strips among other cells)."""
     conn = np.asarray(conn, np.int64).reshape(-1)
     ends = np.asarray(offsets, np.int64).reshape(-1)
-    starts = np.concatenate([[0], ends[:-1]]) if len(ends) else ends
-    if len(ends) and (np.any(ends < starts) or ends[-1] > len(conn)):
-        raise ModelFileError(path, f"Strips: offsets are not increasing within the "
+    if starts is None:
+        starts = np.concatenate([[0], ends[:-1]]) if len(ends) else ends
+    starts = np.asarray(starts, np.int64).reshape(-1)
+    if len(ends) and (np.any(ends < starts) or np.any(ends > len(conn)) or np.any(starts < 0)):
+        raise ModelFileError(path, f"{what}: offsets are not increasing within the "
                                    f"{len(conn)} connectivity entries")
     n = np.maximum(ends - starts - 2, 0)
     strip = np.repeat(np.arange(len(n)), n)
@@ -450,6 +498,30 @@ def _strips(path: Path, conn: np.ndarray, offsets: np.ndarray) -> Tuple[np.ndarr
     tri = np.column_stack([np.where(even, conn[i], conn[i + 1]),
                            np.where(even, conn[i + 1], conn[i]), conn[i + 2]])
     return tri.reshape(-1, 3), strip
+
+
+def _sized(path: Path, arrays: Dict[str, np.ndarray], n: int, where: str, noun: str):
+    """``arrays``, after refusing one whose length is not ``n`` (one value per
+    point or cell), naming it: VTK refuses or truncates such an array, and
+    dropping it silently would lose data without a word."""
+    for k, v in arrays.items():
+        if len(v) != n:
+            raise ModelFileError(path, f"{where}: array {k!r} has {len(v)} tuples for the {n} "
+                                       f"{noun}")
+    return arrays
+
+
+def _check_indices(path: Path, tri: np.ndarray, src: np.ndarray, n: int, where: str) -> None:
+    """Refuse a triangle whose point index is outside 0..n-1, naming the
+    index and its cell (the value found, also a negative one)."""
+    if not tri.size:
+        return
+    out = (tri < 0) | (tri >= n)
+    if out.any():
+        row = int(np.flatnonzero(out.any(axis=1))[0])
+        v = int(tri[row][out[row]][0])
+        raise ModelFileError(path, f"cell {int(src[row])} refers to point {v}; {where} has "
+                                   f"{n} points (0..{n - 1})")
 
 
 def read_xml(path, fmt: Optional[str] = None):
@@ -481,18 +553,25 @@ def _xml_parts(path: Path):
         raise ModelFileError(path, f"<{grid_type}> has no <Piece>")
     P, T, PA, CA = [], [], [], []
     off = 0
-    for piece in pieces:
+    for no, piece in enumerate(pieces):
+        where = f"piece {no}"
         pts_el = piece.find("Points")
         if pts_el is None or pts_el.find("DataArray") is None:
-            npts = int(piece.get("NumberOfPoints", "0") or 0)
+            npts = _count_attr(path, piece, "NumberOfPoints", where)
             if npts:
-                raise ModelFileError(path, "a <Piece> without <Points>")
+                raise ModelFileError(path, f"{where}: a <Piece> without <Points>")
             pts = np.zeros((0, 3))
         else:
-            pts = np.asarray(x.array(pts_el.find("DataArray")), np.float64)
-            if pts.size % 3:
-                raise ModelFileError(path, "Points: the coordinates are not 3-component")
-            pts = pts.reshape(-1, 3)
+            pel = pts_el.find("DataArray")
+            if pel.get("type", "") not in _NP_TYPES:
+                raise ModelFileError(path, f"{where}: Points of type {pel.get('type', '')!r}, "
+                                           "expected a numeric type (Float32, Float64...)")
+            nc = _count_attr(path, pel, "NumberOfComponents", f"{where} Points", 1)
+            if nc != 3:
+                # VTK refuses such a file too (points are 3-D)
+                raise ModelFileError(path, f"{where}: Points have NumberOfComponents={nc}, "
+                                           "expected 3")
+            pts = np.asarray(x.array(pel), np.float64).reshape(-1, 3)
         if grid_type == "UnstructuredGrid":
             cells = piece.find("Cells")
             c = _arrays(x, cells) if cells is not None else {}
@@ -510,11 +589,32 @@ def _xml_parts(path: Path):
             for tag in ("Verts", "Lines", "Polys", "Strips"):
                 el = piece.find(tag)
                 c = _arrays(x, el) if el is not None else {}
-                cnt = int(piece.get(f"NumberOf{tag}", "0") or 0)
+                cnt = _count_attr(path, piece, f"NumberOf{tag}", where)
+                if cnt and not {"connectivity", "offsets"} <= set(c):
+                    raise ModelFileError(path, f"{where}: NumberOf{tag}={cnt} but <{tag}> has no "
+                                               "connectivity and offsets arrays")
+                n_off = len(c.get("offsets", []))
+                if n_off != cnt:
+                    # VTK reads NumberOf<tag> cells whatever the arrays
+                    # hold: a mismatch is a broken file, and the cell data
+                    # would go to the wrong triangles
+                    raise ModelFileError(path, f"{where}: NumberOf{tag}={cnt} but the {tag} "
+                                               f"offsets array has {n_off} entries")
                 if not cnt:
                     continue
-                if not {"connectivity", "offsets"} <= set(c):
-                    raise ModelFileError(path, f"{tag}: expected connectivity and offsets arrays")
+                if tag in ("Verts", "Lines"):
+                    # ignored, but checked as VTK would use them: offsets
+                    # increasing within the connectivity, indices of points
+                    conn = np.asarray(c["connectivity"]).reshape(-1)
+                    ends = np.asarray(c["offsets"]).reshape(-1)
+                    if np.any(np.diff(ends) < 0) or ends[0] < 0 or ends[-1] > len(conn):
+                        raise ModelFileError(path, f"{where}: {tag}: offsets are not increasing "
+                                                   f"within the {len(conn)} connectivity entries")
+                    used = conn[:int(ends[-1])]
+                    if used.size and (used.min() < 0 or used.max() >= len(pts)):
+                        v = used[(used < 0) | (used >= len(pts))][0]
+                        raise ModelFileError(path, f"{where}: {tag}: a cell refers to point "
+                                                   f"{v}; the piece has {len(pts)} points")
                 if tag in ("Polys", "Strips"):
                     t, i = (_cells_from_offsets(path, c["connectivity"], c["offsets"], None, tag)
                             if tag == "Polys" else _strips(path, c["connectivity"], c["offsets"]))
@@ -523,13 +623,12 @@ def _xml_parts(path: Path):
                 n_cells += cnt
             tri = np.vstack(tri_parts) if tri_parts else np.zeros((0, 3), np.int64)
             src = np.concatenate(src_parts) if src_parts else np.zeros(0, np.int64)
-        if tri.size and (tri.min() < 0 or tri.max() >= len(pts)):
-            raise ModelFileError(path, f"a cell refers to point {int(tri.max())}, the piece has "
-                                       f"{len(pts)} points")
-        pa = {k: v for k, v in _arrays(x, piece.find("PointData")).items() if len(v) == len(pts)}
+        _check_indices(path, tri, src, len(pts), where if len(pieces) > 1 else "the piece")
+        pa = _sized(path, _arrays(x, piece.find("PointData")), len(pts), f"{where} PointData",
+                    "points")
         # each triangle takes the values of its cell (the strip it is part of)
-        ca = {k: v[src] for k, v in _arrays(x, piece.find("CellData")).items()
-              if len(v) == n_cells}
+        ca = {k: v[src] for k, v in _sized(path, _arrays(x, piece.find("CellData")), n_cells,
+                                           f"{where} CellData", "cells").items()}
         P.append(pts)
         T.append(tri + off)
         PA.append(pa)
@@ -561,6 +660,8 @@ def read_vtm(path, fmt: Optional[str] = None):
     layers: Dict[str, object] = {}
     faults: Dict[str, object] = {}
     crs = str((own.get("crs") or [""])[0])
+    counters: Dict[str, Dict[str, int]] = {"layer": {}, "fault": {}}
+    cache: Dict[Tuple[int, int], tuple] = {}
     for ds in x.root.iter("DataSet"):
         rel = ds.get("file")
         if not rel:
@@ -570,9 +671,30 @@ def read_vtm(path, fmt: Optional[str] = None):
         if block.suffix.lower() not in (".vtp", ".vtu"):
             raise ModelFileError(path, f"block {label!r}: {block} is not a .vtp or .vtu file "
                                        "(faultmesh reads surface blocks)")
-        if not block.is_file():
-            raise ModelFileError(path, f"block {label!r}: its file {block} does not exist")
-        parts = _xml_parts(block)
+        try:
+            st = block.stat()
+        except FileNotFoundError:
+            raise ModelFileError(path, f"block {label!r}: its file {block} does not exist") \
+                from None
+        except OSError as e:     # a name too long, a symlink loop, no permission...
+            raise ModelFileError(path, f"block {label!r}: its file {block} cannot be opened "
+                                       f"({e.strerror or e})") from None
+        if not stat.S_ISREG(st.st_mode):
+            what = "a directory" if stat.S_ISDIR(st.st_mode) else "not a regular file"
+            raise ModelFileError(path, f"block {label!r}: its file {block} is {what}")
+        if st.st_ino and (st.st_dev, st.st_ino) in cache:
+            # the same file again (a .vtm may name one block file many times):
+            # parsed once, each block its own copy
+            parts = copy.deepcopy(cache[(st.st_dev, st.st_ino)])
+        else:
+            try:
+                parts = _xml_parts(block)
+            except (ModelFileError, MemoryError, KeyboardInterrupt):
+                raise
+            except Exception as e:  # noqa: BLE001 (name the block, not only the .vtm)
+                raise ModelFileError(path, f"block {label!r}: reading its file {block} failed: "
+                                           f"{type(e).__name__}: {e}") from None
+            cache[(st.st_dev, st.st_ino)] = copy.deepcopy(parts)
         fields = parts[-1]
         sub = _assemble(block, *parts)
         crs = crs or sub.crs or ""
@@ -586,7 +708,7 @@ def read_vtm(path, fmt: Optional[str] = None):
                 s.metadata["kind"] = fk
         for s in inside:
             target = faults if s.kind == "fault" else layers
-            s.name = free_name(s.name, target)
+            s.name = free_name(s.name, target, counters["fault" if s.kind == "fault" else "layer"])
             target[s.name] = s
     if not layers and not faults:
         raise ModelFileError(path, "no block with a file (.vtp/.vtu) in this multiblock")
@@ -605,26 +727,7 @@ def _assemble(path, P, T, PA, CA, fields):
     P = np.vstack(P) if P else np.zeros((0, 3))
     T = np.vstack(T) if T else np.zeros((0, 3), np.int64)     # indices into the stacked P
     pa = common(PA)
-    # NaN/inf coordinates make no surface (every quantity derived from the
-    # triangles touching them is NaN) and no writer can store them: a point a
-    # triangle uses is refused, naming it, as the GOCAD and STL readers do;
-    # one no triangle uses (a placeholder some tools write) is dropped.
-    bad = ~np.all(np.isfinite(P), axis=1)
-    if bad.any():
-        used = np.zeros(len(P), bool)
-        used[T.reshape(-1)] = True
-        hit = np.flatnonzero(bad & used)
-        if len(hit):
-            j = int(hit[0])
-            piece = int(np.searchsorted(np.cumsum(sizes), j, side="right"))
-            where = f"point {j - sum(sizes[:piece])}" + (f" of piece {piece}" if len(sizes) > 1
-                                                           else "")
-            raise ModelFileError(path, f"{where} has non-finite coordinates {P[j].tolist()} "
-                                       f"({len(hit)} such points used by triangles)")
-        keep = ~bad
-        remap = np.cumsum(keep) - 1
-        P, T = P[keep], remap[T]
-        pa = {k: np.asarray(v)[keep] for k, v in pa.items()}
+    P, T, pa = drop_non_finite(path, P, T, pa, sizes)
     names = fields.get("surface_names")
     kinds = fields.get("surface_kinds")
     mname = fields.get("model_name") or [""]
@@ -724,9 +827,20 @@ class _Legacy:
         if len(vals) > count:
             raise self.err(f"{what}: expected {count} values, the block holds {len(vals)}")
         try:
-            return np.array(vals, dtype=np.float64).astype(code)
+            a = np.array(vals, dtype=np.float64)
         except ValueError:
             raise self.err(f"{what}: values are not numbers") from None
+        dt = np.dtype(code)
+        if dt.kind in "iu" and len(a):
+            # an integer block: a fraction or a value the type cannot hold
+            # (99999999999 as int) is named, not truncated or wrapped around
+            info = np.iinfo(dt)
+            bad = ~np.isfinite(a) | (a != np.floor(a)) | (a < info.min) | (a > info.max)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise self.err(f"{what}: value {vals[i].decode('latin-1')!r} (number {i}) is not "
+                               f"an integer of type {dt.name}")
+        return a.astype(code)
 
     def strings(self, count: int, what: str) -> List[str]:
         out: List[str] = []
@@ -762,6 +876,13 @@ def _ltype(r: _Legacy, t: str, what: str) -> str:
     return code
 
 
+def _int_type(r: _Legacy, t: str, what: str) -> str:
+    code = _ltype(r, t, what)
+    if code[0] not in "iu":
+        raise r.err(f"{what}: data type {t!r} is not an integer type")
+    return code
+
+
 def _int(r: _Legacy, tok: str, what: str) -> int:
     try:
         v = int(tok)
@@ -783,15 +904,27 @@ def _legacy_cells(r: _Legacy, toks: List[str], what: str) -> Tuple[np.ndarray, n
         p = s.split()
         if len(p) < 2 or p[0] != "OFFSETS":
             raise r.err(f"{what}: expected 'OFFSETS <type>', got {s[:40]!r}")
-        offsets = r.numbers(n, _ltype(r, p[1], "OFFSETS"), "OFFSETS").astype(np.int64)
+        offsets = r.numbers(n, _int_type(r, p[1], "OFFSETS"), "OFFSETS").astype(np.int64)
         s = r.next_line() or ""
         p = s.split()
         if len(p) < 2 or p[0] != "CONNECTIVITY":
             raise r.err(f"{what}: expected 'CONNECTIVITY <type>', got {s[:40]!r}")
-        conn = r.numbers(size, _ltype(r, p[1], "CONNECTIVITY"), "CONNECTIVITY").astype(np.int64)
+        conn = r.numbers(size, _int_type(r, p[1], "CONNECTIVITY"), "CONNECTIVITY").astype(np.int64)
         if n == 0:
             return conn, np.zeros(0, np.int64)
-        return conn, offsets[1:] if len(offsets) and offsets[0] == 0 else offsets
+        # version 5: n+1 offsets, the first 0 (the start of cell 0), the
+        # others the end of each cell; the 0 is dropped here, never guessed
+        # from the values (end offsets start with 0 after an empty first cell)
+        if offsets[0] != 0:
+            raise r.err(f"{what}: OFFSETS start with {int(offsets[0])}, expected 0")
+        return conn, offsets[1:]
+    # Before reading anything: each cell takes at least one entry (its
+    # count), so a count of cells over the size announced cannot be right,
+    # and a size is checked against the data by r.numbers before any array
+    # is made. (A header count is never allocated or looped over as such.)
+    if n > size:
+        raise r.err(f"{what}: {n} cells announced in {size} entries (each cell takes at least "
+                    "one, its point count)")
     flat = r.numbers(size, "i4", what).astype(np.int64)
     if n == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
@@ -799,21 +932,49 @@ def _legacy_cells(r: _Legacy, toks: List[str], what: str) -> Tuple[np.ndarray, n
     if k >= 0 and len(flat) == n * (k + 1) and np.all(flat[::k + 1] == k):
         # every cell has k points (the usual case): a reshape
         return flat.reshape(n, k + 1)[:, 1:].reshape(-1), np.arange(1, n + 1) * k
-    # Mixed cell sizes: the count of each cell says where the next starts, a
-    # sequential walk over the cells (files mixing sizes are rare and small).
-    starts = np.zeros(n, np.int64)
-    pos = 0
-    for c in range(n):
-        if pos >= len(flat):
+    starts = _walk_counts(flat, n)
+    m = len(flat)
+    c, last = len(starts), int(starts[-1])
+    if c < n or last + 1 + flat[last] != m:
+        # where the walk left the list: a negative count, a count past the
+        # end, the list ending before n cells, or entries left after them
+        if flat[last] < 0:
+            raise r.err(f"{what}: cell {c - 1} has a negative point count {int(flat[last])}")
+        if last + 1 + flat[last] > m:
+            raise r.err(f"{what}: cell {c - 1} announces {int(flat[last])} points, past the "
+                        f"end of the {size} entries")
+        if c < n:
             raise r.err(f"{what}: {n} cells announced, the list ends after {c}")
-        starts[c] = pos
-        pos += 1 + int(flat[pos])
-    counts = flat[starts]
-    if pos != len(flat) or np.any(counts < 0):
         raise r.err(f"{what}: size {size} does not match the {n} cells listed")
+    counts = flat[starts]
     keep = np.ones(len(flat), bool)
     keep[starts] = False
     return flat[keep], np.cumsum(counts)
+
+
+def _walk_counts(flat: np.ndarray, n: int) -> np.ndarray:
+    """The start of each of the first ``n`` cells of a legacy cell list
+    (each cell its point count, then the points): the walk 0, 1 + flat[0],
+    ... done by pointer doubling (log2 n vectorised passes, not a Python
+    loop over the cells). Stops early (fewer than ``n`` starts) at a
+    negative count or one running past the end; the last start returned is
+    then the cell at fault."""
+    m = len(flat)
+    if n == 0 or m == 0:
+        return np.zeros(0, np.int64)
+    nxt = np.arange(m, dtype=np.int64) + 1 + flat
+    # m marks "no next cell": a bad count, or the end of the list
+    nxt[(flat < 0) | (nxt >= m)] = m
+    idx = np.int32 if m < 2 ** 31 - 1 else np.int64     # half the memory traffic
+    jump = np.append(nxt, m).astype(idx)     # jump[m] = m
+    starts = np.zeros(1, idx)                # the cells 0 .. 2^k - 1
+    while len(starts) < n:
+        more = jump[starts]
+        starts = np.concatenate([starts, more])
+        jump = jump[jump]
+    starts = starts[:n].astype(np.int64)
+    ended = np.flatnonzero(starts >= m)
+    return starts[:ended[0]] if len(ended) else starts
 
 
 def _legacy_attributes(r: _Legacy, count: int, out: Dict[str, np.ndarray]) -> Optional[str]:
@@ -956,7 +1117,8 @@ def read_legacy(path, fmt: Optional[str] = None):
                 tri, src = _strips(path, conn, ends)
             else:
                 tri, src = np.zeros((0, 3), np.int64), np.zeros(0, np.int64)
-            poly_cells.setdefault(key, []).append((tri, src, len(ends)))
+            # a second block of one kind replaces the first, as in VTK's reader
+            poly_cells[key] = [(tri, src, len(ends))]
         elif key == "CELLS" and dtype == "UNSTRUCTURED_GRID":
             ucells = _legacy_cells(r, p, key)
         elif key == "CELL_TYPES":
@@ -994,9 +1156,7 @@ def read_legacy(path, fmt: Optional[str] = None):
                 n_cells += n
         if tris:
             tri, src = np.vstack(tris), np.concatenate(srcs)
-    if tri.size and (tri.min() < 0 or tri.max() >= len(pts)):
-        raise ModelFileError(path, f"a cell refers to point {int(tri.max())}; the file has "
-                                   f"{len(pts)} points")
+    _check_indices(path, tri, src, len(pts), "the file")
     # each triangle takes the values of its cell (the strip it is part of)
     ca = {k: v[src] for k, v in ca.items() if len(v) == n_cells}
     sfields = {k: v for k, v in fields.items() if isinstance(v, list)}
