@@ -22,7 +22,8 @@ from typing import Optional
 
 import numpy as np
 
-from ._common import AtomicFiles, Merged, ModelFileError, _Shared, drop_non_finite, split_merged
+from ._common import (AtomicFiles, Merged, ModelFileError, _Shared, drop_non_finite, split_merged,
+                      walk_starts)
 
 SUFFIXES = (".ply",)
 
@@ -281,6 +282,15 @@ def _read_element(path, el, data, tokens, pos, order):
                 c += 1
         pos += r * size
         done += r
+        if done < el.count and len(lists) == 1:
+            # a record of another size: walk the rest (one list property)
+            s2, l2, pos = _walk_element(path, el, data, tokens, pos, order, el.count - done)
+            for k, v in s2.items():
+                scal[k].append(v)
+            for k, (ln, vals) in l2.items():
+                lists[k][0].extend(ln)
+                lists[k][1].extend(vals)
+            done = el.count
 
     def cat(parts, dtype=np.float64):
         return parts[0] if len(parts) == 1 else np.concatenate(parts) if parts else \
@@ -288,6 +298,82 @@ def _read_element(path, el, data, tokens, pos, order):
 
     return ({k: cat(v) for k, v in scal.items()},
             {k: (cat(v[0], np.int64), cat(v[1])) for k, v in lists.items()}, pos)
+
+
+def _walk_element(path, el, data, tokens, pos, order, count):
+    """The next ``count`` records of an element with one list property (a
+    face element of mixed sizes), found by a walk over the records
+    (:func:`walk_starts`, log2(count) vectorised passes): the list length at
+    every place a record could start says where the next would, and the
+    walk from ``pos`` picks the records out. Returns what
+    :func:`_read_element` does. The run-by-run read took a Python step per
+    run: 200,000 faces alternating triangle and line, 9.8 s."""
+    li = next(i for i, (_, t) in enumerate(el.props) if isinstance(t, tuple))
+    lname, (_, tc, ti) = el.props[li]
+    before, after = el.props[:li], el.props[li + 1:]
+    binary = tokens is None
+    if binary:
+        size = [np.dtype(_PLY_TYPES[t]).itemsize for _, t in el.props[:li]], \
+            [np.dtype(_PLY_TYPES[t]).itemsize for _, t in after]
+        dc, di = np.dtype(order + _PLY_TYPES[tc]), np.dtype(order + _PLY_TYPES[ti])
+        raw = np.frombuffer(data, np.uint8, len(data) - pos, pos)
+        head, step = dc.itemsize, di.itemsize
+    else:
+        size = [1] * len(before), [1] * len(after)
+        try:
+            raw = np.array(tokens[pos:], np.float64)
+        except ValueError:
+            raise ModelFileError(path, f"the {el.name} element holds values that are not "
+                                       "numbers") from None
+        head, step = 1, 1
+    a, b, total = sum(size[0]), sum(size[1]), len(raw)
+    m = total - a - head + 1          # places with a whole list length after them
+    if m <= 0:
+        raise ModelFileError(path, f"the {el.name} element announces {el.count} records, the "
+                                   "file ends first (truncated?)")
+    if binary:
+        cnt = np.ascontiguousarray(np.lib.stride_tricks.sliding_window_view(raw[a:], head))
+        cnt = cnt.view(dc).reshape(-1)[:m]
+    else:
+        cnt = raw[a:a + m]
+    ok = np.isfinite(cnt) & (cnt >= 0) & (cnt <= total) & (cnt == np.floor(cnt)) \
+        if cnt.dtype.kind == "f" else (cnt >= 0) & (cnt <= total)
+    n = np.where(ok, cnt, 0).astype(np.int64)
+    ends = np.arange(m, dtype=np.int64) + a + head + n * step + b
+    nxt = np.where(ok & (ends <= total), ends, m)
+    starts = walk_starts(nxt, count)
+    last = int(starts[-1]) if len(starts) else 0
+    if len(starts) < count or not ok[last] or ends[last] > total:
+        k = len(starts) - 1
+        if not ok[last]:
+            raise ModelFileError(path, f"{el.name} {lname}: record {k} has a list of negative, "
+                                       f"fractional or impossible length ({cnt[last].item()!r})")
+        raise ModelFileError(path, f"the {el.name} element announces {el.count} records, the "
+                                   f"file ends first (after {k} of the records walked here)")
+    counts = n[starts]
+
+    def take(at, width, dt):
+        # values of type dt at the places ``at`` (bytes, or tokens)
+        if not binary:
+            return raw[at]
+        return np.ascontiguousarray(raw[at[:, None] + np.arange(width)]).view(dt).reshape(-1) \
+            .astype(dt.newbyteorder("="), copy=False)
+
+    scal, lists = {}, {}
+    off = 0
+    for (name, t), w in zip(before, size[0]):
+        scal[name] = take(starts + off, w, np.dtype(order + _PLY_TYPES[t]))
+        off += w
+    first = np.repeat(starts + a + head, counts)
+    within = np.arange(int(counts.sum()), dtype=np.int64) - np.repeat(np.cumsum(counts) - counts,
+                                                                      counts)
+    lists[lname] = ([counts], [take(first + within * step, step, np.dtype(order + _PLY_TYPES[ti]))])
+    off = 0
+    for (name, t), w in zip(after, size[1]):
+        scal[name] = take(starts + a + head + counts * step + off, w,
+                          np.dtype(order + _PLY_TYPES[t]))
+        off += w
+    return scal, lists, pos + int(ends[last])
 
 
 def _face_list(path, el, lists):

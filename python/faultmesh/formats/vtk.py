@@ -41,7 +41,7 @@ from typing import Dict, List, Optional, Tuple
 import numpy as np
 
 from ._common import (AtomicFiles, Merged, ModelFileError, _Shared, drop_non_finite, free_name,
-                      split_merged, surface_kind)
+                      split_merged, surface_kind, walk_starts)
 
 SUFFIXES = (".vtu", ".vtp", ".vtk")
 VTK_TRIANGLE = 5
@@ -955,26 +955,14 @@ def _legacy_cells(r: _Legacy, toks: List[str], what: str) -> Tuple[np.ndarray, n
 def _walk_counts(flat: np.ndarray, n: int) -> np.ndarray:
     """The start of each of the first ``n`` cells of a legacy cell list
     (each cell its point count, then the points): the walk 0, 1 + flat[0],
-    ... done by pointer doubling (log2 n vectorised passes, not a Python
-    loop over the cells). Stops early (fewer than ``n`` starts) at a
+    ... (:func:`walk_starts`). Stops early (fewer than ``n`` starts) at a
     negative count or one running past the end; the last start returned is
     then the cell at fault."""
     m = len(flat)
-    if n == 0 or m == 0:
-        return np.zeros(0, np.int64)
     nxt = np.arange(m, dtype=np.int64) + 1 + flat
     # m marks "no next cell": a bad count, or the end of the list
     nxt[(flat < 0) | (nxt >= m)] = m
-    idx = np.int32 if m < 2 ** 31 - 1 else np.int64     # half the memory traffic
-    jump = np.append(nxt, m).astype(idx)     # jump[m] = m
-    starts = np.zeros(1, idx)                # the cells 0 .. 2^k - 1
-    while len(starts) < n:
-        more = jump[starts]
-        starts = np.concatenate([starts, more])
-        jump = jump[jump]
-    starts = starts[:n].astype(np.int64)
-    ended = np.flatnonzero(starts >= m)
-    return starts[:ended[0]] if len(ended) else starts
+    return walk_starts(nxt, n)
 
 
 def _legacy_attributes(r: _Legacy, count: int, out: Dict[str, np.ndarray]) -> Optional[str]:
